@@ -1,0 +1,621 @@
+//! Kalman filter core: initialise, predict (linear, with input, with mapped process
+//! noise, EKF), Joseph-form update (linear or nonlinear h), diagnostics of each step.
+//!
+//! Notation follows Simon, *Optimal State Estimation* (2006), ch. 5 and 13:
+//! `x⁻, P⁻` prior (after predict), `x⁺, P⁺` posterior (after update).
+//! Generic over the scalar (`f64`, `f32`) and the fixed dimensions `N` (state) and
+//! `M` (measurement); nothing here allocates.
+
+#![allow(non_snake_case)]
+
+use nalgebra::{Cholesky, RealField, SMatrix, SVector};
+
+use super::gate::ChiSquareGate;
+
+/// Why a filter operation was refused. The filter state is unchanged in every case.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum FilterError {
+    /// An input (x0, P0, F, Q, z, H, R, h(x)) or the result held NaN or ±∞.
+    #[error("non-finite number in {0}")]
+    NonFinite(&'static str),
+    /// The innovation covariance `S = H P⁻ Hᵀ + R` has no Cholesky factor.
+    #[error("innovation covariance S is not positive definite")]
+    InnovationNotPositiveDefinite,
+    /// The initial covariance is not symmetric positive definite.
+    #[error("initial covariance is not symmetric positive definite")]
+    CovarianceNotPositiveDefinite,
+}
+
+/// What happened to a measurement offered to [`KalmanFilter::update`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UpdateDecision {
+    /// Fused into the state.
+    Accepted,
+    /// Refused by the chi-square gate (NIS above the threshold); state untouched.
+    Gated,
+    /// Refused by the fault-detection hook; state untouched.
+    RejectedByHook,
+}
+
+/// A fault-detection hook's verdict on a measurement (see [`FaultDetector`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FaultDecision {
+    /// Use the measurement as it is.
+    Keep,
+    /// The hook edited the measurement (dropped or re-weighted components); `S` is
+    /// recomputed from the edited `H` and `R` before gating and the gain.
+    Modified,
+    /// Do not use the measurement at all.
+    Reject,
+}
+
+/// The measurement as the fault-detection hook sees it, before the gain is computed.
+#[derive(Debug, Clone, Copy)]
+pub struct MeasurementView<T: RealField + Copy, const N: usize, const M: usize> {
+    /// Residual (innovation) `y = z − h(x⁻)`.
+    pub residual: SVector<T, M>,
+    /// Measurement Jacobian `H`.
+    pub H: SMatrix<T, M, N>,
+    /// Measurement noise covariance `R`.
+    pub R: SMatrix<T, M, M>,
+    /// Innovation covariance `S = H P⁻ Hᵀ + R` of the unedited measurement.
+    pub S: SMatrix<T, M, M>,
+    active: [bool; M],
+}
+
+impl<T: RealField + Copy, const N: usize, const M: usize> MeasurementView<T, N, M> {
+    /// Removes component `i` from the update: its residual and row of `H` become
+    /// zero and it is decorrelated from the others with unit variance, so it adds
+    /// nothing to the gain, the NIS or the gate's degrees of freedom.
+    pub fn drop_component(&mut self, i: usize) {
+        self.residual[i] = T::zero();
+        for j in 0..N {
+            self.H[(i, j)] = T::zero();
+        }
+        for j in 0..M {
+            self.R[(i, j)] = T::zero();
+            self.R[(j, i)] = T::zero();
+        }
+        self.R[(i, i)] = T::one();
+        self.active[i] = false;
+    }
+
+    /// Scales the variance of component `i` by `factor` (> 1 down-weights it),
+    /// keeping its correlations: row and column `i` of `R` are scaled by √factor.
+    pub fn reweight_component(&mut self, i: usize, factor: T) {
+        let s = factor.sqrt();
+        for j in 0..M {
+            self.R[(i, j)] *= s;
+            self.R[(j, i)] *= s;
+        }
+    }
+
+    /// Number of components still in the measurement.
+    pub fn active_dims(&self) -> usize {
+        self.active.iter().filter(|a| **a).count()
+    }
+}
+
+/// A user-supplied fault-detection hook, run on every update before gating and the
+/// gain (e.g. a per-axis residual test that drops a bad component of a GNSS fix).
+pub trait FaultDetector<T: RealField + Copy, const N: usize, const M: usize> {
+    /// Inspects, and may edit, the measurement.
+    fn inspect(&mut self, measurement: &mut MeasurementView<T, N, M>) -> FaultDecision;
+}
+
+/// Diagnostics of one update, returned by [`KalmanFilter::update`] whether or not
+/// the measurement was fused.
+#[derive(Debug, Clone, Copy)]
+pub struct UpdateDiagnostics<T: RealField + Copy, const N: usize, const M: usize> {
+    /// Accepted, gated or rejected by the hook.
+    pub decision: UpdateDecision,
+    /// The measurement `z`.
+    pub z: SVector<T, M>,
+    /// Predicted measurement `h(x⁻)` (`H x⁻` for a linear update).
+    pub predicted: SVector<T, M>,
+    /// Residual `y = z − h(x⁻)` after the hook's edits.
+    pub residual: SVector<T, M>,
+    /// `H` used (after the hook's edits).
+    pub H: SMatrix<T, M, N>,
+    /// `R` used (after the hook's edits).
+    pub R: SMatrix<T, M, M>,
+    /// Innovation covariance `S = H P⁻ Hᵀ + R`.
+    pub S: SMatrix<T, M, M>,
+    /// Gain `K = P⁻ Hᵀ S⁻¹`.
+    pub K: SMatrix<T, N, M>,
+    /// Correction `dx = K y` (applied only if accepted).
+    pub dx: SVector<T, N>,
+    /// Covariance of the correction `Σdx = K S Kᵀ`.
+    pub sigma_dx: SMatrix<T, N, N>,
+    /// Normalised innovation squared `NIS = yᵀ S⁻¹ y`.
+    pub nis: T,
+    /// Gaussian log-likelihood `−½ (NIS + ln|S| + m ln 2π)` of the residual.
+    pub log_likelihood: T,
+    /// Degrees of freedom `m` (components left after the hook).
+    pub dims: usize,
+    /// Gate threshold used, if gating was on.
+    pub gate_threshold: Option<T>,
+}
+
+/// Options of one update.
+pub struct UpdateOptions<'a, T: RealField + Copy, const N: usize, const M: usize> {
+    /// Chi-square gate; `None` fuses every measurement with a valid S.
+    pub gate: Option<&'a ChiSquareGate>,
+    /// Fault-detection hook; `None` keeps every measurement as it is.
+    pub fault_detector: Option<&'a mut dyn FaultDetector<T, N, M>>,
+}
+
+impl<T: RealField + Copy, const N: usize, const M: usize> Default for UpdateOptions<'_, T, N, M> {
+    fn default() -> Self {
+        Self { gate: None, fault_detector: None }
+    }
+}
+
+/// A Kalman filter on a fixed-size state: the estimate, its covariance, the prior
+/// and posterior of the current step and the transition and noise used.
+///
+/// A *step* (see [`begin_step`](Self::begin_step)) is the unit the RTS smoother
+/// works on: any number of predicts composing one transition `F`, then at most one
+/// update. Callers that do not smooth may ignore steps.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KalmanFilter<T: RealField + Copy, const N: usize> {
+    x: SVector<T, N>,
+    P: SMatrix<T, N, N>,
+    prior_x: SVector<T, N>,
+    prior_P: SMatrix<T, N, N>,
+    /// Transition of the current step (product of the predicts' F since begin_step).
+    step_F: SMatrix<T, N, N>,
+    last_F: SMatrix<T, N, N>,
+    last_Q: SMatrix<T, N, N>,
+}
+
+fn all_finite<T: RealField + Copy, const R: usize, const C: usize>(m: &SMatrix<T, R, C>) -> bool {
+    m.iter().all(|v| v.is_finite())
+}
+
+/// `P ← ½ (P + Pᵀ)`: removes the asymmetry that rounding adds to every product.
+fn symmetrize<T: RealField + Copy, const N: usize>(P: &mut SMatrix<T, N, N>) {
+    let half = T::from_subset(&0.5);
+    for i in 0..N {
+        for j in (i + 1)..N {
+            let v = (P[(i, j)] + P[(j, i)]) * half;
+            P[(i, j)] = v;
+            P[(j, i)] = v;
+        }
+    }
+}
+
+/// `Q = G Q_w Gᵀ`: process noise of `W` white inputs mapped into the state
+/// (Simon 2006, eq. 5.18 with `L = G`).
+pub fn map_process_noise<T: RealField + Copy, const N: usize, const W: usize>(
+    G: &SMatrix<T, N, W>,
+    Qw: &SMatrix<T, W, W>,
+) -> SMatrix<T, N, N> {
+    let mut Q = G * Qw * G.transpose();
+    symmetrize(&mut Q);
+    Q
+}
+
+impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
+    /// Starts from `x0` with covariance `P0`, which must be finite and symmetric
+    /// positive definite (checked by Cholesky).
+    pub fn new(x0: SVector<T, N>, P0: SMatrix<T, N, N>) -> Result<Self, FilterError> {
+        if !all_finite(&x0) || !all_finite(&P0) {
+            return Err(FilterError::NonFinite("initial state"));
+        }
+        let tol = T::from_subset(&1e-9) * P0.amax();
+        if (P0 - P0.transpose()).amax() > tol || Cholesky::new(P0).is_none() {
+            return Err(FilterError::CovarianceNotPositiveDefinite);
+        }
+        Ok(Self {
+            x: x0,
+            P: P0,
+            prior_x: x0,
+            prior_P: P0,
+            step_F: SMatrix::identity(),
+            last_F: SMatrix::identity(),
+            last_Q: SMatrix::zeros(),
+        })
+    }
+
+    /// State estimate (posterior of the last step, or prior if no update followed).
+    pub fn x(&self) -> &SVector<T, N> {
+        &self.x
+    }
+
+    /// Covariance of [`x`](Self::x).
+    pub fn P(&self) -> &SMatrix<T, N, N> {
+        &self.P
+    }
+
+    /// Prior `(x⁻, P⁻)` of the current step: the estimate after its predicts.
+    pub fn prior(&self) -> (&SVector<T, N>, &SMatrix<T, N, N>) {
+        (&self.prior_x, &self.prior_P)
+    }
+
+    /// Posterior `(x⁺, P⁺)` of the current step (equal to the prior if the step had
+    /// no accepted update).
+    pub fn posterior(&self) -> (&SVector<T, N>, &SMatrix<T, N, N>) {
+        (&self.x, &self.P)
+    }
+
+    /// Transition `F` of the current step: the product of the `F` of every predict
+    /// since [`begin_step`](Self::begin_step), identity if there was none.
+    pub fn step_transition(&self) -> &SMatrix<T, N, N> {
+        &self.step_F
+    }
+
+    /// `F` of the last predict.
+    pub fn last_F(&self) -> &SMatrix<T, N, N> {
+        &self.last_F
+    }
+
+    /// `Q` of the last predict.
+    pub fn last_Q(&self) -> &SMatrix<T, N, N> {
+        &self.last_Q
+    }
+
+    /// Overwrites the estimate, e.g. after an error-state reset. Refused (state
+    /// unchanged) if anything is non-finite.
+    pub fn set_state(&mut self, x: SVector<T, N>, P: SMatrix<T, N, N>) -> Result<(), FilterError> {
+        if !all_finite(&x) || !all_finite(&P) {
+            return Err(FilterError::NonFinite("state"));
+        }
+        self.x = x;
+        self.P = P;
+        symmetrize(&mut self.P);
+        Ok(())
+    }
+
+    /// Starts a step: prior ← current estimate, step transition ← I.
+    pub fn begin_step(&mut self) {
+        self.prior_x = self.x;
+        self.prior_P = self.P;
+        self.step_F = SMatrix::identity();
+    }
+
+    /// Linear predict `x⁻ = F x`, `P⁻ = F P Fᵀ + Q` (Simon 2006, eq. 5.19).
+    pub fn predict(&mut self, F: &SMatrix<T, N, N>, Q: &SMatrix<T, N, N>) -> Result<(), FilterError> {
+        let x = F * self.x;
+        self.finish_predict(x, F, Q)
+    }
+
+    /// Linear predict with a known input term `x⁻ = F x + B u`, `P⁻ = F P Fᵀ + Q`
+    /// (Simon 2006, eq. 5.19). `bu` is the product `B u` (discretised, e.g. with
+    /// [`super::discretize::euler_input`]); for mapped noise pass
+    /// `Q = `[`map_process_noise`]`(G, Q_w)`.
+    pub fn predict_with_input(
+        &mut self,
+        F: &SMatrix<T, N, N>,
+        bu: &SVector<T, N>,
+        Q: &SMatrix<T, N, N>,
+    ) -> Result<(), FilterError> {
+        let x = F * self.x + bu;
+        self.finish_predict(x, F, Q)
+    }
+
+    /// EKF predict: the model supplies `(f(x), F = ∂f/∂x)` at the current estimate;
+    /// `x⁻ = f(x)`, `P⁻ = F P Fᵀ + Q` (Simon 2006, eq. 13.47).
+    pub fn predict_ekf(
+        &mut self,
+        f: impl FnOnce(&SVector<T, N>) -> (SVector<T, N>, SMatrix<T, N, N>),
+        Q: &SMatrix<T, N, N>,
+    ) -> Result<(), FilterError> {
+        let (x, F) = f(&self.x);
+        self.finish_predict(x, &F, Q)
+    }
+
+    fn finish_predict(
+        &mut self,
+        x: SVector<T, N>,
+        F: &SMatrix<T, N, N>,
+        Q: &SMatrix<T, N, N>,
+    ) -> Result<(), FilterError> {
+        let mut P = F * self.P * F.transpose() + Q;
+        symmetrize(&mut P);
+        if !all_finite(&x) || !all_finite(&P) {
+            return Err(FilterError::NonFinite("predicted state"));
+        }
+        // Math note: P⁻ stays symmetric by construction; PD follows from P ≻ 0, Q ⪰ 0.
+        self.x = x;
+        self.P = P;
+        self.prior_x = x;
+        self.prior_P = P;
+        self.step_F = F * self.step_F;
+        self.last_F = *F;
+        self.last_Q = *Q;
+        Ok(())
+    }
+
+    /// Linear update with `z = H x + v`, `v ~ N(0, R)`; see [`update_nonlinear`](Self::update_nonlinear).
+    pub fn update<const M: usize>(
+        &mut self,
+        z: &SVector<T, M>,
+        H: &SMatrix<T, M, N>,
+        R: &SMatrix<T, M, M>,
+        options: UpdateOptions<'_, T, N, M>,
+    ) -> Result<UpdateDiagnostics<T, N, M>, FilterError> {
+        let predicted = H * self.x;
+        self.update_nonlinear(z, &predicted, H, R, options)
+    }
+
+    /// Update with `z = h(x) + v`, given `h(x⁻)` and `H = ∂h/∂x` at `x⁻`
+    /// (Simon 2006, eq. 13.49; linear when `h(x) = H x`):
+    ///
+    /// ```text
+    /// y  = z − h(x⁻)                         residual
+    /// S  = H P⁻ Hᵀ + R                       factorised by Cholesky, S = L Lᵀ
+    /// K  = P⁻ Hᵀ S⁻¹                         solved, never inverted
+    /// x⁺ = x⁻ + K y
+    /// P⁺ = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ  Joseph form (Simon 2006, eq. 5.19)
+    /// ```
+    ///
+    /// The hook (if any) edits `y, H, R` first; then the gate (if any) refuses the
+    /// measurement when `NIS = yᵀ S⁻¹ y` exceeds the χ²ₘ quantile. A refused or
+    /// failed update leaves the state untouched. The Joseph form keeps P⁺ symmetric
+    /// positive semi-definite for any gain, so rounding cannot make it indefinite.
+    pub fn update_nonlinear<const M: usize>(
+        &mut self,
+        z: &SVector<T, M>,
+        predicted: &SVector<T, M>,
+        H: &SMatrix<T, M, N>,
+        R: &SMatrix<T, M, M>,
+        options: UpdateOptions<'_, T, N, M>,
+    ) -> Result<UpdateDiagnostics<T, N, M>, FilterError> {
+        if !all_finite(z) || !all_finite(predicted) || !all_finite(H) || !all_finite(R) {
+            return Err(FilterError::NonFinite("measurement"));
+        }
+        let PHt = self.P * H.transpose();
+        let mut view = MeasurementView { residual: z - predicted, H: *H, R: *R, S: H * PHt + R, active: [true; M] };
+        let mut decision = UpdateDecision::Accepted;
+        let mut PHt = PHt;
+        if let Some(hook) = options.fault_detector {
+            match hook.inspect(&mut view) {
+                FaultDecision::Keep => {}
+                FaultDecision::Modified => {
+                    PHt = self.P * view.H.transpose();
+                    view.S = view.H * PHt + view.R;
+                }
+                FaultDecision::Reject => decision = UpdateDecision::RejectedByHook,
+            }
+        }
+        let mut S = view.S;
+        symmetrize(&mut S);
+        let chol = Cholesky::new(S).ok_or(FilterError::InnovationNotPositiveDefinite)?;
+        let y = view.residual;
+        let dims = view.active_dims();
+
+        // K = P Hᵀ S⁻¹  ⇔  Kᵀ = S⁻¹ (H P) since S and P are symmetric.
+        let K = chol.solve(&PHt.transpose()).transpose();
+        let dx = K * y;
+        let w = chol.l().solve_lower_triangular(&y).unwrap_or_else(SVector::zeros);
+        let nis = w.dot(&w);
+        let ln_det_S = chol.l().diagonal().iter().fold(T::zero(), |acc, d| acc + d.ln()) * T::from_subset(&2.0);
+        let ln_2pi = T::two_pi().ln();
+        let log_likelihood = -(nis + ln_det_S + T::from_subset(&(dims as f64)) * ln_2pi) * T::from_subset(&0.5);
+
+        let gate_threshold = options.gate.map(|g| T::from_subset(&g.threshold(dims)));
+        if decision == UpdateDecision::Accepted && gate_threshold.is_some_and(|th| nis > th) {
+            decision = UpdateDecision::Gated;
+        }
+        let diagnostics = UpdateDiagnostics {
+            decision,
+            z: *z,
+            predicted: *predicted,
+            residual: y,
+            H: view.H,
+            R: view.R,
+            S,
+            K,
+            dx,
+            sigma_dx: K * S * K.transpose(),
+            nis,
+            log_likelihood,
+            dims,
+            gate_threshold,
+        };
+        if decision != UpdateDecision::Accepted {
+            return Ok(diagnostics);
+        }
+
+        let x = self.x + dx;
+        let I_KH = SMatrix::<T, N, N>::identity() - K * view.H;
+        let mut P = I_KH * self.P * I_KH.transpose() + K * view.R * K.transpose();
+        symmetrize(&mut P);
+        if !all_finite(&x) || !all_finite(&P) {
+            return Err(FilterError::NonFinite("updated state"));
+        }
+        self.x = x;
+        self.P = P;
+        Ok(diagnostics)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix1, Matrix1x2, Matrix2, Vector1, Vector2};
+
+    fn hand_filter() -> KalmanFilter<f64, 2> {
+        KalmanFilter::new(Vector2::new(1.0, 2.0), Matrix2::new(4.0, 1.0, 1.0, 2.0)).unwrap()
+    }
+
+    #[test]
+    fn joseph_update_matches_hand_computed_values() {
+        // x = [1, 2], P = [[4, 1], [1, 2]], z = 3, H = [1 0], R = 1.
+        // y = 2, S = 5, K = [4/5, 1/5], x⁺ = [2.6, 2.4],
+        // P⁺ = (I−KH) P (I−KH)ᵀ + K R Kᵀ = [[0.8, 0.2], [0.2, 1.8]], NIS = 4/5.
+        let mut kf = hand_filter();
+        let d = kf
+            .update(&Vector1::new(3.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(1.0), UpdateOptions::default())
+            .unwrap();
+        assert_eq!(d.decision, UpdateDecision::Accepted);
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-14;
+        assert!(close(d.residual[0], 2.0) && close(d.S[(0, 0)], 5.0));
+        assert!(close(d.K[0], 0.8) && close(d.K[1], 0.2));
+        assert!(close(kf.x()[0], 2.6) && close(kf.x()[1], 2.4));
+        let P = kf.P();
+        assert!(close(P[(0, 0)], 0.8) && close(P[(0, 1)], 0.2) && close(P[(1, 0)], 0.2) && close(P[(1, 1)], 1.8));
+        assert!(close(d.nis, 0.8));
+        let ll = -0.5 * (0.8 + 5f64.ln() + (2.0 * std::f64::consts::PI).ln());
+        assert!(close(d.log_likelihood, ll));
+        assert!(close(d.dx[0], 1.6) && close(d.dx[1], 0.4));
+        // Σdx = K S Kᵀ = 5 [[.64, .16], [.16, .04]].
+        assert!(close(d.sigma_dx[(0, 0)], 3.2) && close(d.sigma_dx[(0, 1)], 0.8) && close(d.sigma_dx[(1, 1)], 0.2));
+    }
+
+    #[test]
+    fn joseph_form_stays_psd_with_a_suboptimal_gain() {
+        // With an exactly zero R the optimal update makes P⁺ singular; the Joseph
+        // form must still give a symmetric PSD result, never a negative variance.
+        let mut kf = hand_filter();
+        kf.update(&Vector1::new(3.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(1e-300), UpdateOptions::default())
+            .unwrap();
+        let eig = kf.P().symmetric_eigenvalues();
+        assert!(eig.iter().all(|e| *e >= -1e-12), "{eig}");
+    }
+
+    #[test]
+    fn predict_with_input_and_mapped_noise() {
+        // Constant velocity, dt = 0.5: F = [[1, .5], [0, 1]], G = [.125, .5], q = 4.
+        let mut kf = hand_filter();
+        let F = Matrix2::new(1.0, 0.5, 0.0, 1.0);
+        let G = nalgebra::Matrix2x1::new(0.125, 0.5);
+        let Q = map_process_noise(&G, &Matrix1::new(4.0));
+        kf.begin_step();
+        kf.predict_with_input(&F, &(G * 2.0), &Q).unwrap();
+        // x = F x + G a = [1 + 1 + .25, 2 + 1] ; P = F P Fᵀ + G q Gᵀ.
+        assert_eq!(*kf.x(), Vector2::new(2.25, 3.0));
+        let P = F * Matrix2::new(4.0, 1.0, 1.0, 2.0) * F.transpose() + G * 4.0 * G.transpose();
+        assert!((kf.P() - P).amax() < 1e-15);
+        assert_eq!(kf.prior().0, kf.x());
+        assert_eq!(*kf.step_transition(), F);
+    }
+
+    #[test]
+    fn ekf_predict_uses_the_model_jacobian() {
+        let mut kf = hand_filter();
+        // f(x) = [x0², x1], F = [[2 x0, 0], [0, 1]]
+        kf.predict_ekf(
+            |x| (Vector2::new(x[0] * x[0], x[1]), Matrix2::new(2.0 * x[0], 0.0, 0.0, 1.0)),
+            &Matrix2::zeros(),
+        )
+        .unwrap();
+        assert_eq!(*kf.x(), Vector2::new(1.0, 2.0));
+        assert_eq!(kf.P()[(0, 0)], 16.0);
+        assert_eq!(kf.P()[(0, 1)], 2.0);
+    }
+
+    #[test]
+    fn indefinite_innovation_is_refused_and_state_kept() {
+        let mut kf = hand_filter();
+        let before = kf;
+        let err = kf
+            .update(&Vector1::new(3.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(-10.0), UpdateOptions::default())
+            .unwrap_err();
+        assert_eq!(err, FilterError::InnovationNotPositiveDefinite);
+        assert_eq!(kf, before);
+    }
+
+    #[test]
+    fn non_finite_inputs_never_enter_the_state() {
+        let mut kf = hand_filter();
+        let before = kf;
+        let H = Matrix1x2::new(1.0, 0.0);
+        assert!(kf.update(&Vector1::new(f64::NAN), &H, &Matrix1::new(1.0), UpdateOptions::default()).is_err());
+        assert!(kf.update(&Vector1::new(1.0), &H, &Matrix1::new(f64::INFINITY), UpdateOptions::default()).is_err());
+        assert!(kf.predict(&Matrix2::new(1e300, 0.0, 0.0, 1.0), &Matrix2::zeros()).is_err());
+        assert!(kf.set_state(Vector2::new(f64::NAN, 0.0), Matrix2::identity()).is_err());
+        assert_eq!(kf, before);
+        assert!(KalmanFilter::new(Vector2::new(0.0, 0.0), Matrix2::new(1.0, 2.0, 2.0, 1.0)).is_err());
+    }
+
+    #[test]
+    fn gated_measurement_leaves_the_state_untouched() {
+        let gate = ChiSquareGate::new(0.99).unwrap();
+        let mut kf = hand_filter();
+        let before = kf;
+        let opts = UpdateOptions { gate: Some(&gate), fault_detector: None };
+        // y = 99, S = 5: NIS = 1960 ≫ 6.63.
+        let d = kf.update(&Vector1::new(100.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(1.0), opts).unwrap();
+        assert_eq!(d.decision, UpdateDecision::Gated);
+        assert!((d.gate_threshold.unwrap() - 6.634896601021214).abs() < 1e-9);
+        assert_eq!(kf, before);
+    }
+
+    struct DropSecond;
+    impl FaultDetector<f64, 2, 2> for DropSecond {
+        fn inspect(&mut self, m: &mut MeasurementView<f64, 2, 2>) -> FaultDecision {
+            m.drop_component(1);
+            FaultDecision::Modified
+        }
+    }
+
+    #[test]
+    fn fault_hook_can_drop_a_component() {
+        // Measuring both states with component 1 dropped equals measuring state 0 only.
+        let mut a = hand_filter();
+        let mut b = hand_filter();
+        let mut hook = DropSecond;
+        let d = a
+            .update(
+                &Vector2::new(3.0, 1000.0),
+                &Matrix2::identity(),
+                &Matrix2::new(1.0, 0.3, 0.3, 1.0),
+                UpdateOptions { gate: None, fault_detector: Some(&mut hook) },
+            )
+            .unwrap();
+        b.update(&Vector1::new(3.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(1.0), UpdateOptions::default()).unwrap();
+        assert_eq!(d.dims, 1);
+        assert!((a.x() - b.x()).amax() < 1e-12 && (a.P() - b.P()).amax() < 1e-12);
+        assert!((d.nis - 0.8).abs() < 1e-12);
+    }
+
+    #[test]
+    fn fault_hook_reweighting_and_rejection() {
+        struct Inflate(f64);
+        impl FaultDetector<f64, 2, 1> for Inflate {
+            fn inspect(&mut self, m: &mut MeasurementView<f64, 2, 1>) -> FaultDecision {
+                if self.0 == 0.0 {
+                    return FaultDecision::Reject;
+                }
+                m.reweight_component(0, self.0);
+                FaultDecision::Modified
+            }
+        }
+        let H = Matrix1x2::new(1.0, 0.0);
+        let mut a = hand_filter();
+        let mut b = hand_filter();
+        let mut hook = Inflate(9.0);
+        a.update(
+            &Vector1::new(3.0),
+            &H,
+            &Matrix1::new(1.0),
+            UpdateOptions { gate: None, fault_detector: Some(&mut hook) },
+        )
+        .unwrap();
+        b.update(&Vector1::new(3.0), &H, &Matrix1::new(9.0), UpdateOptions::default()).unwrap();
+        assert!((a.x() - b.x()).amax() < 1e-12 && (a.P() - b.P()).amax() < 1e-12);
+
+        let mut c = hand_filter();
+        let before = c;
+        let mut reject = Inflate(0.0);
+        let d = c
+            .update(
+                &Vector1::new(3.0),
+                &H,
+                &Matrix1::new(1.0),
+                UpdateOptions { gate: None, fault_detector: Some(&mut reject) },
+            )
+            .unwrap();
+        assert_eq!(d.decision, UpdateDecision::RejectedByHook);
+        assert_eq!(c, before);
+    }
+
+    #[test]
+    fn f32_filter_matches_f64() {
+        let mut a = KalmanFilter::<f32, 2>::new(Vector2::new(1.0, 2.0), Matrix2::new(4.0, 1.0, 1.0, 2.0)).unwrap();
+        a.update(&Vector1::new(3.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(1.0), UpdateOptions::default()).unwrap();
+        assert!((a.x()[0] - 2.6).abs() < 1e-6 && (a.P()[(1, 1)] - 1.8).abs() < 1e-6);
+    }
+}

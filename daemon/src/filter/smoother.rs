@@ -1,0 +1,165 @@
+//! Rauch–Tung–Striebel fixed-interval smoother over a logged filter history.
+//!
+//! Särkkä, *Bayesian Filtering and Smoothing* (2013), Theorem 8.2; Simon 2006 §9.4.2.
+//! For steps `k = 0 … n−1` with filter prior `(x⁻ₖ, P⁻ₖ)`, posterior `(x⁺ₖ, P⁺ₖ)` and
+//! transition `Fₖ` from step `k−1` to `k`, the backward pass is
+//!
+//! ```text
+//! xˢₙ₋₁ = x⁺ₙ₋₁,  Pˢₙ₋₁ = P⁺ₙ₋₁
+//! Cₖ  = P⁺ₖ Fₖ₊₁ᵀ (P⁻ₖ₊₁)⁻¹
+//! xˢₖ = x⁺ₖ + Cₖ (xˢₖ₊₁ − x⁻ₖ₊₁)
+//! Pˢₖ = P⁺ₖ + Cₖ (Pˢₖ₊₁ − P⁻ₖ₊₁) Cₖᵀ
+//! ```
+//!
+//! This is the smoother of a linear(ised) model; for an error-state filter the
+//! model maps its own history onto these terms.
+
+#![allow(non_snake_case)]
+
+use nalgebra::{Cholesky, RealField, SMatrix, SVector};
+
+use super::kalman::KalmanFilter;
+
+/// One logged filter step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RtsStep<T: RealField + Copy, const N: usize> {
+    /// Prior mean `x⁻ₖ`.
+    pub x_prior: SVector<T, N>,
+    /// Prior covariance `P⁻ₖ`.
+    pub P_prior: SMatrix<T, N, N>,
+    /// Posterior mean `x⁺ₖ`.
+    pub x_post: SVector<T, N>,
+    /// Posterior covariance `P⁺ₖ`.
+    pub P_post: SMatrix<T, N, N>,
+    /// Transition `Fₖ` from the previous step's posterior to this prior.
+    pub F: SMatrix<T, N, N>,
+}
+
+impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
+    /// The current step as a smoother record (call after the step's update).
+    pub fn rts_step(&self) -> RtsStep<T, N> {
+        let (x_prior, P_prior) = self.prior();
+        RtsStep {
+            x_prior: *x_prior,
+            P_prior: *P_prior,
+            x_post: *self.x(),
+            P_post: *self.P(),
+            F: *self.step_transition(),
+        }
+    }
+}
+
+/// Why smoothing failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum SmootherError {
+    /// A prior covariance `P⁻ₖ` had no Cholesky factor, so `Cₖ` is undefined.
+    #[error("prior covariance of step {0} is not positive definite")]
+    PriorNotPositiveDefinite(usize),
+}
+
+/// Smooths `steps` in place: each posterior is replaced by the smoothed estimate
+/// `(xˢₖ, Pˢₖ)`; the priors are left as they were.
+pub fn rts_smooth<T: RealField + Copy, const N: usize>(steps: &mut [RtsStep<T, N>]) -> Result<(), SmootherError> {
+    let half = T::from_subset(&0.5);
+    for k in (0..steps.len().saturating_sub(1)).rev() {
+        let next = steps[k + 1];
+        let cur = &mut steps[k];
+        let chol = Cholesky::new(next.P_prior).ok_or(SmootherError::PriorNotPositiveDefinite(k + 1))?;
+        // Cₖ = P⁺ₖ Fᵀ (P⁻)⁻¹  ⇔  Cₖᵀ = (P⁻)⁻¹ F P⁺ₖ  (both covariances symmetric).
+        let C = chol.solve(&(next.F * cur.P_post)).transpose();
+        cur.x_post += C * (next.x_post - next.x_prior);
+        let P = cur.P_post + C * (next.P_post - next.P_prior) * C.transpose();
+        cur.P_post = (P + P.transpose()) * half;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::filter::kalman::UpdateOptions;
+    use nalgebra::{DMatrix, DVector, Matrix1x2, Matrix2, Vector1, Vector2};
+
+    /// Batch MAP solution of the linear-Gaussian problem: minimise
+    /// ‖x₀ − m₀‖²_{P₀⁻¹} + Σ ‖xₖ − F xₖ₋₁‖²_{Q⁻¹} + Σ ‖zₖ − H xₖ‖²_{R⁻¹}.
+    /// Its mean and the diagonal blocks of the inverse information matrix are the
+    /// smoothed means and covariances (Särkkä 2013, §8.1).
+    #[test]
+    fn rts_equals_batch_least_squares() {
+        let n = 8;
+        let F = Matrix2::new(1.0, 0.1, 0.0, 1.0);
+        let Q = Matrix2::new(0.02, 0.005, 0.005, 0.1);
+        let H = Matrix1x2::new(1.0, 0.0);
+        let R = 0.3;
+        let m0 = Vector2::new(0.5, -1.0);
+        let P0 = Matrix2::new(2.0, 0.1, 0.1, 1.0);
+        let z: Vec<f64> = (0..n).map(|k| (k as f64 * 0.7).sin() * 2.0 + 0.1 * k as f64).collect();
+
+        let mut kf = KalmanFilter::new(m0, P0).unwrap();
+        let mut steps = Vec::new();
+        for (k, zk) in z.iter().enumerate() {
+            kf.begin_step();
+            if k > 0 {
+                kf.predict(&F, &Q).unwrap();
+            }
+            kf.update(&Vector1::new(*zk), &H, &nalgebra::Matrix1::new(R), UpdateOptions::default()).unwrap();
+            steps.push(kf.rts_step());
+        }
+        rts_smooth(&mut steps).unwrap();
+
+        let dim = 2 * n;
+        let mut info = DMatrix::<f64>::zeros(dim, dim);
+        let mut rhs = DVector::<f64>::zeros(dim);
+        let add = |info: &mut DMatrix<f64>, r: usize, c: usize, m: &Matrix2<f64>| {
+            for i in 0..2 {
+                for j in 0..2 {
+                    info[(r + i, c + j)] += m[(i, j)];
+                }
+            }
+        };
+        let P0i = P0.try_inverse().unwrap();
+        add(&mut info, 0, 0, &P0i);
+        let v = P0i * m0;
+        rhs[0] += v[0];
+        rhs[1] += v[1];
+        let Qi = Q.try_inverse().unwrap();
+        for k in 1..n {
+            let (a, b) = (2 * (k - 1), 2 * k);
+            add(&mut info, a, a, &(F.transpose() * Qi * F));
+            add(&mut info, a, b, &(-(F.transpose() * Qi)));
+            add(&mut info, b, a, &(-(Qi * F)));
+            add(&mut info, b, b, &Qi);
+        }
+        for (k, zk) in z.iter().enumerate() {
+            add(&mut info, 2 * k, 2 * k, &(H.transpose() * H / R));
+            let v = H.transpose() * (zk / R);
+            rhs[2 * k] += v[0];
+            rhs[2 * k + 1] += v[1];
+        }
+        let cov = info.clone().try_inverse().unwrap();
+        let mean = &cov * rhs;
+        for (k, s) in steps.iter().enumerate() {
+            for i in 0..2 {
+                assert!((s.x_post[i] - mean[2 * k + i]).abs() < 1e-10, "step {k} x[{i}]");
+                for j in 0..2 {
+                    assert!((s.P_post[(i, j)] - cov[(2 * k + i, 2 * k + j)]).abs() < 1e-10, "step {k} P[{i},{j}]");
+                }
+            }
+        }
+        // The last step is the filter's own posterior; earlier ones must have changed.
+        assert!((steps[0].P_post[(0, 0)] - P0[(0, 0)]).abs() > 1e-3);
+    }
+
+    #[test]
+    fn singular_prior_is_an_error() {
+        let zero: RtsStep<f64, 2> = RtsStep {
+            x_prior: Vector2::zeros(),
+            P_prior: Matrix2::zeros(),
+            x_post: Vector2::zeros(),
+            P_post: Matrix2::identity(),
+            F: Matrix2::identity(),
+        };
+        let mut steps = [zero, zero];
+        assert_eq!(rts_smooth(&mut steps), Err(SmootherError::PriorNotPositiveDefinite(1)));
+    }
+}
