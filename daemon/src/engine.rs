@@ -1,0 +1,517 @@
+//! The engine: validation, reorder, model and filter, bounded history.
+//!
+//! Deterministic and IPC-free: the live daemon and `fusiond replay` run this same
+//! code, and anything that depends on wall time (the clock for the future-timestamp
+//! check) comes in as an argument.
+//!
+//! Samples arrive in any order and are processed in [`SampleKey`] order. The engine
+//! keeps, for every processed sample inside the history window, the sample and the
+//! filter state after it, plus the state before the oldest one. A late sample is
+//! fused exactly: the engine restores the state before its place, processes it,
+//! and re-processes every later sample, so the result equals processing the sorted
+//! stream. All buffers are allocated at construction; nothing allocates per sample.
+
+use std::collections::VecDeque;
+
+use fusion_shared::SampleKind;
+
+use crate::model::{Model, StepOutcome};
+use crate::reorder::{Placement, Sample, SampleKey, Seen, SeqWindow, place};
+use crate::validate::{self, Rejection};
+
+/// Engine limits (from the `[filter]` and `[validation]` config tables).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EngineConfig {
+    /// Rewind window: samples older than the newest by more than this are too late.
+    pub history_ns: u64,
+    /// Most entries kept in the history.
+    pub history_capacity: usize,
+    /// Distinct sensor ids tracked per kind.
+    pub max_sensors: usize,
+    /// Largest accepted lead of a timestamp over `now` (when `now` is given).
+    pub max_future_ns: u64,
+}
+
+impl EngineConfig {
+    /// The limits of a validated config.
+    pub fn from_config(c: &crate::config::Config) -> Self {
+        Self {
+            history_ns: c.filter.history_ns,
+            history_capacity: c.filter.history_capacity,
+            max_sensors: c.validation.max_sensors,
+            max_future_ns: c.validation.max_future_ns,
+        }
+    }
+}
+
+/// What became of an inserted sample. Every outcome is counted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Insert {
+    /// Processed. `replayed` later samples were re-processed after it (0: in order).
+    Processed {
+        /// Number of later samples re-processed because this one came late.
+        replayed: usize,
+    },
+    /// Refused by validation.
+    Rejected(Rejection),
+    /// The same sensor and sequence number was processed already.
+    Duplicate,
+    /// Older than the history can restore.
+    TooLate,
+}
+
+/// Counters of one sensor. `fused`, `gated` and `refused` describe the current
+/// estimates: a rewind that changes a decision moves the count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SensorStats {
+    /// Samples that arrived.
+    pub received: u64,
+    /// Samples processed (in order or late).
+    pub processed: u64,
+    /// Measurements fused.
+    pub fused: u64,
+    /// Measurements refused by the gate.
+    pub gated: u64,
+    /// Measurements the filter refused (innovation covariance not positive definite).
+    pub refused: u64,
+    /// Samples processed late, by rewind and replay.
+    pub late: u64,
+    /// Samples dropped as older than the history.
+    pub too_late: u64,
+    /// Duplicates dropped.
+    pub duplicate: u64,
+    /// Samples rejected by validation.
+    pub invalid: u64,
+}
+
+/// One sensor's identity, counters and duplicate window.
+#[derive(Debug, Clone)]
+pub struct SensorSlot {
+    /// Kind of the sensor.
+    pub kind: SampleKind,
+    /// Sensor id.
+    pub sensor: u32,
+    /// Counters.
+    pub stats: SensorStats,
+    /// NIS of the latest measurement processed in order.
+    pub last_nis: Option<f64>,
+    /// Largest timestamp received.
+    pub last_t_ns: Option<u64>,
+    seen: SeqWindow,
+}
+
+/// Counters of the engine as a whole.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct EngineStats {
+    /// Samples rejected before a sensor slot could be found (table full).
+    pub unknown_sensor: u64,
+    /// Late insertions (rewinds).
+    pub rewinds: u64,
+    /// Samples re-processed by rewinds.
+    pub replayed: u64,
+    /// Entries evicted because the history was full before the window passed.
+    pub evicted_by_capacity: u64,
+}
+
+/// A processed sample and the filter state after it.
+#[derive(Debug, Clone, Copy)]
+pub struct Entry<S> {
+    /// Processing-order key.
+    pub key: SampleKey,
+    /// The sample.
+    pub sample: Sample,
+    /// Filter state after processing it.
+    pub state: S,
+    /// What processing did.
+    pub outcome: StepOutcome,
+    slot: u16,
+}
+
+/// The estimation engine for model `M`.
+pub struct Engine<M: Model> {
+    model: M,
+    config: EngineConfig,
+    history: VecDeque<Entry<M::State>>,
+    /// State before `history[0]`.
+    base: M::State,
+    base_is_initial: bool,
+    newest_t: Option<u64>,
+    sensors: Vec<SensorSlot>,
+    stats: EngineStats,
+}
+
+impl<M: Model> Engine<M> {
+    /// An engine running `model` within `config`'s limits.
+    pub fn new(model: M, config: EngineConfig) -> Self {
+        let base = model.initial_state();
+        Self {
+            model,
+            config,
+            history: VecDeque::with_capacity(config.history_capacity),
+            base,
+            base_is_initial: true,
+            newest_t: None,
+            sensors: Vec::with_capacity(2 * config.max_sensors),
+            stats: EngineStats::default(),
+        }
+    }
+
+    /// The model.
+    pub fn model(&self) -> &M {
+        &self.model
+    }
+
+    /// Per-sensor slots in order of first arrival.
+    pub fn sensors(&self) -> &[SensorSlot] {
+        &self.sensors
+    }
+
+    /// Engine-wide counters.
+    pub fn stats(&self) -> &EngineStats {
+        &self.stats
+    }
+
+    /// The newest processed entry: the current estimate.
+    pub fn latest(&self) -> Option<&Entry<M::State>> {
+        self.history.back()
+    }
+
+    /// Entries still in the history (may still change through a rewind), oldest first.
+    pub fn pending(&self) -> impl Iterator<Item = &Entry<M::State>> {
+        self.history.iter()
+    }
+
+    /// Inserts a sample arriving now. `now_ns` (the daemon's clock) enables the
+    /// future-timestamp check; replay passes `None`. Entries that leave the history
+    /// are final and are handed to `on_final`, in processing order.
+    pub fn insert(
+        &mut self,
+        sample: &Sample,
+        now_ns: Option<u64>,
+        on_final: &mut impl FnMut(&Entry<M::State>),
+    ) -> Insert {
+        let key = sample.key();
+        let Some(slot) = self.slot(key.kind, key.sensor) else {
+            self.stats.unknown_sensor += 1;
+            return Insert::Rejected(Rejection::TooManySensors);
+        };
+        let stats = &mut self.sensors[slot].stats;
+        stats.received += 1;
+
+        let valid = match sample {
+            Sample::Imu(s) => validate::check_imu(s),
+            Sample::Position(s) => validate::check_position(s),
+        }
+        .and_then(|()| match now_ns {
+            Some(now) if key.t_ns > now.saturating_add(self.config.max_future_ns) => Err(Rejection::FutureTimestamp),
+            _ => Ok(()),
+        });
+        if let Err(r) = valid {
+            stats.invalid += 1;
+            return Insert::Rejected(r);
+        }
+
+        let seen = match self.sensors[slot].seen.seen(key.seq) {
+            Seen::Yes => true,
+            Seen::No => false,
+            Seen::Unknown => self
+                .history
+                .iter()
+                .any(|e| e.key.kind == key.kind && e.key.sensor == key.sensor && e.key.seq == key.seq),
+        };
+        if seen {
+            self.sensors[slot].stats.duplicate += 1;
+            return Insert::Duplicate;
+        }
+
+        let placement = place(
+            &key,
+            self.history.len(),
+            |i| self.history[i].key,
+            self.newest_t,
+            self.config.history_ns,
+            self.base_is_initial,
+        );
+        let mut index = match placement {
+            Placement::Append => self.history.len(),
+            Placement::Insert(i) => i,
+            Placement::TooLate => {
+                self.sensors[slot].stats.too_late += 1;
+                return Insert::TooLate;
+            }
+        };
+        if self.history.len() == self.config.history_capacity {
+            // Full before the window passed: the oldest entry becomes final. A sample
+            // that would go before it can no longer be placed.
+            if index == 0 {
+                self.sensors[slot].stats.too_late += 1;
+                return Insert::TooLate;
+            }
+            self.stats.evicted_by_capacity += 1;
+            self.evict_front(on_final);
+            index -= 1;
+        }
+
+        let sensor = &mut self.sensors[slot];
+        sensor.seen.mark(key.seq);
+        sensor.last_t_ns = Some(sensor.last_t_ns.map_or(key.t_ns, |t| t.max(key.t_ns)));
+        sensor.stats.processed += 1;
+
+        let mut state = if index == 0 { self.base } else { self.history[index - 1].state };
+        let outcome = self.model.step(&mut state, sample);
+        count_outcome(&mut self.sensors[slot].stats, &outcome, 1);
+        let replayed = self.history.len() - index;
+        if replayed == 0 {
+            self.sensors[slot].last_nis = outcome.nis().or(self.sensors[slot].last_nis);
+        } else {
+            self.sensors[slot].stats.late += 1;
+            self.stats.rewinds += 1;
+            self.stats.replayed += replayed as u64;
+        }
+        // `insert` shifts the shorter side; capacity was ensured above, so no allocation.
+        self.history.insert(index, Entry { key, sample: *sample, state, outcome, slot: slot as u16 });
+        for j in (index + 1)..self.history.len() {
+            let mut state = self.history[j - 1].state;
+            let entry = &self.history[j];
+            let outcome = self.model.step(&mut state, &entry.sample);
+            let (old, entry_slot) = (entry.outcome, entry.slot as usize);
+            if old != outcome {
+                count_outcome(&mut self.sensors[entry_slot].stats, &old, -1);
+                count_outcome(&mut self.sensors[entry_slot].stats, &outcome, 1);
+            }
+            let entry = &mut self.history[j];
+            entry.state = state;
+            entry.outcome = outcome;
+        }
+
+        let newest = self.newest_t.map_or(key.t_ns, |t| t.max(key.t_ns));
+        self.newest_t = Some(newest);
+        let horizon = newest.saturating_sub(self.config.history_ns);
+        while self.history.front().is_some_and(|e| e.key.t_ns < horizon) {
+            self.evict_front(on_final);
+        }
+        Insert::Processed { replayed }
+    }
+
+    /// Hands every entry still in the history to `on_final` (end of input).
+    pub fn flush(&mut self, on_final: &mut impl FnMut(&Entry<M::State>)) {
+        while !self.history.is_empty() {
+            self.evict_front(on_final);
+        }
+    }
+
+    fn evict_front(&mut self, on_final: &mut impl FnMut(&Entry<M::State>)) {
+        if let Some(e) = self.history.pop_front() {
+            on_final(&e);
+            self.base = e.state;
+            self.base_is_initial = false;
+        }
+    }
+
+    /// The slot of a sensor, created on first sight; `None` when the table is full.
+    fn slot(&mut self, kind: SampleKind, sensor: u32) -> Option<usize> {
+        if let Some(i) = self.sensors.iter().position(|s| s.kind == kind && s.sensor == sensor) {
+            return Some(i);
+        }
+        let of_kind = self.sensors.iter().filter(|s| s.kind == kind).count();
+        if of_kind >= self.config.max_sensors {
+            return None;
+        }
+        // Within the capacity reserved in `new` (2 × max_sensors): no reallocation.
+        self.sensors.push(SensorSlot {
+            kind,
+            sensor,
+            stats: SensorStats::default(),
+            last_nis: None,
+            last_t_ns: None,
+            seen: SeqWindow::default(),
+        });
+        Some(self.sensors.len() - 1)
+    }
+}
+
+fn count_outcome(stats: &mut SensorStats, outcome: &StepOutcome, delta: i64) {
+    let counter = match outcome {
+        StepOutcome::Propagated => return,
+        StepOutcome::Fused { .. } => &mut stats.fused,
+        StepOutcome::Gated { .. } => &mut stats.gated,
+        StepOutcome::Refused => &mut stats.refused,
+    };
+    *counter = counter.wrapping_add_signed(delta);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::filter::ChiSquareGate;
+    use crate::model::linear::LinearModel;
+    use fusion_shared::{ImuSample, PositionSample};
+
+    fn cfg() -> EngineConfig {
+        EngineConfig { history_ns: 1_000_000_000, history_capacity: 4096, max_sensors: 4, max_future_ns: 50_000_000 }
+    }
+
+    fn engine(gate: Option<ChiSquareGate>) -> Engine<LinearModel> {
+        Engine::new(LinearModel::new(0.3, [0.0; 6], [100.0, 100.0, 100.0, 10.0, 10.0, 10.0], gate).unwrap(), cfg())
+    }
+
+    fn imu(t_ms: u64, seq: u64) -> Sample {
+        let t = t_ms as f64 * 1e-3;
+        Sample::Imu(ImuSample {
+            t_ns: t_ms * 1_000_000,
+            seq,
+            accel_mps2: [t.sin(), (0.7 * t).cos(), 0.1],
+            ..Default::default()
+        })
+    }
+
+    fn pos(t_ms: u64, seq: u64, x: f64) -> Sample {
+        Sample::Position(PositionSample {
+            t_ns: t_ms * 1_000_000,
+            seq,
+            sensor: 1,
+            pos_m: [x, 0.5 * x, -x],
+            cov_m2: [0.25, 0.01, 0.0, 0.01, 0.25, 0.0, 0.0, 0.0, 0.5],
+            ..Default::default()
+        })
+    }
+
+    fn stream() -> Vec<Sample> {
+        let mut v = Vec::new();
+        for i in 0..400u64 {
+            v.push(imu(i * 5, i));
+            if i % 20 == 7 {
+                v.push(pos(i * 5 + 2, i / 20, (i as f64) * 0.01));
+            }
+        }
+        v
+    }
+
+    fn run(engine: &mut Engine<LinearModel>, samples: &[Sample]) -> Vec<(SampleKey, Vec<f64>, Vec<f64>)> {
+        let mut out = Vec::new();
+        let mut sink = |e: &Entry<_>| {
+            out.push((e.key, LinearModel::x(&e.state).to_vec(), LinearModel::covariance(&e.state).to_vec()))
+        };
+        for s in samples {
+            engine.insert(s, None, &mut sink);
+        }
+        engine.flush(&mut sink);
+        out
+    }
+
+    #[test]
+    fn late_position_is_fused_by_rewind() {
+        let sorted = stream();
+        let mut shuffled = sorted.clone();
+        // Move every position 60 ms (12 IMU samples) later in arrival order.
+        let positions: Vec<usize> =
+            (0..shuffled.len()).filter(|i| matches!(shuffled[*i], Sample::Position(_))).collect();
+        for &i in positions.iter().rev() {
+            let s = shuffled.remove(i);
+            shuffled.insert((i + 12).min(shuffled.len()), s);
+        }
+        let mut a = engine(None);
+        let mut b = engine(None);
+        let expect = run(&mut a, &sorted);
+        let got = run(&mut b, &shuffled);
+        assert_eq!(expect, got, "late fusion must equal sorted processing exactly");
+        let s = &b.sensors()[1];
+        assert_eq!((s.kind, s.stats.fused, s.stats.late), (SampleKind::Position, 20, 20));
+        assert_eq!(b.stats().rewinds, 20);
+    }
+
+    #[test]
+    fn too_late_and_duplicates_are_counted_not_fused() {
+        let mut e = engine(None);
+        let mut sink = |_: &Entry<_>| {};
+        for i in 0..300 {
+            e.insert(&imu(i * 5, i), None, &mut sink);
+        }
+        // Newest is 1495 ms; the window is 1 s: 400 ms is too late, 600 ms is not.
+        assert_eq!(e.insert(&pos(400, 0, 0.0), None, &mut sink), Insert::TooLate);
+        assert!(matches!(e.insert(&pos(600, 1, 0.0), None, &mut sink), Insert::Processed { replayed } if replayed > 0));
+        assert_eq!(e.insert(&pos(600, 1, 0.0), None, &mut sink), Insert::Duplicate);
+        assert_eq!(e.insert(&imu(5, 1), None, &mut sink), Insert::Duplicate);
+        let p = e.sensors()[1].stats;
+        assert_eq!((p.received, p.processed, p.too_late, p.duplicate, p.fused), (3, 1, 1, 1, 1));
+        assert_eq!(e.sensors()[0].stats.duplicate, 1);
+    }
+
+    #[test]
+    fn invalid_samples_are_rejected_and_change_nothing() {
+        let mut clean = engine(None);
+        let mut dirty = engine(None);
+        let mut sink = |_: &Entry<_>| {};
+        let mut bad_cov = pos(12, 9, 0.0);
+        if let Sample::Position(p) = &mut bad_cov {
+            p.cov_m2 = [1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        }
+        let mut nan = imu(13, 99);
+        if let Sample::Imu(s) = &mut nan {
+            s.accel_mps2[0] = f64::NAN;
+        }
+        for s in stream() {
+            clean.insert(&s, None, &mut sink);
+            dirty.insert(&s, None, &mut sink);
+        }
+        let now = 2_000_000_000;
+        assert_eq!(
+            dirty.insert(&bad_cov, Some(now), &mut sink),
+            Insert::Rejected(Rejection::CovarianceNotPositiveDefinite)
+        );
+        assert_eq!(dirty.insert(&nan, Some(now), &mut sink), Insert::Rejected(Rejection::NonFinite));
+        assert_eq!(dirty.insert(&imu(2_100, 500), Some(now), &mut sink), Insert::Rejected(Rejection::FutureTimestamp));
+        assert_eq!(clean.latest().unwrap().state, dirty.latest().unwrap().state);
+        assert_eq!(dirty.sensors()[0].stats.invalid, 2);
+        assert_eq!(dirty.sensors()[1].stats.invalid, 1);
+    }
+
+    #[test]
+    fn sensor_table_is_bounded() {
+        let mut e = engine(None);
+        let mut sink = |_: &Entry<_>| {};
+        for id in 0..5u32 {
+            let s = Sample::Imu(ImuSample { t_ns: 1, sensor: id, ..Default::default() });
+            let r = e.insert(&s, None, &mut sink);
+            assert_eq!(r == Insert::Rejected(Rejection::TooManySensors), id == 4);
+        }
+        assert_eq!(e.stats().unknown_sensor, 1);
+    }
+
+    #[test]
+    fn gate_decisions_follow_rewinds() {
+        // An outlier is gated whether it arrives in order or late.
+        let gate = ChiSquareGate::new(0.999).unwrap();
+        let mut samples = stream();
+        let outlier = pos(1_950, 100, 500.0);
+        let at = samples.iter().position(|s| s.key() > outlier.key()).unwrap();
+        samples.insert(at, outlier);
+        let mut a = engine(Some(gate.clone()));
+        run(&mut a, &samples);
+        samples.remove(at);
+        samples.push(outlier);
+        let mut b = engine(Some(gate));
+        run(&mut b, &samples);
+        let (sa, sb) = (a.sensors()[1].stats, b.sensors()[1].stats);
+        assert_eq!((sa.gated, sa.late, sb.late), (1, 0, 1));
+        assert_eq!(sa, SensorStats { late: 0, ..sb });
+    }
+
+    #[test]
+    fn capacity_bounds_the_history() {
+        let mut e = Engine::new(
+            LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap(),
+            EngineConfig { history_capacity: 16, ..cfg() },
+        );
+        let mut finals = 0;
+        let mut sink = |_: &Entry<_>| finals += 1;
+        for i in 0..100 {
+            e.insert(&imu(i, i), None, &mut sink);
+        }
+        assert_eq!(e.pending().count(), 16);
+        assert_eq!(e.stats().evicted_by_capacity, 84);
+        // Older than everything retained, and the initial state is gone: too late.
+        assert_eq!(e.insert(&pos(50, 0, 0.0), None, &mut sink), Insert::TooLate);
+        assert_eq!(finals, 84);
+    }
+}

@@ -1,0 +1,214 @@
+//! The `linear` model: constant velocity driven by measured world acceleration.
+//!
+//! | index | symbol | unit | frame |
+//! |---|---|---|---|
+//! | 0..3 | p = [p_x, p_y, p_z] | m | world ENU |
+//! | 3..6 | v = [v_x, v_y, v_z] | m/s | world ENU |
+//!
+//! An IMU sample's `accel_mps2` is the world-frame acceleration with gravity
+//! removed; its gyro is unused. For every sample at time t, in processing order:
+//!
+//! ```text
+//! if t > t_f:  dt = (t − t_f)·1e-9 s
+//!              F = [[I, dt I], [0, I]],  G = [[½dt² I], [dt I]]
+//!              x ← F x + G a             (a: held acceleration, 0 before the first IMU sample)
+//!              P ← F P Fᵀ + G (σₐ² I₃) Gᵀ,  t_f ← t
+//! IMU:       a ← accel
+//! position:  z = pos, H = [I 0], R = cov; Joseph-form update, gated if configured
+//! ```
+//!
+//! This is the discrete white-noise acceleration model of Bar-Shalom, Li and
+//! Kirubarajan (2001), §6.3.3, eq. 6.3.3-2 to 6.3.3-4, per axis, with the measured
+//! acceleration as a known input (zero-order hold). The filter starts at the time of
+//! the first processed sample with x₀, P₀ (no propagation before it).
+
+#![allow(non_snake_case)]
+
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+
+use super::{Model, StepOutcome};
+use crate::filter::{
+    ChiSquareGate, KalmanFilter, RtsStep, SmootherError, UpdateDecision, UpdateOptions, map_process_noise, rts_smooth,
+};
+use crate::reorder::Sample;
+
+/// State dimension.
+pub const N: usize = 6;
+
+/// The `linear` model's parameters.
+#[derive(Debug, Clone)]
+pub struct LinearModel {
+    sigma_a: f64,
+    initial: KalmanFilter<f64, N>,
+    gate: Option<ChiSquareGate>,
+}
+
+/// Filter state of the `linear` model at one point of the stream.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinearState {
+    kf: KalmanFilter<f64, N>,
+    t_ns: Option<u64>,
+    accel: Vector3<f64>,
+}
+
+impl LinearState {
+    /// The filter.
+    pub fn filter(&self) -> &KalmanFilter<f64, N> {
+        &self.kf
+    }
+}
+
+impl LinearModel {
+    /// A model with `σₐ` (m/s²), x₀, diag(P₀) and an optional gate.
+    pub fn new(
+        sigma_a: f64,
+        x0: [f64; N],
+        p0_diagonal: [f64; N],
+        gate: Option<ChiSquareGate>,
+    ) -> Result<Self, crate::filter::FilterError> {
+        let initial =
+            KalmanFilter::new(SVector::from(x0), SMatrix::from_diagonal(&SVector::<f64, N>::from(p0_diagonal)))?;
+        Ok(Self { sigma_a, initial, gate })
+    }
+
+    /// `F` and `G` for a step of `dt` seconds.
+    pub fn transition(dt: f64) -> (SMatrix<f64, N, N>, SMatrix<f64, N, 3>) {
+        let mut F = SMatrix::<f64, N, N>::identity();
+        let mut G = SMatrix::<f64, N, 3>::zeros();
+        for i in 0..3 {
+            F[(i, i + 3)] = dt;
+            G[(i, i)] = 0.5 * dt * dt;
+            G[(i + 3, i)] = dt;
+        }
+        (F, G)
+    }
+}
+
+impl Model for LinearModel {
+    type State = LinearState;
+    type Record = RtsStep<f64, N>;
+    const KIND: &'static str = "linear";
+
+    fn initial_state(&self) -> LinearState {
+        LinearState { kf: self.initial, t_ns: None, accel: Vector3::zeros() }
+    }
+
+    fn step(&self, s: &mut LinearState, sample: &Sample) -> StepOutcome {
+        let t = sample.t_ns();
+        s.kf.begin_step();
+        match s.t_ns {
+            None => s.t_ns = Some(t),
+            Some(tf) if t > tf => {
+                let dt = (t - tf) as f64 * 1e-9;
+                let (F, G) = Self::transition(dt);
+                let Q = map_process_noise(&G, &Matrix3::from_diagonal_element(self.sigma_a * self.sigma_a));
+                // A non-finite result is refused by the filter and leaves x, P as they
+                // were; the filter time still moves on so later samples stay in order.
+                let _ = s.kf.predict_with_input(&F, &(G * s.accel), &Q);
+                s.t_ns = Some(t);
+            }
+            Some(_) => {}
+        }
+        match sample {
+            Sample::Imu(imu) => {
+                s.accel = Vector3::from(imu.accel_mps2);
+                StepOutcome::Propagated
+            }
+            Sample::Position(p) => {
+                let z = Vector3::from(p.pos_m);
+                let R = Matrix3::from_row_slice(&p.cov_m2);
+                let mut H = SMatrix::<f64, 3, N>::zeros();
+                H.fixed_view_mut::<3, 3>(0, 0).fill_with_identity();
+                let options = UpdateOptions { gate: self.gate.as_ref(), fault_detector: None };
+                match s.kf.update(&z, &H, &R, options) {
+                    Ok(d) if d.decision == UpdateDecision::Accepted => StepOutcome::Fused { nis: d.nis },
+                    Ok(d) => StepOutcome::Gated { nis: d.nis },
+                    Err(_) => StepOutcome::Refused,
+                }
+            }
+        }
+    }
+
+    fn time_ns(s: &LinearState) -> Option<u64> {
+        s.t_ns
+    }
+
+    fn x(s: &LinearState) -> &[f64] {
+        s.kf.x().as_slice()
+    }
+
+    fn covariance(s: &LinearState) -> &[f64] {
+        // Column-major storage of a symmetric matrix is its row-major form.
+        s.kf.P().as_slice()
+    }
+
+    fn record(s: &LinearState) -> RtsStep<f64, N> {
+        s.kf.rts_step()
+    }
+
+    fn smooth(records: &mut [RtsStep<f64, N>]) -> Result<(), SmootherError> {
+        rts_smooth(records)
+    }
+
+    fn record_output(r: &RtsStep<f64, N>) -> (&[f64], &[f64]) {
+        (r.x_post.as_slice(), r.P_post.as_slice())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fusion_shared::{ImuSample, PositionSample};
+
+    fn model() -> LinearModel {
+        LinearModel::new(0.5, [0.0; 6], [1.0; 6], None).unwrap()
+    }
+
+    #[test]
+    fn constant_acceleration_integrates_exactly() {
+        let m = model();
+        let mut s = m.initial_state();
+        let imu = |t: u64| Sample::Imu(ImuSample { t_ns: t, accel_mps2: [1.0, -2.0, 0.5], ..Default::default() });
+        m.step(&mut s, &imu(1_000_000_000));
+        for i in 1..=100 {
+            m.step(&mut s, &imu(1_000_000_000 + i * 10_000_000));
+        }
+        // After 1 s at a = [1, -2, .5] from rest: p = ½ a, v = a (exact for piecewise-constant a).
+        let x = s.kf.x();
+        let expect = [0.5, -1.0, 0.25, 1.0, -2.0, 0.5];
+        for i in 0..6 {
+            assert!((x[i] - expect[i]).abs() < 1e-12, "x[{i}] = {}", x[i]);
+        }
+        assert_eq!(s.t_ns, Some(2_000_000_000));
+    }
+
+    #[test]
+    fn the_first_sample_starts_the_filter_without_propagation() {
+        let m = model();
+        let mut s = m.initial_state();
+        let p = PositionSample {
+            t_ns: 5,
+            pos_m: [1.0, 0.0, 0.0],
+            cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+            ..Default::default()
+        };
+        let out = m.step(&mut s, &Sample::Position(p));
+        // Prior P₀ = I, R = I: K = ½ on the position block, x = ½ z, NIS = 1²/2.
+        assert!(matches!(out, StepOutcome::Fused { nis } if (nis - 0.5).abs() < 1e-15));
+        assert!((s.kf.x()[0] - 0.5).abs() < 1e-15);
+        assert!((s.kf.P()[(0, 0)] - 0.5).abs() < 1e-15);
+        assert_eq!(s.kf.P()[(3, 3)], 1.0);
+    }
+
+    #[test]
+    fn equal_timestamps_do_not_propagate() {
+        let m = model();
+        let mut s = m.initial_state();
+        let imu = Sample::Imu(ImuSample { t_ns: 7, accel_mps2: [3.0, 0.0, 0.0], ..Default::default() });
+        m.step(&mut s, &imu);
+        let before = s.kf;
+        m.step(&mut s, &imu);
+        assert_eq!(s.kf.x(), before.x());
+        assert_eq!(s.kf.P(), before.P());
+    }
+}

@@ -1,0 +1,86 @@
+//! Process and measurement models: what a sample does to the filter.
+//!
+//! - [`linear`]: constant velocity driven by world-frame acceleration (6 states).
+//!
+//! A model owns its filter state type; the engine only stores, copies and replays
+//! it, so a model may keep anything it needs for time handling (the filter time,
+//! held IMU values) inside that state.
+
+pub mod linear;
+
+use crate::reorder::Sample;
+
+/// What processing one sample did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StepOutcome {
+    /// An IMU sample: the state was propagated to its time and its values held.
+    Propagated,
+    /// A measurement fused, with its NIS.
+    Fused {
+        /// Normalised innovation squared.
+        nis: f64,
+    },
+    /// A measurement refused by the gate, with its NIS; state only propagated.
+    Gated {
+        /// Normalised innovation squared.
+        nis: f64,
+    },
+    /// The filter refused the step (e.g. S not positive definite); state unchanged
+    /// apart from the propagation to the sample time.
+    Refused,
+}
+
+impl StepOutcome {
+    /// NIS of a measurement update, if one was computed.
+    pub fn nis(&self) -> Option<f64> {
+        match self {
+            StepOutcome::Fused { nis } | StepOutcome::Gated { nis } => Some(*nis),
+            _ => None,
+        }
+    }
+
+    /// For a measurement: was it fused? `None` for an IMU sample.
+    pub fn accepted(&self) -> Option<bool> {
+        match self {
+            StepOutcome::Propagated => None,
+            StepOutcome::Fused { .. } => Some(true),
+            StepOutcome::Gated { .. } | StepOutcome::Refused => Some(false),
+        }
+    }
+}
+
+/// A process and measurement model the engine can run.
+pub trait Model {
+    /// The complete filter state at one point of the sample stream: estimate,
+    /// covariance, filter time and held inputs. Copied into the history.
+    type State: Copy;
+    /// What the smoother needs of one step.
+    type Record: Copy;
+
+    /// Name as in the config: `"linear"`.
+    const KIND: &'static str;
+
+    /// The state before the first sample.
+    fn initial_state(&self) -> Self::State;
+
+    /// Processes one sample: propagate to its time, then hold (IMU) or fuse (position).
+    fn step(&self, state: &mut Self::State, sample: &Sample) -> StepOutcome;
+
+    /// Filter time, ns, or `None` before the first sample.
+    fn time_ns(state: &Self::State) -> Option<u64>;
+
+    /// The state vector `x` as published.
+    fn x(state: &Self::State) -> &[f64];
+
+    /// The covariance as published, row-major (it is symmetric).
+    fn covariance(state: &Self::State) -> &[f64];
+
+    /// The smoother's record of the step that produced `state`.
+    fn record(state: &Self::State) -> Self::Record;
+
+    /// Smooths a complete run of records in place (RTS).
+    fn smooth(records: &mut [Self::Record]) -> Result<(), crate::filter::SmootherError>;
+
+    /// `(x, P)` of a record (after smoothing: the smoothed estimate).
+    fn record_output(record: &Self::Record) -> (&[f64], &[f64]);
+}
