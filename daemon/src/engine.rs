@@ -16,7 +16,7 @@ use std::collections::VecDeque;
 use fusion_shared::SampleKind;
 
 use crate::model::{Model, StepOutcome};
-use crate::reorder::{Placement, Sample, SampleKey, Seen, SeqWindow, place};
+use crate::reorder::{Placement, Sample, SampleKey, Seen, SeqWindow, key_of, place};
 use crate::validate::{self, Rejection};
 
 /// Engine limits (from the `[filter]` and `[validation]` config tables).
@@ -190,7 +190,7 @@ impl<M: Model> Engine<M> {
         now_ns: Option<u64>,
         on_final: &mut impl FnMut(&Entry<M::State>),
     ) -> Insert {
-        let key = sample.key();
+        let key = key_of(sample);
         let Some(slot) = self.slot(key.kind, key.sensor) else {
             self.stats.unknown_sensor += 1;
             return Insert::Rejected(Rejection::TooManySensors);
@@ -484,7 +484,7 @@ mod tests {
         let gate = ChiSquareGate::new(0.999).unwrap();
         let mut samples = stream();
         let outlier = pos(1_950, 100, 500.0);
-        let at = samples.iter().position(|s| s.key() > outlier.key()).unwrap();
+        let at = samples.iter().position(|s| key_of(s) > key_of(&outlier)).unwrap();
         samples.insert(at, outlier);
         let mut a = engine(Some(gate.clone()));
         run(&mut a, &samples);

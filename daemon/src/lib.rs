@@ -6,10 +6,12 @@
 //! - [`validate`]: input checks with counted rejection reasons.
 //! - [`engine`]: reorder + model + filter + bounded history, deterministic, IPC-free.
 //! - [`config`]: TOML configuration, validated at start-up.
+//! - [`replay`]: `fusiond replay`, JSON lines through the engine.
 
 pub mod config;
 pub mod engine;
 pub mod filter;
 pub mod model;
 pub mod reorder;
+pub mod replay;
 pub mod validate;

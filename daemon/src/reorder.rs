@@ -6,7 +6,8 @@
 //! inserted (late, fused exactly by rewind and replay), or dropped as too late.
 //! [`SeqWindow`] finds duplicates without searching the history.
 
-use fusion_shared::{ImuSample, PositionSample, SampleKind};
+pub use fusion_shared::Sample;
+use fusion_shared::SampleKind;
 
 /// The processing-order key. Field order is the comparison order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -21,30 +22,11 @@ pub struct SampleKey {
     pub seq: u64,
 }
 
-/// A sample of any kind, as the engine takes it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Sample {
-    /// Inertial sample.
-    Imu(ImuSample),
-    /// Position fix.
-    Position(PositionSample),
-}
-
-impl Sample {
-    /// The processing-order key.
-    pub fn key(&self) -> SampleKey {
-        match self {
-            Sample::Imu(s) => SampleKey { t_ns: s.t_ns, kind: SampleKind::Imu, sensor: s.sensor, seq: s.seq },
-            Sample::Position(s) => SampleKey { t_ns: s.t_ns, kind: SampleKind::Position, sensor: s.sensor, seq: s.seq },
-        }
-    }
-
-    /// Time of validity, ns.
-    pub fn t_ns(&self) -> u64 {
-        match self {
-            Sample::Imu(s) => s.t_ns,
-            Sample::Position(s) => s.t_ns,
-        }
+/// The processing-order key of a sample.
+pub fn key_of(sample: &Sample) -> SampleKey {
+    match sample {
+        Sample::Imu(s) => SampleKey { t_ns: s.t_ns, kind: SampleKind::Imu, sensor: s.sensor, seq: s.seq },
+        Sample::Position(s) => SampleKey { t_ns: s.t_ns, kind: SampleKind::Position, sensor: s.sensor, seq: s.seq },
     }
 }
 

@@ -9,5 +9,5 @@
 pub mod sample;
 pub mod time;
 
-pub use sample::{ImuSample, PositionSample, SampleKind};
+pub use sample::{ImuSample, PositionSample, Sample, SampleKind};
 pub use time::now_ns;

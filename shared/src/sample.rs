@@ -67,6 +67,33 @@ pub struct PositionSample {
     pub cov_m2: [f64; 9],
 }
 
+/// A sample of either kind (not a wire type: each kind has its own service).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Sample {
+    /// Inertial sample.
+    Imu(ImuSample),
+    /// Position fix.
+    Position(PositionSample),
+}
+
+impl Sample {
+    /// Time of validity, ns.
+    pub fn t_ns(&self) -> u64 {
+        match self {
+            Sample::Imu(s) => s.t_ns,
+            Sample::Position(s) => s.t_ns,
+        }
+    }
+
+    /// The kind.
+    pub fn kind(&self) -> SampleKind {
+        match self {
+            Sample::Imu(_) => SampleKind::Imu,
+            Sample::Position(_) => SampleKind::Position,
+        }
+    }
+}
+
 const _: () = {
     assert!(core::mem::size_of::<ImuSample>() == 72);
     assert!(core::mem::align_of::<ImuSample>() == 8);

@@ -1,0 +1,11 @@
+//! Simulated sensors for tests, demos and benchmarks.
+//!
+//! - [`trajectory`]: closed-form car-like ground truth.
+//! - [`sensors`]: IMU and position sensor models (rates, noise, delay, jitter,
+//!   dropouts, outliers) and [`Scenario`], a whole drive in arrival order.
+
+pub mod sensors;
+pub mod trajectory;
+
+pub use sensors::{Arrival, ImuConfig, ImuOutput, ImuSim, PositionConfig, PositionSim, Scenario, ScenarioConfig};
+pub use trajectory::{CarTrajectory, TruthState};

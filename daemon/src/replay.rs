@@ -1,0 +1,370 @@
+//! `fusiond replay`: JSON lines in → engine → JSON lines out, the same engine as live.
+//!
+//! Input, one object per line in arrival order:
+//!
+//! ```text
+//! {"imu": {"t_ns": 1000000, "sensor": 0, "seq": 0, "accel": [ax, ay, az], "gyro": [gx, gy, gz]}}
+//! {"position": {"t_ns": 1100000, "sensor": 1, "seq": 0, "pos": [x, y, z], "cov": [9 numbers, row-major]}}
+//! ```
+//!
+//! Output, one object per processed sample in processing order, written when the
+//! sample leaves the history (its estimate is final: no later sample can change it):
+//!
+//! ```text
+//! {"t_ns": …, "kind": "imu"|"position", "sensor": …, "seq": …, "x": […], "P": [n·n, row-major],
+//!  "nis": number|null, "accepted": true|false|null}
+//! ```
+//!
+//! Without smoothing, memory is bounded by the history window. With smoothing the
+//! whole run is kept for the backward pass.
+
+use std::io::{BufRead, Write};
+
+use fusion_shared::{ImuSample, PositionSample};
+use serde::{Deserialize, Serialize};
+
+use crate::config::{Config, ModelConfig};
+use crate::engine::{Engine, EngineConfig, Entry, Insert};
+use crate::model::linear::LinearModel;
+use crate::model::{Model, StepOutcome};
+use crate::reorder::{Sample, SampleKey};
+
+/// How many invalid lines the summary describes one by one.
+pub const INVALID_LINES_REPORTED: usize = 10;
+
+/// A replay that could not run or produced nothing.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    /// Reading the input or writing the output failed.
+    #[error("i/o: {0}")]
+    Io(#[from] std::io::Error),
+    /// The configured model could not be built.
+    #[error("model: {0}")]
+    Model(String),
+    /// The smoother failed (a prior covariance without Cholesky factor).
+    #[error("smoother: {0}")]
+    Smoother(#[from] crate::filter::SmootherError),
+    /// No sample of the input could be processed.
+    #[error("no sample could be processed ({0} lines read)")]
+    NothingProcessed(u64),
+}
+
+/// Counts of one replay, printed on stderr by `fusiond replay`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReplaySummary {
+    /// Non-blank lines read.
+    pub read: u64,
+    /// Samples processed (output lines).
+    pub processed: u64,
+    /// Measurements fused.
+    pub fused: u64,
+    /// Measurements refused by the gate.
+    pub gated: u64,
+    /// Measurements refused by the filter (S not positive definite).
+    pub refused: u64,
+    /// Samples fused late by rewind and replay.
+    pub late: u64,
+    /// Samples dropped as older than the history.
+    pub too_late: u64,
+    /// Duplicate samples dropped.
+    pub duplicates: u64,
+    /// Lines rejected: malformed JSON, wrong shape, or invalid values.
+    pub invalid: u64,
+    /// Line number (1-based) and reason of the first invalid lines.
+    pub invalid_lines: Vec<(u64, String)>,
+}
+
+impl std::fmt::Display for ReplaySummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "read {} lines: processed {}, fused {}, gated {}, refused {}, fused late {}, dropped too late {}, duplicates {}, invalid {}",
+            self.read,
+            self.processed,
+            self.fused,
+            self.gated,
+            self.refused,
+            self.late,
+            self.too_late,
+            self.duplicates,
+            self.invalid
+        )?;
+        for (line, reason) in &self.invalid_lines {
+            writeln!(f, "  line {line}: {reason}")?;
+        }
+        if self.invalid > self.invalid_lines.len() as u64 {
+            writeln!(f, "  … and {} more invalid lines", self.invalid - self.invalid_lines.len() as u64)?;
+        }
+        Ok(())
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "lowercase")]
+enum InputLine {
+    Imu(ImuLine),
+    Position(PositionLine),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ImuLine {
+    t_ns: u64,
+    sensor: u32,
+    seq: u64,
+    accel: [f64; 3],
+    gyro: [f64; 3],
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PositionLine {
+    t_ns: u64,
+    sensor: u32,
+    seq: u64,
+    pos: [f64; 3],
+    cov: [f64; 9],
+}
+
+/// Parses one input line into a sample; the error is a reason for the summary.
+pub fn parse_line(line: &str) -> Result<Sample, String> {
+    match serde_json::from_str::<InputLine>(line).map_err(|e| e.to_string())? {
+        InputLine::Imu(s) => Ok(Sample::Imu(ImuSample {
+            t_ns: s.t_ns,
+            seq: s.seq,
+            sensor: s.sensor,
+            _reserved: 0,
+            accel_mps2: s.accel,
+            gyro_radps: s.gyro,
+        })),
+        InputLine::Position(s) => Ok(Sample::Position(PositionSample {
+            t_ns: s.t_ns,
+            seq: s.seq,
+            sensor: s.sensor,
+            _reserved: 0,
+            pos_m: s.pos,
+            cov_m2: s.cov,
+        })),
+    }
+}
+
+/// Formats a sample as an input line (the inverse of [`parse_line`]).
+pub fn format_line(sample: &Sample) -> String {
+    match sample {
+        Sample::Imu(s) => serde_json::json!({"imu": {
+            "t_ns": s.t_ns, "sensor": s.sensor, "seq": s.seq, "accel": s.accel_mps2, "gyro": s.gyro_radps}}),
+        Sample::Position(s) => serde_json::json!({"position": {
+            "t_ns": s.t_ns, "sensor": s.sensor, "seq": s.seq, "pos": s.pos_m, "cov": s.cov_m2}}),
+    }
+    .to_string()
+}
+
+/// One output line.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OutputLine {
+    /// Time of validity, ns.
+    pub t_ns: u64,
+    /// `"imu"` or `"position"`.
+    pub kind: String,
+    /// Sensor id.
+    pub sensor: u32,
+    /// Sequence number.
+    pub seq: u64,
+    /// State vector after the sample.
+    pub x: Vec<f64>,
+    /// Covariance after the sample, row-major.
+    #[serde(rename = "P")]
+    pub p: Vec<f64>,
+    /// NIS of a measurement, `null` for IMU samples.
+    pub nis: Option<f64>,
+    /// Whether a measurement was fused, `null` for IMU samples.
+    pub accepted: Option<bool>,
+}
+
+#[derive(Serialize)]
+struct OutputRef<'a> {
+    t_ns: u64,
+    kind: &'static str,
+    sensor: u32,
+    seq: u64,
+    x: &'a [f64],
+    #[serde(rename = "P")]
+    p: &'a [f64],
+    nis: Option<f64>,
+    accepted: Option<bool>,
+}
+
+fn write_output(
+    out: &mut impl Write,
+    key: &SampleKey,
+    outcome: &StepOutcome,
+    x: &[f64],
+    p: &[f64],
+) -> std::io::Result<()> {
+    let line = OutputRef {
+        t_ns: key.t_ns,
+        kind: key.kind.name(),
+        sensor: key.sensor,
+        seq: key.seq,
+        x,
+        p,
+        nis: outcome.nis(),
+        accepted: outcome.accepted(),
+    };
+    serde_json::to_writer(&mut *out, &line)?;
+    out.write_all(b"\n")
+}
+
+/// Builds the `linear` model of a config.
+pub fn linear_model(config: &Config) -> Result<LinearModel, ReplayError> {
+    let ModelConfig::Linear { accel_noise_std } = config.model;
+    let x0: [f64; 6] =
+        config.filter.initial_state.as_slice().try_into().map_err(|_| ReplayError::Model("x0 length".into()))?;
+    let p0: [f64; 6] = config
+        .filter
+        .initial_covariance_diagonal
+        .as_slice()
+        .try_into()
+        .map_err(|_| ReplayError::Model("P0 length".into()))?;
+    LinearModel::new(accel_noise_std, x0, p0, config.gating.clone()).map_err(|e| ReplayError::Model(e.to_string()))
+}
+
+/// Replays `input` through the engine configured by `config`, writing estimates to
+/// `output`; with `smooth`, the estimates are RTS-smoothed over the whole run.
+pub fn replay(
+    config: &Config,
+    input: impl BufRead,
+    output: impl Write,
+    smooth: bool,
+) -> Result<ReplaySummary, ReplayError> {
+    match config.model {
+        ModelConfig::Linear { .. } => replay_model(linear_model(config)?, config, input, output, smooth),
+    }
+}
+
+/// Where final entries go: straight to the output, or kept for the smoother.
+struct Sink<M: Model, W: Write> {
+    output: W,
+    records: Option<Vec<(SampleKey, StepOutcome, M::Record)>>,
+    error: Option<std::io::Error>,
+}
+
+impl<M: Model, W: Write> Sink<M, W> {
+    fn take(&mut self, e: &Entry<M::State>) {
+        match &mut self.records {
+            Some(records) => records.push((e.key, e.outcome, M::record(&e.state))),
+            None if self.error.is_none() => {
+                if let Err(err) =
+                    write_output(&mut self.output, &e.key, &e.outcome, M::x(&e.state), M::covariance(&e.state))
+                {
+                    self.error = Some(err);
+                }
+            }
+            None => {}
+        }
+    }
+
+    fn check(&mut self) -> std::io::Result<()> {
+        self.error.take().map_or(Ok(()), Err)
+    }
+}
+
+fn replay_model<M: Model>(
+    model: M,
+    config: &Config,
+    input: impl BufRead,
+    output: impl Write,
+    smooth: bool,
+) -> Result<ReplaySummary, ReplayError> {
+    let mut engine = Engine::new(model, EngineConfig::from_config(config));
+    let mut summary = ReplaySummary::default();
+    let mut sink = Sink::<M, _> { output, records: smooth.then(Vec::new), error: None };
+
+    let invalid = |summary: &mut ReplaySummary, line_no: u64, reason: String| {
+        summary.invalid += 1;
+        if summary.invalid_lines.len() < INVALID_LINES_REPORTED {
+            summary.invalid_lines.push((line_no, reason));
+        }
+    };
+    for (i, line) in input.lines().enumerate() {
+        let line = line?;
+        let line_no = i as u64 + 1;
+        if line.trim().is_empty() {
+            continue;
+        }
+        summary.read += 1;
+        let sample = match parse_line(&line) {
+            Ok(s) => s,
+            Err(reason) => {
+                invalid(&mut summary, line_no, reason);
+                continue;
+            }
+        };
+        if let Insert::Rejected(r) = engine.insert(&sample, None, &mut |e| sink.take(e)) {
+            invalid(&mut summary, line_no, r.reason().to_string());
+        }
+        sink.check()?;
+    }
+    engine.flush(&mut |e| sink.take(e));
+    sink.check()?;
+
+    if let Some(records) = sink.records.take() {
+        let mut smoothed: Vec<M::Record> = records.iter().map(|r| r.2).collect();
+        M::smooth(&mut smoothed)?;
+        for ((key, outcome, _), record) in records.iter().zip(&smoothed) {
+            let (x, p) = M::record_output(record);
+            write_output(&mut sink.output, key, outcome, x, p)?;
+        }
+    }
+    sink.output.flush()?;
+
+    for s in engine.sensors() {
+        summary.processed += s.stats.processed;
+        summary.fused += s.stats.fused;
+        summary.gated += s.stats.gated;
+        summary.refused += s.stats.refused;
+        summary.late += s.stats.late;
+        summary.too_late += s.stats.too_late;
+        summary.duplicates += s.stats.duplicate;
+    }
+    if summary.processed == 0 {
+        return Err(ReplayError::NothingProcessed(summary.read));
+    }
+    Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lines_round_trip() {
+        let a = r#"{"imu": {"t_ns": 1000000, "sensor": 0, "seq": 0, "accel": [1, 2, 3], "gyro": [0.1, 0.2, 0.3]}}"#;
+        let s = parse_line(a).unwrap();
+        assert_eq!(parse_line(&format_line(&s)).unwrap(), s);
+        let b = r#"{"position": {"t_ns": 5, "sensor": 1, "seq": 2, "pos": [1, 2, 3], "cov": [1,0,0,0,1,0,0,0,1]}}"#;
+        let s = parse_line(b).unwrap();
+        assert_eq!(parse_line(&format_line(&s)).unwrap(), s);
+    }
+
+    #[test]
+    fn malformed_lines_have_reasons() {
+        let reasons = [
+            (r#"{"imu": {"t_ns": 1, "sensor": 0, "seq": 0, "accel": [1, 2], "gyro": [0, 0, 0]}}"#, "length"),
+            (r#"{"imu": {"t_ns": 1, "sensor": 0, "seq": 0, "accel": [1, 2, 3]}}"#, "gyro"),
+            (r#"{"gps": {}}"#, "gps"),
+            (r#"{"imu": {"t_ns": -1, "sensor": 0, "seq": 0, "accel": [1, 2, 3], "gyro": [0, 0, 0]}}"#, "-1"),
+            (r#"{"imu": {"t_ns": 1, "sensor": 0, "seq": 0, "accel": [1e999, 2, 3], "gyro": [0, 0, 0]}}"#, "range"),
+            (r#"{"imu": {"t_ns": 1, "sensor": 0, "seq": 0, "accel": [NaN, 2, 3], "gyro": [0, 0, 0]}}"#, "line 1"),
+            (
+                r#"{"imu": {"t_ns": 1, "sensor": 0, "seq": 0, "accel": [1, 2, 3], "gyro": [0, 0, 0], "x": 1}}"#,
+                "unknown field",
+            ),
+            ("not json", "expected"),
+        ];
+        for (line, needle) in reasons {
+            let err = parse_line(line).unwrap_err();
+            assert!(err.contains(needle), "{line}: {err}");
+        }
+    }
+}
