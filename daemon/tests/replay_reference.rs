@@ -29,7 +29,7 @@ struct RefStep {
 }
 
 /// χ²₃ quantile at 0.999 (tables; e.g. NIST/SEMATECH e-Handbook 1.3.6.7.4).
-const CHI2_3_0999: f64 = 16.266236196238129;
+const CHI2_3_0999: f64 = 16.266_236_196_238_13;
 
 #[allow(non_snake_case)]
 fn reference(input: &str, sigma_a: f64, gate: Option<f64>) -> Vec<RefStep> {
