@@ -1,1 +1,85 @@
-fn main() {}
+//! Filter-step and replay-throughput benchmarks (criterion).
+
+#![allow(missing_docs)]
+
+use std::hint::black_box;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use fusion_benches::{bench_drive, linear_config};
+use fusion_daemon::engine::{Engine, EngineConfig};
+use fusion_daemon::model::Model;
+use fusion_daemon::replay::{linear_model, replay};
+use fusion_shared::jsonl::format_sample;
+use fusion_shared::{ImuSample, PositionSample, Sample};
+
+fn linear_steps(c: &mut Criterion) {
+    let config = linear_config();
+    let model = linear_model(&config).unwrap();
+    let imu = |t: u64| Sample::Imu(ImuSample { t_ns: t, accel_mps2: [0.1, -0.2, 0.05], ..Default::default() });
+    let pos = |t: u64| {
+        Sample::Position(PositionSample {
+            t_ns: t,
+            pos_m: [0.01, 0.02, -0.01],
+            cov_m2: [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64],
+            ..Default::default()
+        })
+    };
+    let mut state = model.initial_state();
+    model.step(&mut state, &imu(0));
+    let mut group = c.benchmark_group("linear");
+    let mut t = 0;
+    group.bench_function("predict (IMU step)", |b| {
+        b.iter(|| {
+            t += 1_000_000;
+            black_box(model.step(&mut state, black_box(&imu(t))))
+        })
+    });
+    // Position at the filter time: the update alone.
+    let base = state;
+    group.bench_function("update (position at filter time)", |b| {
+        b.iter(|| {
+            let mut s = base;
+            black_box(model.step(&mut s, black_box(&pos(t))))
+        })
+    });
+    group.bench_function("predict + update", |b| {
+        b.iter(|| {
+            let mut s = base;
+            black_box(model.step(&mut s, black_box(&pos(t + 1_000_000))))
+        })
+    });
+    group.finish();
+}
+
+fn replay_throughput(c: &mut Criterion) {
+    let drive = bench_drive(20.0);
+    let samples: Vec<Sample> = drive.arrivals.iter().map(|a| a.sample).collect();
+    let config = linear_config();
+    let mut group = c.benchmark_group("replay");
+    group.throughput(Throughput::Elements(samples.len() as u64));
+    group.sample_size(20);
+    group.bench_function("engine, linear, 1 kHz IMU + late 10 Hz positions", |b| {
+        b.iter(|| {
+            let mut engine = Engine::new(linear_model(&config).unwrap(), EngineConfig::from_config(&config));
+            let mut sink = |e: &fusion_daemon::engine::Entry<_>| {
+                black_box(e);
+            };
+            for s in &samples {
+                engine.insert(s, None, &mut sink);
+            }
+            engine.flush(&mut sink);
+        })
+    });
+    let text: String = samples.iter().map(|s| format_sample(s) + "\n").collect();
+    group.bench_function("fusiond replay, JSON lines in and out", |b| {
+        b.iter(|| {
+            let mut out = Vec::with_capacity(text.len() * 4);
+            replay(&config, text.as_bytes(), &mut out, false).unwrap();
+            black_box(out.len())
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, linear_steps, replay_throughput);
+criterion_main!(benches);

@@ -20,7 +20,7 @@
 
 use std::io::{BufRead, Write};
 
-use fusion_shared::{ImuSample, PositionSample};
+use fusion_shared::jsonl;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{Config, ModelConfig};
@@ -99,64 +99,9 @@ impl std::fmt::Display for ReplaySummary {
     }
 }
 
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields, rename_all = "lowercase")]
-enum InputLine {
-    Imu(ImuLine),
-    Position(PositionLine),
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ImuLine {
-    t_ns: u64,
-    sensor: u32,
-    seq: u64,
-    accel: [f64; 3],
-    gyro: [f64; 3],
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct PositionLine {
-    t_ns: u64,
-    sensor: u32,
-    seq: u64,
-    pos: [f64; 3],
-    cov: [f64; 9],
-}
-
 /// Parses one input line into a sample; the error is a reason for the summary.
 pub fn parse_line(line: &str) -> Result<Sample, String> {
-    match serde_json::from_str::<InputLine>(line).map_err(|e| e.to_string())? {
-        InputLine::Imu(s) => Ok(Sample::Imu(ImuSample {
-            t_ns: s.t_ns,
-            seq: s.seq,
-            sensor: s.sensor,
-            _reserved: 0,
-            accel_mps2: s.accel,
-            gyro_radps: s.gyro,
-        })),
-        InputLine::Position(s) => Ok(Sample::Position(PositionSample {
-            t_ns: s.t_ns,
-            seq: s.seq,
-            sensor: s.sensor,
-            _reserved: 0,
-            pos_m: s.pos,
-            cov_m2: s.cov,
-        })),
-    }
-}
-
-/// Formats a sample as an input line (the inverse of [`parse_line`]).
-pub fn format_line(sample: &Sample) -> String {
-    match sample {
-        Sample::Imu(s) => serde_json::json!({"imu": {
-            "t_ns": s.t_ns, "sensor": s.sensor, "seq": s.seq, "accel": s.accel_mps2, "gyro": s.gyro_radps}}),
-        Sample::Position(s) => serde_json::json!({"position": {
-            "t_ns": s.t_ns, "sensor": s.sensor, "seq": s.seq, "pos": s.pos_m, "cov": s.cov_m2}}),
-    }
-    .to_string()
+    jsonl::parse_sample(line).map_err(|e| e.to_string())
 }
 
 /// One output line.
@@ -336,16 +281,6 @@ fn replay_model<M: Model>(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn lines_round_trip() {
-        let a = r#"{"imu": {"t_ns": 1000000, "sensor": 0, "seq": 0, "accel": [1, 2, 3], "gyro": [0.1, 0.2, 0.3]}}"#;
-        let s = parse_line(a).unwrap();
-        assert_eq!(parse_line(&format_line(&s)).unwrap(), s);
-        let b = r#"{"position": {"t_ns": 5, "sensor": 1, "seq": 2, "pos": [1, 2, 3], "cov": [1,0,0,0,1,0,0,0,1]}}"#;
-        let s = parse_line(b).unwrap();
-        assert_eq!(parse_line(&format_line(&s)).unwrap(), s);
-    }
 
     #[test]
     fn malformed_lines_have_reasons() {

@@ -1,11 +1,14 @@
 //! fusion-shared: the wire contract of fusiond and nothing else.
 //!
 //! - [`sample`]: [`ImuSample`] and [`PositionSample`], what sensor processes publish.
+//! - `jsonl` (feature `json`): the JSON-lines sample format of replay files.
 //! - [`time`]: [`now_ns`], the one clock of the system (CLOCK_MONOTONIC, ns).
 //!
 //! Every type here is `#[repr(C)]` with fixed-width fields only, units in the field
 //! names, SI units, world frame ENU and body frame forward-left-up (REP-103).
 
+#[cfg(feature = "json")]
+pub mod jsonl;
 pub mod sample;
 pub mod time;
 

@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use fusion_client::sim::{Scenario, ScenarioConfig};
-use fusion_daemon::replay::{OutputLine, format_line};
+use fusion_daemon::replay::OutputLine;
+use fusion_shared::jsonl::format_sample;
 
 /// The config used by the reference tests, with or without gating.
 pub fn linear_config(gating: Option<f64>) -> String {
@@ -24,7 +25,7 @@ pub fn linear_config(gating: Option<f64>) -> String {
 pub fn write_input(path: &Path, scenario: &Scenario) {
     let mut f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
     for a in &scenario.arrivals {
-        writeln!(f, "{}", format_line(&a.sample)).unwrap();
+        writeln!(f, "{}", format_sample(&a.sample)).unwrap();
     }
 }
 
