@@ -125,16 +125,28 @@ pub struct UpdateDiagnostics<T: RealField + Copy, const N: usize, const M: usize
     pub K: SMatrix<T, N, M>,
     /// Correction `dx = K y` (applied only if accepted).
     pub dx: SVector<T, N>,
-    /// Covariance of the correction `Σdx = K S Kᵀ`.
-    pub sigma_dx: SMatrix<T, N, N>,
     /// Normalised innovation squared `NIS = yᵀ S⁻¹ y`.
     pub nis: T,
-    /// Gaussian log-likelihood `−½ (NIS + ln|S| + m ln 2π)` of the residual.
-    pub log_likelihood: T,
     /// Degrees of freedom `m` (components left after the hook).
     pub dims: usize,
     /// Gate threshold used, if gating was on.
     pub gate_threshold: Option<T>,
+}
+
+impl<T: RealField + Copy, const N: usize, const M: usize> UpdateDiagnostics<T, N, M> {
+    /// Covariance of the correction `Σdx = K S Kᵀ` (computed on request).
+    pub fn sigma_dx(&self) -> SMatrix<T, N, N> {
+        self.K * self.S * self.K.transpose()
+    }
+
+    /// Gaussian log-likelihood of the residual, `−½ (NIS + ln|S| + m ln 2π)`
+    /// (computed on request; `None` if S has no Cholesky factor).
+    pub fn log_likelihood(&self) -> Option<T> {
+        let chol = Cholesky::new(self.S)?;
+        let ln_det_S = chol.l().diagonal().iter().fold(T::zero(), |acc, d| acc + d.ln()) * T::from_subset(&2.0);
+        let m = T::from_subset(&(self.dims as f64));
+        Some(-(self.nis + ln_det_S + m * T::two_pi().ln()) * T::from_subset(&0.5))
+    }
 }
 
 /// Options of one update.
@@ -165,6 +177,8 @@ pub struct KalmanFilter<T: RealField + Copy, const N: usize> {
     prior_P: SMatrix<T, N, N>,
     /// Transition of the current step (product of the predicts' F since begin_step).
     step_F: SMatrix<T, N, N>,
+    /// Whether the current step has had a predict (else `step_F` is I).
+    step_predicted: bool,
     last_F: SMatrix<T, N, N>,
     last_Q: SMatrix<T, N, N>,
 }
@@ -213,6 +227,7 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
             prior_x: x0,
             prior_P: P0,
             step_F: SMatrix::identity(),
+            step_predicted: false,
             last_F: SMatrix::identity(),
             last_Q: SMatrix::zeros(),
         })
@@ -272,6 +287,7 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         self.prior_x = self.x;
         self.prior_P = self.P;
         self.step_F = SMatrix::identity();
+        self.step_predicted = false;
     }
 
     /// Linear predict `x⁻ = F x`, `P⁻ = F P Fᵀ + Q` (Simon 2006, eq. 5.19).
@@ -305,13 +321,37 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         self.finish_predict(x, &F, Q)
     }
 
+    /// Predict with a propagation the model computes itself, exploiting the
+    /// structure of its `F` and `G` instead of dense products. `propagate(x, P)`
+    /// must return exactly `(x⁻, P⁻) = (f(x), F P Fᵀ + Q)`; `F` and `Q` are recorded
+    /// for the diagnostics and the smoother.
+    pub fn predict_structured(
+        &mut self,
+        propagate: impl FnOnce(&SVector<T, N>, &SMatrix<T, N, N>) -> (SVector<T, N>, SMatrix<T, N, N>),
+        F: &SMatrix<T, N, N>,
+        Q: &SMatrix<T, N, N>,
+    ) -> Result<(), FilterError> {
+        let (x, P) = propagate(&self.x, &self.P);
+        self.accept_predict(x, P, F, Q)
+    }
+
     fn finish_predict(
         &mut self,
         x: SVector<T, N>,
         F: &SMatrix<T, N, N>,
         Q: &SMatrix<T, N, N>,
     ) -> Result<(), FilterError> {
-        let mut P = F * self.P * F.transpose() + Q;
+        let P = F * self.P * F.transpose() + Q;
+        self.accept_predict(x, P, F, Q)
+    }
+
+    fn accept_predict(
+        &mut self,
+        x: SVector<T, N>,
+        mut P: SMatrix<T, N, N>,
+        F: &SMatrix<T, N, N>,
+        Q: &SMatrix<T, N, N>,
+    ) -> Result<(), FilterError> {
         symmetrize(&mut P);
         if !all_finite(&x) || !all_finite(&P) {
             return Err(FilterError::NonFinite("predicted state"));
@@ -321,7 +361,8 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         self.P = P;
         self.prior_x = x;
         self.prior_P = P;
-        self.step_F = F * self.step_F;
+        self.step_F = if self.step_predicted { F * self.step_F } else { *F };
+        self.step_predicted = true;
         self.last_F = *F;
         self.last_Q = *Q;
         Ok(())
@@ -390,9 +431,6 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         let dx = K * y;
         let w = chol.l().solve_lower_triangular(&y).unwrap_or_else(SVector::zeros);
         let nis = w.dot(&w);
-        let ln_det_S = chol.l().diagonal().iter().fold(T::zero(), |acc, d| acc + d.ln()) * T::from_subset(&2.0);
-        let ln_2pi = T::two_pi().ln();
-        let log_likelihood = -(nis + ln_det_S + T::from_subset(&(dims as f64)) * ln_2pi) * T::from_subset(&0.5);
 
         let gate_threshold = options.gate.map(|g| T::from_subset(&g.threshold(dims)));
         if decision == UpdateDecision::Accepted && gate_threshold.is_some_and(|th| nis > th) {
@@ -408,9 +446,7 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
             S,
             K,
             dx,
-            sigma_dx: K * S * K.transpose(),
             nis,
-            log_likelihood,
             dims,
             gate_threshold,
         };
@@ -458,10 +494,11 @@ mod tests {
         assert!(close(P[(0, 0)], 0.8) && close(P[(0, 1)], 0.2) && close(P[(1, 0)], 0.2) && close(P[(1, 1)], 1.8));
         assert!(close(d.nis, 0.8));
         let ll = -0.5 * (0.8 + 5f64.ln() + (2.0 * std::f64::consts::PI).ln());
-        assert!(close(d.log_likelihood, ll));
+        assert!(close(d.log_likelihood().unwrap(), ll));
         assert!(close(d.dx[0], 1.6) && close(d.dx[1], 0.4));
         // Σdx = K S Kᵀ = 5 [[.64, .16], [.16, .04]].
-        assert!(close(d.sigma_dx[(0, 0)], 3.2) && close(d.sigma_dx[(0, 1)], 0.8) && close(d.sigma_dx[(1, 1)], 0.2));
+        let sdx = d.sigma_dx();
+        assert!(close(sdx[(0, 0)], 3.2) && close(sdx[(0, 1)], 0.8) && close(sdx[(1, 1)], 0.2));
     }
 
     #[test]
