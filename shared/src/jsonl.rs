@@ -43,6 +43,7 @@ pub fn parse_sample(line: &str) -> Result<Sample, serde_json::Error> {
     Ok(match serde_json::from_str::<Line>(line)? {
         Line::Imu(s) => Sample::Imu(ImuSample {
             t_ns: s.t_ns,
+            sent_ns: 0,
             seq: s.seq,
             sensor: s.sensor,
             _reserved: 0,
@@ -51,6 +52,7 @@ pub fn parse_sample(line: &str) -> Result<Sample, serde_json::Error> {
         }),
         Line::Position(s) => Sample::Position(PositionSample {
             t_ns: s.t_ns,
+            sent_ns: 0,
             seq: s.seq,
             sensor: s.sensor,
             _reserved: 0,
@@ -82,6 +84,7 @@ mod tests {
     fn lines_round_trip_exactly() {
         let imu = Sample::Imu(ImuSample {
             t_ns: 7,
+            sent_ns: 0,
             seq: 3,
             sensor: 2,
             _reserved: 0,

@@ -1,6 +1,8 @@
 //! fusion-shared: the wire contract of fusiond and nothing else.
 //!
 //! - [`sample`]: [`ImuSample`] and [`PositionSample`], what sensor processes publish.
+//! - [`snapshot`]: [`StateSnapshot`], what fusiond publishes.
+//! - [`service`]: service names under a namespace, QoS, and how every side opens them.
 //! - `jsonl` (feature `json`): the JSON-lines sample format of replay files.
 //! - [`time`]: [`now_ns`], the one clock of the system (CLOCK_MONOTONIC, ns).
 //!
@@ -10,7 +12,10 @@
 #[cfg(feature = "json")]
 pub mod jsonl;
 pub mod sample;
+pub mod service;
+pub mod snapshot;
 pub mod time;
 
 pub use sample::{ImuSample, PositionSample, Sample, SampleKind};
+pub use snapshot::{SensorCounters, StateSnapshot};
 pub use time::now_ns;

@@ -1,8 +1,12 @@
 //! Sensor samples: what sensor processes publish and the daemon fuses.
 //!
-//! Layout rules (checked by `const` asserts below): `#[repr(C)]`, fixed-width
-//! fields only, explicit `_reserved` padding, 8-byte alignment. Timestamps are
-//! `u64` nanoseconds of CLOCK_MONOTONIC ([`crate::now_ns`]) at the time of validity.
+//! Layout rules (checked by `const` asserts below): `#[repr(C)]`, `ZeroCopySend`,
+//! fixed-width fields only, explicit `_reserved` padding, 8-byte alignment, and an
+//! explicit versioned type name: a reader built against another version fails to
+//! open the service instead of misreading bytes. Timestamps are `u64` nanoseconds
+//! of CLOCK_MONOTONIC ([`crate::now_ns`]).
+
+use iceoryx2::prelude::ZeroCopySend;
 
 /// The kind of a sample. Part of the processing-order key
 /// `(t_ns, kind, sensor, seq)`: at equal time an IMU sample is processed before
@@ -32,11 +36,15 @@ impl SampleKind {
 /// is the world-frame (ENU) acceleration with gravity removed; for `ins` it is the
 /// body-frame specific force `f = Rᵀ (a − g)`. `gyro_radps` is the body-frame
 /// angular rate.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[type_name("fusion.ImuSample.v1")]
 #[repr(C)]
 pub struct ImuSample {
     /// Time of validity, ns of CLOCK_MONOTONIC.
     pub t_ns: u64,
+    /// When the publisher sent it, ns of CLOCK_MONOTONIC (stamped by the client
+    /// crate; 0 in files). Latency is measured from here.
+    pub sent_ns: u64,
     /// Sequence number, increasing by one per sample of this sensor.
     pub seq: u64,
     /// Sensor id, unique among IMU sensors.
@@ -50,11 +58,14 @@ pub struct ImuSample {
 }
 
 /// One position fix with its covariance.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[type_name("fusion.PositionSample.v1")]
 #[repr(C)]
 pub struct PositionSample {
     /// Time of validity, ns of CLOCK_MONOTONIC.
     pub t_ns: u64,
+    /// When the publisher sent it, ns of CLOCK_MONOTONIC (0 in files).
+    pub sent_ns: u64,
     /// Sequence number, increasing by one per sample of this sensor.
     pub seq: u64,
     /// Sensor id, unique among position sensors.
@@ -85,6 +96,30 @@ impl Sample {
         }
     }
 
+    /// When the publisher sent it, ns (0 if unknown).
+    pub fn sent_ns(&self) -> u64 {
+        match self {
+            Sample::Imu(s) => s.sent_ns,
+            Sample::Position(s) => s.sent_ns,
+        }
+    }
+
+    /// Sensor id.
+    pub fn sensor(&self) -> u32 {
+        match self {
+            Sample::Imu(s) => s.sensor,
+            Sample::Position(s) => s.sensor,
+        }
+    }
+
+    /// Sequence number.
+    pub fn seq(&self) -> u64 {
+        match self {
+            Sample::Imu(s) => s.seq,
+            Sample::Position(s) => s.seq,
+        }
+    }
+
     /// The kind.
     pub fn kind(&self) -> SampleKind {
         match self {
@@ -95,8 +130,8 @@ impl Sample {
 }
 
 const _: () = {
-    assert!(core::mem::size_of::<ImuSample>() == 72);
+    assert!(core::mem::size_of::<ImuSample>() == 80);
     assert!(core::mem::align_of::<ImuSample>() == 8);
-    assert!(core::mem::size_of::<PositionSample>() == 120);
+    assert!(core::mem::size_of::<PositionSample>() == 128);
     assert!(core::mem::align_of::<PositionSample>() == 8);
 };

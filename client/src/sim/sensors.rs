@@ -139,6 +139,7 @@ impl Iterator for ImuSim {
             seq: self.index,
             sensor: self.config.sensor,
             _reserved: 0,
+            sent_ns: 0,
             accel_mps2: accel.into(),
             gyro_radps: gyro.into(),
         };
@@ -203,6 +204,7 @@ impl Iterator for PositionSim {
                 seq: self.seq,
                 sensor: c.sensor,
                 _reserved: 0,
+                sent_ns: 0,
                 pos_m: pos.into(),
                 cov_m2: [var.x, 0.0, 0.0, 0.0, var.y, 0.0, 0.0, 0.0, var.z],
             };

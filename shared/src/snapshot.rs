@@ -1,0 +1,280 @@
+//! `StateSnapshot`: what fusiond publishes after every processed sample.
+//!
+//! A fixed-capacity, self-describing record: the estimate (up to 16 states and a
+//! 15×15 covariance, enough for the INS model), the sample it is the estimate at,
+//! the input sample that triggered it (with its send time, so any reader can
+//! measure latency), health, and per-sensor counters.
+
+use iceoryx2::prelude::ZeroCopySend;
+
+use crate::SampleKind;
+
+/// Largest state vector a snapshot carries.
+pub const MAX_STATE: usize = 16;
+/// Largest covariance side a snapshot carries.
+pub const MAX_COV: usize = 15;
+/// Most sensors (of all kinds) a snapshot reports.
+pub const MAX_SENSORS: usize = 16;
+
+/// Model codes of [`StateSnapshot::model`].
+pub mod model {
+    /// The `linear` constant-velocity model (6 states).
+    pub const LINEAR: u32 = 1;
+    /// The error-state INS model (16 states, 15×15 covariance).
+    pub const INS: u32 = 2;
+
+    /// The name of a model code.
+    pub const fn name(code: u32) -> &'static str {
+        match code {
+            LINEAR => "linear",
+            INS => "ins",
+            _ => "unknown",
+        }
+    }
+}
+
+/// Health states of [`StateSnapshot::health`].
+pub mod health {
+    /// Not yet a usable estimate (waiting for samples of every kind, or aligning).
+    pub const INITIALISING: u32 = 0;
+    /// Every stream is fresh and the filter is consistent.
+    pub const OK: u32 = 1;
+    /// An estimate exists but something is wrong: see the reason bits.
+    pub const DEGRADED: u32 = 2;
+
+    /// Reason bit: no IMU sample for longer than the configured timeout.
+    pub const IMU_STALE: u32 = 1 << 0;
+    /// Reason bit: no position sample for longer than the configured timeout.
+    pub const POSITION_STALE: u32 = 1 << 1;
+    /// Reason bit: the NIS of recent position fixes is persistently outside its
+    /// chi-square band (filter and sensor disagree; fixes may be gated for good).
+    pub const NIS_OUT_OF_BOUNDS: u32 = 1 << 2;
+    /// Reason bit: samples were lost (subscriber buffer overflow or sensor gaps).
+    pub const SAMPLES_LOST: u32 = 1 << 3;
+
+    /// The name of a health state.
+    pub const fn name(state: u32) -> &'static str {
+        match state {
+            INITIALISING => "initialising",
+            OK => "ok",
+            DEGRADED => "degraded",
+            _ => "unknown",
+        }
+    }
+
+    /// Every reason bit with its name.
+    pub const REASONS: [(u32, &str); 4] = [
+        (IMU_STALE, "imu stale"),
+        (POSITION_STALE, "position stale"),
+        (NIS_OUT_OF_BOUNDS, "nis out of bounds"),
+        (SAMPLES_LOST, "samples lost"),
+    ];
+}
+
+/// Outcome codes of [`StateSnapshot::outcome`].
+pub mod outcome {
+    /// IMU sample: propagated and held.
+    pub const PROPAGATED: u32 = 0;
+    /// Measurement fused.
+    pub const FUSED: u32 = 1;
+    /// Measurement refused by the gate.
+    pub const GATED: u32 = 2;
+    /// Measurement refused by the filter (innovation covariance not positive definite).
+    pub const REFUSED: u32 = 3;
+}
+
+/// Counters of one sensor, as in the engine.
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[type_name("fusion.SensorCounters.v1")]
+#[repr(C)]
+pub struct SensorCounters {
+    /// [`SampleKind`] as `u32` (0 IMU, 1 position).
+    pub kind: u32,
+    /// Sensor id.
+    pub sensor: u32,
+    /// Samples received.
+    pub received: u64,
+    /// Samples processed (in order or late).
+    pub processed: u64,
+    /// Measurements fused.
+    pub fused: u64,
+    /// Measurements refused by the gate.
+    pub gated: u64,
+    /// Measurements refused by the filter.
+    pub refused: u64,
+    /// Samples fused late by rewind and replay.
+    pub late: u64,
+    /// Samples dropped as older than the history.
+    pub too_late: u64,
+    /// Duplicates dropped.
+    pub duplicate: u64,
+    /// Samples rejected by validation.
+    pub invalid: u64,
+    /// Samples that never arrived: gaps in the sequence numbers (subscriber buffer
+    /// overflow, or the sensor skipped them).
+    pub lost: u64,
+    /// NIS of the latest measurement processed in order (NaN if none).
+    pub last_nis: f64,
+    /// Largest timestamp received, ns.
+    pub last_t_ns: u64,
+    /// When the daemon last received a sample of this sensor, ns of its clock.
+    pub last_arrival_ns: u64,
+}
+
+impl SensorCounters {
+    /// The kind, if the code is known.
+    pub fn sample_kind(&self) -> Option<SampleKind> {
+        match self.kind {
+            0 => Some(SampleKind::Imu),
+            1 => Some(SampleKind::Position),
+            _ => None,
+        }
+    }
+}
+
+/// The fusion state after one processed sample.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("fusion.StateSnapshot.v1")]
+#[repr(C)]
+pub struct StateSnapshot {
+    /// Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
+    pub seq: u64,
+    /// When the daemon published it, ns of CLOCK_MONOTONIC.
+    pub publish_ns: u64,
+
+    /// Time of validity of the estimate: the newest processed sample's time, ns.
+    pub t_ns: u64,
+    /// Sequence number of the newest processed sample (the estimate is after it).
+    pub sample_seq: u64,
+    /// Its sensor id.
+    pub sample_sensor: u32,
+    /// Its kind ([`SampleKind`] as `u32`).
+    pub sample_kind: u32,
+    /// What processing it did ([`outcome`]).
+    pub outcome: u32,
+    /// [`model`] code.
+    pub model: u32,
+    /// NIS of the newest sample if it was a measurement, else NaN.
+    pub nis: f64,
+
+    /// The input sample that triggered this snapshot: its timestamp, ns. Equals
+    /// `t_ns` when it arrived in order; older when it was fused late by rewind.
+    pub input_t_ns: u64,
+    /// When the input's publisher sent it, ns (0 if unknown).
+    pub input_sent_ns: u64,
+    /// When the daemon received the input, ns.
+    pub input_received_ns: u64,
+    /// Input sequence number.
+    pub input_seq: u64,
+    /// Input sensor id.
+    pub input_sensor: u32,
+    /// Input kind ([`SampleKind`] as `u32`).
+    pub input_kind: u32,
+    /// Later samples re-processed because the input came late (0: in order).
+    pub input_replayed: u32,
+
+    /// [`health`] state.
+    pub health: u32,
+    /// [`health`] reason bits.
+    pub health_reasons: u32,
+    /// Entries of `x` in use.
+    pub state_len: u32,
+    /// Side of the covariance in use.
+    pub cov_dim: u32,
+    /// Entries of `sensors` in use.
+    pub sensor_count: u32,
+
+    /// State vector (first `state_len` entries).
+    pub x: [f64; MAX_STATE],
+    /// Covariance, row-major `cov_dim × cov_dim` (first `cov_dim²` entries).
+    pub cov: [f64; MAX_COV * MAX_COV],
+    /// Counters per sensor (first `sensor_count` entries).
+    pub sensors: [SensorCounters; MAX_SENSORS],
+    /// Rewinds since start.
+    pub rewinds: u64,
+    /// Samples re-processed by rewinds since start.
+    pub replayed: u64,
+    /// Samples of sensors beyond the sensor table, rejected.
+    pub unknown_sensor: u64,
+}
+
+impl Default for StateSnapshot {
+    fn default() -> Self {
+        Self {
+            seq: 0,
+            publish_ns: 0,
+            t_ns: 0,
+            sample_seq: 0,
+            sample_sensor: 0,
+            sample_kind: 0,
+            outcome: 0,
+            model: 0,
+            nis: f64::NAN,
+            input_t_ns: 0,
+            input_sent_ns: 0,
+            input_received_ns: 0,
+            input_seq: 0,
+            input_sensor: 0,
+            input_kind: 0,
+            input_replayed: 0,
+            health: health::INITIALISING,
+            health_reasons: 0,
+            state_len: 0,
+            cov_dim: 0,
+            sensor_count: 0,
+            x: [0.0; MAX_STATE],
+            cov: [0.0; MAX_COV * MAX_COV],
+            sensors: [SensorCounters::default(); MAX_SENSORS],
+            rewinds: 0,
+            replayed: 0,
+            unknown_sensor: 0,
+        }
+    }
+}
+
+impl StateSnapshot {
+    /// The state vector in use.
+    pub fn state(&self) -> &[f64] {
+        &self.x[..(self.state_len as usize).min(MAX_STATE)]
+    }
+
+    /// The covariance in use, row-major.
+    pub fn covariance(&self) -> &[f64] {
+        let n = (self.cov_dim as usize).min(MAX_COV);
+        &self.cov[..n * n]
+    }
+
+    /// Standard deviations (square roots of the covariance diagonal).
+    pub fn std_devs(&self) -> impl Iterator<Item = f64> + '_ {
+        let n = (self.cov_dim as usize).min(MAX_COV);
+        (0..n).map(move |i| self.cov[i * n + i].max(0.0).sqrt())
+    }
+
+    /// The sensor counters in use.
+    pub fn sensor_counters(&self) -> &[SensorCounters] {
+        &self.sensors[..(self.sensor_count as usize).min(MAX_SENSORS)]
+    }
+
+    /// Whether the newest sample was a fused (`Some(true)`) or refused
+    /// (`Some(false)`) measurement; `None` for an IMU sample.
+    pub fn accepted(&self) -> Option<bool> {
+        match self.outcome {
+            outcome::PROPAGATED => None,
+            outcome::FUSED => Some(true),
+            _ => Some(false),
+        }
+    }
+
+    /// The names of the health reason bits that are set.
+    pub fn health_reason_names(&self) -> impl Iterator<Item = &'static str> + '_ {
+        health::REASONS.iter().filter(|(bit, _)| self.health_reasons & bit != 0).map(|(_, name)| *name)
+    }
+}
+
+const _: () = {
+    assert!(core::mem::size_of::<SensorCounters>() == 112);
+    assert!(core::mem::align_of::<StateSnapshot>() == 8);
+    assert!(
+        core::mem::size_of::<StateSnapshot>() == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 112 * MAX_SENSORS + 24
+    );
+};
