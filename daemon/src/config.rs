@@ -9,6 +9,7 @@ use std::path::Path;
 use serde::Deserialize;
 
 use crate::filter::ChiSquareGate;
+use crate::health::{HealthConfig, MAX_NIS_WINDOW};
 
 /// The default configuration with comments, as printed by `fusiond print-config`.
 pub const DEFAULT_CONFIG: &str = r#"# fusiond configuration. Units are SI; frames: world ENU, body forward-left-up.
@@ -34,6 +35,15 @@ history_capacity = 4096
 # Chi-square gate on the NIS: the probability a consistent measurement passes.
 # Leave out the [gating] table to fuse every measurement.
 probability = 0.999
+
+[health]
+# A stream is stale (health "degraded") after this long without a sample.
+imu_timeout_ns = 100_000_000
+position_timeout_ns = 1_000_000_000
+# NIS test over the last nis_window fixes of each position sensor: degraded when
+# their sum leaves the two-sided chi-square band at nis_probability.
+nis_window = 20
+nis_probability = 0.999
 
 [validation]
 # Live samples stamped more than this far ahead of the daemon's clock are rejected.
@@ -77,7 +87,30 @@ struct RawConfig {
     filter: RawFilter,
     gating: Option<RawGating>,
     #[serde(default)]
+    health: RawHealth,
+    #[serde(default)]
     validation: RawValidation,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct RawHealth {
+    imu_timeout_ns: u64,
+    position_timeout_ns: u64,
+    nis_window: usize,
+    nis_probability: f64,
+}
+
+impl Default for RawHealth {
+    fn default() -> Self {
+        let d = HealthConfig::default();
+        Self {
+            imu_timeout_ns: d.imu_timeout_ns,
+            position_timeout_ns: d.position_timeout_ns,
+            nis_window: d.nis_window,
+            nis_probability: d.nis_probability,
+        }
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -189,6 +222,8 @@ pub struct Config {
     pub filter: FilterConfig,
     /// The gate, if gating is on.
     pub gating: Option<ChiSquareGate>,
+    /// Health monitoring.
+    pub health: HealthConfig,
     /// Input validation.
     pub validation: ValidationConfig,
 }
@@ -261,6 +296,22 @@ impl Config {
                 Some(ChiSquareGate::new(g.probability).map_err(|e| invalid("gating.probability", e.to_string()))?)
             }
         };
+        let h = raw.health;
+        if h.imu_timeout_ns == 0 || h.position_timeout_ns == 0 {
+            return Err(invalid("health", "timeouts must be > 0"));
+        }
+        if !(1..=MAX_NIS_WINDOW).contains(&h.nis_window) {
+            return Err(invalid("health.nis_window", format!("must be in 1..={MAX_NIS_WINDOW}, got {}", h.nis_window)));
+        }
+        if !(h.nis_probability > 0.0 && h.nis_probability < 1.0) {
+            return Err(invalid("health.nis_probability", format!("must be in (0, 1), got {}", h.nis_probability)));
+        }
+        let health = HealthConfig {
+            imu_timeout_ns: h.imu_timeout_ns,
+            position_timeout_ns: h.position_timeout_ns,
+            nis_window: h.nis_window,
+            nis_probability: h.nis_probability,
+        };
         let v = raw.validation;
         if !(1..=256).contains(&v.max_sensors) {
             return Err(invalid("validation.max_sensors", format!("must be in 1..=256, got {}", v.max_sensors)));
@@ -274,6 +325,7 @@ impl Config {
                 history_capacity: f.history_capacity,
             },
             gating,
+            health,
             validation: ValidationConfig { max_future_ns: v.max_future_ns, max_sensors: v.max_sensors },
         })
     }
@@ -316,6 +368,8 @@ mod tests {
         assert!(err(&format!("{MIN}[gating]\nprobability = 1.5\n")).contains("gating.probability"));
         assert!(err(&format!("{MIN}history_ns = 0\n")).contains("filter.history_ns"));
         assert!(err(&format!("{MIN}[validation]\nmax_sensors = 0\n")).contains("validation.max_sensors"));
+        assert!(err(&format!("{MIN}[health]\nnis_window = 0\n")).contains("health.nis_window"));
+        assert!(err(&format!("{MIN}[health]\nimu_timeout = 5\n")).contains("imu_timeout"));
         assert!(err("[model]\nkind = \"linear\"\n").contains("filter"));
     }
 }

@@ -51,6 +51,8 @@ pub enum Insert {
     Processed {
         /// Number of later samples re-processed because this one came late.
         replayed: usize,
+        /// What processing the sample itself did.
+        outcome: StepOutcome,
     },
     /// Refused by validation.
     Rejected(Rejection),
@@ -82,6 +84,9 @@ pub struct SensorStats {
     pub duplicate: u64,
     /// Samples rejected by validation.
     pub invalid: u64,
+    /// Samples that never arrived: gaps in the sequence numbers (a subscriber
+    /// buffer overflow, or the sensor skipped them). A gap filled later is taken back.
+    pub lost: u64,
 }
 
 /// One sensor's identity, counters and duplicate window.
@@ -97,6 +102,9 @@ pub struct SensorSlot {
     pub last_nis: Option<f64>,
     /// Largest timestamp received.
     pub last_t_ns: Option<u64>,
+    /// When the latest sample arrived (the `now_ns` given to `insert`).
+    pub last_arrival_ns: Option<u64>,
+    highest_seq: Option<u64>,
     seen: SeqWindow,
 }
 
@@ -195,8 +203,34 @@ impl<M: Model> Engine<M> {
             self.stats.unknown_sensor += 1;
             return Insert::Rejected(Rejection::TooManySensors);
         };
-        let stats = &mut self.sensors[slot].stats;
-        stats.received += 1;
+        let sensor = &mut self.sensors[slot];
+        sensor.stats.received += 1;
+        if now_ns.is_some() {
+            sensor.last_arrival_ns = now_ns;
+        }
+        let seen = match self.sensors[slot].seen.seen(key.seq) {
+            Seen::Yes => true,
+            Seen::No => false,
+            Seen::Unknown => self
+                .history
+                .iter()
+                .any(|e| e.key.kind == key.kind && e.key.sensor == key.sensor && e.key.seq == key.seq),
+        };
+        if seen {
+            self.sensors[slot].stats.duplicate += 1;
+            return Insert::Duplicate;
+        }
+
+        let sensor = &mut self.sensors[slot];
+        match sensor.highest_seq {
+            Some(h) if key.seq > h => {
+                sensor.stats.lost += key.seq - h - 1;
+                sensor.highest_seq = Some(key.seq);
+            }
+            Some(_) => sensor.stats.lost = sensor.stats.lost.saturating_sub(1),
+            None => sensor.highest_seq = Some(key.seq),
+        }
+        let stats = &mut sensor.stats;
 
         let valid = match sample {
             Sample::Imu(s) => validate::check_imu(s),
@@ -209,19 +243,6 @@ impl<M: Model> Engine<M> {
         if let Err(r) = valid {
             stats.invalid += 1;
             return Insert::Rejected(r);
-        }
-
-        let seen = match self.sensors[slot].seen.seen(key.seq) {
-            Seen::Yes => true,
-            Seen::No => false,
-            Seen::Unknown => self
-                .history
-                .iter()
-                .any(|e| e.key.kind == key.kind && e.key.sensor == key.sensor && e.key.seq == key.seq),
-        };
-        if seen {
-            self.sensors[slot].stats.duplicate += 1;
-            return Insert::Duplicate;
         }
 
         let placement = place(
@@ -290,7 +311,7 @@ impl<M: Model> Engine<M> {
         while self.history.front().is_some_and(|e| e.key.t_ns < horizon) {
             self.evict_front(on_final);
         }
-        Insert::Processed { replayed }
+        Insert::Processed { replayed, outcome }
     }
 
     /// Hands every entry still in the history to `on_final` (end of input).
@@ -324,6 +345,8 @@ impl<M: Model> Engine<M> {
             stats: SensorStats::default(),
             last_nis: None,
             last_t_ns: None,
+            last_arrival_ns: None,
+            highest_seq: None,
             seen: SeqWindow::default(),
         });
         Some(self.sensors.len() - 1)
@@ -429,7 +452,7 @@ mod tests {
         }
         // Newest is 1495 ms; the window is 1 s: 400 ms is too late, 600 ms is not.
         assert_eq!(e.insert(&pos(400, 0, 0.0), None, &mut sink), Insert::TooLate);
-        assert!(matches!(e.insert(&pos(600, 1, 0.0), None, &mut sink), Insert::Processed { replayed } if replayed > 0));
+        assert!(matches!(e.insert(&pos(600, 1, 0.0), None, &mut sink), Insert::Processed { replayed, .. } if replayed > 0));
         assert_eq!(e.insert(&pos(600, 1, 0.0), None, &mut sink), Insert::Duplicate);
         assert_eq!(e.insert(&imu(5, 1), None, &mut sink), Insert::Duplicate);
         let p = e.sensors()[1].stats;
@@ -442,11 +465,11 @@ mod tests {
         let mut clean = engine(None);
         let mut dirty = engine(None);
         let mut sink = |_: &Entry<_>| {};
-        let mut bad_cov = pos(12, 9, 0.0);
+        let mut bad_cov = pos(12, 99, 0.0);
         if let Sample::Position(p) = &mut bad_cov {
             p.cov_m2 = [1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0];
         }
-        let mut nan = imu(13, 99);
+        let mut nan = imu(13, 999);
         if let Sample::Imu(s) = &mut nan {
             s.accel_mps2[0] = f64::NAN;
         }
@@ -460,10 +483,32 @@ mod tests {
             Insert::Rejected(Rejection::CovarianceNotPositiveDefinite)
         );
         assert_eq!(dirty.insert(&nan, Some(now), &mut sink), Insert::Rejected(Rejection::NonFinite));
-        assert_eq!(dirty.insert(&imu(2_100, 500), Some(now), &mut sink), Insert::Rejected(Rejection::FutureTimestamp));
+        assert_eq!(dirty.insert(&imu(2_100, 1000), Some(now), &mut sink), Insert::Rejected(Rejection::FutureTimestamp));
         assert_eq!(clean.latest().unwrap().state, dirty.latest().unwrap().state);
         assert_eq!(dirty.sensors()[0].stats.invalid, 2);
         assert_eq!(dirty.sensors()[1].stats.invalid, 1);
+    }
+
+    #[test]
+    fn sequence_gaps_count_as_lost_until_filled() {
+        let mut e = engine(None);
+        let mut sink = |_: &Entry<_>| {};
+        for seq in [0, 1, 4, 5] {
+            e.insert(&imu(seq * 5, seq), Some(7), &mut sink);
+        }
+        assert_eq!(e.sensors()[0].stats.lost, 2);
+        e.insert(&imu(10, 2), None, &mut sink);
+        assert_eq!(e.sensors()[0].stats.lost, 1);
+        // A rejected sample still arrived: it is invalid, not lost.
+        let mut nan = imu(30, 6);
+        if let Sample::Imu(s) = &mut nan {
+            s.accel_mps2[0] = f64::NAN;
+        }
+        e.insert(&nan, None, &mut sink);
+        e.insert(&imu(35, 7), None, &mut sink);
+        let s = e.sensors()[0].stats;
+        assert_eq!((s.lost, s.invalid), (1, 1));
+        assert_eq!(e.sensors()[0].last_arrival_ns, Some(7));
     }
 
     #[test]

@@ -59,7 +59,7 @@ fn steady_state_insertion_allocates_nothing() {
     let before = ALLOCATIONS.with(Cell::get);
     let mut late = 0;
     for s in rest {
-        if let Insert::Processed { replayed } = engine.insert(s, Some(u64::MAX / 2), &mut sink) {
+        if let Insert::Processed { replayed, .. } = engine.insert(s, Some(u64::MAX / 2), &mut sink) {
             late += (replayed > 0) as u64;
         }
     }

@@ -1,0 +1,211 @@
+//! Health of the live estimate: initialising, ok, or degraded with reasons.
+//!
+//! - A stream is stale when no sample of a sensor of that kind has arrived for
+//!   longer than its timeout (daemon clock).
+//! - The NIS of the last `N` fixes of a position sensor is persistently out of
+//!   bounds when its sum leaves the two-sided χ²_{mN} band at the configured
+//!   probability: the sum of `N` independent χ²ₘ variables is χ²_{mN}
+//!   (Bar-Shalom et al. 2001, §5.4.2, the time-average NIS test). Too large means
+//!   filter and sensor disagree (fixes may be gated for good), too small means the
+//!   filter is far too pessimistic.
+//! - Samples are lost when a sensor's sequence numbers had a gap recently.
+//!
+//! Pure and allocation-free after construction; the daemon evaluates it on every
+//! snapshot and on a timer while nothing arrives.
+
+use fusion_shared::SampleKind;
+use fusion_shared::snapshot::{MAX_SENSORS, health};
+use statrs::distribution::{ChiSquared, ContinuousCDF};
+
+use crate::engine::SensorSlot;
+use crate::model::StepOutcome;
+
+/// Longest NIS window.
+pub const MAX_NIS_WINDOW: usize = 256;
+
+/// How long a loss keeps the `samples lost` reason set, ns.
+pub const LOSS_HOLD_NS: u64 = 5_000_000_000;
+
+/// Health settings (the `[health]` config table).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HealthConfig {
+    /// An IMU stream is stale after this long without a sample, ns.
+    pub imu_timeout_ns: u64,
+    /// A position stream is stale after this long without a sample, ns.
+    pub position_timeout_ns: u64,
+    /// Fixes in the NIS window.
+    pub nis_window: usize,
+    /// Probability of the two-sided NIS band.
+    pub nis_probability: f64,
+}
+
+impl Default for HealthConfig {
+    fn default() -> Self {
+        Self { imu_timeout_ns: 100_000_000, position_timeout_ns: 1_000_000_000, nis_window: 20, nis_probability: 0.999 }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct NisWindow {
+    values: [f64; MAX_NIS_WINDOW],
+    next: usize,
+    len: usize,
+}
+
+/// Tracks what the health needs beyond the engine's counters.
+#[derive(Debug, Clone)]
+pub struct HealthMonitor {
+    config: HealthConfig,
+    /// χ²_{3N} band for the sum of the NIS of `N` 3-D fixes.
+    band: (f64, f64),
+    windows: [NisWindow; MAX_SENSORS],
+    lost_seen: [u64; MAX_SENSORS],
+    last_loss_ns: Option<u64>,
+}
+
+impl HealthMonitor {
+    /// A monitor with `config` (window clamped to 1..=[`MAX_NIS_WINDOW`]).
+    pub fn new(mut config: HealthConfig) -> Self {
+        config.nis_window = config.nis_window.clamp(1, MAX_NIS_WINDOW);
+        let dof = 3.0 * config.nis_window as f64;
+        let tail = (1.0 - config.nis_probability) / 2.0;
+        let band = match ChiSquared::new(dof) {
+            Ok(chi2) => (chi2.inverse_cdf(tail), chi2.inverse_cdf(1.0 - tail)),
+            Err(_) => (0.0, f64::INFINITY),
+        };
+        let empty = NisWindow { values: [0.0; MAX_NIS_WINDOW], next: 0, len: 0 };
+        Self { config, band, windows: [empty; MAX_SENSORS], lost_seen: [0; MAX_SENSORS], last_loss_ns: None }
+    }
+
+    /// The band for the NIS sum over a full window.
+    pub fn nis_band(&self) -> (f64, f64) {
+        self.band
+    }
+
+    /// Records the outcome of a processed position fix of sensor slot `slot`.
+    pub fn record(&mut self, slot: usize, outcome: &StepOutcome) {
+        let (Some(nis), Some(w)) = (outcome.nis(), self.windows.get_mut(slot)) else { return };
+        w.values[w.next] = nis;
+        w.next = (w.next + 1) % self.config.nis_window;
+        w.len = (w.len + 1).min(self.config.nis_window);
+    }
+
+    /// Health state and reason bits at `now_ns` for the engine's sensors.
+    /// `initialised` is the model's own readiness (e.g. alignment done).
+    pub fn evaluate(&mut self, sensors: &[SensorSlot], now_ns: u64, initialised: bool) -> (u32, u32) {
+        let mut reasons = 0;
+        let (mut imu_seen, mut position_seen) = (false, false);
+        for (i, s) in sensors.iter().enumerate().take(MAX_SENSORS) {
+            let (timeout, bit) = match s.kind {
+                SampleKind::Imu => (self.config.imu_timeout_ns, health::IMU_STALE),
+                SampleKind::Position => (self.config.position_timeout_ns, health::POSITION_STALE),
+            };
+            let processed = s.stats.processed > 0;
+            match s.kind {
+                SampleKind::Imu => imu_seen |= processed,
+                SampleKind::Position => position_seen |= processed,
+            }
+            if s.last_arrival_ns.is_some_and(|t| now_ns.saturating_sub(t) > timeout) {
+                reasons |= bit;
+            }
+            if s.stats.lost > self.lost_seen[i] {
+                self.last_loss_ns = Some(now_ns);
+            }
+            self.lost_seen[i] = s.stats.lost;
+            let w = &self.windows[i];
+            if w.len == self.config.nis_window {
+                let sum: f64 = w.values[..w.len].iter().sum();
+                if sum < self.band.0 || sum > self.band.1 {
+                    reasons |= health::NIS_OUT_OF_BOUNDS;
+                }
+            }
+        }
+        if self.last_loss_ns.is_some_and(|t| now_ns.saturating_sub(t) < LOSS_HOLD_NS) {
+            reasons |= health::SAMPLES_LOST;
+        }
+        let state = if !(initialised && imu_seen && position_seen) {
+            health::INITIALISING
+        } else if reasons != 0 {
+            health::DEGRADED
+        } else {
+            health::OK
+        };
+        (state, reasons)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::{Engine, EngineConfig, Entry};
+    use crate::model::linear::LinearModel;
+    use fusion_shared::{ImuSample, PositionSample, Sample};
+
+    fn engine() -> Engine<LinearModel> {
+        Engine::new(
+            LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap(),
+            EngineConfig { history_ns: 1_000_000_000, history_capacity: 64, max_sensors: 4, max_future_ns: u64::MAX },
+        )
+    }
+
+    #[test]
+    fn initialising_then_ok_then_stale() {
+        let mut e = engine();
+        let mut h = HealthMonitor::new(HealthConfig::default());
+        let mut sink = |_: &Entry<_>| {};
+        let imu = Sample::Imu(ImuSample { t_ns: 10, ..Default::default() });
+        e.insert(&imu, Some(1_000), &mut sink);
+        assert_eq!(h.evaluate(e.sensors(), 1_000, true).0, health::INITIALISING);
+        let pos = Sample::Position(PositionSample {
+            t_ns: 11,
+            sensor: 1,
+            cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+            ..Default::default()
+        });
+        e.insert(&pos, Some(2_000), &mut sink);
+        assert_eq!(h.evaluate(e.sensors(), 2_000, true), (health::OK, 0));
+        assert_eq!(h.evaluate(e.sensors(), 2_000, false).0, health::INITIALISING);
+        // 150 ms later: the IMU (100 ms timeout) is stale, the position (1 s) is not.
+        assert_eq!(h.evaluate(e.sensors(), 150_002_000, true), (health::DEGRADED, health::IMU_STALE));
+        let (_, r) = h.evaluate(e.sensors(), 1_100_000_000, true);
+        assert_eq!(r, health::IMU_STALE | health::POSITION_STALE);
+    }
+
+    #[test]
+    fn persistently_large_nis_is_flagged_and_recovers() {
+        let mut h = HealthMonitor::new(HealthConfig { nis_window: 10, ..Default::default() });
+        let (lo, hi) = h.nis_band();
+        // χ²₃₀ at 0.0005 and 0.9995 (tables: 10.80 and 62.16).
+        assert!((lo - 10.80).abs() < 0.01 && (hi - 62.16).abs() < 0.01, "{lo} {hi}");
+        let mut e = engine();
+        let mut sink = |_: &Entry<_>| {};
+        e.insert(&Sample::Imu(ImuSample::default()), Some(0), &mut sink);
+        e.insert(
+            &Sample::Position(PositionSample { sensor: 1, cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0], ..Default::default() }),
+            Some(0),
+            &mut sink,
+        );
+        for _ in 0..10 {
+            h.record(1, &StepOutcome::Gated { nis: 40.0 });
+        }
+        assert_eq!(h.evaluate(e.sensors(), 0, true), (health::DEGRADED, health::NIS_OUT_OF_BOUNDS));
+        for _ in 0..10 {
+            h.record(1, &StepOutcome::Fused { nis: 3.0 });
+        }
+        assert_eq!(h.evaluate(e.sensors(), 0, true), (health::OK, 0));
+        // IMU steps carry no NIS and change nothing.
+        h.record(0, &StepOutcome::Propagated);
+        assert_eq!(h.evaluate(e.sensors(), 0, true).1, 0);
+    }
+
+    #[test]
+    fn losses_are_reported_for_a_while() {
+        let mut e = engine();
+        let mut h = HealthMonitor::new(HealthConfig { imu_timeout_ns: u64::MAX, ..Default::default() });
+        let mut sink = |_: &Entry<_>| {};
+        e.insert(&Sample::Imu(ImuSample { seq: 0, ..Default::default() }), Some(0), &mut sink);
+        e.insert(&Sample::Imu(ImuSample { seq: 5, t_ns: 1, ..Default::default() }), Some(0), &mut sink);
+        assert_eq!(h.evaluate(e.sensors(), 10, true).1, health::SAMPLES_LOST);
+        assert_eq!(h.evaluate(e.sensors(), 10 + LOSS_HOLD_NS, true).1, 0);
+    }
+}
