@@ -8,13 +8,14 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use fusion_benches::{bench_drive, linear_config};
 use fusion_daemon::engine::{Engine, EngineConfig};
 use fusion_daemon::model::Model;
-use fusion_daemon::replay::{linear_model, replay};
+use fusion_daemon::model::linear::LinearModel;
+use fusion_daemon::replay::replay;
 use fusion_shared::jsonl::format_sample;
 use fusion_shared::{ImuSample, PositionSample, Sample};
 
 fn linear_steps(c: &mut Criterion) {
     let config = linear_config();
-    let model = linear_model(&config).unwrap();
+    let model = LinearModel::from_config(&config).unwrap();
     let imu = |t: u64| Sample::Imu(ImuSample { t_ns: t, accel_mps2: [0.1, -0.2, 0.05], ..Default::default() });
     let pos = |t: u64| {
         Sample::Position(PositionSample {
@@ -60,7 +61,8 @@ fn replay_throughput(c: &mut Criterion) {
     group.sample_size(20);
     group.bench_function("engine, linear, 1 kHz IMU + late 10 Hz positions", |b| {
         b.iter(|| {
-            let mut engine = Engine::new(linear_model(&config).unwrap(), EngineConfig::from_config(&config));
+            let mut engine =
+                Engine::new(LinearModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
             let mut sink = |e: &fusion_daemon::engine::Entry<_>| {
                 black_box(e);
             };

@@ -329,9 +329,14 @@ impl<M: Model> Engine<M> {
         }
     }
 
+    /// The index of a sensor's slot in [`sensors`](Self::sensors), if it has one.
+    pub fn slot_of(&self, kind: SampleKind, sensor: u32) -> Option<usize> {
+        self.sensors.iter().position(|s| s.kind == kind && s.sensor == sensor)
+    }
+
     /// The slot of a sensor, created on first sight; `None` when the table is full.
     fn slot(&mut self, kind: SampleKind, sensor: u32) -> Option<usize> {
-        if let Some(i) = self.sensors.iter().position(|s| s.kind == kind && s.sensor == sensor) {
+        if let Some(i) = self.slot_of(kind, sensor) {
             return Some(i);
         }
         let of_kind = self.sensors.iter().filter(|s| s.kind == kind).count();
@@ -452,7 +457,9 @@ mod tests {
         }
         // Newest is 1495 ms; the window is 1 s: 400 ms is too late, 600 ms is not.
         assert_eq!(e.insert(&pos(400, 0, 0.0), None, &mut sink), Insert::TooLate);
-        assert!(matches!(e.insert(&pos(600, 1, 0.0), None, &mut sink), Insert::Processed { replayed, .. } if replayed > 0));
+        assert!(
+            matches!(e.insert(&pos(600, 1, 0.0), None, &mut sink), Insert::Processed { replayed, .. } if replayed > 0)
+        );
         assert_eq!(e.insert(&pos(600, 1, 0.0), None, &mut sink), Insert::Duplicate);
         assert_eq!(e.insert(&imu(5, 1), None, &mut sink), Insert::Duplicate);
         let p = e.sensors()[1].stats;

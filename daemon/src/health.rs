@@ -181,7 +181,11 @@ mod tests {
         let mut sink = |_: &Entry<_>| {};
         e.insert(&Sample::Imu(ImuSample::default()), Some(0), &mut sink);
         e.insert(
-            &Sample::Position(PositionSample { sensor: 1, cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0], ..Default::default() }),
+            &Sample::Position(PositionSample {
+                sensor: 1,
+                cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+                ..Default::default()
+            }),
             Some(0),
             &mut sink,
         );

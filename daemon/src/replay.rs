@@ -160,20 +160,6 @@ fn write_output(
     out.write_all(b"\n")
 }
 
-/// Builds the `linear` model of a config.
-pub fn linear_model(config: &Config) -> Result<LinearModel, ReplayError> {
-    let ModelConfig::Linear { accel_noise_std } = config.model;
-    let x0: [f64; 6] =
-        config.filter.initial_state.as_slice().try_into().map_err(|_| ReplayError::Model("x0 length".into()))?;
-    let p0: [f64; 6] = config
-        .filter
-        .initial_covariance_diagonal
-        .as_slice()
-        .try_into()
-        .map_err(|_| ReplayError::Model("P0 length".into()))?;
-    LinearModel::new(accel_noise_std, x0, p0, config.gating.clone()).map_err(|e| ReplayError::Model(e.to_string()))
-}
-
 /// Replays `input` through the engine configured by `config`, writing estimates to
 /// `output`; with `smooth`, the estimates are RTS-smoothed over the whole run.
 pub fn replay(
@@ -183,7 +169,10 @@ pub fn replay(
     smooth: bool,
 ) -> Result<ReplaySummary, ReplayError> {
     match config.model {
-        ModelConfig::Linear { .. } => replay_model(linear_model(config)?, config, input, output, smooth),
+        ModelConfig::Linear { .. } => {
+            let model = LinearModel::from_config(config).map_err(|e| ReplayError::Model(e.to_string()))?;
+            replay_model(model, config, input, output, smooth)
+        }
     }
 }
 

@@ -9,7 +9,7 @@ use std::cell::Cell;
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig, Entry, Insert};
-use fusion_daemon::replay::linear_model;
+use fusion_daemon::model::linear::LinearModel;
 
 struct Counting;
 
@@ -47,7 +47,7 @@ fn steady_state_insertion_allocates_nothing() {
     let text = "[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n[filter]\ninitial_state = [0,0,0,0,0,0]\n\
                 initial_covariance_diagonal = [100,100,100,225,225,225]\n[gating]\nprobability = 0.999\n";
     let config = Config::parse(text).unwrap();
-    let mut engine = Engine::new(linear_model(&config).unwrap(), EngineConfig::from_config(&config));
+    let mut engine = Engine::new(LinearModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
     let mut finals = 0u64;
     let mut sink = |_: &Entry<_>| finals += 1;
 

@@ -69,6 +69,26 @@ impl LinearModel {
         Ok(Self { sigma_a, initial, gate })
     }
 
+    /// The model of a validated config with `kind = "linear"`.
+    pub fn from_config(config: &crate::config::Config) -> Result<Self, crate::config::ConfigError> {
+        let crate::config::ModelConfig::Linear { accel_noise_std } = config.model;
+        let invalid = |key, problem: &str| crate::config::ConfigError::Invalid { key, problem: problem.to_string() };
+        let x0: [f64; N] = config
+            .filter
+            .initial_state
+            .as_slice()
+            .try_into()
+            .map_err(|_| invalid("filter.initial_state", "needs 6 values"))?;
+        let p0: [f64; N] = config
+            .filter
+            .initial_covariance_diagonal
+            .as_slice()
+            .try_into()
+            .map_err(|_| invalid("filter.initial_covariance_diagonal", "needs 6 values"))?;
+        Self::new(accel_noise_std, x0, p0, config.gating.clone())
+            .map_err(|e| invalid("filter.initial_covariance_diagonal", &e.to_string()))
+    }
+
     /// `F` and `Q = G σₐ² Gᵀ` for a step of `dt` seconds, with `Q` in closed form:
     /// per axis `σₐ² [[¼dt⁴, ½dt³], [½dt³, dt²]]` (Bar-Shalom et al. 2001, eq. 6.3.3-4).
     pub fn transition_and_noise(&self, dt: f64) -> (SMatrix<f64, N, N>, SMatrix<f64, N, N>) {
@@ -137,6 +157,7 @@ impl Model for LinearModel {
     type State = LinearState;
     type Record = RtsStep<f64, N>;
     const KIND: &'static str = "linear";
+    const CODE: u32 = fusion_shared::snapshot::model::LINEAR;
 
     fn initial_state(&self) -> LinearState {
         LinearState { kf: self.initial, t_ns: None, accel: Vector3::zeros() }

@@ -59,6 +59,8 @@ pub trait Model {
 
     /// Name as in the config: `"linear"`.
     const KIND: &'static str;
+    /// Code in snapshots ([`fusion_shared::snapshot::model`]).
+    const CODE: u32;
 
     /// The state before the first sample.
     fn initial_state(&self) -> Self::State;
@@ -68,6 +70,12 @@ pub trait Model {
 
     /// Filter time, ns, or `None` before the first sample.
     fn time_ns(state: &Self::State) -> Option<u64>;
+
+    /// Whether the model has a usable estimate in this state (e.g. an INS has
+    /// finished its alignment). The health says "initialising" until it has.
+    fn initialised(_state: &Self::State) -> bool {
+        true
+    }
 
     /// The state vector `x` as published.
     fn x(state: &Self::State) -> &[f64];

@@ -1,0 +1,388 @@
+//! `fusiond run`: the live daemon. The only file of the daemon that touches iceoryx2.
+//!
+//! One thread owns every iceoryx2 port (they are `!Send`). Each turn of the loop
+//! drains both sample subscribers, feeds every sample to the engine with the
+//! daemon's clock, publishes one [`StateSnapshot`] per processed sample and then
+//! notifies `<ns>/state` once. Between turns it either busy-polls (`spin`) or
+//! sleeps on the `<ns>/wake` listener (`event`). Every 10 ms it re-evaluates the
+//! health (a stream that stopped is marked stale even though nothing arrives),
+//! refreshes connections so a late reader gets the latest snapshot, and every
+//! summary interval hands counters to the summary thread.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use fusion_shared::service::{self, InvalidNamespace, ServiceNames};
+use fusion_shared::{Sample, SampleKind, StateSnapshot, now_ns};
+use hdrhistogram::Histogram;
+use iceoryx2::node::NodeState;
+use iceoryx2::port::listener::ListenerWaitError;
+use iceoryx2::port::update_connections::UpdateConnections;
+use iceoryx2::prelude::*;
+
+use crate::config::{Config, ModelConfig};
+use crate::engine::{Engine, EngineConfig, Insert};
+use crate::health::HealthMonitor;
+use crate::model::Model;
+use crate::model::linear::LinearModel;
+use crate::snapshot::{self, Input};
+use crate::summary::{KindCounts, Summary, SummaryLogger};
+
+/// How the daemon waits for samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WaitMode {
+    /// Busy-poll the subscribers: lowest latency, one core fully used.
+    Spin,
+    /// Sleep on the `<ns>/wake` event between samples: no CPU while idle.
+    Event,
+}
+
+/// Options of `fusiond run` besides the config file.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// Namespace of the services.
+    pub namespace: String,
+    /// Wait mode.
+    pub wait: WaitMode,
+    /// Interval of the info-level summary line.
+    pub summary_interval: Duration,
+}
+
+/// Why the daemon could not start or had to stop.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The namespace is not usable as part of a service name.
+    #[error(transparent)]
+    Namespace(#[from] InvalidNamespace),
+    /// Another fusiond publishes the state of this namespace.
+    #[error("another fusiond is already running in namespace {0:?}")]
+    AlreadyRunning(String),
+    /// The model could not be built from the config.
+    #[error("model: {0}")]
+    Model(String),
+    /// iceoryx2 refused a node, service or port.
+    #[error("iceoryx2: {0}")]
+    Ipc(String),
+}
+
+/// What a run did, for the caller (and tests).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RunReport {
+    /// Samples taken from the subscribers.
+    pub received: u64,
+    /// Snapshots published.
+    pub snapshots: u64,
+}
+
+/// Health and housekeeping period.
+const HOUSEKEEPING_NS: u64 = 10_000_000;
+/// Most samples taken from one subscriber per turn, so neither kind starves.
+const BATCH: usize = 256;
+
+/// Runs the daemon until `shutdown` becomes true.
+pub fn run(config: &Config, options: &RunOptions, shutdown: &AtomicBool) -> Result<RunReport, RunError> {
+    match config.model {
+        ModelConfig::Linear { .. } => {
+            let model = LinearModel::from_config(config).map_err(|e| RunError::Model(e.to_string()))?;
+            run_model(model, config, options, shutdown)
+        }
+    }
+}
+
+fn ipc<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> RunError + '_ {
+    move |e| RunError::Ipc(format!("{what}: {e:?}"))
+}
+
+/// The ports of one daemon, created in the order a reader of the log expects.
+struct Ports {
+    imu: iceoryx2::port::subscriber::Subscriber<ipc::Service, fusion_shared::ImuSample, ()>,
+    position: iceoryx2::port::subscriber::Subscriber<ipc::Service, fusion_shared::PositionSample, ()>,
+    wake: iceoryx2::port::listener::Listener<ipc::Service>,
+    state: iceoryx2::port::publisher::Publisher<ipc::Service, StateSnapshot, ()>,
+    state_event: iceoryx2::port::notifier::Notifier<ipc::Service>,
+}
+
+impl Ports {
+    fn open(node: &Node<ipc::Service>, names: &ServiceNames) -> Result<Self, RunError> {
+        let state = service::state_service(node, names).map_err(RunError::Ipc)?;
+        let state = match state.publisher_builder().create() {
+            Ok(p) => p,
+            Err(e) if format!("{e:?}").contains("ExceedsMaxSupportedPublishers") => {
+                return Err(RunError::AlreadyRunning(names.namespace.clone()));
+            }
+            Err(e) => return Err(ipc("state publisher")(e)),
+        };
+        let imu = service::imu_service(node, names).map_err(RunError::Ipc)?;
+        let imu =
+            imu.subscriber_builder().buffer_size(service::SAMPLE_BUFFER).create().map_err(ipc("imu subscriber"))?;
+        let position = service::position_service(node, names).map_err(RunError::Ipc)?;
+        let position = position
+            .subscriber_builder()
+            .buffer_size(service::SAMPLE_BUFFER)
+            .create()
+            .map_err(ipc("position subscriber"))?;
+        let wake = service::event_service(node, &names.wake).map_err(RunError::Ipc)?;
+        let wake = wake.listener_builder().create().map_err(ipc("wake listener"))?;
+        let state_event = service::event_service(node, &names.state).map_err(RunError::Ipc)?;
+        let state_event = state_event.notifier_builder().create().map_err(ipc("state notifier"))?;
+        Ok(Self { imu, position, wake, state, state_event })
+    }
+}
+
+/// The fusion loop's state besides the ports.
+struct Fusion<M: Model> {
+    engine: Engine<M>,
+    health: HealthMonitor,
+    health_now: (u32, u32),
+    snapshot: StateSnapshot,
+    latency: Histogram<u64>,
+    report: RunReport,
+    publish_errors: u64,
+    receive_errors: u64,
+}
+
+impl<M: Model> Fusion<M> {
+    /// Feeds one sample to the engine and publishes the resulting snapshot.
+    fn handle(&mut self, sample: Sample, ports: &Ports) {
+        self.report.received += 1;
+        let received_ns = now_ns();
+        let Insert::Processed { replayed, outcome } = self.engine.insert(&sample, Some(received_ns), &mut |_| {})
+        else {
+            return;
+        };
+        if let Some(slot) = self.engine.slot_of(sample.kind(), sample.sensor()) {
+            self.health.record(slot, &outcome);
+        }
+        let initialised = self.engine.latest().is_some_and(|e| M::initialised(&e.state));
+        self.health_now = self.health.evaluate(self.engine.sensors(), received_ns, initialised);
+        let input = Input { sample: &sample, received_ns, replayed };
+        snapshot::fill(&mut self.snapshot, &self.engine, Some(input), self.health_now);
+        let published = self.publish(ports);
+        if let Some(published_ns) = published
+            && replayed == 0
+            && sample.sent_ns() > 0
+        {
+            // Out-of-range values (clock skew between processes) are not recorded.
+            let _ = self.latency.record(published_ns.saturating_sub(sample.sent_ns()));
+        }
+    }
+
+    /// Stamps and sends the current snapshot; returns the publish time.
+    fn publish(&mut self, ports: &Ports) -> Option<u64> {
+        self.snapshot.seq = self.report.snapshots;
+        let publish_ns = now_ns();
+        self.snapshot.publish_ns = publish_ns;
+        // Error texts are built only on failure.
+        let sent = match ports.state.loan_uninit() {
+            Ok(s) => s.write_payload(self.snapshot).send().map(|_| ()).map_err(|e| format!("send: {e:?}")),
+            Err(e) => Err(format!("loan: {e:?}")),
+        };
+        match sent {
+            Ok(_) => {
+                self.report.snapshots += 1;
+                Some(publish_ns)
+            }
+            Err(e) => {
+                if self.publish_errors == 0 {
+                    tracing::warn!("cannot publish a snapshot: {e} (further failures are only counted)");
+                }
+                self.publish_errors += 1;
+                None
+            }
+        }
+    }
+}
+
+fn kind_counts<M: Model>(engine: &Engine<M>, kind: SampleKind) -> KindCounts {
+    let mut c = KindCounts::default();
+    for s in engine.sensors().iter().filter(|s| s.kind == kind) {
+        c.received += s.stats.received;
+        c.fused += s.stats.fused;
+        c.gated += s.stats.gated;
+        c.late += s.stats.late;
+        c.too_late += s.stats.too_late;
+        c.duplicate += s.stats.duplicate;
+        c.invalid += s.stats.invalid;
+        c.lost += s.stats.lost;
+    }
+    c
+}
+
+fn delta(now: KindCounts, before: KindCounts) -> KindCounts {
+    KindCounts {
+        received: now.received - before.received,
+        fused: now.fused.saturating_sub(before.fused),
+        gated: now.gated.saturating_sub(before.gated),
+        late: now.late - before.late,
+        too_late: now.too_late - before.too_late,
+        duplicate: now.duplicate - before.duplicate,
+        invalid: now.invalid - before.invalid,
+        lost: now.lost.saturating_sub(before.lost),
+    }
+}
+
+fn run_model<M: Model>(
+    model: M,
+    config: &Config,
+    options: &RunOptions,
+    shutdown: &AtomicBool,
+) -> Result<RunReport, RunError> {
+    let names = ServiceNames::new(&options.namespace)?;
+    let node = service::create_node(&format!("fusiond.{}", names.namespace)).map_err(RunError::Ipc)?;
+    let ports = Ports::open(&node, &names)?;
+    tracing::info!(
+        namespace = %names.namespace,
+        model = M::KIND,
+        wait = ?options.wait,
+        "fusiond running: samples on {} and {}, state on {}",
+        names.imu,
+        names.position,
+        names.state
+    );
+
+    let summary = SummaryLogger::start().map_err(|e| RunError::Ipc(format!("summary thread: {e}")))?;
+    let mut fusion = Fusion {
+        engine: Engine::new(model, EngineConfig::from_config(config)),
+        health: HealthMonitor::new(config.health),
+        health_now: (fusion_shared::snapshot::health::INITIALISING, 0),
+        snapshot: StateSnapshot::default(),
+        // 1 ns to 10 s at 3 significant digits: allocated once, here.
+        latency: Histogram::new_with_bounds(1, 10_000_000_000, 3).map_err(|e| RunError::Ipc(e.to_string()))?,
+        report: RunReport::default(),
+        publish_errors: 0,
+        receive_errors: 0,
+    };
+    let summary_ns = options.summary_interval.as_nanos().max(1) as u64;
+    let mut next_housekeeping = now_ns();
+    let mut last_summary = (now_ns(), KindCounts::default(), KindCounts::default(), 0u64);
+    let mut published_health = fusion.health_now;
+
+    while !shutdown.load(Ordering::Relaxed) {
+        let snapshots_before = fusion.report.snapshots;
+        let mut taken = 0;
+        for _ in 0..BATCH {
+            match ports.imu.receive() {
+                Ok(Some(s)) => {
+                    let sample = Sample::Imu(*s);
+                    drop(s);
+                    fusion.handle(sample, &ports);
+                    taken += 1;
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    if fusion.receive_errors == 0 {
+                        tracing::warn!("imu receive: {e:?} (further failures are only counted)");
+                    }
+                    fusion.receive_errors += 1;
+                    break;
+                }
+            }
+        }
+        for _ in 0..BATCH {
+            match ports.position.receive() {
+                Ok(Some(s)) => {
+                    let sample = Sample::Position(*s);
+                    drop(s);
+                    fusion.handle(sample, &ports);
+                    taken += 1;
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    if fusion.receive_errors == 0 {
+                        tracing::warn!("position receive: {e:?} (further failures are only counted)");
+                    }
+                    fusion.receive_errors += 1;
+                    break;
+                }
+            }
+        }
+        if fusion.report.snapshots > snapshots_before {
+            published_health = fusion.health_now;
+            let _ = ports.state_event.notify();
+        }
+
+        let now = now_ns();
+        if now >= next_housekeeping {
+            next_housekeeping = now + HOUSEKEEPING_NS;
+            let initialised = fusion.engine.latest().is_some_and(|e| M::initialised(&e.state));
+            fusion.health_now = fusion.health.evaluate(fusion.engine.sensors(), now, initialised);
+            if fusion.health_now != published_health && fusion.engine.latest().is_some() {
+                // Nothing arrived but the health changed (a stream went stale): say so.
+                snapshot::fill(&mut fusion.snapshot, &fusion.engine, None, fusion.health_now);
+                if fusion.publish(&ports).is_some() {
+                    published_health = fusion.health_now;
+                    let _ = ports.state_event.notify();
+                }
+            }
+            // Lets a reader that connected since the last send get the history sample.
+            let _ = ports.state.update_connections();
+            if now.saturating_sub(last_summary.0) >= summary_ns {
+                let imu = kind_counts(&fusion.engine, SampleKind::Imu);
+                let position = kind_counts(&fusion.engine, SampleKind::Position);
+                let h = &fusion.latency;
+                let latency_ns =
+                    (!h.is_empty()).then(|| (h.value_at_quantile(0.5), h.value_at_quantile(0.99), h.max()));
+                summary.send(Summary {
+                    interval_s: (now - last_summary.0) as f64 * 1e-9,
+                    imu: delta(imu, last_summary.1),
+                    position: delta(position, last_summary.2),
+                    snapshots: fusion.report.snapshots - last_summary.3,
+                    latency_ns,
+                    health: fusion.health_now,
+                });
+                fusion.latency.reset();
+                last_summary = (now, imu, position, fusion.report.snapshots);
+            }
+        }
+
+        if taken == 0 {
+            match options.wait {
+                WaitMode::Spin => std::hint::spin_loop(),
+                WaitMode::Event => {
+                    let timeout = Duration::from_nanos(next_housekeeping.saturating_sub(now_ns()).max(1));
+                    match ports.wake.timed_wait(|_| {}, timeout) {
+                        // A signal interrupted the wait: the loop condition looks at it.
+                        Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
+                        Err(e) => {
+                            tracing::warn!("wake listener: {e:?}");
+                            std::thread::sleep(timeout);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    tracing::info!(
+        received = fusion.report.received,
+        snapshots = fusion.report.snapshots,
+        publish_errors = fusion.publish_errors,
+        receive_errors = fusion.receive_errors,
+        "fusiond stopping"
+    );
+    drop(ports);
+    drop(node);
+    remove_domain_counter_if_last();
+    Ok(fusion.report)
+}
+
+/// iceoryx2 keeps one 16-byte node counter per domain in `/dev/shm`. When the
+/// daemon was the last iceoryx2 node of the domain, removing it leaves nothing
+/// behind. A process starting at the same moment keeps its mapping, and node ids
+/// also hold the pid and the creation time, so a counter that starts again at 0
+/// cannot collide.
+fn remove_domain_counter_if_last() {
+    let config = service::iceoryx_config();
+    let mut others = 0;
+    let listed = Node::<ipc::Service>::list(&config, |state| {
+        if !matches!(state, NodeState::Dead(_)) {
+            others += 1;
+        }
+        CallbackProgression::Continue
+    });
+    if listed.is_ok() && others == 0 {
+        // SAFETY: no other node of the domain exists (checked just above); see the
+        // function docs for a node appearing concurrently.
+        let _ = unsafe { iceoryx2::testing::remove_global_mgmt_segment::<ipc::Service>(&config) };
+    }
+}

@@ -1,0 +1,154 @@
+//! Filling a [`StateSnapshot`] from the engine: pure, no IPC, no allocation.
+
+use fusion_shared::snapshot::{MAX_COV, MAX_SENSORS, MAX_STATE, outcome};
+use fusion_shared::{Sample, SensorCounters, StateSnapshot};
+
+use crate::engine::{Engine, SensorSlot};
+use crate::model::{Model, StepOutcome};
+use crate::reorder::key_of;
+
+/// Input kind code of a snapshot published because the health changed while no
+/// sample arrived (its `input_*` fields are zero).
+pub const INPUT_NONE: u32 = 2;
+
+/// The input that triggered a snapshot.
+#[derive(Debug, Clone, Copy)]
+pub struct Input<'a> {
+    /// The sample.
+    pub sample: &'a Sample,
+    /// When the daemon received it, ns.
+    pub received_ns: u64,
+    /// Samples re-processed because it came late.
+    pub replayed: usize,
+}
+
+fn outcome_code(o: &StepOutcome) -> u32 {
+    match o {
+        StepOutcome::Propagated => outcome::PROPAGATED,
+        StepOutcome::Fused { .. } => outcome::FUSED,
+        StepOutcome::Gated { .. } => outcome::GATED,
+        StepOutcome::Refused => outcome::REFUSED,
+    }
+}
+
+fn counters(s: &SensorSlot) -> SensorCounters {
+    SensorCounters {
+        kind: s.kind as u32,
+        sensor: s.sensor,
+        received: s.stats.received,
+        processed: s.stats.processed,
+        fused: s.stats.fused,
+        gated: s.stats.gated,
+        refused: s.stats.refused,
+        late: s.stats.late,
+        too_late: s.stats.too_late,
+        duplicate: s.stats.duplicate,
+        invalid: s.stats.invalid,
+        lost: s.stats.lost,
+        last_nis: s.last_nis.unwrap_or(f64::NAN),
+        last_t_ns: s.last_t_ns.unwrap_or(0),
+        last_arrival_ns: s.last_arrival_ns.unwrap_or(0),
+    }
+}
+
+/// Writes the engine's current estimate, counters and the given input and health
+/// into `snap` (all but `seq` and `publish_ns`, which the publisher stamps).
+pub fn fill<M: Model>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Option<Input<'_>>, health: (u32, u32)) {
+    snap.model = M::CODE;
+    if let Some(latest) = engine.latest() {
+        let key = latest.key;
+        snap.t_ns = key.t_ns;
+        snap.sample_seq = key.seq;
+        snap.sample_sensor = key.sensor;
+        snap.sample_kind = key.kind as u32;
+        snap.outcome = outcome_code(&latest.outcome);
+        snap.nis = latest.outcome.nis().unwrap_or(f64::NAN);
+        let x = M::x(&latest.state);
+        let p = M::covariance(&latest.state);
+        let n = x.len().min(MAX_STATE);
+        snap.x[..n].copy_from_slice(&x[..n]);
+        snap.state_len = n as u32;
+        let side = (p.len() as f64).sqrt() as usize;
+        let side = side.min(MAX_COV);
+        snap.cov[..side * side].copy_from_slice(&p[..side * side]);
+        snap.cov_dim = side as u32;
+    }
+    match input {
+        Some(i) => {
+            let key = key_of(i.sample);
+            snap.input_t_ns = key.t_ns;
+            snap.input_sent_ns = i.sample.sent_ns();
+            snap.input_received_ns = i.received_ns;
+            snap.input_seq = key.seq;
+            snap.input_sensor = key.sensor;
+            snap.input_kind = key.kind as u32;
+            snap.input_replayed = i.replayed.min(u32::MAX as usize) as u32;
+        }
+        None => {
+            snap.input_t_ns = 0;
+            snap.input_sent_ns = 0;
+            snap.input_received_ns = 0;
+            snap.input_seq = 0;
+            snap.input_sensor = 0;
+            snap.input_kind = INPUT_NONE;
+            snap.input_replayed = 0;
+        }
+    }
+    (snap.health, snap.health_reasons) = health;
+    let sensors = engine.sensors();
+    let count = sensors.len().min(MAX_SENSORS);
+    for (dst, src) in snap.sensors.iter_mut().zip(&sensors[..count]) {
+        *dst = counters(src);
+    }
+    snap.sensor_count = count as u32;
+    let stats = engine.stats();
+    snap.rewinds = stats.rewinds;
+    snap.replayed = stats.replayed;
+    snap.unknown_sensor = stats.unknown_sensor;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::{EngineConfig, Entry};
+    use crate::model::linear::LinearModel;
+    use fusion_shared::snapshot::health;
+    use fusion_shared::{ImuSample, PositionSample};
+
+    #[test]
+    fn snapshot_carries_estimate_input_and_counters() {
+        let mut e = Engine::new(
+            LinearModel::new(0.3, [1.0, 2.0, 3.0, 0.0, 0.0, 0.0], [1.0; 6], None).unwrap(),
+            EngineConfig { history_ns: 1_000_000_000, history_capacity: 64, max_sensors: 4, max_future_ns: u64::MAX },
+        );
+        let mut sink = |_: &Entry<_>| {};
+        let imu = Sample::Imu(ImuSample { t_ns: 100, sent_ns: 150, seq: 3, ..Default::default() });
+        e.insert(&imu, Some(170), &mut sink);
+        let pos = Sample::Position(PositionSample {
+            t_ns: 90,
+            sent_ns: 160,
+            seq: 7,
+            sensor: 2,
+            pos_m: [1.0, 2.0, 3.0],
+            cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+            ..Default::default()
+        });
+        e.insert(&pos, Some(180), &mut sink);
+        let mut snap = StateSnapshot::default();
+        fill(&mut snap, &e, Some(Input { sample: &pos, received_ns: 180, replayed: 1 }), (health::OK, 0));
+        // The estimate is after the newest sample (the IMU at 100), the input was the late fix at 90.
+        assert_eq!((snap.t_ns, snap.sample_seq, snap.sample_kind, snap.outcome), (100, 3, 0, outcome::PROPAGATED));
+        assert_eq!((snap.input_t_ns, snap.input_sent_ns, snap.input_received_ns), (90, 160, 180));
+        assert_eq!((snap.input_seq, snap.input_sensor, snap.input_kind, snap.input_replayed), (7, 2, 1, 1));
+        assert_eq!((snap.state_len, snap.cov_dim, snap.model), (6, 6, fusion_shared::snapshot::model::LINEAR));
+        let latest = e.latest().unwrap();
+        assert_eq!(snap.state(), LinearModel::x(&latest.state));
+        assert_eq!(snap.covariance(), LinearModel::covariance(&latest.state));
+        assert_eq!(snap.sensor_count, 2);
+        let p = snap.sensor_counters()[1];
+        assert_eq!((p.kind, p.sensor, p.received, p.fused, p.late, p.last_arrival_ns), (1, 2, 1, 1, 1, 180));
+        assert_eq!(snap.rewinds, 1);
+        fill(&mut snap, &e, None, (health::DEGRADED, health::IMU_STALE));
+        assert_eq!((snap.input_kind, snap.input_t_ns, snap.health), (INPUT_NONE, 0, health::DEGRADED));
+    }
+}

@@ -1,0 +1,112 @@
+//! The low-rate summary: the fusion thread hands plain numbers over a bounded
+//! crossbeam channel to a thread that formats and logs them, so the fusion
+//! thread never formats a string or blocks on a log sink.
+
+use std::thread::JoinHandle;
+
+use crossbeam::channel::{Receiver, Sender, TrySendError, bounded};
+use fusion_shared::snapshot::health;
+
+/// Per-kind counts over one summary interval.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct KindCounts {
+    /// Samples received.
+    pub received: u64,
+    /// Measurements fused.
+    pub fused: u64,
+    /// Measurements gated.
+    pub gated: u64,
+    /// Samples fused late by rewind.
+    pub late: u64,
+    /// Samples dropped as too late.
+    pub too_late: u64,
+    /// Duplicates.
+    pub duplicate: u64,
+    /// Invalid samples.
+    pub invalid: u64,
+    /// Lost samples (sequence gaps).
+    pub lost: u64,
+}
+
+/// One summary interval.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Summary {
+    /// Length of the interval, s.
+    pub interval_s: f64,
+    /// IMU counts in the interval.
+    pub imu: KindCounts,
+    /// Position counts in the interval.
+    pub position: KindCounts,
+    /// Snapshots published in the interval.
+    pub snapshots: u64,
+    /// Publish latency (sample sent → snapshot published), ns: p50, p99, max; `None` without samples.
+    pub latency_ns: Option<(u64, u64, u64)>,
+    /// Health state and reasons at the end of the interval.
+    pub health: (u32, u32),
+}
+
+/// The summary thread and the sending half of its channel.
+pub struct SummaryLogger {
+    sender: Option<Sender<Summary>>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl SummaryLogger {
+    /// Starts the logging thread.
+    pub fn start() -> std::io::Result<Self> {
+        let (sender, receiver) = bounded::<Summary>(4);
+        let thread = std::thread::Builder::new().name("fusiond-summary".into()).spawn(move || log_loop(receiver))?;
+        Ok(Self { sender: Some(sender), thread: Some(thread) })
+    }
+
+    /// Hands a summary over without blocking; a summary that finds the channel
+    /// full (the logger is stuck) is dropped rather than stall the fusion loop.
+    pub fn send(&self, summary: Summary) {
+        if let Some(s) = &self.sender
+            && let Err(TrySendError::Full(_)) = s.try_send(summary)
+        {
+            tracing::debug!("summary channel full; summary dropped");
+        }
+    }
+}
+
+impl Drop for SummaryLogger {
+    fn drop(&mut self) {
+        self.sender.take();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+fn log_loop(receiver: Receiver<Summary>) {
+    for s in receiver {
+        let rate = |n: u64| n as f64 / s.interval_s.max(1e-9);
+        let reasons: Vec<&str> =
+            health::REASONS.iter().filter(|(bit, _)| s.health.1 & bit != 0).map(|(_, n)| *n).collect();
+        let latency = match s.latency_ns {
+            Some((p50, p99, max)) => {
+                format!("{:.1}/{:.1}/{:.1} us", p50 as f64 / 1e3, p99 as f64 / 1e3, max as f64 / 1e3)
+            }
+            None => "-".to_string(),
+        };
+        tracing::info!(
+            target: "fusiond::summary",
+            "imu {:.0}/s, position {:.1}/s: fused {}, gated {}, late {}, too late {}, duplicate {}, invalid {}, lost {}; \
+             {} snapshots; publish latency p50/p99/max {}; health {}{}",
+            rate(s.imu.received),
+            rate(s.position.received),
+            s.position.fused,
+            s.position.gated,
+            s.imu.late + s.position.late,
+            s.imu.too_late + s.position.too_late,
+            s.imu.duplicate + s.position.duplicate,
+            s.imu.invalid + s.position.invalid,
+            s.imu.lost + s.position.lost,
+            s.snapshots,
+            latency,
+            health::name(s.health.0),
+            if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) },
+        );
+    }
+}
