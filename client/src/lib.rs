@@ -1,5 +1,84 @@
 //! fusion-client: what other processes link to talk to fusiond.
 //!
+//! - [`Client`]: this process's connection to one namespace (one iceoryx2 node).
+//! - [`ImuPublisher`], [`PositionPublisher`]: publish samples zero-copy and wake the daemon.
+//! - [`StateSubscriber`]: read the fused state: [`latest`](StateSubscriber::latest),
+//!   [`wait_next`](StateSubscriber::wait_next) (blocking on an event) and
+//!   [`spin_next`](StateSubscriber::spin_next) (busy-polling, lowest latency).
 //! - [`sim`]: simulated IMU and position sensors on a ground-truth trajectory.
+//!
+//! The wire types and service names live in [`fusion_shared`]. The library pulls
+//! no command-line or logging-backend crates; the binaries (`fusion-sim`,
+//! `fusionctl`) are behind the `cli` feature.
 
+mod error;
+mod publisher;
 pub mod sim;
+mod subscriber;
+
+pub use error::ClientError;
+pub use fusion_shared;
+pub use fusion_shared::{ImuSample, PositionSample, StateSnapshot, now_ns};
+pub use publisher::{ImuPublisher, PositionPublisher};
+pub use subscriber::StateSubscriber;
+
+use fusion_shared::service::{self, ServiceNames};
+use iceoryx2::prelude::*;
+
+/// This process's connection to fusiond's services in one namespace.
+///
+/// Creating one makes an iceoryx2 node (iceoryx2 ports are not `Send`: create the
+/// client and its ports on the thread that uses them).
+pub struct Client {
+    names: ServiceNames,
+    node: Node<ipc::Service>,
+}
+
+impl Client {
+    /// Connects to `namespace` (`"fusion"` unless the daemon was given another)
+    /// in the iceoryx2 domain named by `FUSION_ICEORYX_DOMAIN`, or the default one.
+    /// Works whether or not fusiond runs: publishers may start first.
+    pub fn connect(namespace: &str) -> Result<Self, ClientError> {
+        Self::connect_in_domain(namespace, None)
+    }
+
+    /// Connects to `namespace` in iceoryx2 domain `domain` (see
+    /// [`fusion_shared::service::iceoryx_config`]); `None` as in [`connect`](Self::connect).
+    pub fn connect_in_domain(namespace: &str, domain: Option<&str>) -> Result<Self, ClientError> {
+        let names = ServiceNames::new(namespace)?;
+        let config = service::iceoryx_config(domain).map_err(ClientError::Node)?;
+        let node = service::create_node(&format!("fusion-client.{namespace}"), &config).map_err(ClientError::Node)?;
+        Ok(Self { names, node })
+    }
+
+    /// The service names of the namespace.
+    pub fn names(&self) -> &ServiceNames {
+        &self.names
+    }
+
+    pub(crate) fn node(&self) -> &Node<ipc::Service> {
+        &self.node
+    }
+
+    /// A publisher of IMU samples for sensor id `sensor`.
+    pub fn imu_publisher(&self, sensor: u32) -> Result<ImuPublisher, ClientError> {
+        ImuPublisher::new(self, sensor)
+    }
+
+    /// A publisher of position fixes for sensor id `sensor`.
+    pub fn position_publisher(&self, sensor: u32) -> Result<PositionPublisher, ClientError> {
+        PositionPublisher::new(self, sensor)
+    }
+
+    /// A state reader that keeps up to 64 unread snapshots. Fails with
+    /// [`ClientError::DaemonNotRunning`] if no fusiond ever started in the namespace.
+    pub fn state_subscriber(&self) -> Result<StateSubscriber, ClientError> {
+        StateSubscriber::new(self, 64)
+    }
+
+    /// A state reader that keeps up to `buffer` unread snapshots (at most
+    /// [`fusion_shared::service::STATE_BUFFER`]); older ones are overwritten.
+    pub fn state_subscriber_with_buffer(&self, buffer: usize) -> Result<StateSubscriber, ClientError> {
+        StateSubscriber::new(self, buffer)
+    }
+}

@@ -60,7 +60,10 @@ pub enum RunError {
     /// The model could not be built from the config.
     #[error("model: {0}")]
     Model(String),
-    /// iceoryx2 refused a node, service or port.
+    /// A service could not be opened.
+    #[error(transparent)]
+    Service(#[from] service::ServiceError),
+    /// iceoryx2 refused a node or port.
     #[error("iceoryx2: {0}")]
     Ipc(String),
 }
@@ -76,7 +79,7 @@ pub struct RunReport {
 
 /// Health and housekeeping period.
 const HOUSEKEEPING_NS: u64 = 10_000_000;
-/// Most samples taken from one subscriber per turn, so neither kind starves.
+/// Samples per turn (per kind) before housekeeping gets a look in.
 const BATCH: usize = 256;
 
 /// Runs the daemon until `shutdown` becomes true.
@@ -104,7 +107,7 @@ struct Ports {
 
 impl Ports {
     fn open(node: &Node<ipc::Service>, names: &ServiceNames) -> Result<Self, RunError> {
-        let state = service::state_service(node, names).map_err(RunError::Ipc)?;
+        let state = service::state_service(node, names, true)?;
         let state = match state.publisher_builder().create() {
             Ok(p) => p,
             Err(e) if format!("{e:?}").contains("ExceedsMaxSupportedPublishers") => {
@@ -112,18 +115,18 @@ impl Ports {
             }
             Err(e) => return Err(ipc("state publisher")(e)),
         };
-        let imu = service::imu_service(node, names).map_err(RunError::Ipc)?;
+        let imu = service::imu_service(node, names)?;
         let imu =
             imu.subscriber_builder().buffer_size(service::SAMPLE_BUFFER).create().map_err(ipc("imu subscriber"))?;
-        let position = service::position_service(node, names).map_err(RunError::Ipc)?;
+        let position = service::position_service(node, names)?;
         let position = position
             .subscriber_builder()
             .buffer_size(service::SAMPLE_BUFFER)
             .create()
             .map_err(ipc("position subscriber"))?;
-        let wake = service::event_service(node, &names.wake).map_err(RunError::Ipc)?;
+        let wake = service::event_service(node, &names.wake)?;
         let wake = wake.listener_builder().create().map_err(ipc("wake listener"))?;
-        let state_event = service::event_service(node, &names.state).map_err(RunError::Ipc)?;
+        let state_event = service::event_service(node, &names.state)?;
         let state_event = state_event.notifier_builder().create().map_err(ipc("state notifier"))?;
         Ok(Self { imu, position, wake, state, state_event })
     }
@@ -193,6 +196,24 @@ impl<M: Model> Fusion<M> {
     }
 }
 
+/// Takes one sample off a subscriber (copied out, the shared-memory slot released).
+fn receive<T: std::fmt::Debug + ZeroCopySend + Copy>(
+    subscriber: &iceoryx2::port::subscriber::Subscriber<ipc::Service, T, ()>,
+    errors: &mut u64,
+    what: &str,
+) -> Option<T> {
+    match subscriber.receive() {
+        Ok(sample) => sample.map(|s| *s),
+        Err(e) => {
+            if *errors == 0 {
+                tracing::warn!("{what} receive: {e:?} (further failures are only counted)");
+            }
+            *errors += 1;
+            None
+        }
+    }
+}
+
 fn kind_counts<M: Model>(engine: &Engine<M>, kind: SampleKind) -> KindCounts {
     let mut c = KindCounts::default();
     for s in engine.sensors().iter().filter(|s| s.kind == kind) {
@@ -228,7 +249,8 @@ fn run_model<M: Model>(
     shutdown: &AtomicBool,
 ) -> Result<RunReport, RunError> {
     let names = ServiceNames::new(&options.namespace)?;
-    let node = service::create_node(&format!("fusiond.{}", names.namespace)).map_err(RunError::Ipc)?;
+    let iceoryx = service::iceoryx_config(None).map_err(RunError::Ipc)?;
+    let node = service::create_node(&format!("fusiond.{}", names.namespace), &iceoryx).map_err(RunError::Ipc)?;
     let ports = Ports::open(&node, &names)?;
     tracing::info!(
         namespace = %names.namespace,
@@ -256,45 +278,30 @@ fn run_model<M: Model>(
     let mut next_housekeeping = now_ns();
     let mut last_summary = (now_ns(), KindCounts::default(), KindCounts::default(), 0u64);
     let mut published_health = fusion.health_now;
+    let mut pending_imu: Option<fusion_shared::ImuSample> = None;
+    let mut pending_position: Option<fusion_shared::PositionSample> = None;
 
     while !shutdown.load(Ordering::Relaxed) {
         let snapshots_before = fusion.report.snapshots;
         let mut taken = 0;
-        for _ in 0..BATCH {
-            match ports.imu.receive() {
-                Ok(Some(s)) => {
-                    let sample = Sample::Imu(*s);
-                    drop(s);
-                    fusion.handle(sample, &ports);
-                    taken += 1;
-                }
-                Ok(None) => break,
-                Err(e) => {
-                    if fusion.receive_errors == 0 {
-                        tracing::warn!("imu receive: {e:?} (further failures are only counted)");
-                    }
-                    fusion.receive_errors += 1;
-                    break;
-                }
+        // Two-way merge by timestamp: under a backlog, taking the older of the two
+        // pending samples keeps fusion in time order instead of making one kind
+        // artificially late (or too late) behind a batch of the other.
+        while taken < 2 * BATCH {
+            if pending_imu.is_none() {
+                pending_imu = receive(&ports.imu, &mut fusion.receive_errors, "imu");
             }
-        }
-        for _ in 0..BATCH {
-            match ports.position.receive() {
-                Ok(Some(s)) => {
-                    let sample = Sample::Position(*s);
-                    drop(s);
-                    fusion.handle(sample, &ports);
-                    taken += 1;
-                }
-                Ok(None) => break,
-                Err(e) => {
-                    if fusion.receive_errors == 0 {
-                        tracing::warn!("position receive: {e:?} (further failures are only counted)");
-                    }
-                    fusion.receive_errors += 1;
-                    break;
-                }
+            if pending_position.is_none() {
+                pending_position = receive(&ports.position, &mut fusion.receive_errors, "position");
             }
+            let sample = match (pending_imu, pending_position) {
+                (Some(i), Some(p)) if p.t_ns < i.t_ns => Sample::Position(pending_position.take().unwrap_or(p)),
+                (Some(i), _) => Sample::Imu(pending_imu.take().unwrap_or(i)),
+                (None, Some(p)) => Sample::Position(pending_position.take().unwrap_or(p)),
+                (None, None) => break,
+            };
+            fusion.handle(sample, &ports);
+            taken += 1;
         }
         if fusion.report.snapshots > snapshots_before {
             published_health = fusion.health_now;
@@ -362,7 +369,7 @@ fn run_model<M: Model>(
     );
     drop(ports);
     drop(node);
-    remove_domain_counter_if_last();
+    remove_domain_counter_if_last(&iceoryx);
     Ok(fusion.report)
 }
 
@@ -371,10 +378,9 @@ fn run_model<M: Model>(
 /// behind. A process starting at the same moment keeps its mapping, and node ids
 /// also hold the pid and the creation time, so a counter that starts again at 0
 /// cannot collide.
-fn remove_domain_counter_if_last() {
-    let config = service::iceoryx_config();
+fn remove_domain_counter_if_last(config: &iceoryx2::config::Config) {
     let mut others = 0;
-    let listed = Node::<ipc::Service>::list(&config, |state| {
+    let listed = Node::<ipc::Service>::list(config, |state| {
         if !matches!(state, NodeState::Dead(_)) {
             others += 1;
         }
@@ -383,6 +389,7 @@ fn remove_domain_counter_if_last() {
     if listed.is_ok() && others == 0 {
         // SAFETY: no other node of the domain exists (checked just above); see the
         // function docs for a node appearing concurrently.
-        let _ = unsafe { iceoryx2::testing::remove_global_mgmt_segment::<ipc::Service>(&config) };
+        // `iceoryx2::testing` is public but doc-hidden; pinned by the 0.10 lock.
+        let _ = unsafe { iceoryx2::testing::remove_global_mgmt_segment::<ipc::Service>(config) };
     }
 }

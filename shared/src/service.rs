@@ -86,33 +86,106 @@ impl ServiceNames {
     }
 }
 
+/// Environment variable naming an iceoryx2 domain: processes see each other only
+/// within one domain. Unset, the default domain is used. Tests set it to isolate
+/// themselves completely (their files in `/dev/shm` then carry its prefix).
+pub const DOMAIN_ENV: &str = "FUSION_ICEORYX_DOMAIN";
+
 /// The iceoryx2 configuration every fusiond process uses: the library defaults,
-/// passed explicitly (a node without one warns that no config file was loaded).
-pub fn iceoryx_config() -> Config {
-    Config::default()
+/// passed explicitly (a node without one warns that no config file was loaded),
+/// with the file prefix `iox2_<domain>_` for `domain`, or when it is `None` for
+/// the domain named by [`DOMAIN_ENV`]. A domain is 1–32 characters of
+/// `A-Z a-z 0-9 _ -`; an unusable one is an error.
+pub fn iceoryx_config(domain: Option<&str>) -> Result<Config, String> {
+    let mut config = Config::default();
+    let from_env = std::env::var(DOMAIN_ENV).ok().filter(|d| !d.is_empty());
+    if let Some(domain) = domain.map(str::to_string).or(from_env) {
+        let prefix = domain_prefix(&domain)
+            .ok_or_else(|| format!("invalid iceoryx2 domain {domain:?}: use 1 to 32 characters of A-Z a-z 0-9 _ -"))?;
+        config.global.prefix = FileName::new(prefix.as_bytes()).map_err(|e| format!("domain {domain:?}: {e:?}"))?;
+    }
+    Ok(config)
 }
 
-/// Creates a node named `name` for this process, with iceoryx2's own signal
-/// handling off (the binaries handle SIGINT/SIGTERM themselves).
-pub fn create_node(name: &str) -> Result<Node<ipc::Service>, String> {
+/// The file prefix of a domain, if the domain name is usable.
+pub fn domain_prefix(domain: &str) -> Option<String> {
+    let ok =
+        (1..=32).contains(&domain.len()) && domain.bytes().all(|b| b.is_ascii_alphanumeric() || b"_-".contains(&b));
+    ok.then(|| format!("iox2_{domain}_"))
+}
+
+/// Creates a node named `name` for this process in `config`'s domain, with
+/// iceoryx2's own signal handling off (the binaries handle SIGINT/SIGTERM).
+pub fn create_node(name: &str, config: &Config) -> Result<Node<ipc::Service>, String> {
     let node_name: NodeName = name.try_into().map_err(|e| format!("node name {name:?}: {e:?}"))?;
     NodeBuilder::new()
         .name(&node_name)
-        .config(&iceoryx_config())
+        .config(config)
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<ipc::Service>()
         .map_err(|e| format!("cannot create iceoryx2 node: {e:?}"))
 }
 
-fn service_name(name: &str) -> Result<ServiceName, String> {
-    name.try_into().map_err(|e| format!("service name {name:?}: {e:?}"))
+/// Why a service could not be opened.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ServiceError {
+    /// The service exists with another payload type: a process built against
+    /// another wire version of fusion-shared created it.
+    #[error("service {service} carries another wire version of its payload type")]
+    IncompatibleTypes {
+        /// Service name.
+        service: String,
+    },
+    /// The service exists with settings these ones cannot work with (another
+    /// fusiond version, or another program using the name).
+    #[error("service {service} exists with incompatible settings: {detail}")]
+    IncompatibleSettings {
+        /// Service name.
+        service: String,
+        /// iceoryx2's reason.
+        detail: String,
+    },
+    /// The service does not exist (open-only).
+    #[error("service {service} does not exist")]
+    DoesNotExist {
+        /// Service name.
+        service: String,
+    },
+    /// Anything else iceoryx2 refused (permissions, resources, a bad name...).
+    #[error("service {service}: {detail}")]
+    Other {
+        /// Service name.
+        service: String,
+        /// iceoryx2's reason.
+        detail: String,
+    },
+}
+
+fn classify(service: &str, debug: String) -> ServiceError {
+    let service = service.to_string();
+    if debug.contains("DoesNotExist") {
+        ServiceError::DoesNotExist { service }
+    } else if debug.contains("IncompatibleTypes") {
+        ServiceError::IncompatibleTypes { service }
+    } else if debug.contains("DoesNotSupport")
+        || debug.contains("Incompatible")
+        || debug.contains("ExceedsMaxNumberOfNodes")
+    {
+        ServiceError::IncompatibleSettings { service, detail: debug }
+    } else {
+        ServiceError::Other { service, detail: debug }
+    }
+}
+
+fn service_name(name: &str) -> Result<ServiceName, ServiceError> {
+    name.try_into().map_err(|e| ServiceError::Other { service: name.to_string(), detail: format!("{e:?}") })
 }
 
 /// Opens (or creates) a sample service.
 fn samples<T: std::fmt::Debug + ZeroCopySend>(
     node: &Node<ipc::Service>,
     name: &str,
-) -> Result<publish_subscribe::PortFactory<ipc::Service, T, ()>, String> {
+) -> Result<publish_subscribe::PortFactory<ipc::Service, T, ()>, ServiceError> {
     node.service_builder(&service_name(name)?)
         .publish_subscribe::<T>()
         .enable_safe_overflow(true)
@@ -122,14 +195,14 @@ fn samples<T: std::fmt::Debug + ZeroCopySend>(
         .max_subscribers(MAX_SAMPLE_SUBSCRIBERS)
         .max_nodes(MAX_NODES)
         .open_or_create()
-        .map_err(|e| format!("cannot open service {name}: {e:?}"))
+        .map_err(|e| classify(name, format!("{e:?}")))
 }
 
 /// Opens (or creates) `<ns>/imu`.
 pub fn imu_service(
     node: &Node<ipc::Service>,
     names: &ServiceNames,
-) -> Result<publish_subscribe::PortFactory<ipc::Service, ImuSample, ()>, String> {
+) -> Result<publish_subscribe::PortFactory<ipc::Service, ImuSample, ()>, ServiceError> {
     samples(node, &names.imu)
 }
 
@@ -137,36 +210,43 @@ pub fn imu_service(
 pub fn position_service(
     node: &Node<ipc::Service>,
     names: &ServiceNames,
-) -> Result<publish_subscribe::PortFactory<ipc::Service, PositionSample, ()>, String> {
+) -> Result<publish_subscribe::PortFactory<ipc::Service, PositionSample, ()>, ServiceError> {
     samples(node, &names.position)
 }
 
-/// Opens (or creates) `<ns>/state` (publish-subscribe, history 1).
+/// Opens `<ns>/state` (publish-subscribe, history 1); creates it too when
+/// `create` (the daemon), else it must exist (a reader).
 pub fn state_service(
     node: &Node<ipc::Service>,
     names: &ServiceNames,
-) -> Result<publish_subscribe::PortFactory<ipc::Service, StateSnapshot, ()>, String> {
-    node.service_builder(&service_name(&names.state)?)
+    create: bool,
+) -> Result<publish_subscribe::PortFactory<ipc::Service, StateSnapshot, ()>, ServiceError> {
+    let builder = node
+        .service_builder(&service_name(&names.state)?)
         .publish_subscribe::<StateSnapshot>()
         .enable_safe_overflow(true)
         .subscriber_max_buffer_size(STATE_BUFFER)
         .history_size(1)
         .max_publishers(1)
         .max_subscribers(MAX_STATE_SUBSCRIBERS)
-        .max_nodes(MAX_NODES)
-        .open_or_create()
-        .map_err(|e| format!("cannot open service {}: {e:?}", names.state))
+        .max_nodes(MAX_NODES);
+    let result = if create {
+        builder.open_or_create().map_err(|e| format!("{e:?}"))
+    } else {
+        builder.open().map_err(|e| format!("{e:?}"))
+    };
+    result.map_err(|e| classify(&names.state, e))
 }
 
 /// Opens (or creates) an event service (`<ns>/wake` or `<ns>/state`).
-pub fn event_service(node: &Node<ipc::Service>, name: &str) -> Result<event::PortFactory<ipc::Service>, String> {
+pub fn event_service(node: &Node<ipc::Service>, name: &str) -> Result<event::PortFactory<ipc::Service>, ServiceError> {
     node.service_builder(&service_name(name)?)
         .event()
         .max_notifiers(MAX_EVENT_PORTS)
         .max_listeners(MAX_EVENT_PORTS)
         .max_nodes(MAX_NODES)
         .open_or_create()
-        .map_err(|e| format!("cannot open event service {name}: {e:?}"))
+        .map_err(|e| classify(name, format!("{e:?}")))
 }
 
 #[cfg(test)]
@@ -180,5 +260,13 @@ mod tests {
         for bad in ["", "a/b", "with space", "ü", &"x".repeat(65)] {
             assert!(ServiceNames::new(bad).is_err(), "{bad:?}");
         }
+    }
+
+    #[test]
+    fn domains_set_the_file_prefix() {
+        let c = iceoryx_config(Some("test-7")).unwrap();
+        assert_eq!(c.global.prefix.as_bytes(), b"iox2_test-7_");
+        assert!(iceoryx_config(Some("bad/domain")).is_err());
+        assert!(iceoryx_config(Some("")).is_err());
     }
 }

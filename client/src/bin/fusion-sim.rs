@@ -1,15 +1,27 @@
 //! `fusion-sim`: simulated IMU and position sensors on one ground-truth trajectory.
 //!
-//! `fusion-sim record` writes a drive as replay input (JSON lines, arrival order)
-//! and its truth (JSON lines, one per sample, timestamp order).
+//! - `fusion-sim run`: publish live to a running fusiond, paced by the clock:
+//!   both sensors, or one of them (`--imu-only`, `--position-only`) so they can
+//!   run as separate processes on the same trajectory and start time; or a file
+//!   (`--input`), as fast as the daemon takes it or paced by its timestamps.
+//! - `fusion-sim record`: write a drive as replay input (JSON lines, arrival
+//!   order) and its truth (JSON lines, one per sample, timestamp order).
 
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
-use fusion_client::sim::{Scenario, ScenarioConfig};
-use fusion_shared::jsonl::format_sample;
+use std::io::BufRead;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
+use fusion_client::sim::{CarTrajectory, ImuSim, PositionSim, Scenario, ScenarioConfig};
+use fusion_client::{Client, now_ns};
+use fusion_shared::Sample;
+use fusion_shared::jsonl::{format_sample, parse_sample};
 
 #[derive(Parser)]
 #[command(name = "fusion-sim", version, about = "Simulated IMU and position sensors for fusiond")]
@@ -20,6 +32,30 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Publish simulated sensors (or a file) live to fusiond.
+    Run {
+        /// Namespace of the services.
+        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
+        namespace: String,
+        /// Publish only the IMU.
+        #[arg(long, conflicts_with = "position_only")]
+        imu_only: bool,
+        /// Publish only the position fixes.
+        #[arg(long)]
+        position_only: bool,
+        /// Publish this file (replay input format) instead of simulating.
+        #[arg(long, conflicts_with_all = ["imu_only", "position_only"])]
+        input: Option<PathBuf>,
+        /// With --input: pace by the samples' timestamps instead of as fast as the daemon takes them.
+        #[arg(long, requires = "input")]
+        realtime: bool,
+        /// Trajectory time 0 on CLOCK_MONOTONIC, ns (default: now + 100 ms). Give
+        /// the same value to separate --imu-only and --position-only processes.
+        #[arg(long)]
+        start_at_ns: Option<u64>,
+        #[command(flatten)]
+        sim: SimArgs,
+    },
     /// Write a simulated drive to files: samples in arrival order, and the truth.
     Record {
         /// Samples (replay input format).
@@ -69,7 +105,7 @@ struct SimArgs {
     /// Probability of a gross outlier.
     #[arg(long, default_value_t = 0.0)]
     outliers: f64,
-    /// Trajectory time 0 as a sample timestamp, ns.
+    /// Trajectory time 0 as a sample timestamp, ns (record only).
     #[arg(long, default_value_t = 1_000_000_000)]
     start_ns: u64,
 }
@@ -98,6 +134,29 @@ impl SimArgs {
 
 fn main() -> anyhow::Result<()> {
     match Cli::parse().command {
+        Command::Run { namespace, imu_only, position_only, input, realtime, start_at_ns, sim } => {
+            let stop = Arc::new(AtomicBool::new(false));
+            for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+                signal_hook::flag::register(signal, Arc::clone(&stop))?;
+            }
+            let client = Client::connect(&namespace)?;
+            if let Some(path) = input {
+                return publish_file(&client, &path, realtime, &stop);
+            }
+            let start = start_at_ns.unwrap_or_else(|| now_ns() + 100_000_000);
+            let config = sim.scenario();
+            let trajectory = CarTrajectory::new(config.seed);
+            let end_ns = start + (config.duration_s * 1e9) as u64;
+            let imu_sim = (!position_only)
+                .then(|| ImuSim::new(trajectory.clone(), config.imu.clone(), config.imu_output, start, config.seed));
+            let pos_sim =
+                (!imu_only).then(|| PositionSim::new(trajectory, config.position.clone(), start, config.seed));
+            let mut imu = imu_sim.as_ref().map(|_| client.imu_publisher(config.imu.sensor)).transpose()?;
+            let mut pos = pos_sim.as_ref().map(|_| client.position_publisher(config.position.sensor)).transpose()?;
+            let (n_imu, n_pos) = play(ArrivalMerge::new(imu_sim, pos_sim), imu.as_mut(), pos.as_mut(), end_ns, &stop)?;
+            eprintln!("fusion-sim: published {n_imu} IMU samples and {n_pos} position fixes");
+            Ok(())
+        }
         Command::Record { output, truth, sim } => {
             let scenario = Scenario::generate(&sim.scenario());
             let mut out = BufWriter::new(std::fs::File::create(&output).with_context(|| output.display().to_string())?);
@@ -123,4 +182,58 @@ fn main() -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// Most samples published ahead of the daemon with `--input` (well inside the
+/// daemon's subscriber buffer of 4096).
+const IN_FLIGHT: u64 = 1024;
+
+/// Publishes a file in file order: paced by timestamps (`realtime`), or as fast as
+/// the daemon takes it, throttled by the daemon's own received counters.
+fn publish_file(client: &Client, path: &std::path::Path, realtime: bool, stop: &AtomicBool) -> anyhow::Result<()> {
+    let file = std::io::BufReader::new(std::fs::File::open(path).with_context(|| path.display().to_string())?);
+    let mut imu = client.imu_publisher(0)?;
+    let mut pos = client.position_publisher(1)?;
+    let mut state = client.state_subscriber()?;
+    let received = |s: &fusion_shared::StateSnapshot| s.sensor_counters().iter().map(|c| c.received).sum::<u64>();
+    let baseline = state.latest()?.map(received).unwrap_or(0);
+    let (mut published, mut skipped) = (0u64, 0u64);
+    let mut pace: Option<(u64, u64)> = None; // (first timestamp, wall time of it)
+    for (i, line) in file.lines().enumerate() {
+        if stop.load(Ordering::Relaxed) {
+            break;
+        }
+        let line = line?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let sample = match parse_sample(&line) {
+            Ok(s) => s,
+            Err(e) => {
+                eprintln!("fusion-sim: line {}: {e}", i + 1);
+                skipped += 1;
+                continue;
+            }
+        };
+        if realtime {
+            let (t0, wall0) = *pace.get_or_insert((sample.t_ns(), now_ns()));
+            sleep_until(wall0 + sample.t_ns().saturating_sub(t0), stop);
+        } else {
+            while published.saturating_sub(state.latest()?.map(received).unwrap_or(0).saturating_sub(baseline))
+                >= IN_FLIGHT
+            {
+                if stop.load(Ordering::Relaxed) {
+                    break;
+                }
+                state.wait_next(Duration::from_millis(10))?;
+            }
+        }
+        match sample {
+            Sample::Imu(s) => imu.publish_sample(s)?,
+            Sample::Position(s) => pos.publish_sample(s)?,
+        };
+        published += 1;
+    }
+    eprintln!("fusion-sim: published {published} samples from {} ({skipped} unreadable lines)", path.display());
+    Ok(())
 }

@@ -3,7 +3,9 @@
 //! - [`trajectory`]: closed-form car-like ground truth.
 //! - [`sensors`]: IMU and position sensor models (rates, noise, delay, jitter,
 //!   dropouts, outliers) and [`Scenario`], a whole drive in arrival order.
+//! - [`player`]: publishing them live, paced by the clock.
 
+pub mod player;
 pub mod sensors;
 pub mod trajectory;
 

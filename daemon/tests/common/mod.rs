@@ -58,3 +58,5 @@ pub fn acceptance_scenario(seed: u64, outlier_probability: f64) -> Scenario {
     c.position.outlier_probability = outlier_probability;
     Scenario::generate(&c)
 }
+
+pub mod live;

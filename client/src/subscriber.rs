@@ -1,0 +1,128 @@
+//! The snapshot subscriber: any process's view of the fused state.
+
+use std::time::{Duration, Instant};
+
+use fusion_shared::StateSnapshot;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+use iceoryx2::sample::Sample;
+
+use crate::ClientError;
+
+/// Longest single sleep while waiting: a reader that connected after the last
+/// snapshot receives the service's history (the latest snapshot) within the
+/// daemon's 10 ms housekeeping tick, which sends no event, so waits re-check at
+/// least this often.
+const WAIT_SLICE: Duration = Duration::from_millis(5);
+
+/// Reads [`StateSnapshot`]s from `<ns>/state`, zero-copy: the returned reference
+/// points into shared memory and stays valid until the next call.
+///
+/// ```no_run
+/// # fn main() -> Result<(), fusion_client::ClientError> {
+/// use std::time::Duration;
+/// use fusion_client::Client;
+/// let client = Client::connect("fusion")?;
+/// let mut state = client.state_subscriber()?;
+/// if let Some(s) = state.wait_next(Duration::from_secs(1))? {
+///     println!("position {:?} at t = {} ns, health {}", &s.state()[..3], s.t_ns,
+///              fusion_shared::snapshot::health::name(s.health));
+/// }
+/// # Ok(())
+/// # }
+/// ```
+pub struct StateSubscriber {
+    service: String,
+    subscriber: Subscriber<ipc::Service, StateSnapshot, ()>,
+    listener: Listener<ipc::Service>,
+    held: Option<Sample<ipc::Service, StateSnapshot, ()>>,
+}
+
+impl StateSubscriber {
+    pub(crate) fn new(client: &crate::Client, buffer: usize) -> Result<Self, ClientError> {
+        let names = client.names();
+        let service = match fusion_shared::service::state_service(client.node(), names, false) {
+            Ok(s) => s,
+            Err(fusion_shared::service::ServiceError::DoesNotExist { .. }) => {
+                return Err(ClientError::DaemonNotRunning { namespace: names.namespace.clone() });
+            }
+            Err(e) => return Err(e.into()),
+        };
+        let port = |detail: String| ClientError::Port { service: names.state.clone(), detail };
+        let subscriber = service
+            .subscriber_builder()
+            .buffer_size(buffer.clamp(1, fusion_shared::service::STATE_BUFFER))
+            .create()
+            .map_err(|e| port(format!("{e:?}")))?;
+        let event = fusion_shared::service::event_service(client.node(), &names.state)?;
+        let listener = event.listener_builder().create().map_err(|e| port(format!("{e:?}")))?;
+        Ok(Self { service: names.state.clone(), subscriber, listener, held: None })
+    }
+
+    fn receive(&mut self) -> Result<bool, ClientError> {
+        match self.subscriber.receive() {
+            Ok(Some(sample)) => {
+                self.held = Some(sample);
+                Ok(true)
+            }
+            Ok(None) => Ok(false),
+            Err(e) => Err(ClientError::Receive { service: self.service.clone(), detail: format!("{e:?}") }),
+        }
+    }
+
+    /// The newest snapshot, skipping any older unread ones; the last one returned
+    /// if nothing new arrived; `None` if none ever did. Never blocks.
+    pub fn latest(&mut self) -> Result<Option<&StateSnapshot>, ClientError> {
+        while self.receive()? {}
+        Ok(self.held.as_deref())
+    }
+
+    /// The next unread snapshot in publication order, or `None` right away if
+    /// there is none. Reading with this keeps every snapshot while the reader keeps
+    /// up (the buffer holds [`Client::state_subscriber_with_buffer`] snapshots).
+    ///
+    /// [`Client::state_subscriber_with_buffer`]: crate::Client::state_subscriber_with_buffer
+    pub fn try_next(&mut self) -> Result<Option<&StateSnapshot>, ClientError> {
+        Ok(if self.receive()? { self.held.as_deref() } else { None })
+    }
+
+    /// The next unread snapshot, sleeping on the `<ns>/state` event until one
+    /// arrives or `timeout` passes (`None`). Uses no CPU while waiting.
+    pub fn wait_next(&mut self, timeout: Duration) -> Result<Option<&StateSnapshot>, ClientError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if self.receive()? {
+                return Ok(self.held.as_deref());
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Ok(None);
+            }
+            match self.listener.timed_wait(|_| {}, left.min(WAIT_SLICE)) {
+                Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
+                Err(e) => {
+                    return Err(ClientError::Receive { service: self.service.clone(), detail: format!("{e:?}") });
+                }
+            }
+        }
+    }
+
+    /// The next unread snapshot, busy-polling until one arrives or `timeout`
+    /// passes: the lowest latency, at the cost of a core while waiting.
+    pub fn spin_next(&mut self, timeout: Duration) -> Result<Option<&StateSnapshot>, ClientError> {
+        let deadline = Instant::now() + timeout;
+        let mut spins = 0u32;
+        loop {
+            if self.receive()? {
+                return Ok(self.held.as_deref());
+            }
+            spins = spins.wrapping_add(1);
+            // Reading the clock costs ~20 ns; every 256th turn is often enough.
+            if spins % 256 == 0 && Instant::now() >= deadline {
+                return Ok(None);
+            }
+            std::hint::spin_loop();
+        }
+    }
+}

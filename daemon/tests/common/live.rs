@@ -1,0 +1,197 @@
+//! Running the real fusiond over real iceoryx2 in a test: every test gets its own
+//! iceoryx2 domain (file prefix) and namespace, so tests run in parallel without
+//! seeing each other, and can check that nothing is left behind.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::{Duration, Instant};
+
+use fusion_client::{Client, StateSubscriber};
+use fusion_shared::service::{DOMAIN_ENV, domain_prefix};
+use fusion_shared::{Sample, StateSnapshot};
+
+/// A unique iceoryx2 domain and namespace; removes the domain's files on drop.
+pub struct TestDomain {
+    pub domain: String,
+    pub namespace: String,
+    pub prefix: String,
+}
+
+impl TestDomain {
+    pub fn new(tag: &str) -> Self {
+        static NEXT: AtomicU32 = AtomicU32::new(0);
+        let n = NEXT.fetch_add(1, Ordering::Relaxed);
+        let domain = format!("ft{}x{n}", std::process::id());
+        let prefix = domain_prefix(&domain).unwrap();
+        Self { namespace: format!("{tag}-{n}"), domain, prefix }
+    }
+
+    pub fn client(&self) -> Client {
+        Client::connect_in_domain(&self.namespace, Some(&self.domain)).unwrap()
+    }
+
+    /// Files of this domain in /dev/shm and /tmp/iceoryx2.
+    pub fn files(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if let Ok(entries) = std::fs::read_dir("/dev/shm") {
+            for e in entries.flatten() {
+                let name = e.file_name().to_string_lossy().into_owned();
+                if name.starts_with(&self.prefix) {
+                    out.push(format!("/dev/shm/{name}"));
+                }
+            }
+        }
+        let mut stack = vec![PathBuf::from("/tmp/iceoryx2")];
+        while let Some(dir) = stack.pop() {
+            for e in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
+                let path = e.path();
+                if path.is_dir() {
+                    stack.push(path.clone());
+                }
+                if e.file_name().to_string_lossy().starts_with(&self.prefix) {
+                    out.push(path.display().to_string());
+                }
+            }
+        }
+        out
+    }
+}
+
+impl Drop for TestDomain {
+    fn drop(&mut self) {
+        for f in self.files() {
+            let _ = std::fs::remove_file(&f).or_else(|_| std::fs::remove_dir_all(&f));
+        }
+    }
+}
+
+/// Path of a binary of the workspace next to fusiond (built by `cargo test --workspace`).
+pub fn workspace_bin(name: &str) -> PathBuf {
+    let path = PathBuf::from(env!("CARGO_BIN_EXE_fusiond")).with_file_name(name);
+    assert!(path.exists(), "{} is not built: run the tests with `cargo test --workspace`", path.display());
+    path
+}
+
+/// A running `fusiond run`.
+pub struct Daemon {
+    child: Child,
+    _dir: tempfile::TempDir,
+    stderr: PathBuf,
+}
+
+impl Daemon {
+    pub fn start(domain: &TestDomain, config: &str, wait: &str) -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        let config_path = dir.path().join("config.toml");
+        std::fs::write(&config_path, config).unwrap();
+        let stderr = dir.path().join("stderr.log");
+        let child = Command::new(env!("CARGO_BIN_EXE_fusiond"))
+            .args(["run", "--namespace", &domain.namespace, "--wait", wait, "--config"])
+            .arg(&config_path)
+            .env(DOMAIN_ENV, &domain.domain)
+            .env("RUST_LOG", "info")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&stderr).unwrap())
+            .spawn()
+            .unwrap();
+        let mut d = Self { child, _dir: dir, stderr };
+        d.wait_ready(domain);
+        d
+    }
+
+    fn wait_ready(&mut self, domain: &TestDomain) {
+        let client = domain.client();
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while Instant::now() < deadline {
+            if let Ok(Some(status)) = self.child.try_wait() {
+                panic!("fusiond exited at start-up ({status}): {}", self.stderr());
+            }
+            if self.stderr().contains("fusiond running") && client.state_subscriber().is_ok() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        panic!("fusiond did not come up: {}", self.stderr());
+    }
+
+    pub fn stderr(&self) -> String {
+        std::fs::read_to_string(&self.stderr).unwrap_or_default()
+    }
+
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    pub fn is_running(&mut self) -> bool {
+        matches!(self.child.try_wait(), Ok(None))
+    }
+
+    pub fn signal(&mut self, signal: &str) {
+        let ok = Command::new("kill").args([signal, &self.child.id().to_string()]).status().unwrap().success();
+        assert!(ok, "kill {signal} failed");
+    }
+
+    /// SIGTERM, then the exit status (SIGKILL after 10 s).
+    pub fn terminate(&mut self) -> ExitStatus {
+        self.signal("-TERM");
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while Instant::now() < deadline {
+            if let Ok(Some(status)) = self.child.try_wait() {
+                return status;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        let _ = self.child.kill();
+        panic!("fusiond ignored SIGTERM: {}", self.stderr());
+    }
+
+    pub fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for Daemon {
+    fn drop(&mut self) {
+        if self.is_running() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
+/// Whether a snapshot was triggered by `sample`.
+pub fn triggered_by(s: &StateSnapshot, sample: &Sample) -> bool {
+    s.input_t_ns == sample.t_ns()
+        && s.input_kind == sample.kind() as u32
+        && s.input_sensor == sample.sensor()
+        && s.input_seq == sample.seq()
+}
+
+/// Publishes samples one by one, each after the snapshot of the previous one:
+/// the daemon sees exactly this arrival order. Returns the snapshots.
+pub fn publish_in_lockstep(client: &Client, reader: &mut StateSubscriber, samples: &[Sample]) -> Vec<StateSnapshot> {
+    let mut imu = client.imu_publisher(0).unwrap();
+    let mut pos = client.position_publisher(1).unwrap();
+    let mut out = Vec::with_capacity(samples.len());
+    for s in samples {
+        match *s {
+            Sample::Imu(x) => imu.publish_sample(x).unwrap(),
+            Sample::Position(x) => pos.publish_sample(x).unwrap(),
+        };
+        let deadline = Instant::now() + Duration::from_secs(10);
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            assert!(!left.is_zero(), "no snapshot for {s:?}");
+            if let Some(snap) = reader.wait_next(left).unwrap()
+                && triggered_by(snap, s)
+            {
+                out.push(*snap);
+                break;
+            }
+        }
+    }
+    out
+}

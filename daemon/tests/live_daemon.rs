@@ -1,0 +1,239 @@
+//! The real `fusiond run` over real iceoryx2, fed and read with the client crate.
+
+mod common;
+
+use std::time::{Duration, Instant};
+
+use common::live::{Daemon, TestDomain, publish_in_lockstep, triggered_by, workspace_bin};
+use fusion_client::sim::{Scenario, ScenarioConfig};
+use fusion_shared::snapshot::health;
+use fusion_shared::{Sample, StateSnapshot};
+
+fn scenario(seconds: f64, delay_ms: (u64, u64)) -> Vec<Sample> {
+    let mut c = ScenarioConfig { seed: 4, duration_s: seconds, ..Default::default() };
+    c.imu.rate_hz = 200.0;
+    c.imu.jitter_ns = 500_000;
+    c.position.delay_min_ns = delay_ms.0 * 1_000_000;
+    c.position.delay_max_ns = delay_ms.1 * 1_000_000;
+    Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect()
+}
+
+fn config() -> String {
+    common::linear_config(Some(0.999)).replace("[100, 100, 100, 10, 10, 10]", "[100, 100, 100, 225, 225, 225]")
+}
+
+fn replay(samples: &[Sample], config: &str) -> Vec<fusion_daemon::replay::OutputLine> {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in.jsonl");
+    let text: String = samples.iter().map(|s| fusion_shared::jsonl::format_sample(s) + "\n").collect();
+    std::fs::write(&input, text).unwrap();
+    common::run_replay(dir.path(), config, &input, false).0
+}
+
+fn assert_same_estimate(snap: &StateSnapshot, line: &fusion_daemon::replay::OutputLine, what: &str) {
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs()).max(1e-300);
+    assert_eq!((snap.t_ns, snap.sample_seq), (line.t_ns, line.seq), "{what}: estimate of another sample");
+    assert!(
+        snap.state().iter().zip(&line.x).all(|(a, b)| close(*a, *b)),
+        "{what}: x {:?} vs {:?}",
+        snap.state(),
+        line.x
+    );
+    assert!(snap.covariance().iter().zip(&line.p).all(|(a, b)| close(*a, *b)), "{what}: P differs");
+    assert_eq!(snap.accepted(), line.accepted, "{what}");
+}
+
+#[test]
+fn in_order_stream_gives_the_replay_estimates() {
+    let domain = TestDomain::new("inorder");
+    let mut daemon = Daemon::start(&domain, &config(), "event");
+    let client = domain.client();
+    let mut reader = client.state_subscriber_with_buffer(512).unwrap();
+    let mut samples = scenario(3.0, (0, 0));
+    samples.sort_by_key(|s| (s.t_ns(), s.kind(), s.sensor(), s.seq()));
+    let snaps = publish_in_lockstep(&client, &mut reader, &samples);
+    let lines = replay(&samples, &config());
+    assert_eq!(snaps.len(), lines.len());
+    for (i, (s, l)) in snaps.iter().zip(&lines).enumerate() {
+        assert_same_estimate(s, l, &format!("sample {i}"));
+        assert_eq!(s.input_replayed, 0);
+    }
+    let last = snaps.last().unwrap();
+    assert_eq!(last.health, health::OK, "{:?}", last.health_reason_names().collect::<Vec<_>>());
+    assert!(daemon.terminate().success());
+}
+
+#[test]
+fn late_positions_give_the_replay_final_state() {
+    let domain = TestDomain::new("late");
+    let mut daemon = Daemon::start(&domain, &config(), "spin");
+    let client = domain.client();
+    let mut reader = client.state_subscriber_with_buffer(512).unwrap();
+    let samples = scenario(3.0, (20, 150)); // arrival order: positions up to 150 ms late
+    let snaps = publish_in_lockstep(&client, &mut reader, &samples);
+    let lines = replay(&samples, &config());
+    let last = snaps.last().unwrap();
+    assert_same_estimate(last, lines.last().unwrap(), "final state");
+    let late: u64 = last.sensor_counters().iter().map(|c| c.late).sum();
+    assert!(late >= 25, "positions were fused late by rewind: {late}");
+    assert!(snaps.iter().any(|s| s.input_replayed > 0 && s.input_t_ns < s.t_ns));
+    assert!(daemon.terminate().success());
+}
+
+#[test]
+fn bad_samples_are_rejected_counted_and_change_nothing() {
+    let domain = TestDomain::new("bad");
+    let mut daemon = Daemon::start(&domain, &config(), "event");
+    let client = domain.client();
+    let mut reader = client.state_subscriber_with_buffer(512).unwrap();
+    let good = scenario(2.0, (0, 0));
+    // Bad samples take their place in each sensor's sequence, as a faulty sensor's would.
+    let mut mixed = Vec::new();
+    let (mut imu_seq, mut pos_seq) = (0, 0);
+    let mut bad_count = (0, 0);
+    for (i, s) in good.iter().enumerate() {
+        let mut s = *s;
+        match &mut s {
+            Sample::Imu(x) => {
+                if i % 97 == 5 {
+                    let mut nan = *x;
+                    nan.seq = imu_seq;
+                    nan.accel_mps2[1] = if i % 2 == 0 { f64::NAN } else { f64::INFINITY };
+                    mixed.push((Sample::Imu(nan), false));
+                    imu_seq += 1;
+                    bad_count.0 += 1;
+                }
+                x.seq = imu_seq;
+                imu_seq += 1;
+            }
+            Sample::Position(x) => {
+                let mut bad = *x;
+                bad.seq = pos_seq;
+                match pos_seq % 4 {
+                    0 => bad.cov_m2 = [1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0], // indefinite
+                    1 => bad.cov_m2[1] = 0.3,                                        // not symmetric
+                    2 => bad.t_ns = fusion_shared::now_ns() + 10_000_000_000,        // far future
+                    _ => bad.pos_m[2] = f64::NAN,
+                }
+                mixed.push((Sample::Position(bad), false));
+                pos_seq += 1;
+                bad_count.1 += 1;
+                x.seq = pos_seq;
+                pos_seq += 1;
+            }
+        }
+        mixed.push((s, true));
+    }
+    let mut imu = client.imu_publisher(0).unwrap();
+    let mut pos = client.position_publisher(1).unwrap();
+    let mut last = None;
+    for (s, good) in &mixed {
+        match *s {
+            Sample::Imu(x) => imu.publish_sample(x).unwrap(),
+            Sample::Position(x) => pos.publish_sample(x).unwrap(),
+        };
+        if *good {
+            loop {
+                let snap = reader.wait_next(Duration::from_secs(10)).unwrap().expect("snapshot");
+                if triggered_by(snap, s) {
+                    last = Some(*snap);
+                    break;
+                }
+            }
+        }
+    }
+    let clean: Vec<Sample> = mixed.iter().filter(|(_, g)| *g).map(|(s, _)| *s).collect();
+    let lines = replay(&clean, &config());
+    let last = last.unwrap();
+    assert_same_estimate(&last, lines.last().unwrap(), "final state with bad samples");
+    let c = last.sensor_counters();
+    assert_eq!((c[0].invalid, c[1].invalid), bad_count, "{c:?}");
+    assert_eq!((c[0].lost, c[1].lost), (0, 0), "a rejected sample arrived: it is not lost");
+    assert!(daemon.terminate().success());
+}
+
+#[test]
+fn a_reader_started_late_gets_the_latest_snapshot_at_once() {
+    let domain = TestDomain::new("latereader");
+    let mut daemon = Daemon::start(&domain, &config(), "event");
+    let client = domain.client();
+    let mut reader = client.state_subscriber().unwrap();
+    let samples = scenario(0.5, (0, 0));
+    let snaps = publish_in_lockstep(&client, &mut reader, &samples);
+    // Everything is quiet now; a new process-like client connects.
+    let late_client = domain.client();
+    let mut late = late_client.state_subscriber().unwrap();
+    let got = late.wait_next(Duration::from_secs(2)).unwrap().copied().expect("history snapshot");
+    assert_eq!(got.seq, snaps.last().unwrap().seq);
+    assert_eq!(got.state(), snaps.last().unwrap().state());
+    assert!(daemon.terminate().success());
+}
+
+#[test]
+fn sigterm_leaves_nothing_behind() {
+    let domain = TestDomain::new("sigterm");
+    let mut daemon = Daemon::start(&domain, &config(), "event");
+    {
+        let client = domain.client();
+        let mut reader = client.state_subscriber().unwrap();
+        publish_in_lockstep(&client, &mut reader, &scenario(0.2, (0, 0)));
+    }
+    assert!(!domain.files().is_empty(), "the daemon's files are under the domain prefix");
+    let status = daemon.terminate();
+    assert!(status.success(), "{status}: {}", daemon.stderr());
+    assert_eq!(domain.files(), Vec::<String>::new(), "left behind after SIGTERM");
+    assert!(daemon.stderr().contains("fusiond stopping"));
+}
+
+#[test]
+fn after_sigkill_a_new_daemon_starts_and_clients_carry_on() {
+    let domain = TestDomain::new("sigkill");
+    let mut first = Daemon::start(&domain, &config(), "event");
+    let client = domain.client();
+    let mut reader = client.state_subscriber_with_buffer(512).unwrap();
+    let samples = scenario(1.0, (0, 0));
+    let (before, after) = samples.split_at(samples.len() / 2);
+    publish_in_lockstep(&client, &mut reader, before);
+    first.signal("-KILL");
+    first.kill();
+    // No manual cleanup: the new daemon starts on the dead one's leftovers.
+    let mut second = Daemon::start(&domain, &config(), "event");
+    // The same publisher and reader ports keep working with the new daemon.
+    let snaps = publish_in_lockstep(&client, &mut reader, after);
+    assert_eq!(snaps.len(), after.len());
+    assert_eq!(snaps[0].seq, 0, "snapshots of the new daemon");
+    assert!(second.terminate().success());
+}
+
+#[test]
+fn sigkill_of_a_publisher_marks_its_stream_stale() {
+    let domain = TestDomain::new("pubkill");
+    let mut daemon = Daemon::start(&domain, &config(), "event");
+    let client = domain.client();
+    let mut reader = client.state_subscriber_with_buffer(512).unwrap();
+    let mut sim = std::process::Command::new(workspace_bin("fusion-sim"))
+        .args(["run", "--namespace", &domain.namespace, "--duration", "60"])
+        .env(fusion_shared::service::DOMAIN_ENV, &domain.domain)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let wait_for = |reader: &mut fusion_client::StateSubscriber, what: &str, f: &dyn Fn(&StateSnapshot) -> bool| {
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while Instant::now() < deadline {
+            if let Some(s) = reader.wait_next(Duration::from_millis(100)).unwrap()
+                && f(s)
+            {
+                return *s;
+            }
+        }
+        panic!("never saw: {what}");
+    };
+    wait_for(&mut reader, "health ok", &|s| s.health == health::OK);
+    std::process::Command::new("kill").args(["-KILL", &sim.id().to_string()]).status().unwrap();
+    let _ = sim.wait();
+    let s = wait_for(&mut reader, "imu stale", &|s| s.health_reasons & health::IMU_STALE != 0);
+    assert_eq!(s.health, health::DEGRADED);
+    assert!(daemon.is_running(), "the daemon keeps running");
+    assert!(daemon.terminate().success());
+}
