@@ -119,7 +119,7 @@ impl StateSubscriber {
             }
             spins = spins.wrapping_add(1);
             // Reading the clock costs ~20 ns; every 256th turn is often enough.
-            if spins % 256 == 0 && Instant::now() >= deadline {
+            if spins.is_multiple_of(256) && Instant::now() >= deadline {
                 return Ok(None);
             }
             std::hint::spin_loop();

@@ -98,7 +98,7 @@ pub struct SensorSlot {
     pub sensor: u32,
     /// Counters.
     pub stats: SensorStats,
-    /// NIS of the latest measurement processed in order.
+    /// NIS of the measurement of this sensor processed last (in order or late).
     pub last_nis: Option<f64>,
     /// Largest timestamp received.
     pub last_t_ns: Option<u64>,
@@ -282,9 +282,8 @@ impl<M: Model> Engine<M> {
         let outcome = self.model.step(&mut state, sample);
         count_outcome(&mut self.sensors[slot].stats, &outcome, 1);
         let replayed = self.history.len() - index;
-        if replayed == 0 {
-            self.sensors[slot].last_nis = outcome.nis().or(self.sensors[slot].last_nis);
-        } else {
+        self.sensors[slot].last_nis = outcome.nis().or(self.sensors[slot].last_nis);
+        if replayed > 0 {
             self.sensors[slot].stats.late += 1;
             self.stats.rewinds += 1;
             self.stats.replayed += replayed as u64;

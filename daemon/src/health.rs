@@ -3,11 +3,13 @@
 //! - A stream is stale when no sample of a sensor of that kind has arrived for
 //!   longer than its timeout (daemon clock).
 //! - The NIS of the last `N` fixes of a position sensor is persistently out of
-//!   bounds when its sum leaves the two-sided χ²_{mN} band at the configured
-//!   probability: the sum of `N` independent χ²ₘ variables is χ²_{mN}
-//!   (Bar-Shalom et al. 2001, §5.4.2, the time-average NIS test). Too large means
-//!   filter and sensor disagree (fixes may be gated for good), too small means the
-//!   filter is far too pessimistic.
+//!   bounds when the sum over the `k` fused ones leaves the two-sided χ²_{3k}
+//!   band at the configured probability (the sum of `k` independent χ²₃ variables
+//!   is χ²_{3k}: Bar-Shalom et al. 2001, §5.4.2, the time-average NIS test), or
+//!   when more than half of them were gated (the filter locked itself out). Too
+//!   large means filter and sensor disagree, too small that the filter is far too
+//!   pessimistic. A gated outlier now and then is the gate doing its job and
+//!   leaves the sum alone.
 //! - Samples are lost when a sensor's sequence numbers had a gap recently.
 //!
 //! Pure and allocation-free after construction; the daemon evaluates it on every
@@ -45,9 +47,10 @@ impl Default for HealthConfig {
     }
 }
 
+/// NIS of a fused fix, or `None` for a gated one.
 #[derive(Debug, Clone, Copy)]
 struct NisWindow {
-    values: [f64; MAX_NIS_WINDOW],
+    values: [Option<f64>; MAX_NIS_WINDOW],
     next: usize,
     len: usize,
 }
@@ -56,8 +59,8 @@ struct NisWindow {
 #[derive(Debug, Clone)]
 pub struct HealthMonitor {
     config: HealthConfig,
-    /// χ²_{3N} band for the sum of the NIS of `N` 3-D fixes.
-    band: (f64, f64),
+    /// `bands[k]`: χ²_{3k} band for the NIS sum of `k` fused 3-D fixes.
+    bands: [(f64, f64); MAX_NIS_WINDOW + 1],
     windows: [NisWindow; MAX_SENSORS],
     lost_seen: [u64; MAX_SENSORS],
     last_loss_ns: Option<u64>,
@@ -67,25 +70,31 @@ impl HealthMonitor {
     /// A monitor with `config` (window clamped to 1..=[`MAX_NIS_WINDOW`]).
     pub fn new(mut config: HealthConfig) -> Self {
         config.nis_window = config.nis_window.clamp(1, MAX_NIS_WINDOW);
-        let dof = 3.0 * config.nis_window as f64;
         let tail = (1.0 - config.nis_probability) / 2.0;
-        let band = match ChiSquared::new(dof) {
-            Ok(chi2) => (chi2.inverse_cdf(tail), chi2.inverse_cdf(1.0 - tail)),
-            Err(_) => (0.0, f64::INFINITY),
-        };
-        let empty = NisWindow { values: [0.0; MAX_NIS_WINDOW], next: 0, len: 0 };
-        Self { config, band, windows: [empty; MAX_SENSORS], lost_seen: [0; MAX_SENSORS], last_loss_ns: None }
+        let mut bands = [(0.0, f64::INFINITY); MAX_NIS_WINDOW + 1];
+        for (k, band) in bands.iter_mut().enumerate().take(config.nis_window + 1).skip(1) {
+            if let Ok(chi2) = ChiSquared::new(3.0 * k as f64) {
+                *band = (chi2.inverse_cdf(tail), chi2.inverse_cdf(1.0 - tail));
+            }
+        }
+        let empty = NisWindow { values: [None; MAX_NIS_WINDOW], next: 0, len: 0 };
+        Self { config, bands, windows: [empty; MAX_SENSORS], lost_seen: [0; MAX_SENSORS], last_loss_ns: None }
     }
 
-    /// The band for the NIS sum over a full window.
-    pub fn nis_band(&self) -> (f64, f64) {
-        self.band
+    /// The band for the NIS sum of `k` fused 3-D fixes.
+    pub fn nis_band(&self, k: usize) -> (f64, f64) {
+        self.bands[k.min(MAX_NIS_WINDOW)]
     }
 
     /// Records the outcome of a processed position fix of sensor slot `slot`.
     pub fn record(&mut self, slot: usize, outcome: &StepOutcome) {
-        let (Some(nis), Some(w)) = (outcome.nis(), self.windows.get_mut(slot)) else { return };
-        w.values[w.next] = nis;
+        let value = match outcome {
+            StepOutcome::Fused { nis } => Some(*nis),
+            StepOutcome::Gated { .. } | StepOutcome::Refused => None,
+            StepOutcome::Propagated => return,
+        };
+        let Some(w) = self.windows.get_mut(slot) else { return };
+        w.values[w.next] = value;
         w.next = (w.next + 1) % self.config.nis_window;
         w.len = (w.len + 1).min(self.config.nis_window);
     }
@@ -114,8 +123,10 @@ impl HealthMonitor {
             self.lost_seen[i] = s.stats.lost;
             let w = &self.windows[i];
             if w.len == self.config.nis_window {
-                let sum: f64 = w.values[..w.len].iter().sum();
-                if sum < self.band.0 || sum > self.band.1 {
+                let fused = w.values[..w.len].iter().flatten();
+                let (k, sum) = fused.fold((0, 0.0), |(k, sum), v| (k + 1, sum + v));
+                let (lo, hi) = self.bands[k];
+                if 2 * k < w.len || sum < lo || sum > hi {
                     reasons |= health::NIS_OUT_OF_BOUNDS;
                 }
             }
@@ -171,12 +182,7 @@ mod tests {
         assert_eq!(r, health::IMU_STALE | health::POSITION_STALE);
     }
 
-    #[test]
-    fn persistently_large_nis_is_flagged_and_recovers() {
-        let mut h = HealthMonitor::new(HealthConfig { nis_window: 10, ..Default::default() });
-        let (lo, hi) = h.nis_band();
-        // χ²₃₀ at 0.0005 and 0.9995 (tables: 10.80 and 62.16).
-        assert!((lo - 10.80).abs() < 0.01 && (hi - 62.16).abs() < 0.01, "{lo} {hi}");
+    fn fix_engine() -> Engine<LinearModel> {
         let mut e = engine();
         let mut sink = |_: &Entry<_>| {};
         e.insert(&Sample::Imu(ImuSample::default()), Some(0), &mut sink);
@@ -189,17 +195,45 @@ mod tests {
             Some(0),
             &mut sink,
         );
+        e
+    }
+
+    #[test]
+    fn persistently_inconsistent_nis_is_flagged_and_recovers() {
+        let mut h = HealthMonitor::new(HealthConfig { nis_window: 10, ..Default::default() });
+        let (lo, hi) = h.nis_band(10);
+        // χ²₃₀ at 0.0005 and 0.9995 (tables: 10.80 and 62.16).
+        assert!((lo - 10.80).abs() < 0.01 && (hi - 62.16).abs() < 0.01, "{lo} {hi}");
+        let e = fix_engine();
         for _ in 0..10 {
-            h.record(1, &StepOutcome::Gated { nis: 40.0 });
+            h.record(1, &StepOutcome::Fused { nis: 9.0 });
         }
         assert_eq!(h.evaluate(e.sensors(), 0, true), (health::DEGRADED, health::NIS_OUT_OF_BOUNDS));
         for _ in 0..10 {
             h.record(1, &StepOutcome::Fused { nis: 3.0 });
         }
         assert_eq!(h.evaluate(e.sensors(), 0, true), (health::OK, 0));
+        for _ in 0..10 {
+            h.record(1, &StepOutcome::Fused { nis: 0.05 });
+        }
+        assert_eq!(h.evaluate(e.sensors(), 0, true).1, health::NIS_OUT_OF_BOUNDS, "far too pessimistic");
         // IMU steps carry no NIS and change nothing.
         h.record(0, &StepOutcome::Propagated);
-        assert_eq!(h.evaluate(e.sensors(), 0, true).1, 0);
+    }
+
+    #[test]
+    fn an_occasional_gated_outlier_is_fine_but_a_lock_out_is_not() {
+        let mut h = HealthMonitor::new(HealthConfig { nis_window: 10, ..Default::default() });
+        let e = fix_engine();
+        for i in 0..10 {
+            let o = if i == 4 { StepOutcome::Gated { nis: 3000.0 } } else { StepOutcome::Fused { nis: 3.0 } };
+            h.record(1, &o);
+        }
+        assert_eq!(h.evaluate(e.sensors(), 0, true), (health::OK, 0));
+        for _ in 0..6 {
+            h.record(1, &StepOutcome::Gated { nis: 50.0 });
+        }
+        assert_eq!(h.evaluate(e.sensors(), 0, true).1, health::NIS_OUT_OF_BOUNDS, "most fixes gated");
     }
 
     #[test]

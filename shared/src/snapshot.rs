@@ -113,7 +113,7 @@ pub struct SensorCounters {
     /// Samples that never arrived: gaps in the sequence numbers (subscriber buffer
     /// overflow, or the sensor skipped them).
     pub lost: u64,
-    /// NIS of the latest measurement processed in order (NaN if none).
+    /// NIS of the measurement of this sensor processed last (NaN if none).
     pub last_nis: f64,
     /// Largest timestamp received, ns.
     pub last_t_ns: u64,

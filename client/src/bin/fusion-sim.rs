@@ -184,20 +184,20 @@ fn main() -> anyhow::Result<()> {
     }
 }
 
-/// Most samples published ahead of the daemon with `--input` (well inside the
-/// daemon's subscriber buffer of 4096).
-const IN_FLIGHT: u64 = 1024;
+/// How long `--input` waits for the snapshot of a sample before going on (a
+/// rejected, duplicate or too-late sample produces none).
+const ACK_TIMEOUT: Duration = Duration::from_millis(50);
 
-/// Publishes a file in file order: paced by timestamps (`realtime`), or as fast as
-/// the daemon takes it, throttled by the daemon's own received counters.
+/// Publishes a file in file order: paced by its timestamps (`realtime`), or in
+/// lockstep with the daemon: each sample after the snapshot of the one before, so
+/// the daemon sees exactly the file's order and any reader can keep up with the
+/// snapshots.
 fn publish_file(client: &Client, path: &std::path::Path, realtime: bool, stop: &AtomicBool) -> anyhow::Result<()> {
     let file = std::io::BufReader::new(std::fs::File::open(path).with_context(|| path.display().to_string())?);
     let mut imu = client.imu_publisher(0)?;
     let mut pos = client.position_publisher(1)?;
-    let mut state = client.state_subscriber()?;
-    let received = |s: &fusion_shared::StateSnapshot| s.sensor_counters().iter().map(|c| c.received).sum::<u64>();
-    let baseline = state.latest()?.map(received).unwrap_or(0);
-    let (mut published, mut skipped) = (0u64, 0u64);
+    let mut state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER)?;
+    let (mut published, mut skipped, mut unacknowledged) = (0u64, 0u64, 0u64);
     let mut pace: Option<(u64, u64)> = None; // (first timestamp, wall time of it)
     for (i, line) in file.lines().enumerate() {
         if stop.load(Ordering::Relaxed) {
@@ -218,22 +218,35 @@ fn publish_file(client: &Client, path: &std::path::Path, realtime: bool, stop: &
         if realtime {
             let (t0, wall0) = *pace.get_or_insert((sample.t_ns(), now_ns()));
             sleep_until(wall0 + sample.t_ns().saturating_sub(t0), stop);
-        } else {
-            while published.saturating_sub(state.latest()?.map(received).unwrap_or(0).saturating_sub(baseline))
-                >= IN_FLIGHT
-            {
-                if stop.load(Ordering::Relaxed) {
-                    break;
-                }
-                state.wait_next(Duration::from_millis(10))?;
-            }
         }
         match sample {
             Sample::Imu(s) => imu.publish_sample(s)?,
             Sample::Position(s) => pos.publish_sample(s)?,
         };
         published += 1;
+        if !realtime {
+            let deadline = std::time::Instant::now() + ACK_TIMEOUT;
+            let acknowledged = loop {
+                let left = deadline.saturating_duration_since(std::time::Instant::now());
+                match state.wait_next(left)? {
+                    Some(s)
+                        if s.input_kind == sample.kind() as u32
+                            && s.input_sensor == sample.sensor()
+                            && s.input_seq == sample.seq()
+                            && s.input_t_ns == sample.t_ns() =>
+                    {
+                        break true;
+                    }
+                    Some(_) => {}
+                    None => break false,
+                }
+            };
+            unacknowledged += u64::from(!acknowledged);
+        }
     }
-    eprintln!("fusion-sim: published {published} samples from {} ({skipped} unreadable lines)", path.display());
+    eprintln!(
+        "fusion-sim: published {published} samples from {} ({skipped} unreadable lines, {unacknowledged} without a snapshot)",
+        path.display()
+    );
     Ok(())
 }

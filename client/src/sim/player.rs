@@ -134,7 +134,7 @@ mod tests {
         let merged: Vec<Arrival> = ArrivalMerge::new(Some(imu), Some(pos)).take(5000).collect();
         assert!(merged.windows(2).all(|w| w[0].arrival_ns <= w[1].arrival_ns));
         let positions: Vec<u64> =
-            merged.iter().filter_map(|a| matches!(a.sample, Sample::Position(_)).then(|| a.sample.seq())).collect();
+            merged.iter().filter(|a| matches!(a.sample, Sample::Position(_))).map(|a| a.sample.seq()).collect();
         // 5000 arrivals ≈ 12 s: every fix 0..k arrived, none skipped.
         let mut sorted = positions.clone();
         sorted.sort();

@@ -67,10 +67,25 @@ impl Drop for TestDomain {
     }
 }
 
-/// Path of a binary of the workspace next to fusiond (built by `cargo test --workspace`).
+/// Path of a tool of the client crate (`fusion-sim`, `fusionctl`) next to fusiond.
+///
+/// Cargo rebuilds only this package's binaries for its tests, so the client's
+/// tools are brought up to date here, once per test binary (a no-op when fresh:
+/// same profile and features as `cargo test --workspace`).
 pub fn workspace_bin(name: &str) -> PathBuf {
+    static BUILD: std::sync::Once = std::sync::Once::new();
+    BUILD.call_once(|| {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let mut cmd = Command::new(cargo);
+        cmd.args(["build", "--quiet", "-p", "fusion-client", "--features", "cli", "--bins"]);
+        if !cfg!(debug_assertions) {
+            cmd.arg("--release");
+        }
+        let status = cmd.current_dir(env!("CARGO_MANIFEST_DIR")).status().expect("run cargo build");
+        assert!(status.success(), "building the client tools failed");
+    });
     let path = PathBuf::from(env!("CARGO_BIN_EXE_fusiond")).with_file_name(name);
-    assert!(path.exists(), "{} is not built: run the tests with `cargo test --workspace`", path.display());
+    assert!(path.exists(), "{} is not built", path.display());
     path
 }
 

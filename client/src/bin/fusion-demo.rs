@@ -1,0 +1,210 @@
+//! `fusion-demo` (run it with `./demo`): fusiond and simulated sensors as separate
+//! processes over iceoryx2, a live status line, then the position error against
+//! the truth and the end-to-end latency.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, bail};
+use clap::Parser;
+use fusion_client::sim::CarTrajectory;
+use fusion_client::{Client, now_ns};
+use fusion_shared::snapshot::health;
+use hdrhistogram::Histogram;
+
+#[derive(Parser)]
+#[command(name = "fusion-demo", about = "fusiond with simulated IMU and position sensors, as separate processes")]
+struct Args {
+    /// Seconds to run (Ctrl-C ends it early).
+    #[arg(long, default_value_t = 10.0)]
+    duration: f64,
+    /// fusiond's wait mode: event (sleeps between samples) or spin (busy-polls one core).
+    #[arg(long, default_value = "event")]
+    wait: String,
+    /// Seed of the drive.
+    #[arg(long, default_value_t = 7)]
+    seed: u64,
+}
+
+const CONFIG: &str = "[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n\n[filter]\n\
+    initial_state = [0, 0, 0, 0, 0, 0]\n# the car is already moving: sigma_v 15 m/s\n\
+    initial_covariance_diagonal = [100, 100, 100, 225, 225, 225]\nhistory_ns = 1_000_000_000\n\n\
+    [gating]\nprobability = 0.999\n";
+
+struct Children(Vec<(&'static str, Child)>);
+
+impl Children {
+    fn stop(&mut self) {
+        for (_, c) in &mut self.0 {
+            let _ = Command::new("kill").args(["-TERM", &c.id().to_string()]).status();
+        }
+        for (name, c) in &mut self.0 {
+            let deadline = Instant::now() + Duration::from_secs(5);
+            loop {
+                match c.try_wait() {
+                    Ok(Some(_)) => break,
+                    _ if Instant::now() > deadline => {
+                        eprintln!("fusion-demo: {name} did not stop; killing it");
+                        let _ = c.kill();
+                        let _ = c.wait();
+                        break;
+                    }
+                    _ => std::thread::sleep(Duration::from_millis(10)),
+                }
+            }
+        }
+        self.0.clear();
+    }
+}
+
+impl Drop for Children {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+fn main() -> anyhow::Result<()> {
+    let args = Args::parse();
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&stop))?;
+    }
+    let bin_dir = std::env::current_exe()?.parent().context("binary directory")?.to_path_buf();
+    let bin = |name: &str| -> anyhow::Result<PathBuf> {
+        let p = bin_dir.join(name);
+        if !p.exists() {
+            bail!("{} not found: build the workspace first (./demo does)", p.display());
+        }
+        Ok(p)
+    };
+    let work = bin_dir.join("demo");
+    std::fs::create_dir_all(&work)?;
+    let config = work.join("linear.toml");
+    std::fs::write(&config, CONFIG)?;
+    let log = work.join("fusiond.log");
+    let namespace = format!("demo-{}", std::process::id());
+
+    println!("fusiond demo: namespace {namespace}, model linear, --wait {}, {} s", args.wait, args.duration);
+    let mut children = Children(Vec::new());
+    let daemon = Command::new(bin("fusiond")?)
+        .args(["run", "--namespace", &namespace, "--wait", &args.wait, "--config"])
+        .arg(&config)
+        .stderr(std::fs::File::create(&log)?)
+        .spawn()?;
+    children.0.push(("fusiond", daemon));
+    let client = Client::connect(&namespace)?;
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let mut state = loop {
+        match client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER) {
+            Ok(s) => break s,
+            Err(_) if Instant::now() < deadline => std::thread::sleep(Duration::from_millis(20)),
+            Err(e) => bail!("fusiond did not start ({e}); see {}", log.display()),
+        }
+    };
+    println!("  fusiond started (log: {})", log.display());
+
+    // Both sensor processes drive the same trajectory from the same start time.
+    let start_ns = now_ns() + 300_000_000;
+    let sim = |role: &str| -> anyhow::Result<Child> {
+        Ok(Command::new(bin("fusion-sim")?)
+            .args(["run", role, "--namespace", &namespace, "--outliers", "0.03"])
+            .args(["--seed", &args.seed.to_string(), "--duration", &args.duration.to_string()])
+            .args(["--start-at-ns", &start_ns.to_string()])
+            .stderr(Stdio::null())
+            .spawn()?)
+    };
+    children.0.push(("fusion-sim --imu-only", sim("--imu-only")?));
+    children.0.push(("fusion-sim --position-only", sim("--position-only")?));
+    println!(
+        "  fusion-sim --imu-only (400 Hz) and fusion-sim --position-only (10 Hz, 20-120 ms late, 3 % outliers) started\n"
+    );
+
+    let truth = CarTrajectory::new(args.seed);
+    let mut latency = Histogram::<u64>::new_with_bounds(1, 10_000_000_000, 3)?;
+    let (mut sum_sq, mut n_err) = (0.0, 0u64);
+    let mut last = None;
+    let mut next_status = Instant::now();
+    let end = Instant::now() + Duration::from_secs_f64(args.duration + 0.5);
+    while !stop.load(Ordering::Relaxed) && Instant::now() < end {
+        let Some(s) = state.wait_next(Duration::from_millis(50))? else { continue };
+        let received = now_ns();
+        if s.input_sent_ns > 0 && s.input_replayed == 0 {
+            let _ = latency.record(received.saturating_sub(s.input_sent_ns));
+        }
+        let x = s.state();
+        let t = (s.t_ns as f64 - start_ns as f64) * 1e-9;
+        let err = if t >= 0.0 && x.len() >= 3 {
+            let p = truth.at(t).pos_m;
+            ((x[0] - p.x).powi(2) + (x[1] - p.y).powi(2) + (x[2] - p.z).powi(2)).sqrt()
+        } else {
+            f64::NAN
+        };
+        // Error statistics after the first second of fixes (the filter starts from x0 = 0).
+        if t > 1.0 && err.is_finite() {
+            sum_sq += err * err;
+            n_err += 1;
+        }
+        last = Some((*s, err));
+        if Instant::now() >= next_status {
+            next_status = Instant::now() + Duration::from_millis(250);
+            let c = s.sensor_counters();
+            let pos = c.iter().find(|c| c.kind == 1);
+            print!(
+                "\r  t {t:5.1} s  pos ({:7.2},{:7.2},{:6.2}) m  err {:5.2} m  {:<12}  fixes {:3} fused {:2} gated  latency p50 {:5.0} us ",
+                x[0],
+                x[1],
+                x[2],
+                err,
+                health::name(s.health),
+                pos.map_or(0, |c| c.fused),
+                pos.map_or(0, |c| c.gated),
+                latency.value_at_quantile(0.5) as f64 / 1e3,
+            );
+            let _ = std::io::stdout().flush();
+        }
+    }
+    println!();
+    children.stop();
+
+    let Some((s, err)) = last else { bail!("no snapshot received; see {}", log.display()) };
+    let sd: Vec<f64> = s.std_devs().collect();
+    println!("\nresult after {:.1} s of driving:", (s.t_ns as f64 - start_ns as f64) * 1e-9);
+    for c in s.sensor_counters() {
+        let kind = if c.kind == 0 { "imu     " } else { "position" };
+        println!(
+            "  {kind} {}: received {}, fused {}, gated {}, fused late {}, dropped too late {}, invalid {}, lost {}",
+            c.sensor, c.received, c.fused, c.gated, c.late, c.too_late, c.invalid, c.lost
+        );
+    }
+    println!(
+        "  position error vs truth: final {err:.3} m (1-sigma {:.3} / {:.3} / {:.3} m), RMS over the drive {:.3} m",
+        sd[0],
+        sd[1],
+        sd[2],
+        (sum_sq / n_err.max(1) as f64).sqrt()
+    );
+    println!(
+        "  end-to-end latency, sample published -> snapshot received ({} samples, --wait {}):\n    p50 {:.1} us, p90 {:.1} us, p99 {:.1} us, max {:.1} us",
+        latency.len(),
+        args.wait,
+        latency.value_at_quantile(0.5) as f64 / 1e3,
+        latency.value_at_quantile(0.9) as f64 / 1e3,
+        latency.value_at_quantile(0.99) as f64 / 1e3,
+        latency.max() as f64 / 1e3,
+    );
+    let reasons: Vec<&str> = s.health_reason_names().collect();
+    println!(
+        "  health at the end: {}{}",
+        health::name(s.health),
+        if reasons.is_empty() {
+            String::new()
+        } else {
+            format!(" ({}: the sensors stopped first)", reasons.join(", "))
+        }
+    );
+    Ok(())
+}

@@ -1,0 +1,182 @@
+//! `fusionctl`: look at a running fusiond.
+//!
+//! - `fusionctl echo`: every snapshot as a JSON line in the replay output format,
+//!   plus the input, health and counters.
+//! - `fusionctl state`: the latest snapshot, for a person.
+
+use std::io::Write;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use clap::{Parser, Subcommand};
+use fusion_client::{Client, StateSnapshot, now_ns};
+use fusion_shared::snapshot::{health, model};
+use serde_json::json;
+
+#[derive(Parser)]
+#[command(name = "fusionctl", version, about = "Inspect a running fusiond")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Print snapshots as JSON lines (replay output format plus input, health and counters).
+    Echo {
+        /// Namespace of the services.
+        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
+        namespace: String,
+        /// Stop after this many snapshots.
+        #[arg(long)]
+        count: Option<u64>,
+        /// Stop after this many seconds without a snapshot.
+        #[arg(long)]
+        idle_timeout: Option<f64>,
+    },
+    /// Print the latest snapshot for a person: state, standard deviations, health, counters, age.
+    State {
+        /// Namespace of the services.
+        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
+        namespace: String,
+    },
+}
+
+fn kind_name(code: u32) -> &'static str {
+    match code {
+        0 => "imu",
+        1 => "position",
+        _ => "none",
+    }
+}
+
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+/// One snapshot as a JSON object: the replay output fields first.
+fn to_json(s: &StateSnapshot) -> serde_json::Value {
+    let counters: Vec<_> = s
+        .sensor_counters()
+        .iter()
+        .map(|c| {
+            json!({
+                "kind": kind_name(c.kind), "sensor": c.sensor, "received": c.received, "processed": c.processed,
+                "fused": c.fused, "gated": c.gated, "refused": c.refused, "late": c.late, "too_late": c.too_late,
+                "duplicate": c.duplicate, "invalid": c.invalid, "lost": c.lost, "last_nis": finite(c.last_nis),
+            })
+        })
+        .collect();
+    json!({
+        "t_ns": s.t_ns, "kind": kind_name(s.sample_kind), "sensor": s.sample_sensor, "seq": s.sample_seq,
+        "x": s.state(), "P": s.covariance(), "nis": finite(s.nis), "accepted": s.accepted(),
+        "snapshot_seq": s.seq, "publish_ns": s.publish_ns, "model": model::name(s.model),
+        "input": {
+            "t_ns": s.input_t_ns, "kind": kind_name(s.input_kind), "sensor": s.input_sensor, "seq": s.input_seq,
+            "sent_ns": s.input_sent_ns, "received_ns": s.input_received_ns, "replayed": s.input_replayed,
+        },
+        "health": health::name(s.health),
+        "health_reasons": s.health_reason_names().collect::<Vec<_>>(),
+        "counters": counters,
+        "rewinds": s.rewinds,
+    })
+}
+
+fn main() -> anyhow::Result<()> {
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM, signal_hook::consts::SIGPIPE] {
+        signal_hook::flag::register(signal, Arc::clone(&stop))?;
+    }
+    match Cli::parse().command {
+        Command::Echo { namespace, count, idle_timeout } => {
+            let client = Client::connect(&namespace)?;
+            let mut state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER)?;
+            let stdout = std::io::stdout();
+            let mut out = std::io::BufWriter::new(stdout.lock());
+            let mut printed = 0u64;
+            let mut last = Instant::now();
+            let idle = idle_timeout.map(Duration::from_secs_f64);
+            while !stop.load(Ordering::Relaxed) && count.is_none_or(|n| printed < n) {
+                match state.wait_next(Duration::from_millis(100))? {
+                    Some(s) => {
+                        // A closed pipe (e.g. `| head`) ends the echo quietly.
+                        if writeln!(out, "{}", to_json(s)).is_err() {
+                            break;
+                        }
+                        printed += 1;
+                        last = Instant::now();
+                    }
+                    None => {
+                        let _ = out.flush();
+                        if idle.is_some_and(|d| last.elapsed() >= d) {
+                            break;
+                        }
+                    }
+                }
+            }
+            let _ = out.flush();
+            Ok(())
+        }
+        Command::State { namespace } => {
+            let client = Client::connect(&namespace)?;
+            let mut state = client.state_subscriber()?;
+            let s = match state.latest()? {
+                Some(s) => *s,
+                None => *state.wait_next(Duration::from_secs(1))?.ok_or_else(|| {
+                    anyhow::anyhow!("fusiond runs in namespace {namespace:?} but has published no state yet")
+                })?,
+            };
+            print!("{}", describe(&s));
+            Ok(())
+        }
+    }
+}
+
+fn describe(s: &StateSnapshot) -> String {
+    let mut o = String::new();
+    let age_ms = now_ns().saturating_sub(s.publish_ns) as f64 * 1e-6;
+    let reasons: Vec<_> = s.health_reason_names().collect();
+    o += &format!(
+        "model {}, snapshot {} published {age_ms:.1} ms ago, estimate at t = {:.6} s\n",
+        model::name(s.model),
+        s.seq,
+        s.t_ns as f64 * 1e-9
+    );
+    o += &format!(
+        "health: {}{}\n\n",
+        health::name(s.health),
+        if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) }
+    );
+    let names: &[&str] = match s.model {
+        model::LINEAR => &["p_x m", "p_y m", "p_z m", "v_x m/s", "v_y m/s", "v_z m/s"],
+        _ => &[],
+    };
+    let sd: Vec<f64> = s.std_devs().collect();
+    o += &format!("  {:<10} {:>14} {:>12}\n", "state", "value", "1-sigma");
+    for (i, v) in s.state().iter().enumerate() {
+        let name = names.get(i).map_or_else(|| format!("x[{i}]"), |n| n.to_string());
+        let sigma = sd.get(i).map_or_else(String::new, |v| format!("{v:.4}"));
+        o += &format!("  {name:<10} {v:>14.4} {sigma:>12}\n");
+    }
+    o += &format!(
+        "\n  {:<12} {:>9} {:>9} {:>7} {:>6} {:>8} {:>9} {:>7} {:>6} {:>9}\n",
+        "sensor", "received", "fused", "gated", "late", "too late", "duplicate", "invalid", "lost", "last NIS"
+    );
+    for c in s.sensor_counters() {
+        o += &format!(
+            "  {:<12} {:>9} {:>9} {:>7} {:>6} {:>8} {:>9} {:>7} {:>6} {:>9}\n",
+            format!("{} {}", kind_name(c.kind), c.sensor),
+            c.received,
+            c.fused,
+            c.gated,
+            c.late,
+            c.too_late,
+            c.duplicate,
+            c.invalid,
+            c.lost,
+            finite(c.last_nis).map_or("-".into(), |v| format!("{v:.2}")),
+        );
+    }
+    o
+}

@@ -1,0 +1,102 @@
+//! The command-line tools against a real daemon: `fusion-sim run --input FILE`
+//! feeding fusiond while `fusionctl echo` records, compared with `fusiond replay`.
+
+mod common;
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::live::{Daemon, TestDomain, workspace_bin};
+use fusion_client::sim::{Scenario, ScenarioConfig};
+use fusion_shared::Sample;
+use fusion_shared::service::{self, DOMAIN_ENV, ServiceNames};
+use iceoryx2::prelude::*;
+
+fn config() -> String {
+    common::linear_config(Some(0.999)).replace("[100, 100, 100, 10, 10, 10]", "[100, 100, 100, 225, 225, 225]")
+}
+
+/// Feeds `samples` from a file with fusion-sim while fusionctl echo records;
+/// returns the echo lines and the replay lines of the same file.
+fn sim_into_daemon_with_echo(
+    tag: &str,
+    samples: &[Sample],
+) -> (Vec<serde_json::Value>, Vec<fusion_daemon::replay::OutputLine>) {
+    let domain = TestDomain::new(tag);
+    let mut daemon = Daemon::start(&domain, &config(), "event");
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("drive.jsonl");
+    let text: String = samples.iter().map(|s| fusion_shared::jsonl::format_sample(s) + "\n").collect();
+    std::fs::write(&input, text).unwrap();
+
+    let echo_out = dir.path().join("echo.jsonl");
+    let mut echo = Command::new(workspace_bin("fusionctl"))
+        .args(["echo", "--namespace", &domain.namespace, "--count", &samples.len().to_string(), "--idle-timeout", "10"])
+        .env(DOMAIN_ENV, &domain.domain)
+        .stdout(std::fs::File::create(&echo_out).unwrap())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap();
+    // Start publishing only once echo has subscribed.
+    let node = service::create_node("test-probe", &service::iceoryx_config(Some(&domain.domain)).unwrap()).unwrap();
+    let state = service::state_service(&node, &ServiceNames::new(&domain.namespace).unwrap(), false).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while state.dynamic_config().number_of_subscribers() == 0 {
+        assert!(Instant::now() < deadline, "fusionctl echo did not subscribe");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let sim = Command::new(workspace_bin("fusion-sim"))
+        .args(["run", "--namespace", &domain.namespace, "--input"])
+        .arg(&input)
+        .env(DOMAIN_ENV, &domain.domain)
+        .output()
+        .unwrap();
+    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    assert!(echo.wait().unwrap().success());
+    assert!(daemon.terminate().success());
+    let echoed =
+        std::fs::read_to_string(&echo_out).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    (echoed, common::run_replay(dir.path(), &config(), &input, false).0)
+}
+
+fn same(echo: &serde_json::Value, line: &fusion_daemon::replay::OutputLine) -> bool {
+    let nums =
+        |v: &serde_json::Value| -> Vec<f64> { v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect() };
+    echo["t_ns"].as_u64() == Some(line.t_ns)
+        && echo["kind"] == line.kind.as_str()
+        && echo["seq"].as_u64() == Some(line.seq)
+        && nums(&echo["x"]) == line.x
+        && nums(&echo["P"]) == line.p
+        && echo["accepted"].as_bool() == line.accepted
+}
+
+fn drive(delays_ms: (u64, u64)) -> Vec<Sample> {
+    let mut c = ScenarioConfig { seed: 12, duration_s: 2.0, ..Default::default() };
+    c.imu.rate_hz = 200.0;
+    c.position.delay_min_ns = delays_ms.0 * 1_000_000;
+    c.position.delay_max_ns = delays_ms.1 * 1_000_000;
+    c.position.outlier_probability = 0.1;
+    Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect()
+}
+
+#[test]
+fn sim_input_with_echo_reproduces_every_replay_estimate_of_a_sorted_file() {
+    let mut samples = drive((0, 0));
+    samples.sort_by_key(|s| (s.t_ns(), s.kind(), s.sensor(), s.seq()));
+    let (echoed, replayed) = sim_into_daemon_with_echo("echo-sorted", &samples);
+    assert_eq!(echoed.len(), replayed.len());
+    for (i, (e, r)) in echoed.iter().zip(&replayed).enumerate() {
+        assert!(same(e, r), "snapshot {i} differs from replay:\n{e}\n{r:?}");
+    }
+    // The gate rejected the injected outliers live as in replay.
+    assert!(replayed.iter().any(|l| l.accepted == Some(false)));
+}
+
+#[test]
+fn sim_input_with_echo_reproduces_the_replay_final_state_of_a_late_file() {
+    let samples = drive((20, 120));
+    let (echoed, replayed) = sim_into_daemon_with_echo("echo-late", &samples);
+    assert_eq!(echoed.len(), samples.len());
+    assert!(same(echoed.last().unwrap(), replayed.last().unwrap()), "final state differs");
+    assert!(echoed.iter().any(|e| e["input"]["replayed"].as_u64() > Some(0)), "positions were late");
+}
