@@ -237,3 +237,31 @@ fn sigkill_of_a_publisher_marks_its_stream_stale() {
     assert!(daemon.is_running(), "the daemon keeps running");
     assert!(daemon.terminate().success());
 }
+
+#[test]
+fn start_up_errors_are_clear_and_exit_non_zero() {
+    let domain = TestDomain::new("startup");
+    let dir = tempfile::tempdir().unwrap();
+    let run = |config: &str, namespace: &str| {
+        let path = dir.path().join("c.toml");
+        std::fs::write(&path, config).unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_fusiond"))
+            .args(["run", "--namespace", namespace, "--config"])
+            .arg(&path)
+            .env(fusion_shared::service::DOMAIN_ENV, &domain.domain)
+            .output()
+            .unwrap();
+        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (code, err) = run(&config().replace("accel_noise_std = 0.3", "accel_noise_std = -1"), &domain.namespace);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("model.accel_noise_std"), "{err}");
+    let (code, err) = run(&config(), "no/slashes");
+    assert_eq!(code, Some(1));
+    assert!(err.contains("invalid namespace"), "{err}");
+    let mut daemon = Daemon::start(&domain, &config(), "event");
+    let (code, err) = run(&config(), &domain.namespace);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("already running"), "{err}");
+    assert!(daemon.terminate().success());
+}

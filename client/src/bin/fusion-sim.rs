@@ -18,7 +18,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
-use fusion_client::sim::{CarTrajectory, ImuSim, PositionSim, Scenario, ScenarioConfig};
+use fusion_client::sim::{CarTrajectory, ImuOutput, ImuSim, PositionSim, Scenario, ScenarioConfig};
 use fusion_client::{Client, now_ns};
 use fusion_shared::Sample;
 use fusion_shared::jsonl::{format_sample, parse_sample};
@@ -105,9 +105,19 @@ struct SimArgs {
     /// Probability of a gross outlier.
     #[arg(long, default_value_t = 0.0)]
     outliers: f64,
+    /// What the IMU measures: `world` acceleration with gravity removed (the
+    /// linear model) or `body` specific force and angular rate (a real IMU).
+    #[arg(long, value_enum, default_value_t = ImuKind::World)]
+    imu_output: ImuKind,
     /// Trajectory time 0 as a sample timestamp, ns (record only).
     #[arg(long, default_value_t = 1_000_000_000)]
     start_ns: u64,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum ImuKind {
+    World,
+    Body,
 }
 
 impl SimArgs {
@@ -121,6 +131,10 @@ impl SimArgs {
         c.imu.rate_hz = self.imu_rate;
         c.imu.jitter_ns = self.imu_jitter_us * 1000;
         c.imu.accel_noise_std = self.accel_noise;
+        c.imu_output = match self.imu_output {
+            ImuKind::World => ImuOutput::WorldAcceleration,
+            ImuKind::Body => ImuOutput::BodySpecificForce,
+        };
         c.position.rate_hz = self.position_rate;
         c.position.noise_std_m = self.position_noise;
         c.position.vertical_noise_std_m = 1.6 * self.position_noise;

@@ -39,11 +39,21 @@ pub struct ImuConfig {
     pub delay_ns: u64,
     /// Sensor id.
     pub sensor: u32,
+    /// Gravity for [`ImuOutput::BodySpecificForce`], m/s².
+    pub gravity_mps2: f64,
 }
 
 impl Default for ImuConfig {
     fn default() -> Self {
-        Self { rate_hz: 400.0, jitter_ns: 0, accel_noise_std: 0.05, gyro_noise_std: 0.001, delay_ns: 0, sensor: 0 }
+        Self {
+            rate_hz: 400.0,
+            jitter_ns: 0,
+            accel_noise_std: 0.05,
+            gyro_noise_std: 0.001,
+            delay_ns: 0,
+            sensor: 0,
+            gravity_mps2: 9.80665,
+        }
     }
 }
 
@@ -86,11 +96,15 @@ impl Default for PositionConfig {
     }
 }
 
-/// What the IMU's `accel` field carries.
+/// What the IMU measures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ImuOutput {
-    /// World-frame acceleration with gravity removed (the `linear` model's input).
+    /// `accel`: world-frame acceleration with gravity removed; `gyro`: body rates
+    /// (the `linear` model's input; it ignores the gyro).
     WorldAcceleration,
+    /// `accel`: body-frame specific force `f = Rᵀ (a − g)`; `gyro`: body angular
+    /// rate: what a real strapdown IMU measures (the INS model's input).
+    BodySpecificForce,
 }
 
 fn gaussian3(rng: &mut ChaCha8Rng) -> Vector3<f64> {
@@ -132,8 +146,9 @@ impl Iterator for ImuSim {
         let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
         let accel = match self.output {
             ImuOutput::WorldAcceleration => truth.acc_mps2,
+            ImuOutput::BodySpecificForce => truth.specific_force_mps2(self.config.gravity_mps2),
         } + gaussian3(&mut self.rng) * self.config.accel_noise_std;
-        let gyro = yaw_rate(&truth) + gaussian3(&mut self.rng) * self.config.gyro_noise_std;
+        let gyro = truth.omega_body_radps + gaussian3(&mut self.rng) * self.config.gyro_noise_std;
         let sample = ImuSample {
             t_ns,
             seq: self.index,
@@ -146,12 +161,6 @@ impl Iterator for ImuSim {
         self.index += 1;
         Some(Arrival { arrival_ns: t_ns + self.config.delay_ns, sample: Sample::Imu(sample), outlier: false })
     }
-}
-
-/// Heading rate about the vertical, rad/s: `ψ̇ = (vₓ a_y − v_y aₓ) / (vₓ² + v_y²)`.
-fn yaw_rate(truth: &TruthState) -> Vector3<f64> {
-    let (v, a) = (truth.vel_mps, truth.acc_mps2);
-    Vector3::new(0.0, 0.0, (v.x * a.y - v.y * a.x) / (v.x * v.x + v.y * v.y))
 }
 
 /// Simulated position fixes (an endless iterator; dropped fixes are skipped).

@@ -5,8 +5,14 @@
 //! 3–15 m/s and never reaches zero; the heading swings by up to ±70° (turns); the
 //! height changes gently (small pitch). Phases come from a seed, so Monte-Carlo
 //! runs drive different roads. Every drive starts at the world origin.
+//!
+//! Attitude (body forward-left-up to world ENU, `R = Rz(ψ) Ry(θ) Rx(φ)`): the
+//! nose points along the velocity (yaw `ψ = atan2(v_y, v_x)`, pitch
+//! `θ = −atan2(v_z, v_h)`), with a small roll `φ = 0.03 sin(0.5 t + φ₀)`. Body
+//! rates follow from the Euler-angle rates (Groves 2013, eq. 2.58 inverted):
+//! `ω = [φ̇ − ψ̇ sin θ, θ̇ cos φ + ψ̇ sin φ cos θ, −θ̇ sin φ + ψ̇ cos φ cos θ]`.
 
-use nalgebra::Vector3;
+use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -23,6 +29,18 @@ pub struct TruthState {
     pub acc_mps2: Vector3<f64>,
     /// Jerk, m/s³.
     pub jerk_mps3: Vector3<f64>,
+    /// Attitude: rotates body (forward-left-up) vectors into world (ENU).
+    pub attitude: UnitQuaternion<f64>,
+    /// Angular rate of the body, body frame, rad/s.
+    pub omega_body_radps: Vector3<f64>,
+}
+
+impl TruthState {
+    /// Specific force in the body frame, `f = Rᵀ (a − g)` with `g = [0, 0, −gravity]`:
+    /// what an ideal accelerometer measures.
+    pub fn specific_force_mps2(&self, gravity_mps2: f64) -> Vector3<f64> {
+        self.attitude.inverse_transform_vector(&(self.acc_mps2 + Vector3::new(0.0, 0.0, gravity_mps2)))
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -35,6 +53,7 @@ struct Term {
 /// A car-like trajectory (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
 pub struct CarTrajectory {
+    roll_phase: f64,
     origin_m: [f64; 3],
     drift_mps: [f64; 3],
     axes: [[Term; 2]; 3],
@@ -54,7 +73,8 @@ impl CarTrajectory {
             ],
             [Term { amplitude: 3.0, omega: 0.05, phase: phase() }, Term { amplitude: 0.4, omega: 0.3, phase: phase() }],
         ];
-        let mut traj = Self { origin_m: [0.0; 3], drift_mps: [9.0, 0.0, 0.0], axes };
+        let roll_phase = phase();
+        let mut traj = Self { roll_phase, origin_m: [0.0; 3], drift_mps: [9.0, 0.0, 0.0], axes };
         // The drive starts at the world origin.
         let start = traj.at(0.0).pos_m;
         traj.origin_m = [-start.x, -start.y, -start.z];
@@ -69,6 +89,8 @@ impl CarTrajectory {
             vel_mps: Vector3::zeros(),
             acc_mps2: Vector3::zeros(),
             jerk_mps3: Vector3::zeros(),
+            attitude: UnitQuaternion::identity(),
+            omega_body_radps: Vector3::zeros(),
         };
         for axis in 0..3 {
             s.pos_m[axis] = self.origin_m[axis] + self.drift_mps[axis] * t_s;
@@ -82,6 +104,25 @@ impl CarTrajectory {
                 s.jerk_mps3[axis] -= a * w * w * w * cos;
             }
         }
+        let (v, a) = (s.vel_mps, s.acc_mps2);
+        let vh2 = v.x * v.x + v.y * v.y;
+        let vh = vh2.sqrt();
+        let yaw = v.y.atan2(v.x);
+        let yaw_rate = (v.x * a.y - v.y * a.x) / vh2;
+        let pitch = -v.z.atan2(vh);
+        let vh_rate = (v.x * a.x + v.y * a.y) / vh;
+        let pitch_rate = -(vh * a.z - v.z * vh_rate) / (vh2 + v.z * v.z);
+        let (roll_amplitude, roll_omega) = (0.03, 0.5);
+        let roll = roll_amplitude * (roll_omega * t_s + self.roll_phase).sin();
+        let roll_rate = roll_amplitude * roll_omega * (roll_omega * t_s + self.roll_phase).cos();
+        s.attitude = UnitQuaternion::from_rotation_matrix(&Rotation3::from_euler_angles(roll, pitch, yaw));
+        let (sp, cp) = pitch.sin_cos();
+        let (sr, cr) = roll.sin_cos();
+        s.omega_body_radps = Vector3::new(
+            roll_rate - yaw_rate * sp,
+            pitch_rate * cr + yaw_rate * sr * cp,
+            -pitch_rate * sr + yaw_rate * cr * cp,
+        );
         s
     }
 }
@@ -99,6 +140,34 @@ mod tests {
             assert!(((c.pos_m - a.pos_m) / (2.0 * h) - b.vel_mps).amax() < 1e-6);
             assert!(((c.vel_mps - a.vel_mps) / (2.0 * h) - b.acc_mps2).amax() < 1e-6);
             assert!(((c.acc_mps2 - a.acc_mps2) / (2.0 * h) - b.jerk_mps3).amax() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn body_rates_are_the_derivative_of_the_attitude() {
+        // Ṙ = R [ω]×: compare the central difference of R with R [ω]×.
+        let traj = CarTrajectory::new(5);
+        let h = 1e-5;
+        for t in [0.5, 7.0, 23.0, 41.0] {
+            let r = |t: f64| traj.at(t).attitude.to_rotation_matrix().into_inner();
+            let s = traj.at(t);
+            let r_dot = (r(t + h) - r(t - h)) / (2.0 * h);
+            let expect = r(t) * s.omega_body_radps.cross_matrix();
+            assert!((r_dot - expect).amax() < 1e-6, "t {t}: {r_dot} vs {expect}");
+        }
+    }
+
+    #[test]
+    fn the_nose_points_along_the_velocity_and_gravity_is_sensed_upward() {
+        let traj = CarTrajectory::new(8);
+        for t in [1.0, 13.0, 30.0] {
+            let s = traj.at(t);
+            let forward = s.attitude * Vector3::x();
+            assert!((forward - s.vel_mps.normalize()).norm() < 1e-9);
+            // Level-ish vehicle: the accelerometer's z axis reads about +g.
+            let f = s.specific_force_mps2(9.80665);
+            assert!((f.z - 9.80665).abs() < 0.5, "{f}");
+            assert!((s.attitude * f - (s.acc_mps2 + Vector3::new(0.0, 0.0, 9.80665))).norm() < 1e-12);
         }
     }
 
