@@ -50,6 +50,23 @@ nis_probability = 0.999
 max_future_ns = 50_000_000
 # Distinct sensor ids per kind (imu, position) the daemon tracks.
 max_sensors = 8
+# IMU samples beyond the sensor's range are rejected: |accel| (m/s^2), |gyro| (rad/s).
+accel_range_mps2 = 160.0     # 16 g
+gyro_range_radps = 35.0      # 2000 deg/s
+
+# For the error-state INS (real IMU: body specific force and angular rate), use
+#   [model]
+#   kind = "ins"
+#   accelerometer_noise_density = 0.02     # m/s^2/sqrt(Hz)   (Kalibr names and units)
+#   gyroscope_noise_density = 0.001        # rad/s/sqrt(Hz)
+#   accelerometer_random_walk = 0.001      # m/s^3/sqrt(Hz)
+#   gyroscope_random_walk = 1.0e-5         # rad/s^2/sqrt(Hz)
+#   gravity_mps2 = 9.80665
+#   [filter]
+#   initial_state = [px, py, pz, vx, vy, vz, qw, qx, qy, qz, bax, bay, baz, bgx, bgy, bgz]
+#   initial_covariance_diagonal = [15 values: dp(3), dv(3), dtheta(3), dba(3), dbg(3)]
+#   [alignment]                            # optional static alignment
+#   static_samples = 400                   # roll/pitch from the mean specific force, yaw from initial_state
 "#;
 
 /// A configuration problem found at start-up.
@@ -86,6 +103,7 @@ struct RawConfig {
     model: RawModel,
     filter: RawFilter,
     gating: Option<RawGating>,
+    alignment: Option<RawAlignment>,
     #[serde(default)]
     health: RawHealth,
     #[serde(default)]
@@ -118,6 +136,17 @@ impl Default for RawHealth {
 struct RawModel {
     kind: String,
     accel_noise_std: Option<f64>,
+    accelerometer_noise_density: Option<f64>,
+    gyroscope_noise_density: Option<f64>,
+    accelerometer_random_walk: Option<f64>,
+    gyroscope_random_walk: Option<f64>,
+    gravity_mps2: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawAlignment {
+    static_samples: u32,
 }
 
 #[derive(Debug, Deserialize)]
@@ -144,12 +173,28 @@ struct RawValidation {
     max_future_ns: u64,
     #[serde(default = "default_max_sensors")]
     max_sensors: usize,
+    #[serde(default = "default_accel_range")]
+    accel_range_mps2: f64,
+    #[serde(default = "default_gyro_range")]
+    gyro_range_radps: f64,
 }
 
 impl Default for RawValidation {
     fn default() -> Self {
-        Self { max_future_ns: default_max_future_ns(), max_sensors: default_max_sensors() }
+        Self {
+            max_future_ns: default_max_future_ns(),
+            max_sensors: default_max_sensors(),
+            accel_range_mps2: default_accel_range(),
+            gyro_range_radps: default_gyro_range(),
+        }
     }
+}
+
+fn default_accel_range() -> f64 {
+    160.0
+}
+fn default_gyro_range() -> f64 {
+    35.0
 }
 
 fn default_history_ns() -> u64 {
@@ -173,6 +218,15 @@ pub enum ModelConfig {
         /// σₐ, m/s².
         accel_noise_std: f64,
     },
+    /// Error-state INS ([`crate::model::ins`]).
+    Ins {
+        /// IMU noise (Kalibr names and units).
+        noise: crate::model::ins::ImuNoise,
+        /// Gravity, m/s².
+        gravity_mps2: f64,
+        /// IMU samples of the static alignment (0: none).
+        alignment_samples: u32,
+    },
 }
 
 impl ModelConfig {
@@ -180,6 +234,7 @@ impl ModelConfig {
     pub fn kind(&self) -> &'static str {
         match self {
             ModelConfig::Linear { .. } => "linear",
+            ModelConfig::Ins { .. } => "ins",
         }
     }
 
@@ -187,6 +242,7 @@ impl ModelConfig {
     pub fn dims(&self) -> (usize, usize) {
         match self {
             ModelConfig::Linear { .. } => (6, 6),
+            ModelConfig::Ins { .. } => (16, 15),
         }
     }
 }
@@ -211,6 +267,10 @@ pub struct ValidationConfig {
     pub max_future_ns: u64,
     /// Distinct sensor ids tracked per kind.
     pub max_sensors: usize,
+    /// Largest accepted magnitude of an IMU's acceleration or specific force, m/s².
+    pub accel_range_mps2: f64,
+    /// Largest accepted magnitude of an IMU's angular rate, rad/s.
+    pub gyro_range_radps: f64,
 }
 
 /// A validated configuration.
@@ -245,18 +305,49 @@ impl Config {
     /// Parses and validates TOML text.
     pub fn parse(text: &str) -> Result<Self, ConfigError> {
         let raw: RawConfig = toml::from_str(text).map_err(|e| ConfigError::Parse(e.to_string()))?;
-        let model = match raw.model.kind.as_str() {
+        let m = &raw.model;
+        let positive = |key: &'static str, v: Option<f64>, kind: &str| -> Result<f64, ConfigError> {
+            let v = v.ok_or_else(|| invalid(key, format!("required for kind {kind:?}")))?;
+            if v.is_finite() && v > 0.0 { Ok(v) } else { Err(invalid(key, format!("must be finite and > 0, got {v}"))) }
+        };
+        let reject = |key: &'static str, present: bool, kind: &str| -> Result<(), ConfigError> {
+            if present { Err(invalid(key, format!("is not a parameter of kind {kind:?}"))) } else { Ok(()) }
+        };
+        let model = match m.kind.as_str() {
             "linear" => {
-                let s = raw
-                    .model
-                    .accel_noise_std
-                    .ok_or_else(|| invalid("model.accel_noise_std", "required for kind \"linear\""))?;
-                if !(s.is_finite() && s > 0.0) {
-                    return Err(invalid("model.accel_noise_std", format!("must be finite and > 0, got {s}")));
-                }
-                ModelConfig::Linear { accel_noise_std: s }
+                reject("model.accelerometer_noise_density", m.accelerometer_noise_density.is_some(), "linear")?;
+                reject("model.gyroscope_noise_density", m.gyroscope_noise_density.is_some(), "linear")?;
+                reject("model.accelerometer_random_walk", m.accelerometer_random_walk.is_some(), "linear")?;
+                reject("model.gyroscope_random_walk", m.gyroscope_random_walk.is_some(), "linear")?;
+                reject("model.gravity_mps2", m.gravity_mps2.is_some(), "linear")?;
+                reject("alignment", raw.alignment.is_some(), "linear")?;
+                ModelConfig::Linear { accel_noise_std: positive("model.accel_noise_std", m.accel_noise_std, "linear")? }
             }
-            other => return Err(invalid("model.kind", format!("unknown model {other:?}; known: \"linear\""))),
+            "ins" => {
+                reject("model.accel_noise_std", m.accel_noise_std.is_some(), "ins")?;
+                let noise = crate::model::ins::ImuNoise {
+                    accelerometer_noise_density: positive(
+                        "model.accelerometer_noise_density",
+                        m.accelerometer_noise_density,
+                        "ins",
+                    )?,
+                    gyroscope_noise_density: positive(
+                        "model.gyroscope_noise_density",
+                        m.gyroscope_noise_density,
+                        "ins",
+                    )?,
+                    accelerometer_random_walk: positive(
+                        "model.accelerometer_random_walk",
+                        m.accelerometer_random_walk,
+                        "ins",
+                    )?,
+                    gyroscope_random_walk: positive("model.gyroscope_random_walk", m.gyroscope_random_walk, "ins")?,
+                };
+                let gravity_mps2 = positive("model.gravity_mps2", Some(m.gravity_mps2.unwrap_or(9.80665)), "ins")?;
+                let alignment_samples = raw.alignment.as_ref().map_or(0, |a| a.static_samples);
+                ModelConfig::Ins { noise, gravity_mps2, alignment_samples }
+            }
+            other => return Err(invalid("model.kind", format!("unknown model {other:?}; known: \"linear\", \"ins\""))),
         };
         let (n, n_cov) = model.dims();
         let f = raw.filter;
@@ -280,6 +371,16 @@ impl Config {
                 "filter.initial_covariance_diagonal",
                 format!("variances must be finite and > 0, got {v}"),
             ));
+        }
+        if matches!(model, ModelConfig::Ins { .. }) {
+            let q = &f.initial_state[6..10];
+            let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if (norm - 1.0).abs() > 1e-3 {
+                return Err(invalid(
+                    "filter.initial_state",
+                    format!("entries 6..10 are the attitude quaternion [w, x, y, z] and must have norm 1, got {norm}"),
+                ));
+            }
         }
         if f.history_ns == 0 {
             return Err(invalid("filter.history_ns", "must be > 0"));
@@ -313,6 +414,13 @@ impl Config {
             nis_probability: h.nis_probability,
         };
         let v = raw.validation;
+        for (key, value) in
+            [("validation.accel_range_mps2", v.accel_range_mps2), ("validation.gyro_range_radps", v.gyro_range_radps)]
+        {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(invalid(key, format!("must be finite and > 0, got {value}")));
+            }
+        }
         if !(1..=256).contains(&v.max_sensors) {
             return Err(invalid("validation.max_sensors", format!("must be in 1..=256, got {}", v.max_sensors)));
         }
@@ -326,7 +434,12 @@ impl Config {
             },
             gating,
             health,
-            validation: ValidationConfig { max_future_ns: v.max_future_ns, max_sensors: v.max_sensors },
+            validation: ValidationConfig {
+                max_future_ns: v.max_future_ns,
+                max_sensors: v.max_sensors,
+                accel_range_mps2: v.accel_range_mps2,
+                gyro_range_radps: v.gyro_range_radps,
+            },
         })
     }
 }
@@ -370,6 +483,26 @@ mod tests {
         assert!(err(&format!("{MIN}[validation]\nmax_sensors = 0\n")).contains("validation.max_sensors"));
         assert!(err(&format!("{MIN}[health]\nnis_window = 0\n")).contains("health.nis_window"));
         assert!(err(&format!("{MIN}[health]\nimu_timeout = 5\n")).contains("imu_timeout"));
+        assert!(err(&format!("{MIN}[alignment]\nstatic_samples = 5\n")).contains("alignment"));
+    }
+
+    const INS: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+        accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n\
+        initial_state = [0,0,0, 0,0,0, 1,0,0,0, 0,0,0, 0,0,0]\ninitial_covariance_diagonal = [1,1,1, 1,1,1, 0.1,0.1,0.1, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n\
+        [alignment]\nstatic_samples = 400\n";
+
+    #[test]
+    fn ins_config_uses_kalibr_names() {
+        let c = Config::parse(INS).unwrap();
+        let ModelConfig::Ins { noise, gravity_mps2, alignment_samples } = c.model else { panic!() };
+        assert_eq!((noise.gyroscope_random_walk, gravity_mps2, alignment_samples), (1e-5, 9.80665, 400));
+        assert!(err(&INS.replace("1,0,0,0, 0,0,0", "2,0,0,0, 0,0,0")).contains("quaternion"));
+        assert!(err(&INS.replace("gyroscope_random_walk = 1.0e-5\n", "")).contains("model.gyroscope_random_walk"));
+        assert!(err(&INS.replace("1e-6,1e-6,1e-6]", "1e-6,1e-6]")).contains("needs 15 values"));
+        assert!(
+            err(&INS.replace("kind = \"ins\"", "kind = \"ins\"\naccel_noise_std = 1"))
+                .contains("model.accel_noise_std")
+        );
         assert!(err("[model]\nkind = \"linear\"\n").contains("filter"));
     }
 }

@@ -20,7 +20,7 @@ use crate::reorder::{Placement, Sample, SampleKey, Seen, SeqWindow, key_of, plac
 use crate::validate::{self, Rejection};
 
 /// Engine limits (from the `[filter]` and `[validation]` config tables).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EngineConfig {
     /// Rewind window: samples older than the newest by more than this are too late.
     pub history_ns: u64,
@@ -30,6 +30,10 @@ pub struct EngineConfig {
     pub max_sensors: usize,
     /// Largest accepted lead of a timestamp over `now` (when `now` is given).
     pub max_future_ns: u64,
+    /// IMU acceleration range, m/s².
+    pub accel_range_mps2: f64,
+    /// IMU rate range, rad/s.
+    pub gyro_range_radps: f64,
 }
 
 impl EngineConfig {
@@ -40,6 +44,8 @@ impl EngineConfig {
             history_capacity: c.filter.history_capacity,
             max_sensors: c.validation.max_sensors,
             max_future_ns: c.validation.max_future_ns,
+            accel_range_mps2: c.validation.accel_range_mps2,
+            gyro_range_radps: c.validation.gyro_range_radps,
         }
     }
 }
@@ -233,7 +239,7 @@ impl<M: Model> Engine<M> {
         let stats = &mut sensor.stats;
 
         let valid = match sample {
-            Sample::Imu(s) => validate::check_imu(s),
+            Sample::Imu(s) => validate::check_imu(s, self.config.accel_range_mps2, self.config.gyro_range_radps),
             Sample::Position(s) => validate::check_position(s),
         }
         .and_then(|()| match now_ns {
@@ -375,7 +381,14 @@ mod tests {
     use fusion_shared::{ImuSample, PositionSample};
 
     fn cfg() -> EngineConfig {
-        EngineConfig { history_ns: 1_000_000_000, history_capacity: 4096, max_sensors: 4, max_future_ns: 50_000_000 }
+        EngineConfig {
+            history_ns: 1_000_000_000,
+            history_capacity: 4096,
+            max_sensors: 4,
+            max_future_ns: 50_000_000,
+            accel_range_mps2: 160.0,
+            gyro_range_radps: 35.0,
+        }
     }
 
     fn engine(gate: Option<ChiSquareGate>) -> Engine<LinearModel> {

@@ -155,7 +155,14 @@ mod tests {
     fn engine() -> Engine<LinearModel> {
         Engine::new(
             LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap(),
-            EngineConfig { history_ns: 1_000_000_000, history_capacity: 64, max_sensors: 4, max_future_ns: u64::MAX },
+            EngineConfig {
+                history_ns: 1_000_000_000,
+                history_capacity: 64,
+                max_sensors: 4,
+                max_future_ns: u64::MAX,
+                accel_range_mps2: 160.0,
+                gyro_range_radps: 35.0,
+            },
         )
     }
 

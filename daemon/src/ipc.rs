@@ -24,6 +24,7 @@ use crate::config::{Config, ModelConfig};
 use crate::engine::{Engine, EngineConfig, Insert};
 use crate::health::HealthMonitor;
 use crate::model::Model;
+use crate::model::ins::InsModel;
 use crate::model::linear::LinearModel;
 use crate::snapshot::{self, Input};
 use crate::summary::{KindCounts, Summary, SummaryLogger};
@@ -87,6 +88,10 @@ pub fn run(config: &Config, options: &RunOptions, shutdown: &AtomicBool) -> Resu
     match config.model {
         ModelConfig::Linear { .. } => {
             let model = LinearModel::from_config(config).map_err(|e| RunError::Model(e.to_string()))?;
+            run_model(model, config, options, shutdown)
+        }
+        ModelConfig::Ins { .. } => {
+            let model = InsModel::from_config(config).map_err(|e| RunError::Model(e.to_string()))?;
             run_model(model, config, options, shutdown)
         }
     }

@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{Config, ModelConfig};
 use crate::engine::{Engine, EngineConfig, Entry, Insert};
+use crate::model::ins::InsModel;
 use crate::model::linear::LinearModel;
 use crate::model::{Model, StepOutcome};
 use crate::reorder::{Sample, SampleKey};
@@ -171,6 +172,13 @@ pub fn replay(
     match config.model {
         ModelConfig::Linear { .. } => {
             let model = LinearModel::from_config(config).map_err(|e| ReplayError::Model(e.to_string()))?;
+            replay_model(model, config, input, output, smooth)
+        }
+        ModelConfig::Ins { .. } => {
+            if smooth {
+                return Err(crate::filter::SmootherError::Unsupported("ins").into());
+            }
+            let model = InsModel::from_config(config).map_err(|e| ReplayError::Model(e.to_string()))?;
             replay_model(model, config, input, output, smooth)
         }
     }

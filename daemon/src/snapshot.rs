@@ -119,7 +119,14 @@ mod tests {
     fn snapshot_carries_estimate_input_and_counters() {
         let mut e = Engine::new(
             LinearModel::new(0.3, [1.0, 2.0, 3.0, 0.0, 0.0, 0.0], [1.0; 6], None).unwrap(),
-            EngineConfig { history_ns: 1_000_000_000, history_capacity: 64, max_sensors: 4, max_future_ns: u64::MAX },
+            EngineConfig {
+                history_ns: 1_000_000_000,
+                history_capacity: 64,
+                max_sensors: 4,
+                max_future_ns: u64::MAX,
+                accel_range_mps2: 160.0,
+                gyro_range_radps: 35.0,
+            },
         );
         let mut sink = |_: &Entry<_>| {};
         let imu = Sample::Imu(ImuSample { t_ns: 100, sent_ns: 150, seq: 3, ..Default::default() });

@@ -19,6 +19,9 @@ pub enum Rejection {
     FutureTimestamp,
     /// More distinct sensor ids of this kind than `validation.max_sensors`.
     TooManySensors,
+    /// An IMU value beyond the sensor's range (`validation.accel_range_mps2`,
+    /// `validation.gyro_range_radps`): a corrupted sample.
+    OutOfRange,
 }
 
 impl Rejection {
@@ -30,6 +33,7 @@ impl Rejection {
             Rejection::CovarianceNotPositiveDefinite => "covariance not positive definite",
             Rejection::FutureTimestamp => "timestamp in the future",
             Rejection::TooManySensors => "too many sensors",
+            Rejection::OutOfRange => "beyond the sensor range",
         }
     }
 }
@@ -43,9 +47,17 @@ impl std::fmt::Display for Rejection {
 /// Relative tolerance of the symmetry check, against the largest entry.
 const SYMMETRY_TOLERANCE: f64 = 1e-9;
 
-/// Checks an IMU sample's values.
-pub fn check_imu(s: &ImuSample) -> Result<(), Rejection> {
-    if s.accel_mps2.iter().chain(&s.gyro_radps).all(|v| v.is_finite()) { Ok(()) } else { Err(Rejection::NonFinite) }
+/// Checks an IMU sample's values: finite, and the magnitudes of acceleration
+/// and rate within the sensor's range.
+pub fn check_imu(s: &ImuSample, accel_range: f64, gyro_range: f64) -> Result<(), Rejection> {
+    if !s.accel_mps2.iter().chain(&s.gyro_radps).all(|v| v.is_finite()) {
+        return Err(Rejection::NonFinite);
+    }
+    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if norm(&s.accel_mps2) > accel_range || norm(&s.gyro_radps) > gyro_range {
+        return Err(Rejection::OutOfRange);
+    }
+    Ok(())
 }
 
 /// Checks a position sample: finite, covariance symmetric positive definite.
@@ -88,7 +100,11 @@ mod tests {
         );
         assert_eq!(check_position(&pos([0.0; 9])), Err(Rejection::CovarianceNotPositiveDefinite));
         let imu = ImuSample { gyro_radps: [0.0, f64::INFINITY, 0.0], ..Default::default() };
-        assert_eq!(check_imu(&imu), Err(Rejection::NonFinite));
-        assert_eq!(check_imu(&ImuSample::default()), Ok(()));
+        assert_eq!(check_imu(&imu, 160.0, 35.0), Err(Rejection::NonFinite));
+        assert_eq!(check_imu(&ImuSample::default(), 160.0, 35.0), Ok(()));
+        let fast = ImuSample { gyro_radps: [30.0, 30.0, 0.0], ..Default::default() };
+        assert_eq!(check_imu(&fast, 160.0, 35.0), Err(Rejection::OutOfRange));
+        let hard = ImuSample { accel_mps2: [0.0, 0.0, 200.0], ..Default::default() };
+        assert_eq!(check_imu(&hard, 160.0, 35.0), Err(Rejection::OutOfRange));
     }
 }

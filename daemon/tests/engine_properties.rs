@@ -12,7 +12,14 @@ const HISTORY_NS: u64 = 200_000_000;
 fn engine() -> Engine<LinearModel> {
     Engine::new(
         LinearModel::new(0.4, [0.0; 6], [25.0, 25.0, 25.0, 4.0, 4.0, 4.0], None).unwrap(),
-        EngineConfig { history_ns: HISTORY_NS, history_capacity: 1024, max_sensors: 4, max_future_ns: 0 },
+        EngineConfig {
+            history_ns: HISTORY_NS,
+            history_capacity: 1024,
+            max_sensors: 4,
+            max_future_ns: 0,
+            accel_range_mps2: 160.0,
+            gyro_range_radps: 35.0,
+        },
     )
 }
 

@@ -71,8 +71,10 @@ impl LinearModel {
 
     /// The model of a validated config with `kind = "linear"`.
     pub fn from_config(config: &crate::config::Config) -> Result<Self, crate::config::ConfigError> {
-        let crate::config::ModelConfig::Linear { accel_noise_std } = config.model;
         let invalid = |key, problem: &str| crate::config::ConfigError::Invalid { key, problem: problem.to_string() };
+        let crate::config::ModelConfig::Linear { accel_noise_std } = config.model else {
+            return Err(invalid("model.kind", "not \"linear\""));
+        };
         let x0: [f64; N] = config
             .filter
             .initial_state

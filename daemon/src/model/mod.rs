@@ -1,11 +1,13 @@
 //! Process and measurement models: what a sample does to the filter.
 //!
 //! - [`linear`]: constant velocity driven by world-frame acceleration (6 states).
+//! - [`ins`]: error-state INS for real IMUs (16 nominal, 15 error states).
 //!
 //! A model owns its filter state type; the engine only stores, copies and replays
 //! it, so a model may keep anything it needs for time handling (the filter time,
 //! held IMU values) inside that state.
 
+pub mod ins;
 pub mod linear;
 
 use crate::reorder::Sample;
