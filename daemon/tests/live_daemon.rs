@@ -39,7 +39,23 @@ fn assert_same_estimate(snap: &StateSnapshot, line: &fusion_daemon::replay::Outp
         snap.state(),
         line.x
     );
-    assert!(snap.covariance().iter().zip(&line.p).all(|(a, b)| close(*a, *b)), "{what}: P differs");
+    let bad: Vec<_> = snap
+        .covariance()
+        .iter()
+        .zip(&line.p)
+        .enumerate()
+        .filter(|(_, (a, b))| !close(**a, **b))
+        .map(|(i, (a, b))| (i, *a, *b))
+        .take(5)
+        .collect();
+    assert!(
+        bad.is_empty(),
+        "{what}: P differs {bad:?} (t {} kind {} input {} {})",
+        snap.t_ns,
+        snap.sample_kind,
+        snap.input_kind,
+        snap.input_seq
+    );
     assert_eq!(snap.accepted(), line.accepted, "{what}");
 }
 
@@ -263,5 +279,36 @@ fn start_up_errors_are_clear_and_exit_non_zero() {
     let (code, err) = run(&config(), &domain.namespace);
     assert_eq!(code, Some(1));
     assert!(err.contains("already running"), "{err}");
+    assert!(daemon.terminate().success());
+}
+
+fn ins_config() -> String {
+    "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+     accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n\
+     initial_state = [0,0,0, 9,0,0, 1,0,0,0, 0,0,0, 0,0,0]\n\
+     initial_covariance_diagonal = [1,1,1, 100,100,100, 1,1,1, 0.01,0.01,0.01, 1e-5,1e-5,1e-5]\n\
+     [gating]\nprobability = 0.999\n"
+        .to_string()
+}
+
+#[test]
+fn ins_live_gives_the_replay_estimates() {
+    let domain = TestDomain::new("ins");
+    let mut daemon = Daemon::start(&domain, &ins_config(), "spin");
+    let client = domain.client();
+    let mut reader = client.state_subscriber_with_buffer(512).unwrap();
+    let mut c = ScenarioConfig { seed: 21, duration_s: 2.0, ..Default::default() };
+    c.imu = fusion_client::sim::ImuConfig::kalibr(200.0, 0.02, 0.001, 0.001, 1e-5);
+    c.imu_output = fusion_client::sim::ImuOutput::BodySpecificForce;
+    let mut samples: Vec<Sample> = Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect();
+    samples.sort_by_key(|s| (s.t_ns(), s.kind(), s.sensor(), s.seq()));
+    let snaps = publish_in_lockstep(&client, &mut reader, &samples);
+    let lines = replay(&samples, &ins_config());
+    let last = snaps.last().unwrap();
+    assert_eq!((last.model, last.state_len, last.cov_dim), (fusion_shared::snapshot::model::INS, 16, 15));
+    assert_eq!(snaps.len(), lines.len());
+    for (i, (s, l)) in snaps.iter().zip(&lines).enumerate() {
+        assert_same_estimate(s, l, &format!("ins sample {i}"));
+    }
     assert!(daemon.terminate().success());
 }

@@ -53,6 +53,14 @@ fn every_kind_of_bad_line_is_rejected_with_its_line_number_and_reason() {
             r#"{"position": {"t_ns": 2000000, "sensor": 1, "seq": 1, "pos": [1, 2, 3], "cov": [0, 0, 0, 0, 0, 0, 0, 0, 0]}}"#,
             "covariance not positive definite",
         ),
+        (
+            r#"{"imu": {"t_ns": 2000000, "sensor": 0, "seq": 1, "accel": [0, 0, 300], "gyro": [0, 0, 0]}}"#,
+            "beyond the sensor range",
+        ),
+        (
+            r#"{"imu": {"t_ns": 2000000, "sensor": 0, "seq": 1, "accel": [0, 0, 9.8], "gyro": [50, 0, 0]}}"#,
+            "beyond the sensor range",
+        ),
     ];
     let mut input = format!("{GOOD_IMU}\n{GOOD_POS}\n");
     for (line, _) in &bad {
@@ -66,14 +74,14 @@ fn every_kind_of_bad_line_is_rejected_with_its_line_number_and_reason() {
     let config = Config::parse(&common::linear_config(None)).unwrap();
     let mut out = Vec::new();
     let summary = replay(&config, input.as_bytes(), &mut out, false).unwrap();
-    assert_eq!((summary.read, summary.processed, summary.invalid), (14, 3, 11), "{summary}");
+    assert_eq!((summary.read, summary.processed, summary.invalid), (16, 3, 13), "{summary}");
     // At most 10 are described one by one, with line numbers (1-based) and reasons.
     assert_eq!(summary.invalid_lines.len(), 10);
     for (i, ((line_no, reason), (_, needle))) in summary.invalid_lines.iter().zip(&bad).enumerate() {
         assert_eq!(*line_no, i as u64 + 3);
         assert!(reason.contains(needle), "line {line_no}: {reason:?} lacks {needle:?}");
     }
-    assert!(summary.to_string().contains("and 1 more invalid lines"), "{summary}");
+    assert!(summary.to_string().contains("and 3 more invalid lines"), "{summary}");
 
     // The bad lines changed nothing: same estimates as the good lines alone.
     let good_only: String = input

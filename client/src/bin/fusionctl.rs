@@ -148,16 +148,53 @@ fn describe(s: &StateSnapshot) -> String {
         health::name(s.health),
         if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) }
     );
-    let names: &[&str] = match s.model {
-        model::LINEAR => &["p_x m", "p_y m", "p_z m", "v_x m/s", "v_y m/s", "v_z m/s"],
-        _ => &[],
+    // Each state's name and the index of its standard deviation in the covariance
+    // (the INS covariance is over 15 error states: the quaternion's 4 entries share
+    // the 3 attitude errors, shown in degrees below).
+    let ins = s.model == model::INS;
+    let layout: Vec<(String, Option<usize>)> = match s.model {
+        model::LINEAR => ["p_x m", "p_y m", "p_z m", "v_x m/s", "v_y m/s", "v_z m/s"]
+            .iter()
+            .enumerate()
+            .map(|(i, n)| (n.to_string(), Some(i)))
+            .collect(),
+        model::INS => [
+            ("p_x m", Some(0)),
+            ("p_y m", Some(1)),
+            ("p_z m", Some(2)),
+            ("v_x m/s", Some(3)),
+            ("v_y m/s", Some(4)),
+            ("v_z m/s", Some(5)),
+            ("q_w", None),
+            ("q_x", None),
+            ("q_y", None),
+            ("q_z", None),
+            ("b_ax m/s2", Some(9)),
+            ("b_ay m/s2", Some(10)),
+            ("b_az m/s2", Some(11)),
+            ("b_gx rad/s", Some(12)),
+            ("b_gy rad/s", Some(13)),
+            ("b_gz rad/s", Some(14)),
+        ]
+        .iter()
+        .map(|(n, i)| (n.to_string(), *i))
+        .collect(),
+        _ => (0..s.state().len()).map(|i| (format!("x[{i}]"), Some(i))).collect(),
     };
     let sd: Vec<f64> = s.std_devs().collect();
-    o += &format!("  {:<10} {:>14} {:>12}\n", "state", "value", "1-sigma");
-    for (i, v) in s.state().iter().enumerate() {
-        let name = names.get(i).map_or_else(|| format!("x[{i}]"), |n| n.to_string());
-        let sigma = sd.get(i).map_or_else(String::new, |v| format!("{v:.4}"));
-        o += &format!("  {name:<10} {v:>14.4} {sigma:>12}\n");
+    o += &format!("  {:<12} {:>14} {:>12}\n", "state", "value", "1-sigma");
+    for (v, (name, k)) in s.state().iter().zip(&layout) {
+        let sigma = k.and_then(|k| sd.get(k)).map_or_else(String::new, |v| format!("{v:.4}"));
+        o += &format!("  {name:<12} {v:>14.6} {sigma:>12}\n");
+    }
+    if ins && sd.len() >= 9 {
+        let deg = |i: usize| sd[i].to_degrees();
+        o += &format!(
+            "  attitude error 1-sigma (roll/pitch/yaw axes, deg): {:.3} {:.3} {:.3}\n",
+            deg(6),
+            deg(7),
+            deg(8)
+        );
     }
     o += &format!(
         "\n  {:<12} {:>9} {:>9} {:>7} {:>6} {:>8} {:>9} {:>7} {:>6} {:>9}\n",

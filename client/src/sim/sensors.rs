@@ -41,6 +41,30 @@ pub struct ImuConfig {
     pub sensor: u32,
     /// Gravity for [`ImuOutput::BodySpecificForce`], m/s².
     pub gravity_mps2: f64,
+    /// Standard deviation of the accelerometer's turn-on bias (drawn once per run), m/s².
+    pub accel_bias_std: f64,
+    /// Standard deviation of the gyroscope's turn-on bias, rad/s.
+    pub gyro_bias_std: f64,
+    /// Accelerometer bias random walk σ_aw, m/s³/√Hz (Kalibr).
+    pub accel_random_walk: f64,
+    /// Gyroscope bias random walk σ_gw, rad/s²/√Hz (Kalibr).
+    pub gyro_random_walk: f64,
+}
+
+impl ImuConfig {
+    /// An IMU at `rate_hz` following Kalibr's model: white noise densities σ_a
+    /// (m/s²/√Hz) and σ_g (rad/s/√Hz), giving per-sample standard deviations
+    /// `σ √rate`, and bias random walks σ_aw, σ_gw.
+    pub fn kalibr(rate_hz: f64, accel_density: f64, gyro_density: f64, accel_rw: f64, gyro_rw: f64) -> Self {
+        Self {
+            rate_hz,
+            accel_noise_std: accel_density * rate_hz.sqrt(),
+            gyro_noise_std: gyro_density * rate_hz.sqrt(),
+            accel_random_walk: accel_rw,
+            gyro_random_walk: gyro_rw,
+            ..Self::default()
+        }
+    }
 }
 
 impl Default for ImuConfig {
@@ -53,6 +77,10 @@ impl Default for ImuConfig {
             delay_ns: 0,
             sensor: 0,
             gravity_mps2: 9.80665,
+            accel_bias_std: 0.0,
+            gyro_bias_std: 0.0,
+            accel_random_walk: 0.0,
+            gyro_random_walk: 0.0,
         }
     }
 }
@@ -124,13 +152,26 @@ pub struct ImuSim {
     start_ns: u64,
     index: u64,
     rng: ChaCha8Rng,
+    bias_rng: ChaCha8Rng,
+    accel_bias: Vector3<f64>,
+    gyro_bias: Vector3<f64>,
+    last_t_s: f64,
 }
 
 impl ImuSim {
     /// An IMU on `trajectory` whose first sample is at `start_ns` (trajectory time 0).
     pub fn new(trajectory: CarTrajectory, config: ImuConfig, output: ImuOutput, start_ns: u64, seed: u64) -> Self {
         let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x696d_7500);
-        Self { trajectory, config, output, start_ns, index: 0, rng }
+        // Biases draw from their own stream, so enabling them leaves the white noise unchanged.
+        let mut bias_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6269_6173);
+        let accel_bias = gaussian3(&mut bias_rng) * config.accel_bias_std;
+        let gyro_bias = gaussian3(&mut bias_rng) * config.gyro_bias_std;
+        Self { trajectory, config, output, start_ns, index: 0, rng, bias_rng, accel_bias, gyro_bias, last_t_s: 0.0 }
+    }
+
+    /// The current accelerometer and gyroscope biases (body frame).
+    pub fn biases(&self) -> (Vector3<f64>, Vector3<f64>) {
+        (self.accel_bias, self.gyro_bias)
     }
 }
 
@@ -143,12 +184,20 @@ impl Iterator for ImuSim {
         let jitter = if max_jitter > 0.0 { self.rng.random_range(-max_jitter..=max_jitter) } else { 0.0 };
         let offset_ns = (self.index as f64 * period_ns + jitter).max(0.0).round() as u64;
         let t_ns = self.start_ns + offset_ns;
-        let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
+        let t_s = offset_ns as f64 * 1e-9;
+        let truth = self.trajectory.at(t_s);
+        // Bias random walk (Kalibr): b(t + dt) = b(t) + σ_w √dt · N(0, I).
+        let dt = (t_s - self.last_t_s).max(0.0);
+        self.last_t_s = t_s;
+        if self.config.accel_random_walk > 0.0 || self.config.gyro_random_walk > 0.0 {
+            self.accel_bias += gaussian3(&mut self.bias_rng) * (self.config.accel_random_walk * dt.sqrt());
+            self.gyro_bias += gaussian3(&mut self.bias_rng) * (self.config.gyro_random_walk * dt.sqrt());
+        }
         let accel = match self.output {
             ImuOutput::WorldAcceleration => truth.acc_mps2,
-            ImuOutput::BodySpecificForce => truth.specific_force_mps2(self.config.gravity_mps2),
+            ImuOutput::BodySpecificForce => truth.specific_force_mps2(self.config.gravity_mps2) + self.accel_bias,
         } + gaussian3(&mut self.rng) * self.config.accel_noise_std;
-        let gyro = truth.omega_body_radps + gaussian3(&mut self.rng) * self.config.gyro_noise_std;
+        let gyro = truth.omega_body_radps + self.gyro_bias + gaussian3(&mut self.rng) * self.config.gyro_noise_std;
         let sample = ImuSample {
             t_ns,
             seq: self.index,

@@ -56,7 +56,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 use super::{Model, StepOutcome};
-use crate::filter::{ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, UpdateDecision, UpdateOptions};
+use crate::filter::{ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, UpdateDecision};
 use crate::reorder::Sample;
 
 /// Error-state dimension.
@@ -149,6 +149,16 @@ fn block(m: &SMatrix<f64, N, N>, r: usize, c: usize) -> Matrix3<f64> {
 }
 
 impl InsModel {
+    /// The nominal state `x` of a state (same as [`Model::x`]).
+    pub fn x_of(s: &InsState) -> &[f64] {
+        &s.nominal
+    }
+
+    /// The error-state covariance, row-major 15×15 (same as [`Model::covariance`]).
+    pub fn covariance_of(s: &InsState) -> &[f64] {
+        s.kf.P().as_slice()
+    }
+
     /// A model with the IMU noise, gravity (m/s²), nominal x₀, diag(P₀) (error-state
     /// order), optional gate, and a static alignment over the first
     /// `alignment_samples` IMU samples (0: none, x₀'s attitude is used).
@@ -354,11 +364,8 @@ impl Model for InsModel {
             Sample::Position(pos) => {
                 let z = Vector3::from(pos.pos_m);
                 let R = Matrix3::from_row_slice(&pos.cov_m2);
-                let mut H = SMatrix::<f64, 3, N>::zeros();
-                H.fixed_view_mut::<3, 3>(0, 0).fill_with_identity();
-                let options = UpdateOptions { gate: self.gate.as_ref(), fault_detector: None };
-                // The error state is zero before the update, so h(x) = p (nominal).
-                let d = match s.kf.update_nonlinear(&z, &s.p(), &H, &R, options) {
+                // H selects δp; the error state is zero before the update, so h(x) = p (nominal).
+                let d = match s.kf.update_selection(&z, &s.p(), 0, &R, self.gate.as_ref()) {
                     Ok(d) => d,
                     Err(_) => return StepOutcome::Refused,
                 };
@@ -537,6 +544,64 @@ mod tests {
             (s.v() - v).norm()
         );
         assert!(s.q().angle_to(&q) < 1e-12);
+    }
+
+    #[test]
+    fn a_stationary_vehicle_stays_put_and_its_accelerometer_bias_converges() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        // Tilted at rest (so pitch and roll make the horizontal bias observable
+        // against gravity only through the level constraint of position fixes).
+        let q = UnitQuaternion::from_euler_angles(0.02, -0.03, 0.4);
+        let mut x = x0();
+        let c = q.quaternion().coords;
+        x[6..10].copy_from_slice(&[c[3], c[0], c[1], c[2]]);
+        let mut p0 = p0();
+        p0[6..9].fill(1e-8); // attitude known well: the bias is what must converge
+        let m = InsModel::new(noise(), G, x, p0, None, 0).unwrap();
+        let mut s = m.initial_state();
+        let b_a = Vector3::new(0.05, -0.08, 0.1);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut n = |std: f64| Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut rng)) * std;
+        let rate = 200.0;
+        let f_true = q.inverse_transform_vector(&Vector3::new(0.0, 0.0, G));
+        for k in 0..(120 * 200u64) {
+            let t = k * 5_000_000;
+            let f = f_true + b_a + n(0.02 * f64::sqrt(rate));
+            let w = n(0.001 * f64::sqrt(rate));
+            m.step(&mut s, &imu(t, k, f, w));
+            if k % 20 == 0 {
+                let z = n(0.3);
+                let fix = PositionSample {
+                    t_ns: t,
+                    seq: k / 20,
+                    sensor: 1,
+                    pos_m: z.into(),
+                    cov_m2: [0.09, 0.0, 0.0, 0.0, 0.09, 0.0, 0.0, 0.0, 0.09],
+                    ..Default::default()
+                };
+                m.step(&mut s, &Sample::Position(fix));
+            }
+        }
+        let sd = |i: usize| s.kf.P()[(i, i)].sqrt();
+        for i in 0..3 {
+            // Stays put: within its own 4-sigma and physically small.
+            assert!(s.p()[i].abs() < (4.0 * sd(i)).max(0.02) && s.p()[i].abs() < 0.3, "p[{i}] {}", s.p()[i]);
+            assert!(s.v()[i].abs() < (4.0 * sd(3 + i)).max(0.02) && s.v()[i].abs() < 0.2, "v[{i}] {}", s.v()[i]);
+        }
+        // At rest the bias along gravity is observable: it converges (the prior sd was 0.1).
+        let bz = s.b_a() - b_a;
+        let bz = q.transform_vector(&bz).z; // world-vertical component
+        let sd_v = (q.to_rotation_matrix() * s.kf.P().fixed_view::<3, 3>(9, 9) * q.to_rotation_matrix().transpose())
+            [(2, 2)]
+            .sqrt();
+        assert!(bz.abs() < 4.0 * sd_v && bz.abs() < 0.005 && sd_v < 0.01, "vertical bias error {bz} (sd {sd_v})");
+        // Horizontally, bias and tilt are one observable together (gyro noise lets
+        // the tilt wander): their sum is what must converge, so that the specific
+        // force, corrected and rotated, cancels gravity.
+        let a_world = s.q() * (f_true + b_a - s.b_a()) + Vector3::new(0.0, 0.0, -G);
+        // 0.03 m/s² is the pull of gravity on a 0.17° tilt error.
+        assert!(a_world.norm() < 0.03, "estimated acceleration at rest {a_world}");
     }
 
     #[test]

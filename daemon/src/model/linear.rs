@@ -27,7 +27,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use super::{Model, StepOutcome};
-use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, UpdateDecision, UpdateOptions, rts_smooth};
+use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, UpdateDecision, rts_smooth};
 use crate::reorder::Sample;
 
 /// State dimension.
@@ -189,10 +189,9 @@ impl Model for LinearModel {
             Sample::Position(p) => {
                 let z = Vector3::from(p.pos_m);
                 let R = Matrix3::from_row_slice(&p.cov_m2);
-                let mut H = SMatrix::<f64, 3, N>::zeros();
-                H.fixed_view_mut::<3, 3>(0, 0).fill_with_identity();
-                let options = UpdateOptions { gate: self.gate.as_ref(), fault_detector: None };
-                match s.kf.update(&z, &H, &R, options) {
+                // H = [I 0]: the position states are selected.
+                let predicted = Vector3::new(s.kf.x()[0], s.kf.x()[1], s.kf.x()[2]);
+                match s.kf.update_selection(&z, &predicted, 0, &R, self.gate.as_ref()) {
                     Ok(d) if d.decision == UpdateDecision::Accepted => StepOutcome::Fused { nis: d.nis },
                     Ok(d) => StepOutcome::Gated { nis: d.nis },
                     Err(_) => StepOutcome::Refused,
