@@ -28,7 +28,18 @@ struct Args {
     /// Seed of the drive.
     #[arg(long, default_value_t = 7)]
     seed: u64,
+    /// Filter model: `linear` (the IMU gives world acceleration) or `ins` (a real
+    /// IMU: body specific force and rates with noise and biases, error-state INS).
+    #[arg(long, default_value = "linear")]
+    model: String,
 }
+
+const INS_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\n\
+    gyroscope_noise_density = 0.001\naccelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\n\
+    [filter]\n# at the origin, moving ~10 m/s east-ish, heading unknown (1 rad), biases unknown\n\
+    initial_state = [0, 0, 0, 10, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0]\n\
+    initial_covariance_diagonal = [1, 1, 1, 100, 100, 4, 0.01, 0.01, 1, 0.0025, 0.0025, 0.0025, 1e-6, 1e-6, 1e-6]\n\
+    history_ns = 1_000_000_000\n\n[gating]\nprobability = 0.999\n";
 
 const CONFIG: &str = "[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n\n[filter]\n\
     initial_state = [0, 0, 0, 0, 0, 0]\n# the car is already moving: sigma_v 15 m/s\n\
@@ -83,12 +94,38 @@ fn main() -> anyhow::Result<()> {
     };
     let work = bin_dir.join("demo");
     std::fs::create_dir_all(&work)?;
-    let config = work.join("linear.toml");
-    std::fs::write(&config, CONFIG)?;
+    let (config_text, imu_args): (&str, &[&str]) = match args.model.as_str() {
+        "linear" => (CONFIG, &[]),
+        // Automotive MEMS (Kalibr densities as configured), 200 Hz, 5 mg / ~100 deg/h turn-on biases.
+        "ins" => (
+            INS_CONFIG,
+            &[
+                "--imu-output",
+                "body",
+                "--imu-rate",
+                "200",
+                "--accel-noise",
+                "0.283",
+                "--gyro-noise",
+                "0.0141", // 0.02 m/s²/√Hz, 0.001 rad/s/√Hz at 200 Hz
+                "--accel-bias",
+                "0.05",
+                "--gyro-bias",
+                "0.0005",
+                "--accel-random-walk",
+                "0.001",
+                "--gyro-random-walk",
+                "1e-5",
+            ],
+        ),
+        other => bail!("unknown --model {other:?}: linear or ins"),
+    };
+    let config = work.join(format!("{}.toml", args.model));
+    std::fs::write(&config, config_text)?;
     let log = work.join("fusiond.log");
     let namespace = format!("demo-{}", std::process::id());
 
-    println!("fusiond demo: namespace {namespace}, model linear, --wait {}, {} s", args.wait, args.duration);
+    println!("fusiond demo: namespace {namespace}, model {}, --wait {}, {} s", args.model, args.wait, args.duration);
     let mut children = Children(Vec::new());
     let daemon = Command::new(bin("fusiond")?)
         .args(["run", "--namespace", &namespace, "--wait", &args.wait, "--config"])
@@ -114,6 +151,7 @@ fn main() -> anyhow::Result<()> {
             .args(["run", role, "--namespace", &namespace, "--outliers", "0.03"])
             .args(["--seed", &args.seed.to_string(), "--duration", &args.duration.to_string()])
             .args(["--start-at-ns", &start_ns.to_string()])
+            .args(if role == "--imu-only" { imu_args } else { &[] })
             .stderr(Stdio::null())
             .spawn()?)
     };

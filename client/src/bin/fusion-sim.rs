@@ -87,6 +87,21 @@ struct SimArgs {
     /// IMU acceleration noise, m/s² per sample.
     #[arg(long, default_value_t = 0.05)]
     accel_noise: f64,
+    /// IMU angular-rate noise, rad/s per sample.
+    #[arg(long, default_value_t = 0.001)]
+    gyro_noise: f64,
+    /// Standard deviation of the accelerometer's turn-on bias, m/s² (body output).
+    #[arg(long, default_value_t = 0.0)]
+    accel_bias: f64,
+    /// Standard deviation of the gyroscope's turn-on bias, rad/s.
+    #[arg(long, default_value_t = 0.0)]
+    gyro_bias: f64,
+    /// Accelerometer bias random walk, m/s³/√Hz (Kalibr).
+    #[arg(long, default_value_t = 0.0)]
+    accel_random_walk: f64,
+    /// Gyroscope bias random walk, rad/s²/√Hz (Kalibr).
+    #[arg(long, default_value_t = 0.0)]
+    gyro_random_walk: f64,
     /// Position rate, Hz.
     #[arg(long, default_value_t = 10.0)]
     position_rate: f64,
@@ -131,6 +146,11 @@ impl SimArgs {
         c.imu.rate_hz = self.imu_rate;
         c.imu.jitter_ns = self.imu_jitter_us * 1000;
         c.imu.accel_noise_std = self.accel_noise;
+        c.imu.gyro_noise_std = self.gyro_noise;
+        c.imu.accel_bias_std = self.accel_bias;
+        c.imu.gyro_bias_std = self.gyro_bias;
+        c.imu.accel_random_walk = self.accel_random_walk;
+        c.imu.gyro_random_walk = self.gyro_random_walk;
         c.imu_output = match self.imu_output {
             ImuKind::World => ImuOutput::WorldAcceleration,
             ImuKind::Body => ImuOutput::BodySpecificForce,
