@@ -95,6 +95,40 @@ pub struct SensorStats {
     pub lost: u64,
 }
 
+impl SensorStats {
+    /// Adds `other` counter by counter.
+    pub fn add(&mut self, other: &SensorStats) {
+        self.received += other.received;
+        self.processed += other.processed;
+        self.fused += other.fused;
+        self.gated += other.gated;
+        self.refused += other.refused;
+        self.late += other.late;
+        self.too_late += other.too_late;
+        self.duplicate += other.duplicate;
+        self.invalid += other.invalid;
+        self.lost += other.lost;
+    }
+
+    /// What happened since `before`, counter by counter. Counters that describe
+    /// current estimates (fused, gated, refused) or take back (lost) may shrink
+    /// through a rewind; their difference saturates at 0.
+    pub fn since(&self, before: &SensorStats) -> SensorStats {
+        SensorStats {
+            received: self.received.saturating_sub(before.received),
+            processed: self.processed.saturating_sub(before.processed),
+            fused: self.fused.saturating_sub(before.fused),
+            gated: self.gated.saturating_sub(before.gated),
+            refused: self.refused.saturating_sub(before.refused),
+            late: self.late.saturating_sub(before.late),
+            too_late: self.too_late.saturating_sub(before.too_late),
+            duplicate: self.duplicate.saturating_sub(before.duplicate),
+            invalid: self.invalid.saturating_sub(before.invalid),
+            lost: self.lost.saturating_sub(before.lost),
+        }
+    }
+}
+
 /// One sensor's identity, counters and duplicate window.
 #[derive(Debug, Clone)]
 pub struct SensorSlot {
@@ -178,6 +212,15 @@ impl<M: Model> Engine<M> {
     /// Per-sensor slots in order of first arrival.
     pub fn sensors(&self) -> &[SensorSlot] {
         &self.sensors
+    }
+
+    /// The counters of every sensor of `kind` (all sensors for `None`) added up.
+    pub fn totals(&self, kind: Option<SampleKind>) -> SensorStats {
+        let mut total = SensorStats::default();
+        for s in self.sensors.iter().filter(|s| kind.is_none_or(|k| k == s.kind)) {
+            total.add(&s.stats);
+        }
+        total
     }
 
     /// Engine-wide counters.

@@ -21,13 +21,13 @@ use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
 
 use crate::config::{Config, ModelConfig};
-use crate::engine::{Engine, EngineConfig, Insert};
+use crate::engine::{Engine, EngineConfig, Insert, SensorStats};
 use crate::health::HealthMonitor;
 use crate::model::Model;
 use crate::model::ins::InsModel;
 use crate::model::linear::LinearModel;
 use crate::snapshot::{self, Input};
-use crate::summary::{KindCounts, Summary, SummaryLogger};
+use crate::summary::{Summary, SummaryLogger};
 
 /// How the daemon waits for samples.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -219,34 +219,6 @@ fn receive<T: std::fmt::Debug + ZeroCopySend + Copy>(
     }
 }
 
-fn kind_counts<M: Model>(engine: &Engine<M>, kind: SampleKind) -> KindCounts {
-    let mut c = KindCounts::default();
-    for s in engine.sensors().iter().filter(|s| s.kind == kind) {
-        c.received += s.stats.received;
-        c.fused += s.stats.fused;
-        c.gated += s.stats.gated;
-        c.late += s.stats.late;
-        c.too_late += s.stats.too_late;
-        c.duplicate += s.stats.duplicate;
-        c.invalid += s.stats.invalid;
-        c.lost += s.stats.lost;
-    }
-    c
-}
-
-fn delta(now: KindCounts, before: KindCounts) -> KindCounts {
-    KindCounts {
-        received: now.received - before.received,
-        fused: now.fused.saturating_sub(before.fused),
-        gated: now.gated.saturating_sub(before.gated),
-        late: now.late - before.late,
-        too_late: now.too_late - before.too_late,
-        duplicate: now.duplicate - before.duplicate,
-        invalid: now.invalid - before.invalid,
-        lost: now.lost.saturating_sub(before.lost),
-    }
-}
-
 fn run_model<M: Model>(
     model: M,
     config: &Config,
@@ -281,7 +253,7 @@ fn run_model<M: Model>(
     };
     let summary_ns = options.summary_interval.as_nanos().max(1) as u64;
     let mut next_housekeeping = now_ns();
-    let mut last_summary = (now_ns(), KindCounts::default(), KindCounts::default(), 0u64);
+    let mut last_summary = (now_ns(), SensorStats::default(), SensorStats::default(), 0u64);
     let mut published_health = fusion.health_now;
     let mut pending_imu: Option<fusion_shared::ImuSample> = None;
     let mut pending_position: Option<fusion_shared::PositionSample> = None;
@@ -329,15 +301,15 @@ fn run_model<M: Model>(
             // Lets a reader that connected since the last send get the history sample.
             let _ = ports.state.update_connections();
             if now.saturating_sub(last_summary.0) >= summary_ns {
-                let imu = kind_counts(&fusion.engine, SampleKind::Imu);
-                let position = kind_counts(&fusion.engine, SampleKind::Position);
+                let imu = fusion.engine.totals(Some(SampleKind::Imu));
+                let position = fusion.engine.totals(Some(SampleKind::Position));
                 let h = &fusion.latency;
                 let latency_ns =
                     (!h.is_empty()).then(|| (h.value_at_quantile(0.5), h.value_at_quantile(0.99), h.max()));
                 summary.send(Summary {
                     interval_s: (now - last_summary.0) as f64 * 1e-9,
-                    imu: delta(imu, last_summary.1),
-                    position: delta(position, last_summary.2),
+                    imu: imu.since(&last_summary.1),
+                    position: position.since(&last_summary.2),
                     snapshots: fusion.report.snapshots - last_summary.3,
                     latency_ns,
                     health: fusion.health_now,

@@ -260,15 +260,9 @@ fn replay_model<M: Model>(
     }
     sink.output.flush()?;
 
-    for s in engine.sensors() {
-        summary.processed += s.stats.processed;
-        summary.fused += s.stats.fused;
-        summary.gated += s.stats.gated;
-        summary.refused += s.stats.refused;
-        summary.late += s.stats.late;
-        summary.too_late += s.stats.too_late;
-        summary.duplicates += s.stats.duplicate;
-    }
+    let t = engine.totals(None);
+    (summary.processed, summary.fused, summary.gated, summary.refused) = (t.processed, t.fused, t.gated, t.refused);
+    (summary.late, summary.too_late, summary.duplicates) = (t.late, t.too_late, t.duplicate);
     if summary.processed == 0 {
         return Err(ReplayError::NothingProcessed(summary.read));
     }

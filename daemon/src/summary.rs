@@ -7,26 +7,7 @@ use std::thread::JoinHandle;
 use crossbeam::channel::{Receiver, Sender, TrySendError, bounded};
 use fusion_shared::snapshot::health;
 
-/// Per-kind counts over one summary interval.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct KindCounts {
-    /// Samples received.
-    pub received: u64,
-    /// Measurements fused.
-    pub fused: u64,
-    /// Measurements gated.
-    pub gated: u64,
-    /// Samples fused late by rewind.
-    pub late: u64,
-    /// Samples dropped as too late.
-    pub too_late: u64,
-    /// Duplicates.
-    pub duplicate: u64,
-    /// Invalid samples.
-    pub invalid: u64,
-    /// Lost samples (sequence gaps).
-    pub lost: u64,
-}
+use crate::engine::SensorStats;
 
 /// One summary interval.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -34,9 +15,9 @@ pub struct Summary {
     /// Length of the interval, s.
     pub interval_s: f64,
     /// IMU counts in the interval.
-    pub imu: KindCounts,
+    pub imu: SensorStats,
     /// Position counts in the interval.
-    pub position: KindCounts,
+    pub position: SensorStats,
     /// Snapshots published in the interval.
     pub snapshots: u64,
     /// Publish latency (sample sent → snapshot published), ns: p50, p99, max; `None` without samples.

@@ -10,7 +10,11 @@
 
 use nalgebra::{Cholesky, RealField, SMatrix, SVector};
 
-use super::gate::ChiSquareGate;
+mod selection;
+
+pub use super::measurement::{
+    FaultDecision, FaultDetector, MeasurementView, UpdateDecision, UpdateDiagnostics, UpdateOptions,
+};
 
 /// Why a filter operation was refused. The filter state is unchanged in every case.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -24,143 +28,6 @@ pub enum FilterError {
     /// The initial covariance is not symmetric positive definite.
     #[error("initial covariance is not symmetric positive definite")]
     CovarianceNotPositiveDefinite,
-}
-
-/// What happened to a measurement offered to [`KalmanFilter::update`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum UpdateDecision {
-    /// Fused into the state.
-    Accepted,
-    /// Refused by the chi-square gate (NIS above the threshold); state untouched.
-    Gated,
-    /// Refused by the fault-detection hook; state untouched.
-    RejectedByHook,
-}
-
-/// A fault-detection hook's verdict on a measurement (see [`FaultDetector`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FaultDecision {
-    /// Use the measurement as it is.
-    Keep,
-    /// The hook edited the measurement (dropped or re-weighted components); `S` is
-    /// recomputed from the edited `H` and `R` before gating and the gain.
-    Modified,
-    /// Do not use the measurement at all.
-    Reject,
-}
-
-/// The measurement as the fault-detection hook sees it, before the gain is computed.
-#[derive(Debug, Clone, Copy)]
-pub struct MeasurementView<T: RealField + Copy, const N: usize, const M: usize> {
-    /// Residual (innovation) `y = z − h(x⁻)`.
-    pub residual: SVector<T, M>,
-    /// Measurement Jacobian `H`.
-    pub H: SMatrix<T, M, N>,
-    /// Measurement noise covariance `R`.
-    pub R: SMatrix<T, M, M>,
-    /// Innovation covariance `S = H P⁻ Hᵀ + R` of the unedited measurement.
-    pub S: SMatrix<T, M, M>,
-    active: [bool; M],
-}
-
-impl<T: RealField + Copy, const N: usize, const M: usize> MeasurementView<T, N, M> {
-    /// Removes component `i` from the update: its residual and row of `H` become
-    /// zero and it is decorrelated from the others with unit variance, so it adds
-    /// nothing to the gain, the NIS or the gate's degrees of freedom.
-    pub fn drop_component(&mut self, i: usize) {
-        self.residual[i] = T::zero();
-        for j in 0..N {
-            self.H[(i, j)] = T::zero();
-        }
-        for j in 0..M {
-            self.R[(i, j)] = T::zero();
-            self.R[(j, i)] = T::zero();
-        }
-        self.R[(i, i)] = T::one();
-        self.active[i] = false;
-    }
-
-    /// Scales the variance of component `i` by `factor` (> 1 down-weights it),
-    /// keeping its correlations: row and column `i` of `R` are scaled by √factor.
-    pub fn reweight_component(&mut self, i: usize, factor: T) {
-        let s = factor.sqrt();
-        for j in 0..M {
-            self.R[(i, j)] *= s;
-            self.R[(j, i)] *= s;
-        }
-    }
-
-    /// Number of components still in the measurement.
-    pub fn active_dims(&self) -> usize {
-        self.active.iter().filter(|a| **a).count()
-    }
-}
-
-/// A user-supplied fault-detection hook, run on every update before gating and the
-/// gain (e.g. a per-axis residual test that drops a bad component of a GNSS fix).
-pub trait FaultDetector<T: RealField + Copy, const N: usize, const M: usize> {
-    /// Inspects, and may edit, the measurement.
-    fn inspect(&mut self, measurement: &mut MeasurementView<T, N, M>) -> FaultDecision;
-}
-
-/// Diagnostics of one update, returned by [`KalmanFilter::update`] whether or not
-/// the measurement was fused.
-#[derive(Debug, Clone, Copy)]
-pub struct UpdateDiagnostics<T: RealField + Copy, const N: usize, const M: usize> {
-    /// Accepted, gated or rejected by the hook.
-    pub decision: UpdateDecision,
-    /// The measurement `z`.
-    pub z: SVector<T, M>,
-    /// Predicted measurement `h(x⁻)` (`H x⁻` for a linear update).
-    pub predicted: SVector<T, M>,
-    /// Residual `y = z − h(x⁻)` after the hook's edits.
-    pub residual: SVector<T, M>,
-    /// `H` used (after the hook's edits).
-    pub H: SMatrix<T, M, N>,
-    /// `R` used (after the hook's edits).
-    pub R: SMatrix<T, M, M>,
-    /// Innovation covariance `S = H P⁻ Hᵀ + R`.
-    pub S: SMatrix<T, M, M>,
-    /// Gain `K = P⁻ Hᵀ S⁻¹`.
-    pub K: SMatrix<T, N, M>,
-    /// Correction `dx = K y` (applied only if accepted).
-    pub dx: SVector<T, N>,
-    /// Normalised innovation squared `NIS = yᵀ S⁻¹ y`.
-    pub nis: T,
-    /// Degrees of freedom `m` (components left after the hook).
-    pub dims: usize,
-    /// Gate threshold used, if gating was on.
-    pub gate_threshold: Option<T>,
-}
-
-impl<T: RealField + Copy, const N: usize, const M: usize> UpdateDiagnostics<T, N, M> {
-    /// Covariance of the correction `Σdx = K S Kᵀ` (computed on request).
-    pub fn sigma_dx(&self) -> SMatrix<T, N, N> {
-        self.K * self.S * self.K.transpose()
-    }
-
-    /// Gaussian log-likelihood of the residual, `−½ (NIS + ln|S| + m ln 2π)`
-    /// (computed on request; `None` if S has no Cholesky factor).
-    pub fn log_likelihood(&self) -> Option<T> {
-        let chol = Cholesky::new(self.S)?;
-        let ln_det_S = chol.l().diagonal().iter().fold(T::zero(), |acc, d| acc + d.ln()) * T::from_subset(&2.0);
-        let m = T::from_subset(&(self.dims as f64));
-        Some(-(self.nis + ln_det_S + m * T::two_pi().ln()) * T::from_subset(&0.5))
-    }
-}
-
-/// Options of one update.
-pub struct UpdateOptions<'a, T: RealField + Copy, const N: usize, const M: usize> {
-    /// Chi-square gate; `None` fuses every measurement with a valid S.
-    pub gate: Option<&'a ChiSquareGate>,
-    /// Fault-detection hook; `None` keeps every measurement as it is.
-    pub fault_detector: Option<&'a mut dyn FaultDetector<T, N, M>>,
-}
-
-impl<T: RealField + Copy, const N: usize, const M: usize> Default for UpdateOptions<'_, T, N, M> {
-    fn default() -> Self {
-        Self { gate: None, fault_detector: None }
-    }
 }
 
 /// A Kalman filter on a fixed-size state: the estimate, its covariance, the prior
@@ -380,72 +247,6 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         self.update_nonlinear(z, &predicted, H, R, options)
     }
 
-    /// Update for a measurement of `M` consecutive states starting at `offset`
-    /// (`H = [0 I 0]`, e.g. a position fix), `z = x[offset..offset+M] + v`, or of
-    /// their nonlinear function with `predicted = h(x⁻)` and that same selection as
-    /// its Jacobian. Same equations, gate and results as
-    /// [`update_nonlinear`](Self::update_nonlinear), exploiting the selection:
-    /// `P Hᵀ` is `M` columns of `P`, `S = P_sel + R`, and the Joseph form
-    /// `(I − K H) P (I − K H)ᵀ + K R Kᵀ = A − A_sel Kᵀ + K R Kᵀ` with
-    /// `A = P − K P_sel,rows`: O(N² M) instead of O(N³). Without a fault hook
-    /// only: a hook may edit `H`, so the general path serves it.
-    pub fn update_selection<const M: usize>(
-        &mut self,
-        z: &SVector<T, M>,
-        predicted: &SVector<T, M>,
-        offset: usize,
-        R: &SMatrix<T, M, M>,
-        gate: Option<&ChiSquareGate>,
-    ) -> Result<UpdateDiagnostics<T, N, M>, FilterError> {
-        assert!(offset + M <= N, "selection out of the state");
-        if !all_finite(z) || !all_finite(predicted) || !all_finite(R) {
-            return Err(FilterError::NonFinite("measurement"));
-        }
-        let PHt: SMatrix<T, N, M> = self.P.fixed_view::<N, M>(0, offset).into_owned();
-        let mut S: SMatrix<T, M, M> = self.P.fixed_view::<M, M>(offset, offset) + R;
-        symmetrize(&mut S);
-        let chol = Cholesky::new(S).ok_or(FilterError::InnovationNotPositiveDefinite)?;
-        let y = z - predicted;
-        let K = chol.solve(&PHt.transpose()).transpose();
-        let dx = K * y;
-        let w = chol.l().solve_lower_triangular(&y).unwrap_or_else(SVector::zeros);
-        let nis = w.dot(&w);
-        let gate_threshold = gate.map(|g| T::from_subset(&g.threshold(M)));
-        let decision =
-            if gate_threshold.is_some_and(|th| nis > th) { UpdateDecision::Gated } else { UpdateDecision::Accepted };
-        let mut H = SMatrix::<T, M, N>::zeros();
-        H.fixed_view_mut::<M, M>(0, offset).fill_with_identity();
-        let diagnostics = UpdateDiagnostics {
-            decision,
-            z: *z,
-            predicted: *predicted,
-            residual: y,
-            H,
-            R: *R,
-            S,
-            K,
-            dx,
-            nis,
-            dims: M,
-            gate_threshold,
-        };
-        if decision != UpdateDecision::Accepted {
-            return Ok(diagnostics);
-        }
-        // A = (I − K H) P = P − K P[offset.., :]
-        let A = self.P - K * self.P.fixed_view::<M, N>(offset, 0);
-        // A (I − K H)ᵀ = A − A[:, offset..] Kᵀ
-        let mut P = A - A.fixed_view::<N, M>(0, offset) * K.transpose() + K * R * K.transpose();
-        symmetrize(&mut P);
-        let x = self.x + dx;
-        if !all_finite(&x) || !all_finite(&P) {
-            return Err(FilterError::NonFinite("updated state"));
-        }
-        self.x = x;
-        self.P = P;
-        Ok(diagnostics)
-    }
-
     /// Update with `z = h(x) + v`, given `h(x⁻)` and `H = ∂h/∂x` at `x⁻`
     /// (Simon 2006, eq. 13.49; linear when `h(x) = H x`):
     ///
@@ -473,7 +274,7 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
             return Err(FilterError::NonFinite("measurement"));
         }
         let PHt = self.P * H.transpose();
-        let mut view = MeasurementView { residual: z - predicted, H: *H, R: *R, S: H * PHt + R, active: [true; M] };
+        let mut view = MeasurementView::new(z - predicted, *H, *R, H * PHt + R);
         let mut decision = UpdateDecision::Accepted;
         let mut PHt = PHt;
         if let Some(hook) = options.fault_detector {
@@ -536,6 +337,7 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::filter::ChiSquareGate;
     use nalgebra::{Matrix1, Matrix1x2, Matrix2, Vector1, Vector2};
 
     fn hand_filter() -> KalmanFilter<f64, 2> {
@@ -644,27 +446,6 @@ mod tests {
         assert_eq!(d.decision, UpdateDecision::Gated);
         assert!((d.gate_threshold.unwrap() - 6.634896601021214).abs() < 1e-9);
         assert_eq!(kf, before);
-    }
-
-    #[test]
-    fn selection_update_equals_the_general_one() {
-        let gate = ChiSquareGate::new(0.999).unwrap();
-        let L =
-            SMatrix::<f64, 6, 6>::from_fn(|i, j| if i >= j { 0.5 + ((i * 5 + j * 3) % 7) as f64 * 0.1 } else { 0.0 });
-        let P = L * L.transpose();
-        let x = nalgebra::Vector6::new(1.0, -2.0, 0.5, 3.0, 0.0, -1.0);
-        let mut a = KalmanFilter::new(x, P).unwrap();
-        let mut b = a;
-        let z = nalgebra::Vector3::new(0.4, 3.2, -0.9);
-        let R = nalgebra::Matrix3::new(0.5, 0.1, 0.0, 0.1, 0.4, 0.05, 0.0, 0.05, 0.6);
-        let mut H = SMatrix::<f64, 3, 6>::zeros();
-        H.fixed_view_mut::<3, 3>(0, 2).fill_with_identity();
-        let da = a.update(&z, &H, &R, UpdateOptions { gate: Some(&gate), fault_detector: None }).unwrap();
-        let predicted = H * x;
-        let db = b.update_selection(&z, &predicted, 2, &R, Some(&gate)).unwrap();
-        assert_eq!(da.decision, db.decision);
-        assert!((da.nis - db.nis).abs() < 1e-12 && (da.K - db.K).amax() < 1e-12);
-        assert!((a.x() - b.x()).amax() < 1e-12 && (a.P() - b.P()).amax() < 1e-12);
     }
 
     struct DropSecond;

@@ -1,6 +1,7 @@
 //! Pure estimation math on fixed-size nalgebra types: no IO, no IPC, no allocation.
 //!
-//! - [`kalman`]: predict, Joseph-form update, diagnostics, fault-detection hook.
+//! - [`kalman`]: the filter: predict, Joseph-form update.
+//! - [`measurement`]: update decisions, diagnostics, the fault-detection hook.
 //! - [`gate`]: chi-square NIS gate.
 //! - [`smoother`]: Rauch–Tung–Striebel smoother over a logged history.
 //! - [`discretize`]: `exp(A T)`, Van Loan, forward-Euler input.
@@ -8,6 +9,7 @@
 pub mod discretize;
 pub mod gate;
 pub mod kalman;
+pub mod measurement;
 pub mod smoother;
 
 pub use gate::ChiSquareGate;
