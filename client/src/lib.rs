@@ -31,7 +31,18 @@ use iceoryx2::prelude::*;
 /// client and its ports on the thread that uses them).
 pub struct Client {
     names: ServiceNames,
-    node: Node<ipc::Service>,
+    /// Always `Some` until dropped.
+    node: Option<Node<ipc::Service>>,
+    config: iceoryx2::config::Config,
+}
+
+impl Drop for Client {
+    fn drop(&mut self) {
+        // Ports still alive keep the node alive; then the domain is not empty and
+        // nothing is removed.
+        self.node.take();
+        service::remove_domain_counter_if_last(&self.config);
+    }
 }
 
 impl Client {
@@ -48,7 +59,7 @@ impl Client {
         let names = ServiceNames::new(namespace)?;
         let config = service::iceoryx_config(domain).map_err(ClientError::Node)?;
         let node = service::create_node(&format!("fusion-client.{namespace}"), &config).map_err(ClientError::Node)?;
-        Ok(Self { names, node })
+        Ok(Self { names, node: Some(node), config })
     }
 
     /// The service names of the namespace.
@@ -57,7 +68,8 @@ impl Client {
     }
 
     pub(crate) fn node(&self) -> &Node<ipc::Service> {
-        &self.node
+        // Only `drop` takes the node out.
+        self.node.as_ref().expect("the node lives as long as the client")
     }
 
     /// A publisher of IMU samples for sensor id `sensor`.

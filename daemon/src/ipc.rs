@@ -15,8 +15,8 @@ use std::time::Duration;
 use fusion_shared::service::{self, InvalidNamespace, ServiceNames};
 use fusion_shared::{Sample, SampleKind, StateSnapshot, now_ns};
 use hdrhistogram::Histogram;
-use iceoryx2::node::NodeState;
 use iceoryx2::port::listener::ListenerWaitError;
+use iceoryx2::port::publisher::PublisherCreateError;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
 
@@ -115,7 +115,8 @@ impl Ports {
         let state = service::state_service(node, names, true)?;
         let state = match state.publisher_builder().create() {
             Ok(p) => p,
-            Err(e) if format!("{e:?}").contains("ExceedsMaxSupportedPublishers") => {
+            // The state service allows one publisher: fusiond.
+            Err(PublisherCreateError::ExceedsMaxSupportedPublishers) => {
                 return Err(RunError::AlreadyRunning(names.namespace.clone()));
             }
             Err(e) => return Err(ipc("state publisher")(e)),
@@ -346,27 +347,6 @@ fn run_model<M: Model>(
     );
     drop(ports);
     drop(node);
-    remove_domain_counter_if_last(&iceoryx);
+    service::remove_domain_counter_if_last(&iceoryx);
     Ok(fusion.report)
-}
-
-/// iceoryx2 keeps one 16-byte node counter per domain in `/dev/shm`. When the
-/// daemon was the last iceoryx2 node of the domain, removing it leaves nothing
-/// behind. A process starting at the same moment keeps its mapping, and node ids
-/// also hold the pid and the creation time, so a counter that starts again at 0
-/// cannot collide.
-fn remove_domain_counter_if_last(config: &iceoryx2::config::Config) {
-    let mut others = 0;
-    let listed = Node::<ipc::Service>::list(config, |state| {
-        if !matches!(state, NodeState::Dead(_)) {
-            others += 1;
-        }
-        CallbackProgression::Continue
-    });
-    if listed.is_ok() && others == 0 {
-        // SAFETY: no other node of the domain exists (checked just above); see the
-        // function docs for a node appearing concurrently.
-        // `iceoryx2::testing` is public but doc-hidden; pinned by the 0.10 lock.
-        let _ = unsafe { iceoryx2::testing::remove_global_mgmt_segment::<ipc::Service>(config) };
-    }
 }

@@ -11,7 +11,9 @@
 //! Every side opens the services with the same settings through the functions
 //! here, so whichever process comes first creates them and the others open them.
 
+use iceoryx2::node::NodeState;
 use iceoryx2::prelude::*;
+use iceoryx2::service::builder::publish_subscribe::{PublishSubscribeOpenError, PublishSubscribeOpenOrCreateError};
 use iceoryx2::service::port_factory::{event, publish_subscribe};
 
 use crate::{ImuSample, PositionSample, StateSnapshot};
@@ -161,19 +163,33 @@ pub enum ServiceError {
     },
 }
 
-fn classify(service: &str, debug: String) -> ServiceError {
+/// Classifies a publish-subscribe open error by its variant.
+fn classify_open(service: &str, e: &PublishSubscribeOpenError) -> ServiceError {
     let service = service.to_string();
-    if debug.contains("DoesNotExist") {
-        ServiceError::DoesNotExist { service }
-    } else if debug.contains("IncompatibleTypes") {
-        ServiceError::IncompatibleTypes { service }
-    } else if debug.contains("DoesNotSupport")
-        || debug.contains("Incompatible")
-        || debug.contains("ExceedsMaxNumberOfNodes")
-    {
-        ServiceError::IncompatibleSettings { service, detail: debug }
-    } else {
-        ServiceError::Other { service, detail: debug }
+    match e {
+        PublishSubscribeOpenError::DoesNotExist => ServiceError::DoesNotExist { service },
+        PublishSubscribeOpenError::IncompatibleTypes => ServiceError::IncompatibleTypes { service },
+        PublishSubscribeOpenError::IncompatibleMessagingPattern
+        | PublishSubscribeOpenError::IncompatibleAttributes
+        | PublishSubscribeOpenError::DoesNotSupportRequestedMinBufferSize
+        | PublishSubscribeOpenError::DoesNotSupportRequestedMinHistorySize
+        | PublishSubscribeOpenError::DoesNotSupportRequestedMinSubscriberBorrowedSamples
+        | PublishSubscribeOpenError::DoesNotSupportRequestedAmountOfPublishers
+        | PublishSubscribeOpenError::DoesNotSupportRequestedAmountOfSubscribers
+        | PublishSubscribeOpenError::DoesNotSupportRequestedAmountOfNodes
+        | PublishSubscribeOpenError::IncompatibleOverflowBehavior
+        | PublishSubscribeOpenError::ExceedsMaxNumberOfNodes => {
+            ServiceError::IncompatibleSettings { service, detail: format!("{e:?}") }
+        }
+        other => ServiceError::Other { service, detail: format!("{other:?}") },
+    }
+}
+
+/// Classifies a publish-subscribe open-or-create error.
+fn classify_open_or_create(service: &str, e: &PublishSubscribeOpenOrCreateError) -> ServiceError {
+    match e {
+        PublishSubscribeOpenOrCreateError::PublishSubscribeOpenError(open) => classify_open(service, open),
+        other => ServiceError::Other { service: service.to_string(), detail: format!("{other:?}") },
     }
 }
 
@@ -195,7 +211,7 @@ fn samples<T: std::fmt::Debug + ZeroCopySend>(
         .max_subscribers(MAX_SAMPLE_SUBSCRIBERS)
         .max_nodes(MAX_NODES)
         .open_or_create()
-        .map_err(|e| classify(name, format!("{e:?}")))
+        .map_err(|e| classify_open_or_create(name, &e))
 }
 
 /// Opens (or creates) `<ns>/imu`.
@@ -230,12 +246,11 @@ pub fn state_service(
         .max_publishers(1)
         .max_subscribers(MAX_STATE_SUBSCRIBERS)
         .max_nodes(MAX_NODES);
-    let result = if create {
-        builder.open_or_create().map_err(|e| format!("{e:?}"))
+    if create {
+        builder.open_or_create().map_err(|e| classify_open_or_create(&names.state, &e))
     } else {
-        builder.open().map_err(|e| format!("{e:?}"))
-    };
-    result.map_err(|e| classify(&names.state, e))
+        builder.open().map_err(|e| classify_open(&names.state, &e))
+    }
 }
 
 /// Opens (or creates) an event service (`<ns>/wake` or `<ns>/state`).
@@ -246,7 +261,28 @@ pub fn event_service(node: &Node<ipc::Service>, name: &str) -> Result<event::Por
         .max_listeners(MAX_EVENT_PORTS)
         .max_nodes(MAX_NODES)
         .open_or_create()
-        .map_err(|e| classify(name, format!("{e:?}")))
+        .map_err(|e| ServiceError::Other { service: name.to_string(), detail: format!("{e:?}") })
+}
+
+/// iceoryx2 keeps one 16-byte node counter per domain in `/dev/shm`. When this
+/// process's node was the last iceoryx2 node of the domain (call it after dropping
+/// the node), removing it leaves nothing behind. A process starting at the same moment keeps its mapping, and node ids
+/// also hold the pid and the creation time, so a counter that starts again at 0
+/// cannot collide.
+pub fn remove_domain_counter_if_last(config: &Config) {
+    let mut others = 0;
+    let listed = Node::<ipc::Service>::list(config, |state| {
+        if !matches!(state, NodeState::Dead(_)) {
+            others += 1;
+        }
+        CallbackProgression::Continue
+    });
+    if listed.is_ok() && others == 0 {
+        // SAFETY: no other node of the domain exists (checked just above); see the
+        // function docs for a node appearing concurrently.
+        // `iceoryx2::testing` is public but doc-hidden; pinned by the 0.10 lock.
+        let _ = unsafe { iceoryx2::testing::remove_global_mgmt_segment::<ipc::Service>(config) };
+    }
 }
 
 #[cfg(test)]

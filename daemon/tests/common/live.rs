@@ -61,8 +61,18 @@ impl TestDomain {
 
 impl Drop for TestDomain {
     fn drop(&mut self) {
-        for f in self.files() {
-            let _ = std::fs::remove_file(&f).or_else(|_| std::fs::remove_dir_all(&f));
+        let files = self.files();
+        for f in &files {
+            let _ = std::fs::remove_file(f).or_else(|_| std::fs::remove_dir_all(f));
+        }
+        // A SIGKILLed process's node directory (named by node id, no prefix) held
+        // only this domain's files: remove it once empty (remove_dir refuses otherwise).
+        for f in &files {
+            if let Some(dir) = std::path::Path::new(f).parent()
+                && dir.parent() == Some(std::path::Path::new("/tmp/iceoryx2/nodes"))
+            {
+                let _ = std::fs::remove_dir(dir);
+            }
         }
     }
 }

@@ -1,0 +1,57 @@
+//! The client's typed errors, against real iceoryx2 services in a private domain.
+
+use fusion_client::{Client, ClientError};
+use fusion_shared::service::{self, ServiceNames};
+use iceoryx2::prelude::*;
+
+fn domain(tag: &str) -> String {
+    format!("fc{}{tag}", std::process::id())
+}
+
+fn remove_domain_files(domain: &str) {
+    let prefix = service::domain_prefix(domain).unwrap();
+    for e in std::fs::read_dir("/dev/shm").into_iter().flatten().flatten() {
+        if e.file_name().to_string_lossy().starts_with(&prefix) {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}
+
+#[test]
+fn a_reader_without_a_daemon_is_told_so() {
+    let d = domain("nodaemon");
+    let client = Client::connect_in_domain("quiet", Some(&d)).unwrap();
+    match client.state_subscriber() {
+        Err(ClientError::DaemonNotRunning { namespace }) => assert_eq!(namespace, "quiet"),
+        Err(e) => panic!("wrong error: {e}"),
+        Ok(_) => panic!("a reader without a daemon"),
+    }
+    // Publishers may start before the daemon: they reach nobody yet.
+    let mut imu = client.imu_publisher(0).unwrap();
+    assert_eq!(imu.publish(1, [0.0; 3], [0.0; 3]).unwrap(), 0);
+    drop((imu, client));
+    remove_domain_files(&d);
+}
+
+#[test]
+fn another_wire_version_is_an_incompatible_version() {
+    let d = domain("oldwire");
+    let names = ServiceNames::new("mixed").unwrap();
+    let node = service::create_node("old-peer", &service::iceoryx_config(Some(&d)).unwrap()).unwrap();
+    // A peer built against another wire version: `<ns>/imu` carries another type.
+    let name: ServiceName = names.imu.as_str().try_into().unwrap();
+    let _old = node.service_builder(&name).publish_subscribe::<u64>().open_or_create().unwrap();
+    let client = Client::connect_in_domain("mixed", Some(&d)).unwrap();
+    match client.imu_publisher(0) {
+        Err(ClientError::IncompatibleVersion { service }) => assert_eq!(service, "mixed/imu"),
+        Err(e) => panic!("wrong error: {e}"),
+        Ok(_) => panic!("opened a service of another type"),
+    }
+    drop((client, _old, node));
+    remove_domain_files(&d);
+}
+
+#[test]
+fn an_unusable_namespace_is_an_error() {
+    assert!(matches!(Client::connect("no spaces"), Err(ClientError::InvalidNamespace(_))));
+}
