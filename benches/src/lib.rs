@@ -1,8 +1,11 @@
 //! fusion-benches: benchmarks of fusiond.
 //!
 //! - `benches/filter.rs` (criterion): filter steps and replay throughput.
+//! - `benches/latency.rs`: end-to-end latency beside raw iceoryx2 ([`latency`]).
 //!
 //! Run with `cargo bench -p fusion-benches`.
+
+pub mod latency;
 
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_daemon::config::Config;
