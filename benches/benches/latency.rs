@@ -1,6 +1,7 @@
 //! Latency of fusiond beside the floor set by raw iceoryx2, measured in one run:
 //! a table on stdout and `target/fusion-bench/latency.json` (numbers in ns).
-//! `FUSION_BENCH_QUICK=1` takes a short sample. See the README's performance section.
+//! `FUSION_BENCH_QUICK=1` takes a short sample; `FUSION_BENCH_IMU_HZ` sets the IMU
+//! rate of the end-to-end rows (default 1000). See the README's performance section.
 
 #![allow(missing_docs)]
 
@@ -42,6 +43,7 @@ fn main() -> anyhow::Result<()> {
     }
     let quick = std::env::var("FUSION_BENCH_QUICK").is_ok_and(|v| v != "0");
     let (raw_count, e2e_count) = if quick { (5_000, 1_000) } else { (50_000, 10_000) };
+    let imu_hz: f64 = std::env::var("FUSION_BENCH_IMU_HZ").ok().and_then(|v| v.parse().ok()).unwrap_or(1000.0);
 
     // The daemon binary, built as cargo bench builds (release).
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
@@ -82,7 +84,7 @@ fn main() -> anyhow::Result<()> {
                 anyhow::ensure!(started.elapsed() < Duration::from_secs(20), "fusiond did not start");
                 std::thread::sleep(Duration::from_millis(20));
             }
-            let h = end_to_end(&client, mode, e2e_count, 1000.0, imu)?;
+            let h = end_to_end(&client, mode, e2e_count, imu_hz, imu)?;
             rows.push(Row { name: format!("fusiond {model}, --wait {}", mode.name()), mode, one_way: false, h });
             let _ = std::fs::remove_file(dir.join(format!("{namespace}.toml")));
         }
