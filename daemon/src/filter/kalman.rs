@@ -321,16 +321,23 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
             return Ok(diagnostics);
         }
 
-        let x = self.x + dx;
         let I_KH = SMatrix::<T, N, N>::identity() - K * view.H;
-        let mut P = I_KH * self.P * I_KH.transpose() + K * view.R * K.transpose();
+        let P = I_KH * self.P * I_KH.transpose() + K * view.R * K.transpose();
+        self.commit_update(dx, P)?;
+        Ok(diagnostics)
+    }
+
+    /// Applies an accepted update: `x⁺ = x⁻ + dx`, `P⁺` symmetrised; refused (state
+    /// unchanged) if anything is non-finite.
+    fn commit_update(&mut self, dx: SVector<T, N>, mut P: SMatrix<T, N, N>) -> Result<(), FilterError> {
         symmetrize(&mut P);
+        let x = self.x + dx;
         if !all_finite(&x) || !all_finite(&P) {
             return Err(FilterError::NonFinite("updated state"));
         }
         self.x = x;
         self.P = P;
-        Ok(diagnostics)
+        Ok(())
     }
 }
 

@@ -63,14 +63,8 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         // A = (I − K H) P = P − K P[offset.., :]
         let A = self.P - K * self.P.fixed_view::<M, N>(offset, 0);
         // A (I − K H)ᵀ = A − A[:, offset..] Kᵀ
-        let mut P = A - A.fixed_view::<N, M>(0, offset) * K.transpose() + K * R * K.transpose();
-        symmetrize(&mut P);
-        let x = self.x + dx;
-        if !all_finite(&x) || !all_finite(&P) {
-            return Err(FilterError::NonFinite("updated state"));
-        }
-        self.x = x;
-        self.P = P;
+        let P = A - A.fixed_view::<N, M>(0, offset) * K.transpose() + K * R * K.transpose();
+        self.commit_update(dx, P)?;
         Ok(diagnostics)
     }
 }
