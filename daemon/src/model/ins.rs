@@ -59,7 +59,7 @@ mod error_state;
 
 use error_state::{inject_and_reset, structured_fpft};
 
-use super::{Model, StepOutcome};
+use super::{Model, StepOutcome, advance_time};
 use crate::filter::{ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, UpdateDecision};
 use crate::reorder::Sample;
 
@@ -302,13 +302,8 @@ impl Model for InsModel {
     fn step(&self, s: &mut InsState, sample: &Sample) -> StepOutcome {
         let t = sample.t_ns();
         s.kf.begin_step();
-        match s.t_ns {
-            None => s.t_ns = Some(t),
-            Some(tf) if t > tf => {
-                self.propagate(s, (t - tf) as f64 * 1e-9);
-                s.t_ns = Some(t);
-            }
-            Some(_) => {}
+        if let Some(dt) = advance_time(&mut s.t_ns, t) {
+            self.propagate(s, dt);
         }
         match sample {
             Sample::Imu(imu) => {

@@ -26,7 +26,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use super::{Model, StepOutcome};
+use super::{Model, StepOutcome, advance_time};
 use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, UpdateDecision, rts_smooth};
 use crate::reorder::Sample;
 
@@ -168,18 +168,12 @@ impl Model for LinearModel {
     fn step(&self, s: &mut LinearState, sample: &Sample) -> StepOutcome {
         let t = sample.t_ns();
         s.kf.begin_step();
-        match s.t_ns {
-            None => s.t_ns = Some(t),
-            Some(tf) if t > tf => {
-                let dt = (t - tf) as f64 * 1e-9;
-                let (F, Q) = self.transition_and_noise(dt);
-                let a = s.accel;
-                // A non-finite result is refused by the filter and leaves x, P as they
-                // were; the filter time still moves on so later samples stay in order.
-                let _ = s.kf.predict_structured(|x, P| propagate(x, P, &a, &Q, dt), &F, &Q);
-                s.t_ns = Some(t);
-            }
-            Some(_) => {}
+        if let Some(dt) = advance_time(&mut s.t_ns, t) {
+            let (F, Q) = self.transition_and_noise(dt);
+            let a = s.accel;
+            // A non-finite result is refused by the filter and leaves x, P as they
+            // were; the filter time still moves on so later samples stay in order.
+            let _ = s.kf.predict_structured(|x, P| propagate(x, P, &a, &Q, dt), &F, &Q);
         }
         match sample {
             Sample::Imu(imu) => {

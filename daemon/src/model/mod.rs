@@ -12,6 +12,24 @@ pub mod linear;
 
 use crate::reorder::Sample;
 
+/// The time rule every model follows: the filter starts at the time of the first
+/// sample it processes (no propagation before it); after that, a sample newer than
+/// the filter time is reached by propagating over `dt = (t − t_filter)·1e-9` s,
+/// returned here, and an equal time needs none. Moves `t_filter` on to `t`.
+pub fn advance_time(t_filter: &mut Option<u64>, t: u64) -> Option<f64> {
+    match *t_filter {
+        None => {
+            *t_filter = Some(t);
+            None
+        }
+        Some(tf) if t > tf => {
+            *t_filter = Some(t);
+            Some((t - tf) as f64 * 1e-9)
+        }
+        Some(_) => None,
+    }
+}
+
 /// What processing one sample did.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum StepOutcome {
