@@ -43,7 +43,7 @@ pub enum ReplayError {
     #[error("model: {0}")]
     Model(String),
     /// The smoother failed (a prior covariance without Cholesky factor).
-    #[error("smoother: {0}")]
+    #[error(transparent)]
     Smoother(#[from] crate::filter::SmootherError),
     /// No sample of the input could be processed.
     #[error("no sample could be processed ({0} lines read)")]
