@@ -185,16 +185,23 @@ pub fn replay(
 }
 
 /// Where final entries go: straight to the output, or kept for the smoother.
+///
+/// The smoother needs each step's prior and transition, which the history does not
+/// keep (it holds compact filter states). The final samples in processing order
+/// are kept instead and re-run through [`Model::step_recorded`] from the initial
+/// state after the stream: every step is a pure function of the state before it
+/// and the sample, so the re-run reproduces the engine's states bit for bit.
 struct Sink<M: Model, W: Write> {
     output: W,
-    records: Option<Vec<(SampleKey, StepOutcome, M::Record)>>,
+    finals: Option<Vec<(SampleKey, StepOutcome, Sample)>>,
     error: Option<std::io::Error>,
+    _model: std::marker::PhantomData<M>,
 }
 
 impl<M: Model, W: Write> Sink<M, W> {
     fn take(&mut self, e: &Entry<M::State>) {
-        match &mut self.records {
-            Some(records) => records.push((e.key, e.outcome, M::record(&e.state))),
+        match &mut self.finals {
+            Some(finals) => finals.push((e.key, e.outcome, e.sample)),
             None if self.error.is_none() => {
                 if let Err(err) =
                     write_output(&mut self.output, &e.key, &e.outcome, M::x(&e.state), M::covariance(&e.state))
@@ -220,7 +227,7 @@ fn replay_model<M: Model>(
 ) -> Result<ReplaySummary, ReplayError> {
     let mut engine = Engine::new(model, EngineConfig::from_config(config));
     let mut summary = ReplaySummary::default();
-    let mut sink = Sink::<M, _> { output, records: smooth.then(Vec::new), error: None };
+    let mut sink = Sink::<M, _> { output, finals: smooth.then(Vec::new), error: None, _model: Default::default() };
 
     let invalid = |summary: &mut ReplaySummary, line_no: u64, reason: String| {
         summary.invalid += 1;
@@ -250,10 +257,17 @@ fn replay_model<M: Model>(
     engine.flush(&mut |e| sink.take(e));
     sink.check()?;
 
-    if let Some(records) = sink.records.take() {
-        let mut smoothed: Vec<M::Record> = records.iter().map(|r| r.2).collect();
+    if let Some(finals) = sink.finals.take() {
+        let model = engine.model();
+        let mut state = model.initial_state();
+        let mut smoothed: Vec<M::Record> = Vec::with_capacity(finals.len());
+        for (_, outcome, sample) in &finals {
+            let (again, record) = model.step_recorded(&mut state, sample);
+            debug_assert_eq!(again, *outcome, "the re-run reproduces the engine");
+            smoothed.push(record);
+        }
         M::smooth(&mut smoothed)?;
-        for ((key, outcome, _), record) in records.iter().zip(&smoothed) {
+        for ((key, outcome, _), record) in finals.iter().zip(&smoothed) {
             let (x, p) = M::record_output(record);
             write_output(&mut sink.output, key, outcome, x, p)?;
         }

@@ -30,39 +30,105 @@ pub enum FilterError {
     CovarianceNotPositiveDefinite,
 }
 
-/// A Kalman filter on a fixed-size state: the estimate, its covariance, the prior
-/// and posterior of the current step and the transition and noise used.
+/// A Kalman filter on a fixed-size state: the estimate and its covariance, nothing
+/// else, so that a history of filter states stays small and cheap to copy.
 ///
-/// A *step* (see [`begin_step`](Self::begin_step)) is the unit the RTS smoother
-/// works on: any number of predicts composing one transition `F`, then at most one
-/// update. Callers that do not smooth may ignore steps.
+/// What the RTS smoother needs of a step (prior, transition) is kept by a
+/// [`StepLog`](super::smoother::StepLog) around the calls, only when a caller smooths.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct KalmanFilter<T: RealField + Copy, const N: usize> {
     x: SVector<T, N>,
     P: SMatrix<T, N, N>,
-    prior_x: SVector<T, N>,
-    prior_P: SMatrix<T, N, N>,
-    /// Transition of the current step (product of the predicts' F since begin_step).
-    step_F: SMatrix<T, N, N>,
-    /// Whether the current step has had a predict (else `step_F` is I).
-    step_predicted: bool,
-    last_F: SMatrix<T, N, N>,
-    last_Q: SMatrix<T, N, N>,
 }
 
 fn all_finite<T: RealField + Copy, const R: usize, const C: usize>(m: &SMatrix<T, R, C>) -> bool {
-    m.iter().all(|v| v.is_finite())
+    // The contiguous slice, not nalgebra's strided iterator: a tight loop.
+    m.as_slice().iter().fold(true, |ok, v| ok & v.is_finite())
 }
 
 /// `P ← ½ (P + Pᵀ)`: removes the asymmetry that rounding adds to every product.
 fn symmetrize<T: RealField + Copy, const N: usize>(P: &mut SMatrix<T, N, N>) {
+    symmetrize_leading(&mut P.data.0, N, Symmetrize::Average);
+}
+
+/// How [`symmetrize_leading`] makes a block symmetric.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Symmetrize {
+    /// Each pair `(i, j)`, `(j, i)` becomes its mean.
+    Average,
+    /// The upper triangle (`i < j`: stored at `p[j][i]`) is copied to the lower.
+    MirrorUpper,
+}
+
+/// Makes the leading `k × k` block of a column-major array (`p[column][row]`) symmetric.
+#[allow(clippy::needless_range_loop)] // (i, j) and (j, i) are both indexed
+pub(crate) fn symmetrize_leading<T: RealField + Copy, const N: usize>(p: &mut [[T; N]; N], k: usize, how: Symmetrize) {
     let half = T::from_subset(&0.5);
-    for i in 0..N {
-        for j in (i + 1)..N {
-            let v = (P[(i, j)] + P[(j, i)]) * half;
-            P[(i, j)] = v;
-            P[(j, i)] = v;
+    for i in 0..k {
+        for j in (i + 1)..k {
+            let v = match how {
+                Symmetrize::Average => (p[j][i] + p[i][j]) * half,
+                Symmetrize::MirrorUpper => p[j][i],
+            };
+            p[j][i] = v;
+            p[i][j] = v;
         }
+    }
+}
+
+/// `L` of `S = L Lᵀ` and the solves an update needs, on fixed sizes with constant
+/// bounds (nalgebra's generic triangular solvers iterate dynamic ranges, several
+/// times slower at M = 3).
+struct SmallCholesky<T: RealField + Copy, const M: usize> {
+    l: SMatrix<T, M, M>,
+}
+
+impl<T: RealField + Copy, const M: usize> SmallCholesky<T, M> {
+    fn new(S: SMatrix<T, M, M>) -> Option<Self> {
+        Cholesky::new(S).map(|c| Self { l: c.unpack() })
+    }
+
+    /// `w` with `L w = y`, so that `wᵀ w = yᵀ S⁻¹ y`.
+    fn whiten(&self, y: &SVector<T, M>) -> SVector<T, M> {
+        let mut w = *y;
+        for m in 0..M {
+            for k in 0..m {
+                w[m] = w[m] - self.l[(m, k)] * w[k];
+            }
+            w[m] /= self.l[(m, m)];
+        }
+        w
+    }
+
+    /// The gain `K = B S⁻¹` for `B = P Hᵀ` (`N × M`): `K L Lᵀ = B`, solved for all
+    /// rows at once, one column at a time (forward for `Y = K L`, then backward).
+    fn gain<const N: usize>(&self, B: &SMatrix<T, N, M>) -> SMatrix<T, N, M> {
+        let mut K = *B;
+        let x = &mut K.data.0; // x[column][row]
+        let l = &self.l;
+        for m in 0..M {
+            for k in 0..m {
+                let c = l[(m, k)];
+                let (done, rest) = x.split_at_mut(m);
+                for (v, d) in rest[0].iter_mut().zip(&done[k]) {
+                    *v -= c * *d;
+                }
+            }
+            let d = l[(m, m)];
+            x[m].iter_mut().for_each(|v| *v /= d);
+        }
+        for m in (0..M).rev() {
+            for j in (m + 1)..M {
+                let c = l[(j, m)];
+                let (head, tail) = x.split_at_mut(j);
+                for (v, d) in head[m].iter_mut().zip(&tail[0]) {
+                    *v -= c * *d;
+                }
+            }
+            let d = l[(m, m)];
+            x[m].iter_mut().for_each(|v| *v /= d);
+        }
+        K
     }
 }
 
@@ -88,19 +154,10 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         if (P0 - P0.transpose()).amax() > tol || Cholesky::new(P0).is_none() {
             return Err(FilterError::CovarianceNotPositiveDefinite);
         }
-        Ok(Self {
-            x: x0,
-            P: P0,
-            prior_x: x0,
-            prior_P: P0,
-            step_F: SMatrix::identity(),
-            step_predicted: false,
-            last_F: SMatrix::identity(),
-            last_Q: SMatrix::zeros(),
-        })
+        Ok(Self { x: x0, P: P0 })
     }
 
-    /// State estimate (posterior of the last step, or prior if no update followed).
+    /// State estimate (posterior of the last update, or prior if none followed).
     pub fn x(&self) -> &SVector<T, N> {
         &self.x
     }
@@ -108,33 +165,6 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
     /// Covariance of [`x`](Self::x).
     pub fn P(&self) -> &SMatrix<T, N, N> {
         &self.P
-    }
-
-    /// Prior `(x⁻, P⁻)` of the current step: the estimate after its predicts.
-    pub fn prior(&self) -> (&SVector<T, N>, &SMatrix<T, N, N>) {
-        (&self.prior_x, &self.prior_P)
-    }
-
-    /// Posterior `(x⁺, P⁺)` of the current step (equal to the prior if the step had
-    /// no accepted update).
-    pub fn posterior(&self) -> (&SVector<T, N>, &SMatrix<T, N, N>) {
-        (&self.x, &self.P)
-    }
-
-    /// Transition `F` of the current step: the product of the `F` of every predict
-    /// since [`begin_step`](Self::begin_step), identity if there was none.
-    pub fn step_transition(&self) -> &SMatrix<T, N, N> {
-        &self.step_F
-    }
-
-    /// `F` of the last predict.
-    pub fn last_F(&self) -> &SMatrix<T, N, N> {
-        &self.last_F
-    }
-
-    /// `Q` of the last predict.
-    pub fn last_Q(&self) -> &SMatrix<T, N, N> {
-        &self.last_Q
     }
 
     /// Overwrites the estimate, e.g. after an error-state reset. Refused (state
@@ -149,12 +179,13 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         Ok(())
     }
 
-    /// Starts a step: prior ← current estimate, step transition ← I.
-    pub fn begin_step(&mut self) {
-        self.prior_x = self.x;
-        self.prior_P = self.P;
-        self.step_F = SMatrix::identity();
-        self.step_predicted = false;
+    /// Error-state reset after an injection: `x ← 0`, and `P` transformed in place
+    /// by `reset` (`P ← G P Gᵀ` with the reset Jacobian `G`; Solà 2017, §7.2). The
+    /// transform must keep `P` symmetric; it cannot make it non-finite when `G` is
+    /// finite, and `G` derives from the accepted, finite correction.
+    pub fn reset_error(&mut self, reset: impl FnOnce(&mut SMatrix<T, N, N>)) {
+        self.x = SVector::zeros();
+        reset(&mut self.P);
     }
 
     /// Linear predict `x⁻ = F x`, `P⁻ = F P Fᵀ + Q` (Simon 2006, eq. 5.19).
@@ -190,16 +221,15 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
 
     /// Predict with a propagation the model computes itself, exploiting the
     /// structure of its `F` and `G` instead of dense products. `propagate(x, P)`
-    /// must return exactly `(x⁻, P⁻) = (f(x), F P Fᵀ + Q)`; `F` and `Q` are recorded
-    /// for the diagnostics and the smoother.
+    /// must return exactly `(x⁻, P⁻) = (f(x), F P Fᵀ + Q)` with `P⁻` symmetric (it
+    /// is taken as it is, not symmetrised: a structured propagation computes one
+    /// triangle and mirrors it).
     pub fn predict_structured(
         &mut self,
         propagate: impl FnOnce(&SVector<T, N>, &SMatrix<T, N, N>) -> (SVector<T, N>, SMatrix<T, N, N>),
-        F: &SMatrix<T, N, N>,
-        Q: &SMatrix<T, N, N>,
     ) -> Result<(), FilterError> {
         let (x, P) = propagate(&self.x, &self.P);
-        self.accept_predict(x, P, F, Q)
+        self.accept_predict(x, P)
     }
 
     fn finish_predict(
@@ -208,30 +238,18 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         F: &SMatrix<T, N, N>,
         Q: &SMatrix<T, N, N>,
     ) -> Result<(), FilterError> {
-        let P = F * self.P * F.transpose() + Q;
-        self.accept_predict(x, P, F, Q)
+        let mut P = F * self.P * F.transpose() + Q;
+        symmetrize(&mut P);
+        self.accept_predict(x, P)
     }
 
-    fn accept_predict(
-        &mut self,
-        x: SVector<T, N>,
-        mut P: SMatrix<T, N, N>,
-        F: &SMatrix<T, N, N>,
-        Q: &SMatrix<T, N, N>,
-    ) -> Result<(), FilterError> {
-        symmetrize(&mut P);
+    fn accept_predict(&mut self, x: SVector<T, N>, P: SMatrix<T, N, N>) -> Result<(), FilterError> {
         if !all_finite(&x) || !all_finite(&P) {
             return Err(FilterError::NonFinite("predicted state"));
         }
-        // Math note: P⁻ stays symmetric by construction; PD follows from P ≻ 0, Q ⪰ 0.
+        // Math note: P⁻ is symmetric by construction; PD follows from P ≻ 0, Q ⪰ 0.
         self.x = x;
         self.P = P;
-        self.prior_x = x;
-        self.prior_P = P;
-        self.step_F = if self.step_predicted { F * self.step_F } else { *F };
-        self.step_predicted = true;
-        self.last_F = *F;
-        self.last_Q = *Q;
         Ok(())
     }
 
@@ -289,14 +307,14 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         }
         let mut S = view.S;
         symmetrize(&mut S);
-        let chol = Cholesky::new(S).ok_or(FilterError::InnovationNotPositiveDefinite)?;
+        let chol = SmallCholesky::new(S).ok_or(FilterError::InnovationNotPositiveDefinite)?;
         let y = view.residual;
         let dims = view.active_dims();
 
-        // K = P Hᵀ S⁻¹  ⇔  Kᵀ = S⁻¹ (H P) since S and P are symmetric.
-        let K = chol.solve(&PHt.transpose()).transpose();
+        // K = P Hᵀ S⁻¹, solved, never inverted.
+        let K = chol.gain(&PHt);
         let dx = K * y;
-        let w = chol.l().solve_lower_triangular(&y).unwrap_or_else(SVector::zeros);
+        let w = chol.whiten(&y);
         let nis = w.dot(&w);
 
         let gate_threshold = options.gate.map(|g| T::from_subset(&g.threshold(dims)));
@@ -322,15 +340,15 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         }
 
         let I_KH = SMatrix::<T, N, N>::identity() - K * view.H;
-        let P = I_KH * self.P * I_KH.transpose() + K * view.R * K.transpose();
+        let mut P = I_KH * self.P * I_KH.transpose() + K * view.R * K.transpose();
+        symmetrize(&mut P);
         self.commit_update(dx, P)?;
         Ok(diagnostics)
     }
 
-    /// Applies an accepted update: `x⁺ = x⁻ + dx`, `P⁺` symmetrised; refused (state
-    /// unchanged) if anything is non-finite.
-    fn commit_update(&mut self, dx: SVector<T, N>, mut P: SMatrix<T, N, N>) -> Result<(), FilterError> {
-        symmetrize(&mut P);
+    /// Applies an accepted update: `x⁺ = x⁻ + dx` and `P⁺` (symmetric); refused
+    /// (state unchanged) if anything is non-finite.
+    fn commit_update(&mut self, dx: SVector<T, N>, P: SMatrix<T, N, N>) -> Result<(), FilterError> {
         let x = self.x + dx;
         if !all_finite(&x) || !all_finite(&P) {
             return Err(FilterError::NonFinite("updated state"));
@@ -377,6 +395,19 @@ mod tests {
     }
 
     #[test]
+    fn small_cholesky_solves_match_the_explicit_inverse() {
+        let S = nalgebra::Matrix3::new(2.0, 0.6, -0.3, 0.6, 1.5, 0.2, -0.3, 0.2, 0.9);
+        let B = SMatrix::<f64, 5, 3>::from_fn(|i, j| (i as f64 - 1.7) * (j as f64 + 0.3) + 0.1 * (i * j) as f64);
+        let y = nalgebra::Vector3::new(0.7, -1.1, 0.4);
+        let c = SmallCholesky::new(S).unwrap();
+        let Si = S.try_inverse().unwrap();
+        assert!((c.gain(&B) - B * Si).amax() < 1e-13);
+        let w = c.whiten(&y);
+        assert!((w.dot(&w) - (y.transpose() * Si * y)[0]).abs() < 1e-13);
+        assert!(SmallCholesky::new(nalgebra::Matrix2::new(1.0, 2.0, 2.0, 1.0)).is_none());
+    }
+
+    #[test]
     fn joseph_form_stays_psd_with_a_suboptimal_gain() {
         // With an exactly zero R the optimal update makes P⁺ singular; the Joseph
         // form must still give a symmetric PSD result, never a negative variance.
@@ -394,14 +425,11 @@ mod tests {
         let F = Matrix2::new(1.0, 0.5, 0.0, 1.0);
         let G = nalgebra::Matrix2x1::new(0.125, 0.5);
         let Q = map_process_noise(&G, &Matrix1::new(4.0));
-        kf.begin_step();
         kf.predict_with_input(&F, &(G * 2.0), &Q).unwrap();
         // x = F x + G a = [1 + 1 + .25, 2 + 1] ; P = F P Fᵀ + G q Gᵀ.
         assert_eq!(*kf.x(), Vector2::new(2.25, 3.0));
         let P = F * Matrix2::new(4.0, 1.0, 1.0, 2.0) * F.transpose() + G * 4.0 * G.transpose();
         assert!((kf.P() - P).amax() < 1e-15);
-        assert_eq!(kf.prior().0, kf.x());
-        assert_eq!(*kf.step_transition(), F);
     }
 
     #[test]

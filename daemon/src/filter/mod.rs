@@ -17,4 +17,4 @@ pub use kalman::{
     FaultDecision, FaultDetector, FilterError, KalmanFilter, MeasurementView, UpdateDecision, UpdateDiagnostics,
     UpdateOptions, map_process_noise,
 };
-pub use smoother::{RtsStep, SmootherError, rts_smooth};
+pub use smoother::{RtsStep, SmootherError, StepLog, rts_smooth};

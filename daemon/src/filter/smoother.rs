@@ -35,17 +35,41 @@ pub struct RtsStep<T: RealField + Copy, const N: usize> {
     pub F: SMatrix<T, N, N>,
 }
 
-impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
-    /// The current step as a smoother record (call after the step's update).
-    pub fn rts_step(&self) -> RtsStep<T, N> {
-        let (x_prior, P_prior) = self.prior();
-        RtsStep {
-            x_prior: *x_prior,
-            P_prior: *P_prior,
-            x_post: *self.x(),
-            P_post: *self.P(),
-            F: *self.step_transition(),
-        }
+/// Builds the [`RtsStep`] of one filter step around the calls that make it: any
+/// number of predicts (their `F` compose the step's transition) and then at most
+/// one update.
+///
+/// ```text
+/// let mut log = StepLog::begin(&kf);      // x⁻ = x⁺ = x, F = I
+/// kf.predict(&F, &Q)?; log.predicted(&kf, &F);
+/// kf.update(..)?;
+/// let step = log.finish(&kf);             // x⁺, P⁺ = the filter's
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepLog<T: RealField + Copy, const N: usize> {
+    step: RtsStep<T, N>,
+}
+
+impl<T: RealField + Copy, const N: usize> StepLog<T, N> {
+    /// Starts a step at the filter's current estimate, with transition `I`.
+    pub fn begin(kf: &KalmanFilter<T, N>) -> Self {
+        let (x, P) = (*kf.x(), *kf.P());
+        Self { step: RtsStep { x_prior: x, P_prior: P, x_post: x, P_post: P, F: SMatrix::identity() } }
+    }
+
+    /// Records a predict with transition `F` that the filter has just made: the
+    /// prior becomes its estimate and the step's transition `F · F_step`.
+    pub fn predicted(&mut self, kf: &KalmanFilter<T, N>, F: &SMatrix<T, N, N>) {
+        self.step.x_prior = *kf.x();
+        self.step.P_prior = *kf.P();
+        self.step.F = F * self.step.F;
+    }
+
+    /// The step's record, with the filter's current estimate as its posterior.
+    pub fn finish(mut self, kf: &KalmanFilter<T, N>) -> RtsStep<T, N> {
+        self.step.x_post = *kf.x();
+        self.step.P_post = *kf.P();
+        self.step
     }
 }
 
@@ -101,12 +125,13 @@ mod tests {
         let mut kf = KalmanFilter::new(m0, P0).unwrap();
         let mut steps = Vec::new();
         for (k, zk) in z.iter().enumerate() {
-            kf.begin_step();
+            let mut log = StepLog::begin(&kf);
             if k > 0 {
                 kf.predict(&F, &Q).unwrap();
+                log.predicted(&kf, &F);
             }
             kf.update(&Vector1::new(*zk), &H, &nalgebra::Matrix1::new(R), UpdateOptions::default()).unwrap();
-            steps.push(kf.rts_step());
+            steps.push(log.finish(&kf));
         }
         rts_smooth(&mut steps).unwrap();
 

@@ -57,10 +57,10 @@ use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 mod error_state;
 
-use error_state::{inject_and_reset, structured_fpft};
+use error_state::{ProcessNoise, Transition, inject_and_reset};
 
 use super::{Model, StepOutcome, advance_time};
-use crate::filter::{ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, UpdateDecision};
+use crate::filter::{ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision};
 use crate::reorder::Sample;
 
 /// Error-state dimension.
@@ -209,25 +209,32 @@ impl InsModel {
         Vector3::new(0.0, 0.0, -self.gravity)
     }
 
-    /// Propagates nominal state and error covariance over `dt` with the held IMU values.
-    fn propagate(&self, s: &mut InsState, dt: f64) {
+    /// The discrete process noise over `dt`.
+    fn process_noise(&self, dt: f64) -> ProcessNoise {
         let n = &self.noise;
-        let mut Q = SMatrix::<f64, N, N>::zeros();
         let qa = n.accelerometer_noise_density.powi(2);
-        for i in 0..3 {
-            Q[(i, i)] = qa * dt * dt * dt / 3.0;
-            Q[(i, i + 3)] = qa * dt * dt / 2.0;
-            Q[(i + 3, i)] = qa * dt * dt / 2.0;
-            Q[(i + 3, i + 3)] = qa * dt;
-            Q[(i + 6, i + 6)] = n.gyroscope_noise_density.powi(2) * dt;
-            Q[(i + 9, i + 9)] = n.accelerometer_random_walk.powi(2) * dt;
-            Q[(i + 12, i + 12)] = n.gyroscope_random_walk.powi(2) * dt;
+        ProcessNoise {
+            pp: qa * dt * dt * dt / 3.0,
+            pv: qa * dt * dt / 2.0,
+            vv: qa * dt,
+            theta: n.gyroscope_noise_density.powi(2) * dt,
+            ba: n.accelerometer_random_walk.powi(2) * dt,
+            bg: n.gyroscope_random_walk.powi(2) * dt,
         }
+    }
+
+    /// Propagates nominal state and error covariance over `dt` with the held IMU
+    /// values; the transition used (if the filter accepted it) goes to `log`.
+    fn propagate(&self, s: &mut InsState, dt: f64, log: Option<&mut StepLog<f64, N>>) {
+        let Q = self.process_noise(dt);
         let moving = s.held.filter(|_| s.ready);
         let Some((f_m, w_m)) = moving else {
             // Nothing to integrate yet: hold the nominal state, grow the covariance.
-            let F = SMatrix::<f64, N, N>::identity();
-            let _ = s.kf.predict_structured(|x, P| (*x, P + Q), &F, &Q);
+            if s.kf.predict_structured(|x, P| (*x, P + Q.dense())).is_ok()
+                && let Some(log) = log
+            {
+                log.predicted(&s.kf, &SMatrix::identity());
+            }
             return;
         };
         let (p, v, q) = (s.p(), s.v(), s.q());
@@ -241,26 +248,51 @@ impl InsModel {
         let mut q_new = q * dq;
         q_new.renormalize();
 
-        // Non-trivial blocks of F = I + E.
-        let Rf = -R * f.cross_matrix();
-        let A = Rf * dt; // δv ← δθ
-        let B = -R * dt; // δv ← δb_a
-        let C = dq.to_rotation_matrix().into_inner().transpose(); // δθ ← δθ
-        let hdt2 = 0.5 * dt * dt;
-        let mut F = SMatrix::<f64, N, N>::identity();
-        F.fixed_view_mut::<3, 3>(0, 3).fill_with_identity();
-        F.fixed_view_mut::<3, 3>(0, 3).scale_mut(dt);
-        F.fixed_view_mut::<3, 3>(0, 6).copy_from(&(Rf * hdt2));
-        F.fixed_view_mut::<3, 3>(0, 9).copy_from(&(-R * hdt2));
-        F.fixed_view_mut::<3, 3>(3, 6).copy_from(&A);
-        F.fixed_view_mut::<3, 3>(3, 9).copy_from(&B);
-        F.fixed_view_mut::<3, 3>(6, 6).copy_from(&C);
-        F.fixed_view_mut::<3, 3>(6, 12).copy_from(&(-Matrix3::identity() * dt));
-
-        let propagate = |x: &SVector<f64, N>, P: &SMatrix<f64, N, N>| (*x, structured_fpft(P, &F) + Q);
-        if s.kf.predict_structured(propagate, &F, &Q).is_ok() {
+        let F = Transition { dt, A: -R * f.cross_matrix(), B: -R, C: dq.to_rotation_matrix().into_inner().transpose() };
+        if s.kf.predict_structured(|x, P| (*x, F.propagate_covariance(P, &Q))).is_ok() {
             let (b_a, b_g) = (s.b_a(), s.b_g());
             s.set(p_new, v_new, q_new, b_a, b_g);
+            if let Some(log) = log {
+                log.predicted(&s.kf, &F.dense());
+            }
+        }
+    }
+
+    /// One step (see [`Model::step`]), logging the transition for the smoother when
+    /// `log` is given.
+    fn step_logged(&self, s: &mut InsState, sample: &Sample, log: Option<&mut StepLog<f64, N>>) -> StepOutcome {
+        if let Some(dt) = advance_time(&mut s.t_ns, sample.t_ns()) {
+            self.propagate(s, dt, log);
+        }
+        match sample {
+            Sample::Imu(imu) => {
+                let (f, w) = (Vector3::from(imu.accel_mps2), Vector3::from(imu.gyro_radps));
+                s.held = Some((f, w));
+                if s.aligned < self.alignment_samples {
+                    s.sum_f += f;
+                    s.sum_w += w;
+                    s.aligned += 1;
+                    if s.aligned == self.alignment_samples {
+                        self.align(s);
+                    }
+                }
+                s.ready = s.aligned >= self.alignment_samples;
+                StepOutcome::Propagated
+            }
+            Sample::Position(pos) => {
+                let z = Vector3::from(pos.pos_m);
+                let R = Matrix3::from_row_slice(&pos.cov_m2);
+                // H selects δp; the error state is zero before the update, so h(x) = p (nominal).
+                let d = match s.kf.update_selection(&z, &s.p(), 0, &R, self.gate.as_ref()) {
+                    Ok(d) => d,
+                    Err(_) => return StepOutcome::Refused,
+                };
+                if d.decision != UpdateDecision::Accepted {
+                    return StepOutcome::Gated { nis: d.nis };
+                }
+                inject_and_reset(s);
+                StepOutcome::Fused { nis: d.nis }
+            }
         }
     }
 
@@ -300,41 +332,16 @@ impl Model for InsModel {
     }
 
     fn step(&self, s: &mut InsState, sample: &Sample) -> StepOutcome {
-        let t = sample.t_ns();
-        s.kf.begin_step();
-        if let Some(dt) = advance_time(&mut s.t_ns, t) {
-            self.propagate(s, dt);
-        }
-        match sample {
-            Sample::Imu(imu) => {
-                let (f, w) = (Vector3::from(imu.accel_mps2), Vector3::from(imu.gyro_radps));
-                s.held = Some((f, w));
-                if s.aligned < self.alignment_samples {
-                    s.sum_f += f;
-                    s.sum_w += w;
-                    s.aligned += 1;
-                    if s.aligned == self.alignment_samples {
-                        self.align(s);
-                    }
-                }
-                s.ready = s.aligned >= self.alignment_samples;
-                StepOutcome::Propagated
-            }
-            Sample::Position(pos) => {
-                let z = Vector3::from(pos.pos_m);
-                let R = Matrix3::from_row_slice(&pos.cov_m2);
-                // H selects δp; the error state is zero before the update, so h(x) = p (nominal).
-                let d = match s.kf.update_selection(&z, &s.p(), 0, &R, self.gate.as_ref()) {
-                    Ok(d) => d,
-                    Err(_) => return StepOutcome::Refused,
-                };
-                if d.decision != UpdateDecision::Accepted {
-                    return StepOutcome::Gated { nis: d.nis };
-                }
-                inject_and_reset(s);
-                StepOutcome::Fused { nis: d.nis }
-            }
-        }
+        self.step_logged(s, sample, None)
+    }
+
+    /// The record is the error-state filter's step; the error state is reset after
+    /// each update, so an error-state RTS smoother would also need the resets (not
+    /// implemented: [`smooth`](Model::smooth) refuses).
+    fn step_recorded(&self, s: &mut InsState, sample: &Sample) -> (StepOutcome, RtsStep<f64, N>) {
+        let mut log = StepLog::begin(&s.kf);
+        let outcome = self.step_logged(s, sample, Some(&mut log));
+        (outcome, log.finish(&s.kf))
     }
 
     fn time_ns(s: &InsState) -> Option<u64> {
@@ -351,10 +358,6 @@ impl Model for InsModel {
 
     fn covariance(s: &InsState) -> &[f64] {
         s.kf.P().as_slice()
-    }
-
-    fn record(s: &InsState) -> RtsStep<f64, N> {
-        s.kf.rts_step()
     }
 
     fn smooth(_records: &mut [RtsStep<f64, N>]) -> Result<(), SmootherError> {
@@ -407,17 +410,21 @@ mod tests {
         let m = InsModel::new(noise(), G, x0(), p0(), None, 0).unwrap();
         let mut s = m.initial_state();
         s.held = Some((Vector3::new(0.3, -0.2, 9.7), Vector3::new(0.1, 0.05, -0.3)));
+        s.ready = true;
         let q = UnitQuaternion::from_euler_angles(0.1, -0.2, 0.7);
         s.set(Vector3::zeros(), Vector3::new(3.0, 1.0, 0.0), q, Vector3::new(0.01, 0.0, 0.0), Vector3::zeros());
         let L =
             SMatrix::<f64, N, N>::from_fn(|i, j| if i >= j { 0.1 + ((i * 7 + j * 3) % 5) as f64 * 0.05 } else { 0.0 });
         let P = L * L.transpose();
         s.kf.set_state(SVector::zeros(), P).unwrap();
-        m.propagate(&mut s, 0.005);
-        let F = *s.kf.last_F();
-        let Q = *s.kf.last_Q();
-        let dense = F * P * F.transpose() + Q;
+        let mut log = StepLog::begin(&s.kf);
+        m.propagate(&mut s, 0.005, Some(&mut log));
+        let F = log.finish(&s.kf).F;
+        // A moving step: the attitude and bias couplings are really there.
+        assert!(F.fixed_view::<3, 3>(3, 6).amax() > 1e-3 && F.fixed_view::<3, 3>(6, 12).amax() > 1e-3);
+        let dense = F * P * F.transpose() + m.process_noise(0.005).dense();
         assert!((s.kf.P() - dense).amax() < 1e-12 * dense.amax(), "{}", (s.kf.P() - dense).amax());
+        assert_eq!(*s.kf.P(), s.kf.P().transpose(), "exactly symmetric");
     }
 
     #[test]

@@ -27,7 +27,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use super::{Model, StepOutcome, advance_time};
-use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, UpdateDecision, rts_smooth};
+use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, rts_smooth};
 use crate::reorder::Sample;
 
 /// State dimension.
@@ -108,6 +108,40 @@ impl LinearModel {
         (F, Q)
     }
 
+    /// One step (see [`Model::step`]), logging the predict's transition for the
+    /// smoother when `log` is given.
+    fn step_logged(&self, s: &mut LinearState, sample: &Sample, log: Option<&mut StepLog<f64, N>>) -> StepOutcome {
+        let t = sample.t_ns();
+        if let Some(dt) = advance_time(&mut s.t_ns, t) {
+            let (F, Q) = self.transition_and_noise(dt);
+            let a = s.accel;
+            // A non-finite result is refused by the filter and leaves x, P as they
+            // were; the filter time still moves on so later samples stay in order.
+            if s.kf.predict_structured(|x, P| propagate(x, P, &a, &Q, dt)).is_ok()
+                && let Some(log) = log
+            {
+                log.predicted(&s.kf, &F);
+            }
+        }
+        match sample {
+            Sample::Imu(imu) => {
+                s.accel = Vector3::from(imu.accel_mps2);
+                StepOutcome::Propagated
+            }
+            Sample::Position(p) => {
+                let z = Vector3::from(p.pos_m);
+                let R = Matrix3::from_row_slice(&p.cov_m2);
+                // H = [I 0]: the position states are selected.
+                let predicted = Vector3::new(s.kf.x()[0], s.kf.x()[1], s.kf.x()[2]);
+                match s.kf.update_selection(&z, &predicted, 0, &R, self.gate.as_ref()) {
+                    Ok(d) if d.decision == UpdateDecision::Accepted => StepOutcome::Fused { nis: d.nis },
+                    Ok(d) => StepOutcome::Gated { nis: d.nis },
+                    Err(_) => StepOutcome::Refused,
+                }
+            }
+        }
+    }
+
     /// `F` and `G` for a step of `dt` seconds.
     pub fn transition(dt: f64) -> (SMatrix<f64, N, N>, SMatrix<f64, N, 3>) {
         let mut F = SMatrix::<f64, N, N>::identity();
@@ -166,32 +200,13 @@ impl Model for LinearModel {
     }
 
     fn step(&self, s: &mut LinearState, sample: &Sample) -> StepOutcome {
-        let t = sample.t_ns();
-        s.kf.begin_step();
-        if let Some(dt) = advance_time(&mut s.t_ns, t) {
-            let (F, Q) = self.transition_and_noise(dt);
-            let a = s.accel;
-            // A non-finite result is refused by the filter and leaves x, P as they
-            // were; the filter time still moves on so later samples stay in order.
-            let _ = s.kf.predict_structured(|x, P| propagate(x, P, &a, &Q, dt), &F, &Q);
-        }
-        match sample {
-            Sample::Imu(imu) => {
-                s.accel = Vector3::from(imu.accel_mps2);
-                StepOutcome::Propagated
-            }
-            Sample::Position(p) => {
-                let z = Vector3::from(p.pos_m);
-                let R = Matrix3::from_row_slice(&p.cov_m2);
-                // H = [I 0]: the position states are selected.
-                let predicted = Vector3::new(s.kf.x()[0], s.kf.x()[1], s.kf.x()[2]);
-                match s.kf.update_selection(&z, &predicted, 0, &R, self.gate.as_ref()) {
-                    Ok(d) if d.decision == UpdateDecision::Accepted => StepOutcome::Fused { nis: d.nis },
-                    Ok(d) => StepOutcome::Gated { nis: d.nis },
-                    Err(_) => StepOutcome::Refused,
-                }
-            }
-        }
+        self.step_logged(s, sample, None)
+    }
+
+    fn step_recorded(&self, s: &mut LinearState, sample: &Sample) -> (StepOutcome, RtsStep<f64, N>) {
+        let mut log = StepLog::begin(&s.kf);
+        let outcome = self.step_logged(s, sample, Some(&mut log));
+        (outcome, log.finish(&s.kf))
     }
 
     fn time_ns(s: &LinearState) -> Option<u64> {
@@ -205,10 +220,6 @@ impl Model for LinearModel {
     fn covariance(s: &LinearState) -> &[f64] {
         // Column-major storage of a symmetric matrix is its row-major form.
         s.kf.P().as_slice()
-    }
-
-    fn record(s: &LinearState) -> RtsStep<f64, N> {
-        s.kf.rts_step()
     }
 
     fn smooth(records: &mut [RtsStep<f64, N>]) -> Result<(), SmootherError> {

@@ -103,8 +103,10 @@ pub trait Model {
     /// The covariance as published, row-major (it is symmetric).
     fn covariance(state: &Self::State) -> &[f64];
 
-    /// The smoother's record of the step that produced `state`.
-    fn record(state: &Self::State) -> Self::Record;
+    /// [`step`](Self::step), also returning the smoother's record of the step. The
+    /// state it leaves is bit for bit the one `step` leaves: a smoother re-runs the
+    /// final samples through this after the fact, so the history stays compact.
+    fn step_recorded(&self, state: &mut Self::State, sample: &Sample) -> (StepOutcome, Self::Record);
 
     /// Smooths a complete run of records in place (RTS).
     fn smooth(records: &mut [Self::Record]) -> Result<(), crate::filter::SmootherError>;

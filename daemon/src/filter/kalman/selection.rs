@@ -2,9 +2,12 @@
 
 #![allow(non_snake_case)]
 
-use nalgebra::{Cholesky, RealField, SMatrix, SVector};
+use nalgebra::{RealField, SMatrix, SVector};
 
-use super::{FilterError, KalmanFilter, UpdateDecision, UpdateDiagnostics, all_finite, symmetrize};
+use super::{
+    FilterError, KalmanFilter, SmallCholesky, Symmetrize, UpdateDecision, UpdateDiagnostics, all_finite, symmetrize,
+    symmetrize_leading,
+};
 use crate::filter::gate::ChiSquareGate;
 
 impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
@@ -32,11 +35,11 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         let PHt: SMatrix<T, N, M> = self.P.fixed_view::<N, M>(0, offset).into_owned();
         let mut S: SMatrix<T, M, M> = self.P.fixed_view::<M, M>(offset, offset) + R;
         symmetrize(&mut S);
-        let chol = Cholesky::new(S).ok_or(FilterError::InnovationNotPositiveDefinite)?;
+        let chol = SmallCholesky::new(S).ok_or(FilterError::InnovationNotPositiveDefinite)?;
         let y = z - predicted;
-        let K = chol.solve(&PHt.transpose()).transpose();
+        let K = chol.gain(&PHt);
         let dx = K * y;
-        let w = chol.l().solve_lower_triangular(&y).unwrap_or_else(SVector::zeros);
+        let w = chol.whiten(&y);
         let nis = w.dot(&w);
         let gate_threshold = gate.map(|g| T::from_subset(&g.threshold(M)));
         let decision =
@@ -60,10 +63,27 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         if decision != UpdateDecision::Accepted {
             return Ok(diagnostics);
         }
-        // A = (I − K H) P = P − K P[offset.., :]
-        let A = self.P - K * self.P.fixed_view::<M, N>(offset, 0);
-        // A (I − K H)ᵀ = A − A[:, offset..] Kᵀ
-        let P = A - A.fixed_view::<N, M>(0, offset) * K.transpose() + K * R * K.transpose();
+        // Joseph form regrouped: with U = H P⁻ (rows `offset..` of P⁻) and
+        // A = (I − K H) P⁻ = P⁻ − K U, whose selected columns are A Hᵀ = P⁻Hᵀ − K P_sel,
+        //   P⁺ = A (I − K H)ᵀ + K R Kᵀ = P⁻ − K U − (A Hᵀ − K R) Kᵀ,
+        // the same terms as the Joseph form in O(N² M). Column j of P⁺ is column j
+        // of P⁻ minus 2M scaled columns (a loop the compiler vectorises), down to the
+        // diagonal; that upper triangle is then mirrored, so P⁺ is exactly symmetric.
+        let G = PHt - K * self.P.fixed_view::<M, M>(offset, offset) - K * R;
+        let (k, g) = (&K.data.0, &G.data.0);
+        let mut P = self.P;
+        let out = &mut P.data.0; // out[column][row]
+        for j in 0..N {
+            let col = &mut out[j][..=j];
+            for m in 0..M {
+                // U[m][j] = P⁻[offset + m, j]
+                let (u, kj) = (self.P[(offset + m, j)], k[m][j]);
+                for ((v, km), gm) in col.iter_mut().zip(&k[m]).zip(&g[m]) {
+                    *v -= *km * u + *gm * kj;
+                }
+            }
+        }
+        symmetrize_leading(out, N, Symmetrize::MirrorUpper);
         self.commit_update(dx, P)?;
         Ok(diagnostics)
     }
