@@ -42,7 +42,7 @@ fn main() -> anyhow::Result<()> {
         return Ok(());
     }
     let quick = std::env::var("FUSION_BENCH_QUICK").is_ok_and(|v| v != "0");
-    let (raw_count, e2e_count) = if quick { (5_000, 1_000) } else { (50_000, 10_000) };
+    let (raw_count, e2e_count) = if quick { (2_000, 8_000) } else { (10_000, 10_000) };
     let imu_hz: f64 = std::env::var("FUSION_BENCH_IMU_HZ").ok().and_then(|v| v.parse().ok()).unwrap_or(1000.0);
 
     // The daemon binary, built as cargo bench builds (release).
@@ -68,7 +68,7 @@ fn main() -> anyhow::Result<()> {
             .stdout(Stdio::null())
             .spawn()?;
         let mut guard = ChildGuard(child);
-        let h = ping(&base, mode, raw_count, &mut guard)?;
+        let h = ping(&base, mode, raw_count, imu_hz, &mut guard)?;
         rows.push(Row { name: format!("raw iceoryx2 ping-pong, {}", mode.name()), mode, one_way: true, h });
     }
     for (model, config, imu) in

@@ -135,9 +135,44 @@ impl Drop for ChildGuard {
     }
 }
 
+/// Sends at a fixed rate: [`wait`](Self::wait) returns at the next tick, sleeping
+/// while more than 200 µs remain and spinning the rest, so the sender is awake and
+/// on time. Raw and end-to-end rows pace alike, so that they compare like with like
+/// (an idle gap between messages costs both sides cache and wake-up state).
+pub struct Pacer {
+    period_ns: u64,
+    next: u64,
+}
+
+impl Pacer {
+    /// Ticks at `rate_hz`, the first 10 ms from now.
+    pub fn new(rate_hz: f64) -> Self {
+        Self { period_ns: (1e9 / rate_hz) as u64, next: now_ns() + 10_000_000 }
+    }
+
+    /// Waits for the next tick.
+    pub fn wait(&mut self) {
+        while now_ns() < self.next {
+            if self.next.saturating_sub(now_ns()) > 200_000 {
+                std::thread::sleep(Duration::from_micros(100));
+            } else {
+                std::hint::spin_loop();
+            }
+        }
+        self.next += self.period_ns;
+    }
+}
+
 /// Raw iceoryx2 ping-pong with an `ImuSample` payload between this process and
-/// `pong_process` (already started on `base`): round-trip times, ns.
-pub fn ping(base: &str, mode: Mode, count: u64, _pong: &mut ChildGuard) -> anyhow::Result<Histogram<u64>> {
+/// `pong_process` (already started on `base`), one ping per tick at `rate_hz`:
+/// round-trip times, ns.
+pub fn ping(
+    base: &str,
+    mode: Mode,
+    count: u64,
+    rate_hz: f64,
+    _pong: &mut ChildGuard,
+) -> anyhow::Result<Histogram<u64>> {
     let end = PingPongEnd::open(base, "ping", "pong")?;
     let mut rtt = histogram();
     // Let the pong side connect: retry the first ping until it answers.
@@ -149,7 +184,9 @@ pub fn ping(base: &str, mode: Mode, count: u64, _pong: &mut ChildGuard) -> anyho
         }
         anyhow::ensure!(started.elapsed() < Duration::from_secs(20), "pong did not answer");
     }
+    let mut pacer = Pacer::new(rate_hz);
     for seq in 0..count {
+        pacer.wait();
         let t0 = now_ns();
         end.send(ImuSample { seq, t_ns: t0, ..Default::default() }, mode)?;
         loop {
@@ -182,18 +219,10 @@ pub fn end_to_end(
     pos.set_wake(mode == Mode::Event);
     let mut state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER)?;
     let mut latency = histogram();
-    let period = (1e9 / rate_hz) as u64;
-    let mut next = now_ns() + 10_000_000;
+    let mut pacer = Pacer::new(rate_hz);
     let warmup = count / 10;
     for seq in 0..(count + warmup) {
-        while now_ns() < next {
-            if next - now_ns() > 200_000 {
-                std::thread::sleep(Duration::from_micros(100));
-            } else {
-                std::hint::spin_loop();
-            }
-        }
-        next += period;
+        pacer.wait();
         let t = now_ns();
         if seq % 100 == 50 {
             pos.publish(t, [0.0; 3], [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64])?;

@@ -28,7 +28,9 @@ initial_covariance_diagonal = [100, 100, 100, 10, 10, 10]
 # and replay; older ones are dropped and counted.
 history_ns = 1_000_000_000
 # Most samples kept for rewinding (bounds memory: 1 s at 1 kHz IMU + positions
-# needs ~1010). If it fills before history_ns, the window shrinks, counted.
+# needs ~1010). If it fills before history_ns, the window shrinks, counted. All of
+# it is allocated and touched at start (about 0.5 KB per entry for linear, 2.4 KB
+# for ins), so no page fault ever lands on the live path.
 history_capacity = 4096
 
 [gating]
