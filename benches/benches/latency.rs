@@ -11,7 +11,10 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use fusion_benches::latency::{ChildGuard, Mode, end_to_end, ping, pong, start_daemon};
+use fusion_benches::latency::{
+    ChildGuard, LateCost, Mode, PublisherPlan, Trial, end_to_end, fan_out_reader, late_data, ping, pong, publisher,
+    start_daemon, throughput,
+};
 use fusion_client::Client;
 use hdrhistogram::Histogram;
 
@@ -30,11 +33,63 @@ struct Row {
     h: Histogram<u64>,
 }
 
+/// The IMU values each model is fed: at rest (linear: a small world acceleration;
+/// ins: gravity along body z).
+fn imu_value(model: &str) -> ([f64; 3], [f64; 3]) {
+    if model == "ins" { ([0.0, 0.0, 9.80665], [0.0; 3]) } else { ([0.0; 3], [0.0; 3]) }
+}
+
+fn config_of(model: &str) -> &'static str {
+    if model == "ins" { INS } else { LINEAR }
+}
+
+/// A running daemon and a connected client, torn down (process and its files)
+/// when dropped, also on error.
+struct Rig {
+    client: Client,
+    _daemon: ChildGuard,
+    config_path: PathBuf,
+}
+
+impl Drop for Rig {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.config_path);
+    }
+}
+
+fn start_rig(fusiond: &std::path::Path, namespace: &str, model: &str, mode: Mode) -> anyhow::Result<Rig> {
+    let dir = std::env::temp_dir();
+    let daemon = start_daemon(fusiond, &dir, config_of(model), namespace, mode)?;
+    let config_path = dir.join(format!("{namespace}.toml"));
+    let client = Client::connect(namespace)?;
+    let started = Instant::now();
+    while client.state_subscriber().is_err() {
+        anyhow::ensure!(started.elapsed() < Duration::from_secs(20), "fusiond did not start");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    Ok(Rig { client, _daemon: daemon, config_path })
+}
+
+/// Starts this binary as the publisher process of `plan` into `namespace`.
+fn spawn_publisher(namespace: &str, model: &str, plan: PublisherPlan) -> anyhow::Result<ChildGuard> {
+    let child = Command::new(std::env::current_exe()?)
+        .env("FUSION_BENCH_PUBLISHER", namespace)
+        .env("FUSION_BENCH_MODEL", model)
+        .envs(plan.to_env())
+        .stdout(Stdio::null())
+        .spawn()?;
+    Ok(ChildGuard(child))
+}
+
 fn main() -> anyhow::Result<()> {
-    // The pong role: this same binary, re-executed.
+    // Roles of this same binary, re-executed: the pong side and the publisher process.
     if let Ok(base) = std::env::var("FUSION_BENCH_PONG") {
         let mode = Mode::parse(&std::env::var("FUSION_BENCH_MODE")?).context("mode")?;
         return pong(&base, mode);
+    }
+    if let Ok(namespace) = std::env::var("FUSION_BENCH_PUBLISHER") {
+        let model = std::env::var("FUSION_BENCH_MODEL")?;
+        return publisher(&namespace, PublisherPlan::from_env()?, imu_value(&model));
     }
     // `cargo bench` passes --bench; with a filter argument that excludes "latency", do nothing.
     let filters: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
@@ -42,8 +97,9 @@ fn main() -> anyhow::Result<()> {
         return Ok(());
     }
     let quick = std::env::var("FUSION_BENCH_QUICK").is_ok_and(|v| v != "0");
-    let (raw_count, e2e_count) = if quick { (2_000, 8_000) } else { (10_000, 10_000) };
+    let count: u64 = if quick { 1_000 } else { 10_000 };
     let imu_hz: f64 = std::env::var("FUSION_BENCH_IMU_HZ").ok().and_then(|v| v.parse().ok()).unwrap_or(1000.0);
+    let started = Instant::now();
 
     // The daemon binary, built as cargo bench builds (release).
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
@@ -59,6 +115,7 @@ fn main() -> anyhow::Result<()> {
     std::fs::create_dir_all(&out_dir)?;
     let pid = std::process::id();
 
+    // 1. Raw iceoryx2 ping-pong, paced like the end-to-end rows.
     let mut rows = Vec::new();
     for mode in [Mode::Spin, Mode::Event] {
         let base = format!("fusion-bench-{pid}-raw-{}", mode.name());
@@ -68,28 +125,71 @@ fn main() -> anyhow::Result<()> {
             .stdout(Stdio::null())
             .spawn()?;
         let mut guard = ChildGuard(child);
-        let h = ping(&base, mode, raw_count, imu_hz, &mut guard)?;
+        let h = ping(&base, mode, count, imu_hz, &mut guard)?;
         rows.push(Row { name: format!("raw iceoryx2 ping-pong, {}", mode.name()), mode, one_way: true, h });
     }
-    for (model, config, imu) in
-        [("linear", LINEAR, ([0.1, 0.0, 0.0], [0.0; 3])), ("ins", INS, ([0.0, 0.0, 9.80665], [0.0; 3]))]
-    {
+    // 2. End to end, publisher and reader in one process; then the fan-out case
+    //    with the publisher in a process of its own.
+    for model in ["linear", "ins"] {
         for mode in [Mode::Spin, Mode::Event] {
             let namespace = format!("fusion-bench-{pid}-{model}-{}", mode.name());
-            let dir = std::env::temp_dir();
-            let _daemon = start_daemon(&fusiond, &dir, config, &namespace, mode)?;
-            let client = Client::connect(&namespace)?;
-            let started = Instant::now();
-            while client.state_subscriber().is_err() {
-                anyhow::ensure!(started.elapsed() < Duration::from_secs(20), "fusiond did not start");
-                std::thread::sleep(Duration::from_millis(20));
-            }
-            let h = end_to_end(&client, mode, e2e_count, imu_hz, imu)?;
+            let rig = start_rig(&fusiond, &namespace, model, mode)?;
+            let h = end_to_end(&rig.client, mode, count, imu_hz, imu_value(model))?;
             rows.push(Row { name: format!("fusiond {model}, --wait {}", mode.name()), mode, one_way: false, h });
-            let _ = std::fs::remove_file(dir.join(format!("{namespace}.toml")));
+            let warmup = count / 10;
+            let plan = PublisherPlan { rate_hz: imu_hz, count: count + warmup, sensor: 2, wake: mode == Mode::Event };
+            let _publisher = spawn_publisher(&namespace, model, plan)?;
+            let h = fan_out_reader(&rig.client, mode, 2, warmup, count)?;
+            rows.push(Row {
+                name: format!("fusiond {model}, --wait {}, fan-out", mode.name()),
+                mode,
+                one_way: false,
+                h,
+            });
         }
     }
 
+    // 3. Late data and 4. throughput, spin mode.
+    let late_count = if quick { 1_000 } else { 10_000 };
+    let mut late_rows = Vec::new();
+    let mut throughput_rows = Vec::new();
+    let rates: &[f64] =
+        if quick { &[100e3, 300e3, 600e3] } else { &[100e3, 200e3, 300e3, 400e3, 600e3, 800e3, 1000e3] };
+    for model in ["linear", "ins"] {
+        let namespace = format!("fusion-bench-{pid}-{model}-late");
+        let rig = start_rig(&fusiond, &namespace, model, Mode::Spin)?;
+        let cost = late_data(&rig.client, Mode::Spin, late_count, 1000.0, 100_000_000, imu_value(model))?;
+        late_rows.push((model, cost));
+        drop(rig);
+
+        let namespace = format!("fusion-bench-{pid}-{model}-throughput");
+        let rig = start_rig(&fusiond, &namespace, model, Mode::Spin)?;
+        let mut best = None;
+        for (i, &rate) in rates.iter().enumerate() {
+            let published = if quick { (rate * 0.5) as u64 } else { rate as u64 };
+            let sensor = i as u32 + 1;
+            let trial = throughput(&rig.client, sensor, rate, published, imu_value(model))?;
+            throughput_rows.push((model, rate, trial));
+            if !trial.clean() {
+                break;
+            }
+            best = Some(rate);
+        }
+        throughput_rows.push((model, -1.0, Trial { published: best.unwrap_or(0.0) as u64, ..Trial::default() }));
+    }
+
+    print_report(&rows, &late_rows, &throughput_rows, quick, &out_dir)?;
+    println!("whole run: {:.0} s", started.elapsed().as_secs_f64());
+    Ok(())
+}
+
+fn print_report(
+    rows: &[Row],
+    late_rows: &[(&str, LateCost)],
+    throughput_rows: &[(&str, f64, Trial)],
+    quick: bool,
+    out_dir: &std::path::Path,
+) -> anyhow::Result<()> {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
         .and_then(|s| {
@@ -104,21 +204,20 @@ fn main() -> anyhow::Result<()> {
         if quick { ", quick" } else { "" }
     );
     println!(
-        "{:<34} {:>9} {:>9} {:>9} {:>9} {:>10} {:>8} {:>16}",
-        "", "p50", "p90", "p99", "p99.9", "max", "count", "p50 / raw RTT"
+        "{:<42} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>10}",
+        "", "p50", "p90", "p99", "p99.9", "max", "count", "p50/RTT"
     );
+    let us = |ns: u64| format!("{:.2} us", ns as f64 / 1e3);
     let mut json = Vec::new();
-    let raw_rtt_p50 = |mode: Mode, rows: &[Row]| {
-        rows.iter().find(|r| r.one_way && r.mode == mode).map(|r| r.h.value_at_quantile(0.5))
-    };
-    for r in &rows {
+    let raw_rtt_p50 =
+        |mode: Mode| rows.iter().find(|r| r.one_way && r.mode == mode).map(|r| r.h.value_at_quantile(0.5));
+    for r in rows {
         // Raw rows report one way (RTT / 2); end-to-end rows are already one way.
         let div = if r.one_way { 2 } else { 1 };
         let q = |p: f64| r.h.value_at_quantile(p) / div;
-        let ratio = if r.one_way { None } else { raw_rtt_p50(r.mode, &rows).map(|rtt| q(0.5) as f64 / rtt as f64) };
-        let us = |ns: u64| format!("{:.2} us", ns as f64 / 1e3);
+        let ratio = if r.one_way { None } else { raw_rtt_p50(r.mode).map(|rtt| q(0.5) as f64 / rtt as f64) };
         println!(
-            "{:<34} {:>9} {:>9} {:>9} {:>9} {:>10} {:>8} {:>16}",
+            "{:<42} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>10}",
             format!("{}{}", r.name, if r.one_way { " (one way)" } else { "" }),
             us(q(0.5)),
             us(q(0.9)),
@@ -132,6 +231,61 @@ fn main() -> anyhow::Result<()> {
             "name": r.name, "mode": r.mode.name(), "one_way_of_round_trip": r.one_way,
             "p50": q(0.5), "p90": q(0.9), "p99": q(0.99), "p999": q(0.999), "max": r.h.max() / div,
             "count": r.h.len(), "ratio_p50_to_raw_round_trip": ratio,
+        }));
+    }
+
+    println!(
+        "\nlate position fix, 100 ms late at 1 kHz IMU (spin; daemon time = snapshot published - sample received)"
+    );
+    println!(
+        "{:<8} {:>9} {:>14} {:>14} {:>14} {:>16} {:>16}",
+        "model", "replayed", "late fix p50", "IMU step p50", "per replayed", "next IMU e2e p50", "other IMU e2e p50"
+    );
+    for (model, c) in late_rows {
+        let replayed = c.replayed.value_at_quantile(0.5);
+        let late = c.late_processing.value_at_quantile(0.5);
+        let imu = c.imu_processing.value_at_quantile(0.5);
+        let per_step = late.saturating_sub(imu) as f64 / replayed.max(1) as f64;
+        println!(
+            "{:<8} {:>9} {:>14} {:>14} {:>14} {:>16} {:>16}",
+            model,
+            replayed,
+            us(late),
+            us(imu),
+            format!("{:.3} us", per_step / 1e3),
+            us(c.next_after_late.value_at_quantile(0.5)),
+            us(c.normal.value_at_quantile(0.5)),
+        );
+        json.push(serde_json::json!({
+            "name": format!("late fix 100 ms at 1 kHz, {model}"), "replayed_p50": replayed,
+            "late_fix_daemon_p50": late, "late_fix_daemon_p99": c.late_processing.value_at_quantile(0.99),
+            "imu_daemon_p50": imu, "per_replayed_step": per_step,
+            "next_imu_e2e_p50": c.next_after_late.value_at_quantile(0.5),
+            "next_imu_e2e_p99": c.next_after_late.value_at_quantile(0.99),
+            "other_imu_e2e_p50": c.normal.value_at_quantile(0.5), "count": c.late_processing.len(),
+        }));
+    }
+
+    println!(
+        "\nthroughput (spin daemon; one bench thread publishes in 100 us slices and busy-polls every snapshot in between)"
+    );
+    println!(
+        "{:<8} {:>12} {:>10} {:>10} {:>8} {:>13}",
+        "model", "rate", "published", "received", "lost", "reader missed"
+    );
+    for (model, rate, t) in throughput_rows {
+        if *rate < 0.0 {
+            println!("{model}: highest clean rate {} samples/s", t.published);
+            json.push(serde_json::json!({"name": format!("max sustained IMU rate, {model}"), "rate_hz": t.published}));
+            continue;
+        }
+        println!(
+            "{:<8} {:>10.0}/s {:>10} {:>10} {:>8} {:>13}",
+            model, rate, t.published, t.received, t.lost, t.reader_missed
+        );
+        json.push(serde_json::json!({
+            "name": format!("throughput trial, {model}"), "rate_hz": rate, "published": t.published,
+            "received": t.received, "lost": t.lost, "reader_missed": t.reader_missed, "clean": t.clean(),
         }));
     }
     let path = out_dir.join("latency.json");

@@ -270,3 +270,266 @@ pub fn start_daemon(
         .spawn()?;
     Ok(ChildGuard(child))
 }
+
+/// What the separate publisher process sends (the fan-out rows).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PublisherPlan {
+    /// IMU rate, Hz.
+    pub rate_hz: f64,
+    /// IMU samples to send.
+    pub count: u64,
+    /// IMU and position sensor id.
+    pub sensor: u32,
+    /// Notify the daemon's wake event (event mode).
+    pub wake: bool,
+}
+
+impl PublisherPlan {
+    /// The plan as environment variables for the re-executed bench binary.
+    pub fn to_env(&self) -> Vec<(&'static str, String)> {
+        vec![
+            ("FUSION_BENCH_RATE", self.rate_hz.to_string()),
+            ("FUSION_BENCH_COUNT", self.count.to_string()),
+            ("FUSION_BENCH_SENSOR", self.sensor.to_string()),
+            ("FUSION_BENCH_WAKE", u8::from(self.wake).to_string()),
+        ]
+    }
+
+    /// The plan from the environment (see [`to_env`](Self::to_env)).
+    pub fn from_env() -> anyhow::Result<Self> {
+        let var = |k: &str| std::env::var(k).map_err(|_| anyhow::anyhow!("{k} not set"));
+        Ok(Self {
+            rate_hz: var("FUSION_BENCH_RATE")?.parse()?,
+            count: var("FUSION_BENCH_COUNT")?.parse()?,
+            sensor: var("FUSION_BENCH_SENSOR")?.parse()?,
+            wake: var("FUSION_BENCH_WAKE")? == "1",
+        })
+    }
+}
+
+/// The publisher process: IMU samples at the plan's rate, plus a position fix
+/// every 100th, into `namespace`. Samples carry `t_ns = sent_ns = now`.
+pub fn publisher(namespace: &str, plan: PublisherPlan, imu_value: ([f64; 3], [f64; 3])) -> anyhow::Result<()> {
+    let client = Client::connect(namespace)?;
+    let mut imu = client.imu_publisher(plan.sensor)?;
+    let mut pos = client.position_publisher(plan.sensor)?;
+    imu.set_wake(plan.wake);
+    pos.set_wake(plan.wake);
+    // Let the daemon's subscribers connect to the new publishers.
+    std::thread::sleep(Duration::from_millis(200));
+    let mut pacer = Pacer::new(plan.rate_hz);
+    for seq in 0..plan.count {
+        pacer.wait();
+        let t = now_ns();
+        if seq % 100 == 50 {
+            pos.publish(t, [0.0; 3], [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64])?;
+        }
+        imu.publish(t, imu_value.0, imu_value.1)?;
+    }
+    Ok(())
+}
+
+/// The fan-out reader: every snapshot of an IMU sample from `sensor` with
+/// `seq ≥ skip`, until `count` are recorded or the stream has been quiet for a
+/// second: received − sent, ns.
+pub fn fan_out_reader(
+    client: &Client,
+    mode: Mode,
+    sensor: u32,
+    skip: u64,
+    count: u64,
+) -> anyhow::Result<Histogram<u64>> {
+    let mut state = client.state_subscriber_with_buffer(service::STATE_BUFFER)?;
+    let mut latency = histogram();
+    let mut idle_since = Instant::now();
+    while latency.len() < count {
+        let snap = match mode {
+            Mode::Spin => state.spin_next(Duration::from_millis(100))?,
+            Mode::Event => state.wait_next(Duration::from_millis(100))?,
+        };
+        let Some(s) = snap else {
+            // The publisher sent `skip + count` samples; a few may have left no
+            // snapshot of their own (e.g. refused); once it is quiet, stop.
+            if !latency.is_empty() && idle_since.elapsed() > Duration::from_secs(1) {
+                break;
+            }
+            anyhow::ensure!(idle_since.elapsed() < Duration::from_secs(5), "no snapshot for 5 s");
+            continue;
+        };
+        let received = now_ns();
+        idle_since = Instant::now();
+        if s.input_kind == 0 && s.input_sensor == sensor && s.input_seq >= skip {
+            latency.record(received.saturating_sub(s.input_sent_ns))?;
+        }
+    }
+    Ok(latency)
+}
+
+/// Late-data cost, measured live at 1 kHz.
+#[derive(Debug)]
+pub struct LateCost {
+    /// Daemon time (snapshot published − sample received) of in-order IMU samples, ns.
+    pub imu_processing: Histogram<u64>,
+    /// Daemon time of the late fixes (rewind, replay, snapshot), ns.
+    pub late_processing: Histogram<u64>,
+    /// IMU samples replayed per late fix.
+    pub replayed: Histogram<u64>,
+    /// End-to-end latency of the IMU sample sent right behind each late fix, ns.
+    pub next_after_late: Histogram<u64>,
+    /// End-to-end latency of the other IMU samples, ns.
+    pub normal: Histogram<u64>,
+}
+
+/// Publishes IMU samples at `rate_hz`; every 100th tick a position fix whose time
+/// of validity is `late_ns` old goes out just before the IMU sample, so the daemon
+/// must rewind and replay about `late_ns × rate` IMU steps before it can process
+/// that IMU sample.
+pub fn late_data(
+    client: &Client,
+    mode: Mode,
+    count: u64,
+    rate_hz: f64,
+    late_ns: u64,
+    imu_value: ([f64; 3], [f64; 3]),
+) -> anyhow::Result<LateCost> {
+    let mut imu = client.imu_publisher(0)?;
+    let mut pos = client.position_publisher(1)?;
+    imu.set_wake(mode == Mode::Event);
+    pos.set_wake(mode == Mode::Event);
+    let mut state = client.state_subscriber_with_buffer(service::STATE_BUFFER)?;
+    let mut cost = LateCost {
+        imu_processing: histogram(),
+        late_processing: histogram(),
+        replayed: histogram(),
+        next_after_late: histogram(),
+        normal: histogram(),
+    };
+    let mut pacer = Pacer::new(rate_hz);
+    // The history must first reach back `late_ns`.
+    let warmup = (late_ns as f64 * 1e-9 * rate_hz) as u64 + 100;
+    let mut late_seq = 0;
+    for seq in 0..(count + warmup) {
+        pacer.wait();
+        let t = now_ns();
+        let with_late = seq >= warmup && seq % 100 == 0;
+        if with_late {
+            pos.publish(t - late_ns, [0.0; 3], [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64])?;
+        }
+        imu.publish(t, imu_value.0, imu_value.1)?;
+        let deadline = Instant::now() + Duration::from_secs(2);
+        let mut late_seen = !with_late;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            anyhow::ensure!(!left.is_zero(), "no snapshot for IMU sample {seq}");
+            let snap = match mode {
+                Mode::Spin => state.spin_next(left)?,
+                Mode::Event => state.wait_next(left)?,
+            };
+            let Some(s) = snap else { continue };
+            let received = now_ns();
+            let processing = s.publish_ns.saturating_sub(s.input_received_ns);
+            if s.input_kind == 1 && with_late && s.input_seq == late_seq {
+                late_seen = true;
+                cost.late_processing.record(processing)?;
+                cost.replayed.record(u64::from(s.input_replayed).max(1))?;
+            }
+            if s.input_kind == 0 && s.input_seq == seq {
+                if seq >= warmup {
+                    let e2e = received.saturating_sub(s.input_sent_ns);
+                    if with_late {
+                        anyhow::ensure!(late_seen, "the IMU sample overtook the late fix");
+                        cost.next_after_late.record(e2e)?;
+                    } else {
+                        cost.normal.record(e2e)?;
+                        cost.imu_processing.record(processing)?;
+                    }
+                }
+                break;
+            }
+        }
+        if with_late {
+            late_seq += 1;
+        }
+    }
+    Ok(cost)
+}
+
+/// One throughput trial's result.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Trial {
+    /// IMU samples published.
+    pub published: u64,
+    /// IMU samples of this sensor the daemon received (from the last snapshot).
+    pub received: u64,
+    /// Samples the daemon counted as lost (sequence gaps: overwritten in its buffer).
+    pub lost: u64,
+    /// Snapshots the reader missed (gaps in the snapshot sequence numbers).
+    pub reader_missed: u64,
+}
+
+impl Trial {
+    /// Everything published reached the daemon and every snapshot the reader.
+    pub fn clean(&self) -> bool {
+        self.received == self.published && self.lost == 0 && self.reader_missed == 0
+    }
+}
+
+/// Publishes `published` IMU samples as sensor `sensor` at `rate_hz`, in slices
+/// of 100 µs sent back to back, and between slices reads every snapshot
+/// (busy-poll), until the daemon has accounted for all samples (or 3 s after the
+/// last was sent). Publisher and reader share this thread, so the run needs two
+/// busy cores (daemon and bench), not three.
+pub fn throughput(
+    client: &Client,
+    sensor: u32,
+    rate_hz: f64,
+    published: u64,
+    imu_value: ([f64; 3], [f64; 3]),
+) -> anyhow::Result<Trial> {
+    let mut imu = client.imu_publisher(sensor)?;
+    let mut state = client.state_subscriber_with_buffer(service::STATE_BUFFER)?;
+    // Let the daemon's subscriber connect to the new publisher.
+    let connect = Instant::now() + Duration::from_millis(100);
+    while Instant::now() < connect {
+        while state.try_next()?.is_some() {}
+    }
+    let mut last_seq: Option<u64> = None;
+    let mut trial = Trial { published, received: 0, lost: 0, reader_missed: 0 };
+    let mut read = |state: &mut fusion_client::StateSubscriber, trial: &mut Trial| -> anyhow::Result<()> {
+        while let Some(s) = state.try_next()? {
+            if let Some(prev) = last_seq {
+                trial.reader_missed += s.seq.saturating_sub(prev + 1);
+            }
+            last_seq = Some(s.seq);
+            let count = (s.sensor_count as usize).min(s.sensors.len());
+            if let Some(c) = s.sensors[..count].iter().find(|c| c.kind == 0 && c.sensor == sensor) {
+                trial.received = c.received;
+                trial.lost = c.lost;
+            }
+        }
+        Ok(())
+    };
+    let slice_ns = 100_000u64;
+    let per_slice = rate_hz * slice_ns as f64 * 1e-9;
+    let start = now_ns();
+    let mut sent = 0u64;
+    let mut slice = 0u64;
+    while sent < published {
+        let due = ((slice + 1) as f64 * per_slice).round() as u64;
+        while sent < due.min(published) {
+            imu.publish(now_ns(), imu_value.0, imu_value.1)?;
+            sent += 1;
+        }
+        slice += 1;
+        let next = start + slice * slice_ns;
+        while now_ns() < next {
+            read(&mut state, &mut trial)?;
+        }
+    }
+    let deadline = Instant::now() + Duration::from_secs(3);
+    while trial.received < published && Instant::now() < deadline {
+        read(&mut state, &mut trial)?;
+    }
+    read(&mut state, &mut trial)?;
+    Ok(trial)
+}
