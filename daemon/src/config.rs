@@ -69,6 +69,10 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   initial_covariance_diagonal = [15 values: dp(3), dv(3), dtheta(3), dba(3), dbg(3)]
 #   [alignment]                            # optional static alignment
 #   static_samples = 400                   # roll/pitch from the mean specific force, yaw from initial_state
+#   [constraints]                          # optional, land vehicles: no sideways or vertical body velocity
+#   nonholonomic_std_mps = 0.1             # how far the vehicle violates it (slip, suspension), 1 sigma
+#   nonholonomic_interval_ns = 50_000_000  # applied at most this often
+#   nonholonomic_min_speed_mps = 1.0       # and only above this forward speed
 "#;
 
 /// A configuration problem found at start-up.
@@ -106,6 +110,7 @@ struct RawConfig {
     filter: RawFilter,
     gating: Option<RawGating>,
     alignment: Option<RawAlignment>,
+    constraints: Option<RawConstraints>,
     #[serde(default)]
     health: RawHealth,
     #[serde(default)]
@@ -143,6 +148,23 @@ struct RawModel {
     accelerometer_random_walk: Option<f64>,
     gyroscope_random_walk: Option<f64>,
     gravity_mps2: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawConstraints {
+    nonholonomic_std_mps: f64,
+    #[serde(default = "default_nhc_interval_ns")]
+    nonholonomic_interval_ns: u64,
+    #[serde(default = "default_nhc_min_speed")]
+    nonholonomic_min_speed_mps: f64,
+}
+
+fn default_nhc_interval_ns() -> u64 {
+    50_000_000
+}
+fn default_nhc_min_speed() -> f64 {
+    1.0
 }
 
 #[derive(Debug, Deserialize)]
@@ -228,6 +250,8 @@ pub enum ModelConfig {
         gravity_mps2: f64,
         /// IMU samples of the static alignment (0: none).
         alignment_samples: u32,
+        /// Land-vehicle motion constraint, if configured.
+        nonholonomic: Option<crate::model::ins::Nonholonomic>,
     },
 }
 
@@ -323,6 +347,7 @@ impl Config {
                 reject("model.gyroscope_random_walk", m.gyroscope_random_walk.is_some(), "linear")?;
                 reject("model.gravity_mps2", m.gravity_mps2.is_some(), "linear")?;
                 reject("alignment", raw.alignment.is_some(), "linear")?;
+                reject("constraints", raw.constraints.is_some(), "linear")?;
                 ModelConfig::Linear { accel_noise_std: positive("model.accel_noise_std", m.accel_noise_std, "linear")? }
             }
             "ins" => {
@@ -347,7 +372,24 @@ impl Config {
                 };
                 let gravity_mps2 = positive("model.gravity_mps2", Some(m.gravity_mps2.unwrap_or(9.80665)), "ins")?;
                 let alignment_samples = raw.alignment.as_ref().map_or(0, |a| a.static_samples);
-                ModelConfig::Ins { noise, gravity_mps2, alignment_samples }
+                let nonholonomic = match &raw.constraints {
+                    None => None,
+                    Some(c) => Some(crate::model::ins::Nonholonomic {
+                        std_mps: positive("constraints.nonholonomic_std_mps", Some(c.nonholonomic_std_mps), "ins")?,
+                        interval_ns: c.nonholonomic_interval_ns,
+                        min_speed_mps: if c.nonholonomic_min_speed_mps.is_finite()
+                            && c.nonholonomic_min_speed_mps >= 0.0
+                        {
+                            c.nonholonomic_min_speed_mps
+                        } else {
+                            return Err(invalid(
+                                "constraints.nonholonomic_min_speed_mps",
+                                format!("must be a finite number >= 0, got {}", c.nonholonomic_min_speed_mps),
+                            ));
+                        },
+                    }),
+                };
+                ModelConfig::Ins { noise, gravity_mps2, alignment_samples, nonholonomic }
             }
             other => return Err(invalid("model.kind", format!("unknown model {other:?}; known: \"linear\", \"ins\""))),
         };
@@ -496,11 +538,23 @@ mod tests {
     #[test]
     fn ins_config_uses_kalibr_names() {
         let c = Config::parse(INS).unwrap();
-        let ModelConfig::Ins { noise, gravity_mps2, alignment_samples } = c.model else { panic!() };
+        let ModelConfig::Ins { noise, gravity_mps2, alignment_samples, .. } = c.model else { panic!() };
         assert_eq!((noise.gyroscope_random_walk, gravity_mps2, alignment_samples), (1e-5, 9.80665, 400));
         assert!(err(&INS.replace("1,0,0,0, 0,0,0", "2,0,0,0, 0,0,0")).contains("quaternion"));
         assert!(err(&INS.replace("gyroscope_random_walk = 1.0e-5\n", "")).contains("model.gyroscope_random_walk"));
         assert!(err(&INS.replace("1e-6,1e-6,1e-6]", "1e-6,1e-6]")).contains("needs 15 values"));
+        let ModelConfig::Ins { nonholonomic, .. } = c.model else { panic!() };
+        assert_eq!(nonholonomic, None, "the motion constraint is opt-in");
+        let with = |table: &str| Config::parse(&format!("{INS}[constraints]\n{table}"));
+        let ModelConfig::Ins { nonholonomic: Some(nhc), .. } = with("nonholonomic_std_mps = 0.2\n").unwrap().model
+        else {
+            panic!()
+        };
+        assert_eq!((nhc.std_mps, nhc.interval_ns, nhc.min_speed_mps), (0.2, 50_000_000, 1.0));
+        let bad = |table: &str| with(table).unwrap_err().to_string();
+        assert!(bad("nonholonomic_std_mps = 0\n").contains("constraints.nonholonomic_std_mps"));
+        assert!(bad("nonholonomic_std_mps = 0.1\nnonholonomic_min_speed_mps = -1\n").contains("min_speed"));
+        assert!(err(&format!("{MIN}[constraints]\nnonholonomic_std_mps = 0.1\n")).contains("constraints"));
         assert!(
             err(&INS.replace("kind = \"ins\"", "kind = \"ins\"\naccel_noise_std = 1"))
                 .contains("model.accel_noise_std")

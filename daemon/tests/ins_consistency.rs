@@ -52,7 +52,7 @@ impl Stats {
     }
 }
 
-fn run(seed: u64, seconds: f64, position_std: f64, stats: &mut Stats) {
+fn run(seed: u64, seconds: f64, position_std: f64, constraint: bool, stats: &mut Stats) {
     let mut c = ScenarioConfig { seed, duration_s: seconds, ..Default::default() };
     c.imu = ImuConfig {
         accel_bias_std: SIGMA0[3],
@@ -79,9 +79,10 @@ fn run(seed: u64, seconds: f64, position_std: f64, stats: &mut Stats) {
     let config = Config::parse(&format!(
         "[model]\nkind = \"ins\"\naccelerometer_noise_density = {ACCEL_DENSITY}\ngyroscope_noise_density = {GYRO_DENSITY}\n\
          accelerometer_random_walk = {ACCEL_RW}\ngyroscope_random_walk = {GYRO_RW}\n[filter]\ninitial_state = [{}]\n\
-         initial_covariance_diagonal = [{}]\n[gating]\nprobability = 0.9999\n",
+         initial_covariance_diagonal = [{}]\n[gating]\nprobability = 0.9999\n{}",
         fmt(&x0),
-        fmt(&p0)
+        fmt(&p0),
+        if constraint { "[constraints]\nnonholonomic_std_mps = 0.1\n" } else { "" }
     ))
     .unwrap();
     let mut engine = Engine::new(InsModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
@@ -120,14 +121,15 @@ fn run(seed: u64, seconds: f64, position_std: f64, stats: &mut Stats) {
 /// Runs the Monte Carlo and checks consistency and attitude; the position RMSE
 /// bound of 0.35 m is checked when `rmse_bound` (see the full test for why not
 /// at 0.8 m).
-fn check(runs: u64, seconds: f64, position_std: f64, rmse_bound: bool) {
+fn check(runs: u64, seconds: f64, position_std: f64, constraint: bool, rmse_bound: bool) {
     let mut stats = Stats::default();
     for seed in 0..runs {
-        run(1000 + seed, seconds, position_std, &mut stats);
+        run(1000 + seed, seconds, position_std, constraint, &mut stats);
     }
     let (nees, band, pos_rmse, att_rmse_deg) = stats.report();
     eprintln!(
-        "{runs} runs x {seconds} s, position noise {position_std} m: NEES/dof {nees:.3}, in 95% band {:.1} %, position RMSE {pos_rmse:.3} m, attitude RMSE {att_rmse_deg:.2} deg",
+        "{runs} runs x {seconds} s, position noise {position_std} m{}: NEES/dof {nees:.3}, in 95% band {:.1} %, position RMSE {pos_rmse:.3} m, attitude RMSE {att_rmse_deg:.2} deg",
+        if constraint { ", motion constraint" } else { "" },
         band * 100.0
     );
     assert!((0.75..=1.35).contains(&nees), "NEES per degree of freedom {nees}");
@@ -138,7 +140,8 @@ fn check(runs: u64, seconds: f64, position_std: f64, rmse_bound: bool) {
 
 #[test]
 fn ins_is_consistent_on_simulated_drives_short() {
-    check(4, 30.0, 0.5, true);
+    check(4, 30.0, 0.5, false, true);
+    check(4, 30.0, 0.8, true, true);
 }
 
 #[test]
@@ -150,6 +153,9 @@ fn ins_is_consistent_on_simulated_drives_full() {
     // fixes); the rest is attitude uncertainty. Closing that gap needs more
     // information (e.g. vehicle motion constraints), not a different tuning.
     for (position_std, rmse_bound) in [(0.3, true), (0.5, true), (0.8, false)] {
-        check(50, 60.0, position_std, rmse_bound);
+        check(50, 60.0, position_std, false, rmse_bound);
+    }
+    for position_std in [0.3, 0.5, 0.8] {
+        check(50, 60.0, position_std, true, true);
     }
 }

@@ -39,7 +39,8 @@ const INS_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density =
     [filter]\n# at the origin, moving ~10 m/s east-ish, heading unknown (1 rad), biases unknown\n\
     initial_state = [0, 0, 0, 10, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0]\n\
     initial_covariance_diagonal = [1, 1, 1, 100, 100, 4, 0.01, 0.01, 1, 0.0025, 0.0025, 0.0025, 1e-6, 1e-6, 1e-6]\n\
-    history_ns = 1_000_000_000\n\n[gating]\nprobability = 0.999\n";
+    history_ns = 1_000_000_000\n\n[gating]\nprobability = 0.999\n\n\
+    [constraints]\n# a car: no sideways or vertical body velocity, up to 0.1 m/s\nnonholonomic_std_mps = 0.1\n";
 
 const CONFIG: &str = "[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n\n[filter]\n\
     initial_state = [0, 0, 0, 0, 0, 0]\n# the car is already moving: sigma_v 15 m/s\n\

@@ -28,6 +28,17 @@
 //! error reset. Before the first IMU sample (and during static alignment) the
 //! nominal state is held and only the covariance grows.
 //!
+//! Optional land-vehicle motion constraint (`[constraints]`, Groves 2013, §15.4.1;
+//! Dissanayake et al., "The aiding of a low-cost strapdown inertial measurement
+//! unit using vehicle model constraints for land vehicle applications", IEEE
+//! T-RA 2001): a wheeled vehicle does not slide sideways or lift off, so the
+//! lateral and vertical components of the body-frame velocity `v_b = Rᵀ v` are
+//! zero up to a noise `σ_nhc` (slip, suspension travel). On an IMU sample at most
+//! every `interval` and above a minimum forward speed, a pseudo-measurement
+//! `z = [0, 0] = [v_b,y, v_b,z] + n` is fused with the gate, then injected like a
+//! fix. With the local attitude error, `v_b,true ≈ v_b + Rᵀ δv + [v_b]× δθ`, so
+//! the rows of `H` are rows 1 and 2 of `Rᵀ` on δv and of `[v_b]×` on δθ.
+//!
 //! Discretisation over `dt` with `f = f_m − b_a`, `ω = ω_m − b_g` held (Solà eq. 260, 269–271):
 //!
 //! ```text
@@ -81,6 +92,18 @@ pub struct ImuNoise {
     pub gyroscope_random_walk: f64,
 }
 
+/// The land-vehicle motion constraint: zero lateral and vertical body velocity
+/// (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Nonholonomic {
+    /// Standard deviation of the lateral and vertical body velocity, m/s.
+    pub std_mps: f64,
+    /// Least time between two constraint updates, ns.
+    pub interval_ns: u64,
+    /// Forward speed below which the constraint is not applied, m/s.
+    pub min_speed_mps: f64,
+}
+
 /// The `ins` model's parameters.
 #[derive(Debug, Clone)]
 pub struct InsModel {
@@ -90,6 +113,7 @@ pub struct InsModel {
     initial: KalmanFilter<f64, N>,
     gate: Option<ChiSquareGate>,
     alignment_samples: u32,
+    nonholonomic: Option<Nonholonomic>,
 }
 
 /// Filter state of the `ins` model at one point of the stream.
@@ -108,6 +132,8 @@ pub struct InsState {
     sum_w: Vector3<f64>,
     /// IMU values are held and the alignment (if any) is done.
     ready: bool,
+    /// Time of the last motion-constraint update.
+    constrained_ns: Option<u64>,
 }
 
 impl InsState {
@@ -180,12 +206,19 @@ impl InsModel {
         for v in &mut x0[6..10] {
             *v /= norm;
         }
-        Ok(Self { noise, gravity, x0, initial, gate, alignment_samples })
+        Ok(Self { noise, gravity, x0, initial, gate, alignment_samples, nonholonomic: None })
+    }
+
+    /// The same model with the land-vehicle motion constraint applied.
+    pub fn with_nonholonomic(mut self, constraint: Option<Nonholonomic>) -> Self {
+        self.nonholonomic = constraint;
+        self
     }
 
     /// The model of a validated config with `kind = "ins"`.
     pub fn from_config(config: &crate::config::Config) -> Result<Self, crate::config::ConfigError> {
-        let crate::config::ModelConfig::Ins { noise, gravity_mps2, alignment_samples } = config.model else {
+        let crate::config::ModelConfig::Ins { noise, gravity_mps2, alignment_samples, nonholonomic } = config.model
+        else {
             return Err(crate::config::ConfigError::Invalid { key: "model.kind", problem: "not \"ins\"".into() });
         };
         let invalid = |key, problem: String| crate::config::ConfigError::Invalid { key, problem };
@@ -202,6 +235,7 @@ impl InsModel {
             .try_into()
             .map_err(|_| invalid("filter.initial_covariance_diagonal", "needs 15 values".into()))?;
         Self::new(noise, gravity_mps2, x0, p0, config.gating.clone(), alignment_samples)
+            .map(|m| m.with_nonholonomic(nonholonomic))
             .map_err(|e| invalid("filter.initial_state", e.to_string()))
     }
 
@@ -277,6 +311,13 @@ impl InsModel {
                     }
                 }
                 s.ready = s.aligned >= self.alignment_samples;
+                if let Some(c) = self.nonholonomic
+                    && s.ready
+                    && s.constrained_ns.is_none_or(|t| sample.t_ns() >= t.saturating_add(c.interval_ns))
+                {
+                    s.constrained_ns = Some(sample.t_ns());
+                    self.constrain(s, &c);
+                }
                 StepOutcome::Propagated
             }
             Sample::Position(pos) => {
@@ -293,6 +334,33 @@ impl InsModel {
                 inject_and_reset(s);
                 StepOutcome::Fused { nis: d.nis }
             }
+        }
+    }
+
+    /// Fuses the motion constraint `[v_b,y, v_b,z] = 0` (see the module docs) and
+    /// injects the correction. Below the minimum speed, or when the gate refuses
+    /// it (the vehicle skids), nothing changes.
+    fn constrain(&self, s: &mut InsState, c: &Nonholonomic) {
+        let R = s.q().to_rotation_matrix().into_inner();
+        let v_b = R.transpose() * s.v();
+        if v_b.x < c.min_speed_mps {
+            return;
+        }
+        let mut H = SMatrix::<f64, 2, N>::zeros();
+        let vx = v_b.cross_matrix();
+        for r in 0..2 {
+            for k in 0..3 {
+                H[(r, 3 + k)] = R[(k, r + 1)]; // (Rᵀ)[r+1][k]
+                H[(r, 6 + k)] = vx[(r + 1, k)];
+            }
+        }
+        let predicted = nalgebra::Vector2::new(v_b.y, v_b.z);
+        let Rn = nalgebra::Matrix2::identity() * (c.std_mps * c.std_mps);
+        let options = crate::filter::UpdateOptions { gate: self.gate.as_ref(), fault_detector: None };
+        if let Ok(d) = s.kf.update_nonlinear(&nalgebra::Vector2::zeros(), &predicted, &H, &Rn, options)
+            && d.decision == UpdateDecision::Accepted
+        {
+            inject_and_reset(s);
         }
     }
 
@@ -328,6 +396,7 @@ impl Model for InsModel {
             sum_f: Vector3::zeros(),
             sum_w: Vector3::zeros(),
             ready: false,
+            constrained_ns: None,
         }
     }
 
