@@ -175,9 +175,6 @@ pub fn replay(
             replay_model(model, config, input, output, smooth)
         }
         ModelConfig::Ins { .. } => {
-            if smooth {
-                return Err(crate::filter::SmootherError::Unsupported("ins").into());
-            }
             let model = InsModel::from_config(config).map_err(|e| ReplayError::Model(e.to_string()))?;
             replay_model(model, config, input, output, smooth)
         }

@@ -15,6 +15,7 @@
 use fusion_client::sim::{ImuConfig, ImuOutput, Scenario, ScenarioConfig};
 use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig, Entry};
+use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::InsModel;
 use fusion_shared::Sample;
 use nalgebra::{Cholesky, Matrix6, UnitQuaternion, Vector3, Vector6};
@@ -52,7 +53,10 @@ impl Stats {
     }
 }
 
-fn run(seed: u64, seconds: f64, position_std: f64, constraint: bool, stats: &mut Stats) {
+/// One drive: adds the filtered estimates to `stats` and, when given, the
+/// RTS-smoothed ones (the replay `--smooth` path: the final samples re-run through
+/// `step_recorded`, then `InsModel::smooth`) to `smoothed`.
+fn run(seed: u64, seconds: f64, position_std: f64, constraint: bool, stats: &mut Stats, smoothed: Option<&mut Stats>) {
     let mut c = ScenarioConfig { seed, duration_s: seconds, ..Default::default() };
     c.imu = ImuConfig {
         accel_bias_std: SIGMA0[3],
@@ -86,14 +90,9 @@ fn run(seed: u64, seconds: f64, position_std: f64, constraint: bool, stats: &mut
     ))
     .unwrap();
     let mut engine = Engine::new(InsModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
-    let mut sink = |e: &Entry<_>| {
-        let t = e.key.t_ns;
-        if !matches!(e.sample, Sample::Imu(_)) || t < t0 + 1_000_000_000 {
-            return;
-        }
+    let mut finals = Vec::new();
+    let add = |stats: &mut Stats, t: u64, x: &[f64], cov: &[f64]| {
         let truth = scenario.truth_at(t);
-        let state = &e.state;
-        let x = InsModel::x_of(state);
         let err = Vector6::new(
             x[0] - truth.pos_m.x,
             x[1] - truth.pos_m.y,
@@ -102,7 +101,6 @@ fn run(seed: u64, seconds: f64, position_std: f64, constraint: bool, stats: &mut
             x[4] - truth.vel_mps.y,
             x[5] - truth.vel_mps.z,
         );
-        let cov = InsModel::covariance_of(state);
         let p6 = Matrix6::from_fn(|r, c| cov[r * 15 + c]);
         let nees = err.dot(&Cholesky::new(p6).expect("P is positive definite").solve(&err));
         let q_est = UnitQuaternion::new_normalize(nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]));
@@ -112,10 +110,30 @@ fn run(seed: u64, seconds: f64, position_std: f64, constraint: bool, stats: &mut
         stats.pos_sq += err.fixed_rows::<3>(0).norm_squared();
         stats.att_sq += q_est.angle_to(&truth.attitude).powi(2);
     };
+    let counted = |e: &Entry<_>| matches!(e.sample, Sample::Imu(_)) && e.key.t_ns >= t0 + 1_000_000_000;
+    let mut sink = |e: &Entry<_>| {
+        if counted(e) {
+            add(stats, e.key.t_ns, InsModel::x_of(&e.state), InsModel::covariance_of(&e.state));
+        }
+        finals.push((counted(e), e.key.t_ns, e.sample));
+    };
     for a in &scenario.arrivals {
         engine.insert(&a.sample, None, &mut sink);
     }
     engine.flush(&mut sink);
+
+    if let Some(smoothed) = smoothed {
+        let model = engine.model();
+        let mut state = model.initial_state();
+        let mut records: Vec<_> = finals.iter().map(|(_, _, s)| model.step_recorded(&mut state, s).1).collect();
+        InsModel::smooth(&mut records).expect("smoothable");
+        for ((counted, t, _), r) in finals.iter().zip(&records) {
+            if *counted {
+                let (x, cov) = InsModel::record_output(r);
+                add(smoothed, *t, x, cov);
+            }
+        }
+    }
 }
 
 /// Runs the Monte Carlo and checks consistency and attitude; the position RMSE
@@ -124,7 +142,7 @@ fn run(seed: u64, seconds: f64, position_std: f64, constraint: bool, stats: &mut
 fn check(runs: u64, seconds: f64, position_std: f64, constraint: bool, rmse_bound: bool) {
     let mut stats = Stats::default();
     for seed in 0..runs {
-        run(1000 + seed, seconds, position_std, constraint, &mut stats);
+        run(1000 + seed, seconds, position_std, constraint, &mut stats, None);
     }
     let (nees, band, pos_rmse, att_rmse_deg) = stats.report();
     eprintln!(
@@ -136,6 +154,30 @@ fn check(runs: u64, seconds: f64, position_std: f64, constraint: bool, rmse_boun
     assert!(band >= 0.88, "share of steps in the 95 % band {band}");
     assert!(!rmse_bound || pos_rmse <= 0.35, "position RMSE {pos_rmse} m");
     assert!(att_rmse_deg <= 2.5, "attitude RMSE {att_rmse_deg} deg");
+}
+
+/// Smoothing uses every fix on both sides of a step: it must beat filtering and
+/// stay consistent.
+fn check_smoothed(runs: u64, seconds: f64, position_std: f64, constraint: bool) {
+    let (mut filtered, mut smoothed) = (Stats::default(), Stats::default());
+    for seed in 0..runs {
+        run(2000 + seed, seconds, position_std, constraint, &mut filtered, Some(&mut smoothed));
+    }
+    let (f_nees, _, f_pos, f_att) = filtered.report();
+    let (s_nees, s_band, s_pos, s_att) = smoothed.report();
+    eprintln!(
+        "{runs} runs x {seconds} s, position noise {position_std} m{}, RTS-smoothed: NEES/dof {s_nees:.3} (filtered {f_nees:.3}), in 95% band {:.1} %, position RMSE {s_pos:.3} m (filtered {f_pos:.3}), attitude RMSE {s_att:.2} deg (filtered {f_att:.2})",
+        if constraint { ", motion constraint" } else { "" },
+        s_band * 100.0
+    );
+    assert!(s_pos < 0.85 * f_pos, "smoothed position RMSE {s_pos} m against filtered {f_pos} m");
+    assert!(s_att <= f_att, "smoothed attitude RMSE {s_att} deg against filtered {f_att} deg");
+    assert!((0.5..=1.35).contains(&s_nees), "smoothed NEES per degree of freedom {s_nees}");
+}
+
+#[test]
+fn ins_smoother_beats_the_filter_and_stays_consistent() {
+    check_smoothed(3, 30.0, 0.5, false);
 }
 
 #[test]
@@ -158,4 +200,6 @@ fn ins_is_consistent_on_simulated_drives_full() {
     for position_std in [0.3, 0.5, 0.8] {
         check(50, 60.0, position_std, true, true);
     }
+    check_smoothed(50, 60.0, 0.8, false);
+    check_smoothed(50, 60.0, 0.8, true);
 }

@@ -79,9 +79,6 @@ pub enum SmootherError {
     /// A prior covariance `P⁻ₖ` had no Cholesky factor, so `Cₖ` is undefined.
     #[error("prior covariance of step {0} is not positive definite")]
     PriorNotPositiveDefinite(usize),
-    /// The model has no smoother (yet).
-    #[error("smoothing is not supported for the {0} model")]
-    Unsupported(&'static str),
 }
 
 /// Smooths `steps` in place: each posterior is replaced by the smoothed estimate

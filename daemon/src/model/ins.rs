@@ -68,10 +68,12 @@ use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 mod error_state;
 
-use error_state::{ProcessNoise, Transition, inject_and_reset};
+use error_state::{ProcessNoise, Transition, inject, inject_and_reset};
 
 use super::{Model, StepOutcome, advance_time};
-use crate::filter::{ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision};
+use crate::filter::{
+    ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, rts_smooth,
+};
 use crate::reorder::Sample;
 
 /// Error-state dimension.
@@ -116,6 +118,15 @@ pub struct InsModel {
     nonholonomic: Option<Nonholonomic>,
 }
 
+/// The smoother's record of one `ins` step (see [`InsModel::step_recorded`](Model::step_recorded)).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InsRecord {
+    /// The error-state step, about the nominal state after it.
+    pub step: RtsStep<f64, N>,
+    /// Nominal state after the step (after smoothing: the smoothed nominal state).
+    pub nominal: [f64; NOMINAL],
+}
+
 /// Filter state of the `ins` model at one point of the stream.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct InsState {
@@ -137,6 +148,21 @@ pub struct InsState {
 }
 
 impl InsState {
+    /// A state holding only a nominal state (its filter is a placeholder).
+    fn from_nominal(nominal: [f64; NOMINAL]) -> Self {
+        Self {
+            nominal,
+            kf: KalmanFilter::new(SVector::zeros(), SMatrix::identity()).expect("I is a valid covariance"),
+            t_ns: None,
+            held: None,
+            aligned: 0,
+            sum_f: Vector3::zeros(),
+            sum_w: Vector3::zeros(),
+            ready: false,
+            constrained_ns: None,
+        }
+    }
+
     /// Position, m.
     pub fn p(&self) -> Vector3<f64> {
         Vector3::new(self.nominal[0], self.nominal[1], self.nominal[2])
@@ -294,7 +320,13 @@ impl InsModel {
 
     /// One step (see [`Model::step`]), logging the transition for the smoother when
     /// `log` is given.
-    fn step_logged(&self, s: &mut InsState, sample: &Sample, log: Option<&mut StepLog<f64, N>>) -> StepOutcome {
+    /// Also returns the error injected into the nominal state, if any.
+    fn step_logged(
+        &self,
+        s: &mut InsState,
+        sample: &Sample,
+        log: Option<&mut StepLog<f64, N>>,
+    ) -> (StepOutcome, Option<SVector<f64, N>>) {
         if let Some(dt) = advance_time(&mut s.t_ns, sample.t_ns()) {
             self.propagate(s, dt, log);
         }
@@ -311,14 +343,15 @@ impl InsModel {
                     }
                 }
                 s.ready = s.aligned >= self.alignment_samples;
+                let mut injected = None;
                 if let Some(c) = self.nonholonomic
                     && s.ready
                     && s.constrained_ns.is_none_or(|t| sample.t_ns() >= t.saturating_add(c.interval_ns))
                 {
                     s.constrained_ns = Some(sample.t_ns());
-                    self.constrain(s, &c);
+                    injected = self.constrain(s, &c);
                 }
-                StepOutcome::Propagated
+                (StepOutcome::Propagated, injected)
             }
             Sample::Position(pos) => {
                 let z = Vector3::from(pos.pos_m);
@@ -326,25 +359,24 @@ impl InsModel {
                 // H selects δp; the error state is zero before the update, so h(x) = p (nominal).
                 let d = match s.kf.update_selection(&z, &s.p(), 0, &R, self.gate.as_ref()) {
                     Ok(d) => d,
-                    Err(_) => return StepOutcome::Refused,
+                    Err(_) => return (StepOutcome::Refused, None),
                 };
                 if d.decision != UpdateDecision::Accepted {
-                    return StepOutcome::Gated { nis: d.nis };
+                    return (StepOutcome::Gated { nis: d.nis }, None);
                 }
-                inject_and_reset(s);
-                StepOutcome::Fused { nis: d.nis }
+                (StepOutcome::Fused { nis: d.nis }, Some(inject_and_reset(s)))
             }
         }
     }
 
     /// Fuses the motion constraint `[v_b,y, v_b,z] = 0` (see the module docs) and
-    /// injects the correction. Below the minimum speed, or when the gate refuses
-    /// it (the vehicle skids), nothing changes.
-    fn constrain(&self, s: &mut InsState, c: &Nonholonomic) {
+    /// injects the correction, which it returns. Below the minimum speed, or when
+    /// the gate refuses it (the vehicle skids), nothing changes.
+    fn constrain(&self, s: &mut InsState, c: &Nonholonomic) -> Option<SVector<f64, N>> {
         let R = s.q().to_rotation_matrix().into_inner();
         let v_b = R.transpose() * s.v();
         if v_b.x < c.min_speed_mps {
-            return;
+            return None;
         }
         let mut H = SMatrix::<f64, 2, N>::zeros();
         let vx = v_b.cross_matrix();
@@ -357,10 +389,9 @@ impl InsModel {
         let predicted = nalgebra::Vector2::new(v_b.y, v_b.z);
         let Rn = nalgebra::Matrix2::identity() * (c.std_mps * c.std_mps);
         let options = crate::filter::UpdateOptions { gate: self.gate.as_ref(), fault_detector: None };
-        if let Ok(d) = s.kf.update_nonlinear(&nalgebra::Vector2::zeros(), &predicted, &H, &Rn, options)
-            && d.decision == UpdateDecision::Accepted
-        {
-            inject_and_reset(s);
+        match s.kf.update_nonlinear(&nalgebra::Vector2::zeros(), &predicted, &H, &Rn, options) {
+            Ok(d) if d.decision == UpdateDecision::Accepted => Some(inject_and_reset(s)),
+            _ => None,
         }
     }
 
@@ -382,7 +413,7 @@ impl InsModel {
 
 impl Model for InsModel {
     type State = InsState;
-    type Record = RtsStep<f64, N>;
+    type Record = InsRecord;
     const KIND: &'static str = "ins";
     const CODE: u32 = fusion_shared::snapshot::model::INS;
 
@@ -401,16 +432,21 @@ impl Model for InsModel {
     }
 
     fn step(&self, s: &mut InsState, sample: &Sample) -> StepOutcome {
-        self.step_logged(s, sample, None)
+        self.step_logged(s, sample, None).0
     }
 
-    /// The record is the error-state filter's step; the error state is reset after
-    /// each update, so an error-state RTS smoother would also need the resets (not
-    /// implemented: [`smooth`](Model::smooth) refuses).
-    fn step_recorded(&self, s: &mut InsState, sample: &Sample) -> (StepOutcome, RtsStep<f64, N>) {
+    /// The record of an error-state step, in the frame of the nominal state after
+    /// it (see [`smooth`](Model::smooth)): prior mean `−dx` (the correction the
+    /// step injected, 0 if none), posterior mean 0, `P⁻`, `P⁺` after the reset,
+    /// the step's `F`, and that nominal state.
+    fn step_recorded(&self, s: &mut InsState, sample: &Sample) -> (StepOutcome, InsRecord) {
         let mut log = StepLog::begin(&s.kf);
-        let outcome = self.step_logged(s, sample, Some(&mut log));
-        (outcome, log.finish(&s.kf))
+        let (outcome, injected) = self.step_logged(s, sample, Some(&mut log));
+        let mut step = log.finish(&s.kf);
+        if let Some(dx) = injected {
+            step.x_prior = -dx;
+        }
+        (outcome, InsRecord { step, nominal: s.nominal })
     }
 
     fn time_ns(s: &InsState) -> Option<u64> {
@@ -429,12 +465,28 @@ impl Model for InsModel {
         s.kf.P().as_slice()
     }
 
-    fn smooth(_records: &mut [RtsStep<f64, N>]) -> Result<(), SmootherError> {
-        Err(SmootherError::Unsupported("ins"))
+    /// Error-state RTS smoothing. Each step's error is taken about the nominal
+    /// state after it (post-injection, post-reset: mean 0, covariance `P⁺`); the
+    /// filter's prior at that step, about the nominal before the injection, is
+    /// `−dx` in this frame to first order (the reset Jacobian differs from `I` by
+    /// `[½δθ]×`). The linear RTS recursion ([`rts_smooth`]) then gives each step's
+    /// smoothed error `δxˢₖ = Cₖ (δxˢₖ₊₁ + dxₖ₊₁)` and `Pˢₖ`, and the smoothed nominal is
+    /// `x⁺ₖ ⊕ δxˢₖ` (injected as a correction is).
+    fn smooth(records: &mut [InsRecord]) -> Result<(), SmootherError> {
+        let mut steps: Vec<RtsStep<f64, N>> = records.iter().map(|r| r.step).collect();
+        rts_smooth(&mut steps)?;
+        for (r, smoothed) in records.iter_mut().zip(&steps) {
+            let mut s = InsState::from_nominal(r.nominal);
+            inject(&mut s, &smoothed.x_post);
+            r.nominal = s.nominal;
+            r.step.x_post = SVector::zeros();
+            r.step.P_post = smoothed.P_post;
+        }
+        Ok(())
     }
 
-    fn record_output(r: &RtsStep<f64, N>) -> (&[f64], &[f64]) {
-        (r.x_post.as_slice(), r.P_post.as_slice())
+    fn record_output(r: &InsRecord) -> (&[f64], &[f64]) {
+        (&r.nominal, r.step.P_post.as_slice())
     }
 }
 

@@ -3,7 +3,7 @@
 
 #![allow(non_snake_case)]
 
-use nalgebra::{Matrix3, SMatrix, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 use super::{InsState, N};
 use crate::filter::kalman::{Symmetrize, symmetrize_leading};
@@ -162,11 +162,9 @@ impl Transition {
     }
 }
 
-/// Injects the error into the nominal state and resets it (Solà eq. 282–287):
-/// `p += δp, v += δv, q ← q ⊗ Exp(δθ), b += δb`, `δx ← 0`, `P ← G P Gᵀ` with
-/// `G = diag(I, I, I − [½δθ]×, I, I)`.
-pub(super) fn inject_and_reset(s: &mut InsState) {
-    let dx = *s.kf.x();
+/// Adds an error-state correction to the nominal state:
+/// `p += δp, v += δv, q ← q ⊗ Exp(δθ), b += δb` (Solà eq. 282–286).
+pub(super) fn inject(s: &mut InsState, dx: &SVector<f64, N>) {
     let dp = Vector3::new(dx[0], dx[1], dx[2]);
     let dv = Vector3::new(dx[3], dx[4], dx[5]);
     let dtheta = Vector3::new(dx[6], dx[7], dx[8]);
@@ -176,6 +174,15 @@ pub(super) fn inject_and_reset(s: &mut InsState) {
     q.renormalize();
     let (p, v, b_a, b_g) = (s.p() + dp, s.v() + dv, s.b_a() + dba, s.b_g() + dbg);
     s.set(p, v, q, b_a, b_g);
+}
+
+/// Injects the error into the nominal state and resets it (Solà eq. 282–287):
+/// [`inject`], `δx ← 0`, `P ← G P Gᵀ` with `G = diag(I, I, I − [½δθ]×, I, I)`.
+/// Returns the injected error.
+pub(super) fn inject_and_reset(s: &mut InsState) -> SVector<f64, N> {
+    let dx = *s.kf.x();
+    inject(s, &dx);
+    let dtheta = Vector3::new(dx[6], dx[7], dx[8]);
     let Gt = Matrix3::identity() - (dtheta * 0.5).cross_matrix();
     let g = [
         [Gt[(0, 0)], Gt[(0, 1)], Gt[(0, 2)]],
@@ -183,6 +190,7 @@ pub(super) fn inject_and_reset(s: &mut InsState) {
         [Gt[(2, 0)], Gt[(2, 1)], Gt[(2, 2)]],
     ];
     s.kf.reset_error(|P| reset_attitude_block(P, &g));
+    dx
 }
 
 /// `P ← G P Gᵀ` for `G = diag(I, I, Gθ, I, I)`, `g` = Gθ row-major.
