@@ -123,5 +123,11 @@ fn replay_throughput(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, linear_steps, ins_steps, replay_throughput);
+criterion_group! {
+    name = benches;
+    // Short windows keep the whole `cargo bench` under five minutes; the figures
+    // are stable to a few per cent at this length (the VM itself varies more).
+    config = Criterion::default().warm_up_time(std::time::Duration::from_secs(1)).measurement_time(std::time::Duration::from_secs(3));
+    targets = linear_steps, ins_steps, replay_throughput
+}
 criterion_main!(benches);

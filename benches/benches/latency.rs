@@ -150,7 +150,7 @@ fn main() -> anyhow::Result<()> {
     }
 
     // 3. Late data and 4. throughput, spin mode.
-    let late_count = if quick { 1_000 } else { 10_000 };
+    let late_count = if quick { 1_000 } else { 5_000 };
     let mut late_rows = Vec::new();
     let mut throughput_rows = Vec::new();
     let rates: &[f64] =
@@ -166,7 +166,8 @@ fn main() -> anyhow::Result<()> {
         let rig = start_rig(&fusiond, &namespace, model, Mode::Spin)?;
         let mut best = None;
         for (i, &rate) in rates.iter().enumerate() {
-            let published = if quick { (rate * 0.5) as u64 } else { rate as u64 };
+            // Half a second per rate: 50 to 500 thousand samples.
+            let published = (rate * 0.5) as u64;
             let sensor = i as u32 + 1;
             let trial = throughput(&rig.client, sensor, rate, published, imu_value(model))?;
             throughput_rows.push((model, rate, trial));

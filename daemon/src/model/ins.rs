@@ -357,14 +357,14 @@ impl InsModel {
                 let z = Vector3::from(pos.pos_m);
                 let R = Matrix3::from_row_slice(&pos.cov_m2);
                 // H selects δp; the error state is zero before the update, so h(x) = p (nominal).
-                let d = match s.kf.update_selection(&z, &s.p(), 0, &R, self.gate.as_ref()) {
+                let (decision, nis) = match s.kf.update_selection_lean(&z, &s.p(), 0, &R, self.gate.as_ref()) {
                     Ok(d) => d,
                     Err(_) => return (StepOutcome::Refused, None),
                 };
-                if d.decision != UpdateDecision::Accepted {
-                    return (StepOutcome::Gated { nis: d.nis }, None);
+                if decision != UpdateDecision::Accepted {
+                    return (StepOutcome::Gated { nis }, None);
                 }
-                (StepOutcome::Fused { nis: d.nis }, Some(inject_and_reset(s)))
+                (StepOutcome::Fused { nis }, Some(inject_and_reset(s)))
             }
         }
     }

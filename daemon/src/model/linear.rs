@@ -133,9 +133,9 @@ impl LinearModel {
                 let R = Matrix3::from_row_slice(&p.cov_m2);
                 // H = [I 0]: the position states are selected.
                 let predicted = Vector3::new(s.kf.x()[0], s.kf.x()[1], s.kf.x()[2]);
-                match s.kf.update_selection(&z, &predicted, 0, &R, self.gate.as_ref()) {
-                    Ok(d) if d.decision == UpdateDecision::Accepted => StepOutcome::Fused { nis: d.nis },
-                    Ok(d) => StepOutcome::Gated { nis: d.nis },
+                match s.kf.update_selection_lean(&z, &predicted, 0, &R, self.gate.as_ref()) {
+                    Ok((UpdateDecision::Accepted, nis)) => StepOutcome::Fused { nis },
+                    Ok((_, nis)) => StepOutcome::Gated { nis },
                     Err(_) => StepOutcome::Refused,
                 }
             }

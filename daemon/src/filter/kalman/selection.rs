@@ -28,6 +28,47 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         R: &SMatrix<T, M, M>,
         gate: Option<&ChiSquareGate>,
     ) -> Result<UpdateDiagnostics<T, N, M>, FilterError> {
+        let c = self.selection_core(z, predicted, offset, R, gate)?;
+        let mut H = SMatrix::<T, M, N>::zeros();
+        H.fixed_view_mut::<M, M>(0, offset).fill_with_identity();
+        Ok(UpdateDiagnostics {
+            decision: c.decision,
+            z: *z,
+            predicted: *predicted,
+            residual: z - predicted,
+            H,
+            R: *R,
+            S: c.S,
+            K: c.K,
+            dx: c.K * (z - predicted),
+            nis: c.nis,
+            dims: M,
+            gate_threshold: c.gate_threshold,
+        })
+    }
+
+    /// [`update_selection`](Self::update_selection) returning only the decision
+    /// and the NIS: the same update, without assembling the diagnostics (a
+    /// measurable share of a 15-state update).
+    pub fn update_selection_lean<const M: usize>(
+        &mut self,
+        z: &SVector<T, M>,
+        predicted: &SVector<T, M>,
+        offset: usize,
+        R: &SMatrix<T, M, M>,
+        gate: Option<&ChiSquareGate>,
+    ) -> Result<(UpdateDecision, T), FilterError> {
+        self.selection_core(z, predicted, offset, R, gate).map(|c| (c.decision, c.nis))
+    }
+
+    fn selection_core<const M: usize>(
+        &mut self,
+        z: &SVector<T, M>,
+        predicted: &SVector<T, M>,
+        offset: usize,
+        R: &SMatrix<T, M, M>,
+        gate: Option<&ChiSquareGate>,
+    ) -> Result<SelectionCore<T, N, M>, FilterError> {
         assert!(offset + M <= N, "selection out of the state");
         if !all_finite(z) || !all_finite(predicted) || !all_finite(R) {
             return Err(FilterError::NonFinite("measurement"));
@@ -38,31 +79,16 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         let chol = SmallCholesky::new(S).ok_or(FilterError::InnovationNotPositiveDefinite)?;
         let y = z - predicted;
         let K = chol.gain(&PHt);
-        let dx = K * y;
         let w = chol.whiten(&y);
         let nis = w.dot(&w);
         let gate_threshold = gate.map(|g| T::from_subset(&g.threshold(M)));
         let decision =
             if gate_threshold.is_some_and(|th| nis > th) { UpdateDecision::Gated } else { UpdateDecision::Accepted };
-        let mut H = SMatrix::<T, M, N>::zeros();
-        H.fixed_view_mut::<M, M>(0, offset).fill_with_identity();
-        let diagnostics = UpdateDiagnostics {
-            decision,
-            z: *z,
-            predicted: *predicted,
-            residual: y,
-            H,
-            R: *R,
-            S,
-            K,
-            dx,
-            nis,
-            dims: M,
-            gate_threshold,
-        };
+        let core = SelectionCore { decision, nis, gate_threshold, S, K };
         if decision != UpdateDecision::Accepted {
-            return Ok(diagnostics);
+            return Ok(core);
         }
+        let dx = K * y;
         // Joseph form regrouped: with U = H P⁻ (rows `offset..` of P⁻) and
         // A = (I − K H) P⁻ = P⁻ − K U, whose selected columns are A Hᵀ = P⁻Hᵀ − K P_sel,
         //   P⁺ = A (I − K H)ᵀ + K R Kᵀ = P⁻ − K U − (A Hᵀ − K R) Kᵀ,
@@ -85,8 +111,17 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         }
         symmetrize_leading(out, N, Symmetrize::MirrorUpper);
         self.commit_update(dx, P)?;
-        Ok(diagnostics)
+        Ok(core)
     }
+}
+
+/// What [`KalmanFilter::selection_core`] decided and computed.
+struct SelectionCore<T: RealField + Copy, const N: usize, const M: usize> {
+    decision: UpdateDecision,
+    nis: T,
+    gate_threshold: Option<T>,
+    S: SMatrix<T, M, M>,
+    K: SMatrix<T, N, M>,
 }
 
 #[cfg(test)]
