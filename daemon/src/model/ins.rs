@@ -36,7 +36,7 @@
 //! zero up to a noise `σ_nhc` (slip, suspension travel). On an IMU sample at most
 //! every `interval` and above a minimum forward speed, a pseudo-measurement
 //! `z = [0, 0] = [v_b,y, v_b,z] + n` is fused with the gate, then injected like a
-//! fix. With the local attitude error, `v_b,true ≈ v_b + Rᵀ δv + [v_b]× δθ`, so
+//! fix, once the attitude is known to 0.1 rad (before, the linearisation is poor). With the local attitude error, `v_b,true ≈ v_b + Rᵀ δv + [v_b]× δθ`, so
 //! the rows of `H` are rows 1 and 2 of `Rᵀ` on δv and of `[v_b]×` on δθ.
 //!
 //! Discretisation over `dt` with `f = f_m − b_a`, `ω = ω_m − b_g` held (Solà eq. 260, 269–271):
@@ -93,6 +93,10 @@ pub struct ImuNoise {
     /// Gyroscope bias random walk σ_gw, rad/s²/√Hz.
     pub gyroscope_random_walk: f64,
 }
+
+/// Attitude uncertainty (1σ, rad, any axis) above which the motion constraint
+/// waits: 0.1 rad, where the small-angle error of its linearisation reaches 0.5 %.
+pub const NONHOLONOMIC_MAX_ATTITUDE_SD: f64 = 0.1;
 
 /// The land-vehicle motion constraint: zero lateral and vertical body velocity
 /// (see the module docs).
@@ -378,6 +382,13 @@ impl InsModel {
         if v_b.x < c.min_speed_mps {
             return None;
         }
+        // The constraint is linear in δθ only for small attitude errors: with the
+        // heading still unknown (e.g. at start, before fixes have shown the track)
+        // it would pull the estimate the wrong way.
+        let P = s.kf.P();
+        if (6..9).any(|i| P[(i, i)] > NONHOLONOMIC_MAX_ATTITUDE_SD * NONHOLONOMIC_MAX_ATTITUDE_SD) {
+            return None;
+        }
         let mut H = SMatrix::<f64, 2, N>::zeros();
         let vx = v_b.cross_matrix();
         for r in 0..2 {
@@ -546,6 +557,35 @@ mod tests {
         let dense = F * P * F.transpose() + m.process_noise(0.005).dense();
         assert!((s.kf.P() - dense).amax() < 1e-12 * dense.amax(), "{}", (s.kf.P() - dense).amax());
         assert_eq!(*s.kf.P(), s.kf.P().transpose(), "exactly symmetric");
+    }
+
+    #[test]
+    fn the_motion_constraint_pulls_sideways_velocity_but_waits_for_a_known_attitude() {
+        let nhc = Nonholonomic { std_mps: 0.1, interval_ns: 50_000_000, min_speed_mps: 1.0 };
+        // Driving along body x at 10 m/s, with a 0.5 m/s sideways error in the estimate.
+        let mut x = x0();
+        x[3] = 10.0;
+        x[4] = 0.5;
+        let f = Vector3::new(0.0, 0.0, G);
+        let run = |p0: [f64; N], constraint: Option<Nonholonomic>| {
+            let m = InsModel::new(noise(), G, x, p0, None, 0).unwrap().with_nonholonomic(constraint);
+            let mut s = m.initial_state();
+            for k in 0..=20u64 {
+                m.step(&mut s, &imu(k * 5_000_000, k, f, Vector3::zeros()));
+            }
+            s
+        };
+        let mut known = p0();
+        known[6..9].fill(1e-4); // attitude known to 0.01 rad
+        let free = run(known, None);
+        let constrained = run(known, Some(nhc));
+        assert!(free.v().y > 0.49, "no constraint: the sideways velocity stays, {}", free.v().y);
+        assert!(constrained.v().y.abs() < 0.1, "constrained: pulled towards 0, {}", constrained.v().y);
+        // Heading unknown (1 rad): the constraint must not act yet.
+        let mut loose = p0();
+        loose[8] = 1.0;
+        let (waiting, free) = (run(loose, Some(nhc)), run(loose, None));
+        assert_eq!((waiting.nominal, *waiting.kf.P()), (free.nominal, *free.kf.P()));
     }
 
     #[test]
