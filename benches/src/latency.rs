@@ -202,6 +202,22 @@ pub fn ping(
     Ok(rtt)
 }
 
+/// The next snapshot, busy-polling or sleeping on the event as `mode` says; an
+/// error once `deadline` has passed without the snapshot of IMU sample `seq`.
+fn next_snapshot(
+    state: &mut fusion_client::StateSubscriber,
+    mode: Mode,
+    deadline: Instant,
+    seq: u64,
+) -> anyhow::Result<Option<&fusion_client::StateSnapshot>> {
+    let left = deadline.saturating_duration_since(Instant::now());
+    anyhow::ensure!(!left.is_zero(), "no snapshot for IMU sample {seq}");
+    Ok(match mode {
+        Mode::Spin => state.spin_next(left)?,
+        Mode::Event => state.wait_next(left)?,
+    })
+}
+
 /// fusiond end to end: publishes `count` IMU samples at `rate_hz` (plus a position
 /// fix every 100th), each time waiting for the snapshot that names the sample;
 /// latency = snapshot received − sample sent, ns.
@@ -230,12 +246,7 @@ pub fn end_to_end(
         imu.publish(t, imu_value.0, imu_value.1)?;
         let deadline = Instant::now() + Duration::from_secs(2);
         loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            anyhow::ensure!(!left.is_zero(), "no snapshot for IMU sample {seq}");
-            let snap = match mode {
-                Mode::Spin => state.spin_next(left)?,
-                Mode::Event => state.wait_next(left)?,
-            };
+            let snap = next_snapshot(&mut state, mode, deadline, seq)?;
             if let Some(s) = snap
                 && s.input_kind == 0
                 && s.input_seq == seq
@@ -419,13 +430,7 @@ pub fn late_data(
         let deadline = Instant::now() + Duration::from_secs(2);
         let mut late_seen = !with_late;
         loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            anyhow::ensure!(!left.is_zero(), "no snapshot for IMU sample {seq}");
-            let snap = match mode {
-                Mode::Spin => state.spin_next(left)?,
-                Mode::Event => state.wait_next(left)?,
-            };
-            let Some(s) = snap else { continue };
+            let Some(s) = next_snapshot(&mut state, mode, deadline, seq)? else { continue };
             let received = now_ns();
             let processing = s.publish_ns.saturating_sub(s.input_received_ns);
             if s.input_kind == 1 && with_late && s.input_seq == late_seq {

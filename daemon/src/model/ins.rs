@@ -152,11 +152,11 @@ pub struct InsState {
 }
 
 impl InsState {
-    /// A state holding only a nominal state (its filter is a placeholder).
-    fn from_nominal(nominal: [f64; NOMINAL]) -> Self {
+    /// A state before any sample: nominal state and error-state filter.
+    fn new(nominal: [f64; NOMINAL], kf: KalmanFilter<f64, N>) -> Self {
         Self {
             nominal,
-            kf: KalmanFilter::new(SVector::zeros(), SMatrix::identity()).expect("I is a valid covariance"),
+            kf,
             t_ns: None,
             held: None,
             aligned: 0,
@@ -429,17 +429,7 @@ impl Model for InsModel {
     const CODE: u32 = fusion_shared::snapshot::model::INS;
 
     fn initial_state(&self) -> InsState {
-        InsState {
-            nominal: self.x0,
-            kf: self.initial,
-            t_ns: None,
-            held: None,
-            aligned: 0,
-            sum_f: Vector3::zeros(),
-            sum_w: Vector3::zeros(),
-            ready: false,
-            constrained_ns: None,
-        }
+        InsState::new(self.x0, self.initial)
     }
 
     fn step(&self, s: &mut InsState, sample: &Sample) -> StepOutcome {
@@ -486,8 +476,10 @@ impl Model for InsModel {
     fn smooth(records: &mut [InsRecord]) -> Result<(), SmootherError> {
         let mut steps: Vec<RtsStep<f64, N>> = records.iter().map(|r| r.step).collect();
         rts_smooth(&mut steps)?;
+        // `inject` works on the nominal part of a state only.
+        let placeholder = KalmanFilter::new(SVector::zeros(), SMatrix::identity()).expect("I is a valid covariance");
         for (r, smoothed) in records.iter_mut().zip(&steps) {
-            let mut s = InsState::from_nominal(r.nominal);
+            let mut s = InsState::new(r.nominal, placeholder);
             inject(&mut s, &smoothed.x_post);
             r.nominal = s.nominal;
             r.step.x_post = SVector::zeros();
