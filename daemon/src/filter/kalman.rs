@@ -114,8 +114,8 @@ impl<T: RealField + Copy, const M: usize> SmallCholesky<T, M> {
                     *v -= c * *d;
                 }
             }
-            let d = l[(m, m)];
-            x[m].iter_mut().for_each(|v| *v /= d);
+            let d = T::one() / l[(m, m)];
+            x[m].iter_mut().for_each(|v| *v *= d);
         }
         for m in (0..M).rev() {
             for j in (m + 1)..M {
@@ -125,8 +125,8 @@ impl<T: RealField + Copy, const M: usize> SmallCholesky<T, M> {
                     *v -= c * *d;
                 }
             }
-            let d = l[(m, m)];
-            x[m].iter_mut().for_each(|v| *v /= d);
+            let d = T::one() / l[(m, m)];
+            x[m].iter_mut().for_each(|v| *v *= d);
         }
         K
     }

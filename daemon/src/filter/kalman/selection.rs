@@ -95,7 +95,10 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         // the same terms as the Joseph form in O(N² M). Column j of P⁺ is column j
         // of P⁻ minus 2M scaled columns (a loop the compiler vectorises), down to the
         // diagonal; that upper triangle is then mirrored, so P⁺ is exactly symmetric.
-        let G = PHt - K * self.P.fixed_view::<M, M>(offset, offset) - K * R;
+        // A Hᵀ − K R = P⁻Hᵀ − K (P_sel + R) = P⁻Hᵀ − K S: the residual of the gain
+        // equation K S = P⁻Hᵀ, zero but for rounding, which is what the Joseph form
+        // corrects for.
+        let G = PHt - K * S;
         let (k, g) = (&K.data.0, &G.data.0);
         let mut P = self.P;
         let out = &mut P.data.0; // out[column][row]
