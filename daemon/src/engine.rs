@@ -11,10 +11,9 @@
 //! and re-processes every later sample, so the result equals processing the sorted
 //! stream. All buffers are allocated at construction; nothing allocates per sample.
 
-use std::collections::VecDeque;
-
 use fusion_shared::SampleKind;
 
+mod history;
 mod stats;
 
 pub use stats::{EngineStats, SensorStats};
@@ -22,6 +21,7 @@ pub use stats::{EngineStats, SensorStats};
 use crate::model::{Model, StepOutcome};
 use crate::reorder::{Placement, Sample, SampleKey, Seen, SeqWindow, key_of, place};
 use crate::validate::{self, Rejection};
+use history::History;
 
 /// Engine limits (from the `[filter]` and `[validation]` config tables).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -109,7 +109,7 @@ pub struct Entry<S> {
 pub struct Engine<M: Model> {
     model: M,
     config: EngineConfig,
-    history: VecDeque<Entry<M::State>>,
+    history: History<Entry<M::State>>,
     /// State before `history[0]`.
     base: M::State,
     base_is_initial: bool,
@@ -122,11 +122,9 @@ impl<M: Model> Engine<M> {
     /// An engine running `model` within `config`'s limits.
     pub fn new(model: M, config: EngineConfig) -> Self {
         let base = model.initial_state();
-        let mut history = VecDeque::with_capacity(config.history_capacity);
-        // Touch every page of the history now: the kernel maps memory on first
-        // write, and a ring walks its whole capacity before reusing a slot, so
-        // without this the first `history_capacity` samples would each pay page
-        // faults (tens of µs at p99) on the live path.
+        // Every slot is written now (see `History`): without that, the first
+        // `history_capacity` samples would each pay page faults (tens of µs at p99)
+        // on the live path.
         let filler = Entry {
             key: key_of(&Sample::Imu(Default::default())),
             sample: Sample::Imu(Default::default()),
@@ -134,8 +132,7 @@ impl<M: Model> Engine<M> {
             outcome: StepOutcome::Propagated,
             slot: 0,
         };
-        history.resize(history.capacity(), filler);
-        history.clear();
+        let history = History::new(config.history_capacity, filler);
         Self {
             model,
             config,
@@ -281,8 +278,10 @@ impl<M: Model> Engine<M> {
             self.stats.rewinds += 1;
             self.stats.replayed += replayed as u64;
         }
-        // `insert` shifts the shorter side; capacity was ensured above, so no allocation.
-        self.history.insert(index, Entry { key, sample: *sample, state, outcome, slot: slot as u16 });
+        // Room was made above; the history moves slot indices, not entries, and
+        // never allocates.
+        let inserted = self.history.insert(index, Entry { key, sample: *sample, state, outcome, slot: slot as u16 });
+        debug_assert!(inserted, "the history had room");
         for j in (index + 1)..self.history.len() {
             let mut state = self.history[j - 1].state;
             let entry = &self.history[j];
@@ -315,7 +314,7 @@ impl<M: Model> Engine<M> {
 
     fn evict_front(&mut self, on_final: &mut impl FnMut(&Entry<M::State>)) {
         if let Some(e) = self.history.pop_front() {
-            on_final(&e);
+            on_final(e);
             self.base = e.state;
             self.base_is_initial = false;
         }
