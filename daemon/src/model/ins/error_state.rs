@@ -8,6 +8,12 @@ use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 use super::{InsState, N};
 use crate::filter::kalman::{Symmetrize, symmetrize_leading};
 
+/// The entries of a 3×3 matrix as rows: `m[(r, c)]` is `row_major(m)[r][c]`.
+/// (nalgebra stores columns, so the columns of `mᵀ` are the rows of `m`.)
+fn row_major(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
+    m.transpose().data.0
+}
+
 /// The error-state transition over one step, `F = I + E`, by its blocks (3×3,
 /// block rows and columns in the order δp, δv, δθ, δb_a, δb_g; see the model docs):
 ///
@@ -108,10 +114,7 @@ impl Transition {
         // expressions on strided views allocate temporaries on the stack.
         let dt = self.dt;
         let hdt2 = 0.5 * dt * dt;
-        let rows = |m: &Matrix3<f64>| {
-            [[m[(0, 0)], m[(0, 1)], m[(0, 2)]], [m[(1, 0)], m[(1, 1)], m[(1, 2)]], [m[(2, 0)], m[(2, 1)], m[(2, 2)]]]
-        };
-        let (a, b, c) = (rows(&self.A), rows(&self.B), rows(&self.C));
+        let (a, b, c) = (row_major(&self.A), row_major(&self.B), row_major(&self.C));
         let p = &P.data.0;
 
         // T = rows 0–8 of F P, column by column.
@@ -184,12 +187,7 @@ pub(super) fn inject_and_reset(s: &mut InsState) -> SVector<f64, N> {
     inject(s, &dx);
     let dtheta = Vector3::new(dx[6], dx[7], dx[8]);
     let Gt = Matrix3::identity() - (dtheta * 0.5).cross_matrix();
-    let g = [
-        [Gt[(0, 0)], Gt[(0, 1)], Gt[(0, 2)]],
-        [Gt[(1, 0)], Gt[(1, 1)], Gt[(1, 2)]],
-        [Gt[(2, 0)], Gt[(2, 1)], Gt[(2, 2)]],
-    ];
-    s.kf.reset_error(|P| reset_attitude_block(P, &g));
+    s.kf.reset_error(|P| reset_attitude_block(P, &row_major(&Gt)));
     dx
 }
 
