@@ -294,7 +294,7 @@ impl InsModel {
         let moving = s.held.filter(|_| s.ready);
         let Some((f_m, w_m)) = moving else {
             // Nothing to integrate yet: hold the nominal state, grow the covariance.
-            if s.kf.predict_structured(|x, P| (*x, P + Q.dense())).is_ok()
+            if s.kf.predict_structured(|_, P| Q.add_to(P)).is_ok()
                 && let Some(log) = log
             {
                 log.predicted(&s.kf, &SMatrix::identity());
@@ -313,7 +313,7 @@ impl InsModel {
         q_new.renormalize();
 
         let F = Transition { dt, A: -R * f.cross_matrix(), B: -R, C: dq.to_rotation_matrix().into_inner().transpose() };
-        if s.kf.predict_structured(|x, P| (*x, F.propagate_covariance(P, &Q))).is_ok() {
+        if s.kf.predict_structured(|_, P| F.propagate_covariance(P, &Q)).is_ok() {
             let (b_a, b_g) = (s.b_a(), s.b_g());
             s.set(p_new, v_new, q_new, b_a, b_g);
             if let Some(log) = log {

@@ -4,10 +4,8 @@
 
 use nalgebra::{RealField, SMatrix, SVector};
 
-use super::{
-    FilterError, KalmanFilter, SmallCholesky, Symmetrize, UpdateDecision, UpdateDiagnostics, all_finite, symmetrize,
-    symmetrize_leading,
-};
+use super::joseph::joseph_low_rank;
+use super::{FilterError, KalmanFilter, SmallCholesky, UpdateDecision, UpdateDiagnostics, all_finite, symmetrize};
 use crate::filter::gate::ChiSquareGate;
 
 impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
@@ -88,32 +86,9 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         if decision != UpdateDecision::Accepted {
             return Ok(core);
         }
-        let dx = K * y;
-        // Joseph form regrouped: with U = H P⁻ (rows `offset..` of P⁻) and
-        // A = (I − K H) P⁻ = P⁻ − K U, whose selected columns are A Hᵀ = P⁻Hᵀ − K P_sel,
-        //   P⁺ = A (I − K H)ᵀ + K R Kᵀ = P⁻ − K U − (A Hᵀ − K R) Kᵀ,
-        // the same terms as the Joseph form in O(N² M). Column j of P⁺ is column j
-        // of P⁻ minus 2M scaled columns (a loop the compiler vectorises), down to the
-        // diagonal; that upper triangle is then mirrored, so P⁺ is exactly symmetric.
-        // A Hᵀ − K R = P⁻Hᵀ − K (P_sel + R) = P⁻Hᵀ − K S: the residual of the gain
-        // equation K S = P⁻Hᵀ, zero but for rounding, which is what the Joseph form
-        // corrects for.
-        let G = PHt - K * S;
-        let (k, g) = (&K.data.0, &G.data.0);
-        let mut P = self.P;
-        let out = &mut P.data.0; // out[column][row]
-        for j in 0..N {
-            let col = &mut out[j][..=j];
-            for m in 0..M {
-                // U[m][j] = P⁻[offset + m, j]
-                let (u, kj) = (self.P[(offset + m, j)], k[m][j]);
-                for ((v, km), gm) in col.iter_mut().zip(&k[m]).zip(&g[m]) {
-                    *v -= *km * u + *gm * kj;
-                }
-            }
-        }
-        symmetrize_leading(out, N, Symmetrize::MirrorUpper);
-        self.commit_update(dx, P)?;
+        let mut next = Self { x: self.x + K * y, P: self.P };
+        joseph_low_rank(&mut next.P, &K, &PHt, &S);
+        self.accept(next, "updated state")?;
         Ok(core)
     }
 }

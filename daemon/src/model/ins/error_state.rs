@@ -44,7 +44,8 @@ pub(super) struct ProcessNoise {
 }
 
 impl ProcessNoise {
-    /// `Q` as a dense matrix.
+    /// `Q` as a dense matrix (for the tests).
+    #[cfg(test)]
     pub fn dense(&self) -> SMatrix<f64, N, N> {
         let mut Q = SMatrix::<f64, N, N>::zeros();
         for i in 0..3 {
@@ -60,7 +61,7 @@ impl ProcessNoise {
     }
 
     /// `P += Q`.
-    fn add_to(&self, P: &mut SMatrix<f64, N, N>) {
+    pub fn add_to(&self, P: &mut SMatrix<f64, N, N>) {
         for i in 0..3 {
             P[(i, i)] += self.pp;
             P[(i, i + 3)] += self.pv;
@@ -89,7 +90,7 @@ impl Transition {
         F
     }
 
-    /// `F P Fᵀ + Q` for symmetric `P`, from the blocks of `F`, exactly symmetric.
+    /// `P ← F P Fᵀ + Q` for symmetric `P`, from the blocks of `F`, exactly symmetric.
     ///
     /// Rows first: `T = F P` changes only block rows 0–2 of `P` (`Pₖ` is block row k):
     ///
@@ -108,60 +109,58 @@ impl Transition {
     /// The rest is copied: rows 0–8, columns 9–14 from `T`, their transpose below,
     /// and the bias blocks from `P`. About 800 multiply-adds against 6750 for the
     /// dense `F P Fᵀ`.
-    pub fn propagate_covariance(&self, P: &SMatrix<f64, N, N>, Q: &ProcessNoise) -> SMatrix<f64, N, N> {
-        // Plain arrays (column-major: `p[c][r]`) with constant bounds: the compiler
-        // drops the bounds checks and vectorises, where nalgebra's generic
-        // expressions on strided views allocate temporaries on the stack.
-        let dt = self.dt;
-        let hdt2 = 0.5 * dt * dt;
-        let (a, b, c) = (row_major(&self.A), row_major(&self.B), row_major(&self.C));
-        let p = &P.data.0;
+    pub fn propagate_covariance(&self, P: &mut SMatrix<f64, N, N>, Q: &ProcessNoise) {
+        propagate_blocks(&mut P.data.0, self.dt, &row_major(&self.A), &row_major(&self.B), &row_major(&self.C));
+        Q.add_to(P);
+    }
+}
 
-        // T = rows 0–8 of F P, column by column.
-        let mut t = [[0.0; 9]; N];
-        for (tc, pc) in t.iter_mut().zip(p) {
-            for r in 0..3 {
-                let mut w = 0.0;
-                let mut cr = 0.0;
-                for k in 0..3 {
-                    w += a[r][k] * pc[6 + k] + b[r][k] * pc[9 + k];
-                    cr += c[r][k] * pc[6 + k];
-                }
-                tc[r] = pc[r] + dt * pc[3 + r] + hdt2 * w;
-                tc[3 + r] = pc[3 + r] + dt * w;
-                tc[6 + r] = cr - dt * pc[12 + r];
-            }
-        }
-
-        // Upper-left 9×9 of T Fᵀ, column by column (column j of T Fᵀ is T times row j of F).
-        let mut out = *P;
-        let o = &mut out.data.0;
+/// The body of [`Transition::propagate_covariance`] on the column-major array
+/// `p` (`p[c][r]`), in place; `a`, `b`, `c` row-major. Compiled for AVX2 as well,
+/// chosen at run time: the same operations in the same order, so the same bits.
+#[multiversion::multiversion(targets("x86_64+avx2"))]
+fn propagate_blocks(p: &mut [[f64; N]; N], dt: f64, a: &[[f64; 3]; 3], b: &[[f64; 3]; 3], c: &[[f64; 3]; 3]) {
+    let hdt2 = 0.5 * dt * dt;
+    // T = rows 0–8 of F P, column by column.
+    let mut t = [[0.0; 9]; N];
+    for (tc, pc) in t.iter_mut().zip(p.iter()) {
         for r in 0..3 {
-            let mut w = [0.0; 9];
-            let mut cr = [0.0; 9];
+            let mut w = 0.0;
+            let mut cr = 0.0;
             for k in 0..3 {
-                for i in 0..9 {
-                    w[i] += t[6 + k][i] * a[r][k] + t[9 + k][i] * b[r][k];
-                    cr[i] += t[6 + k][i] * c[r][k];
-                }
+                w += a[r][k] * pc[6 + k] + b[r][k] * pc[9 + k];
+                cr += c[r][k] * pc[6 + k];
             }
+            tc[r] = pc[r] + dt * pc[3 + r] + hdt2 * w;
+            tc[3 + r] = pc[3 + r] + dt * w;
+            tc[6 + r] = cr - dt * pc[12 + r];
+        }
+    }
+
+    // Upper-left 9×9 of T Fᵀ, column by column (column j of T Fᵀ is T times row j of F).
+    for r in 0..3 {
+        let mut w = [0.0; 9];
+        let mut cr = [0.0; 9];
+        for k in 0..3 {
             for i in 0..9 {
-                o[r][i] = t[r][i] + dt * t[3 + r][i] + hdt2 * w[i];
-                o[3 + r][i] = t[3 + r][i] + dt * w[i];
-                o[6 + r][i] = cr[i] - dt * t[12 + r][i];
+                w[i] += t[6 + k][i] * a[r][k] + t[9 + k][i] * b[r][k];
+                cr[i] += t[6 + k][i] * c[r][k];
             }
         }
-        symmetrize_leading(o, 9, Symmetrize::Average);
-        // Block columns 3 and 4 are unchanged by the column pass: rows 0–8 come
-        // from T, and their mirror fills rows 9–14 of columns 0–8.
-        for j in 9..N {
-            for i in 0..9 {
-                o[j][i] = t[j][i];
-                o[i][j] = t[j][i];
-            }
+        for i in 0..9 {
+            p[r][i] = t[r][i] + dt * t[3 + r][i] + hdt2 * w[i];
+            p[3 + r][i] = t[3 + r][i] + dt * w[i];
+            p[6 + r][i] = cr[i] - dt * t[12 + r][i];
         }
-        Q.add_to(&mut out);
-        out
+    }
+    symmetrize_leading(p, 9, Symmetrize::Average);
+    // Block columns 3 and 4 are unchanged by the column pass: rows 0–8 come
+    // from T, and their mirror fills rows 9–14 of columns 0–8.
+    for j in 9..N {
+        for i in 0..9 {
+            p[j][i] = t[j][i];
+            p[i][j] = t[j][i];
+        }
     }
 }
 

@@ -1,0 +1,115 @@
+//! Runs INS predicts and position updates in a loop, for an instruction-count
+//! profile under callgrind (this VM has no hardware counters, and time varies):
+//!
+//! ```sh
+//! cargo build --release -p fusion-benches --example ins_steps
+//! valgrind --tool=callgrind --callgrind-out-file=/tmp/cg.out target/release/examples/ins_steps 10000
+//! callgrind_annotate /tmp/cg.out
+//! ```
+
+use std::hint::black_box;
+
+use fusion_daemon::model::Model;
+use fusion_daemon::model::ins::InsModel;
+use fusion_shared::{ImuSample, PositionSample, Sample};
+
+fn main() {
+    let n: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(10_000);
+    let timed = std::env::args().nth(2).is_some_and(|a| a == "time");
+    let config = fusion_daemon::config::Config::parse(
+        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n\
+         initial_state = [0,0,0, 9,0,0, 1,0,0,0, 0,0,0, 0,0,0]\n\
+         initial_covariance_diagonal = [1,1,1, 1,1,1, 0.01,0.01,0.01, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n\
+         [gating]\nprobability = 0.999\n",
+    )
+    .expect("valid config");
+    let model = InsModel::from_config(&config).expect("valid model");
+    let imu = |t: u64| {
+        Sample::Imu(ImuSample {
+            t_ns: t,
+            accel_mps2: [0.3, 0.1, 9.81],
+            gyro_radps: [0.01, -0.02, 0.2],
+            ..Default::default()
+        })
+    };
+    let pos = |t: u64| {
+        Sample::Position(PositionSample {
+            t_ns: t,
+            pos_m: [0.045, 0.0, 0.0],
+            cov_m2: [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64],
+            ..Default::default()
+        })
+    };
+    let mut state = model.initial_state();
+    model.step(&mut state, &imu(0));
+    let mut t = 0;
+    if !timed {
+        for _ in 0..n {
+            t += 5_000_000;
+            black_box(predict(&model, &mut state, &imu(t)));
+        }
+        let base = state;
+        for _ in 0..n {
+            let mut s = black_box(base);
+            black_box(update(&model, &mut s, &pos(t)));
+        }
+        return;
+    }
+    // Batches of 1000 steps, alternating predict and update, `n` rounds: this
+    // VM's noise only ever adds time, so the minimum and the lower quartile over
+    // the rounds are the stable figures.
+    let base = state;
+    let (mut p, mut u, mut c, mut k) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let kf = *base.filter();
+    let gate = fusion_daemon::filter::ChiSquareGate::new(0.999).expect("valid probability");
+    let z = nalgebra::Vector3::new(0.045, 0.0, 0.0);
+    let r = nalgebra::Matrix3::new(0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64);
+    for _ in 0..n {
+        let start = std::time::Instant::now();
+        for _ in 0..1000 {
+            t += 5_000_000;
+            black_box(predict(&model, &mut state, &imu(t)));
+        }
+        p.push(start.elapsed().as_nanos() as f64 / 1000.0);
+        let start = std::time::Instant::now();
+        for _ in 0..1000 {
+            let mut s = black_box(base);
+            black_box(update(&model, &mut s, &pos(t)));
+        }
+        u.push(start.elapsed().as_nanos() as f64 / 1000.0);
+        let start = std::time::Instant::now();
+        for _ in 0..1000 {
+            black_box(black_box(base));
+        }
+        c.push(start.elapsed().as_nanos() as f64 / 1000.0);
+        let start = std::time::Instant::now();
+        for _ in 0..1000 {
+            let mut f = black_box(kf);
+            let predicted = nalgebra::Vector3::new(f.x()[0], f.x()[1], f.x()[2]);
+            black_box(f.update_selection_lean(&z, &predicted, 0, &r, Some(&gate)).is_ok());
+            black_box(&f);
+        }
+        k.push(start.elapsed().as_nanos() as f64 / 1000.0);
+    }
+    let stats = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        (v[0], v[v.len() / 4], v[v.len() / 2])
+    };
+    println!("predict ns (min, q1, median): {:.0?}", stats(&mut p));
+    println!("update + 2.2 KB state copy ns (min, q1, median): {:.0?}", stats(&mut u));
+    println!("2.2 KB state copy alone ns (min, q1, median): {:.0?}", stats(&mut c));
+    println!("filter update only (+1.9 KB copy) ns (min, q1, median): {:.0?}", stats(&mut k));
+}
+
+#[inline(never)]
+fn predict(model: &InsModel, s: &mut <InsModel as Model>::State, sample: &Sample) -> fusion_daemon::model::StepOutcome {
+    model.step(s, sample)
+}
+
+#[inline(never)]
+fn update(model: &InsModel, s: &mut <InsModel as Model>::State, sample: &Sample) -> fusion_daemon::model::StepOutcome {
+    // Not the same body as `predict`, or the linker folds the two into one symbol.
+    black_box(1u8);
+    model.step(s, sample)
+}
