@@ -1,7 +1,8 @@
 //! Latency of fusiond beside the floor set by raw iceoryx2, measured in one run:
 //! a table on stdout and `target/fusion-bench/latency.json` (numbers in ns).
 //! `FUSION_BENCH_QUICK=1` takes a short sample; `FUSION_BENCH_IMU_HZ` sets the IMU
-//! rate of the end-to-end rows (default 1000). See the README's performance section.
+//! rate of the end-to-end rows (default 1000); `FUSION_BENCH_FUSIOND=PATH` runs that
+//! fusiond binary instead of building one. See the README's performance section.
 
 #![allow(missing_docs)]
 
@@ -31,6 +32,8 @@ struct Row {
     mode: Mode,
     one_way: bool,
     h: Histogram<u64>,
+    /// Daemon time (snapshot published − sample received), where measured.
+    daemon: Option<Histogram<u64>>,
 }
 
 /// The IMU values each model is fed: at rest (linear: a small world acceleration;
@@ -101,16 +104,22 @@ fn main() -> anyhow::Result<()> {
     let imu_hz: f64 = std::env::var("FUSION_BENCH_IMU_HZ").ok().and_then(|v| v.parse().ok()).unwrap_or(1000.0);
     let started = Instant::now();
 
-    // The daemon binary, built as cargo bench builds (release).
+    // The daemon binary, built as cargo bench builds (release), or the one
+    // `FUSION_BENCH_FUSIOND` names (to compare two builds on the same machine).
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(cargo)
-        .args(["build", "--quiet", "--release", "-p", "fusion-daemon", "--bin", "fusiond"])
-        .current_dir(&root)
-        .status()?;
-    anyhow::ensure!(status.success(), "building fusiond failed");
     let target = std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| root.join("target"));
-    let fusiond = target.join("release").join("fusiond");
+    let fusiond = match std::env::var("FUSION_BENCH_FUSIOND") {
+        Ok(path) => PathBuf::from(path),
+        Err(_) => {
+            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+            let status = Command::new(cargo)
+                .args(["build", "--quiet", "--release", "-p", "fusion-daemon", "--bin", "fusiond"])
+                .current_dir(&root)
+                .status()?;
+            anyhow::ensure!(status.success(), "building fusiond failed");
+            target.join("release").join("fusiond")
+        }
+    };
     let out_dir = target.join("fusion-bench");
     std::fs::create_dir_all(&out_dir)?;
     let pid = std::process::id();
@@ -126,7 +135,13 @@ fn main() -> anyhow::Result<()> {
             .spawn()?;
         let mut guard = ChildGuard(child);
         let h = ping(&base, mode, count, imu_hz, &mut guard)?;
-        rows.push(Row { name: format!("raw iceoryx2 ping-pong, {}", mode.name()), mode, one_way: true, h });
+        rows.push(Row {
+            name: format!("raw iceoryx2 ping-pong, {}", mode.name()),
+            mode,
+            one_way: true,
+            h,
+            daemon: None,
+        });
     }
     // 2. End to end, publisher and reader in one process; then the fan-out case
     //    with the publisher in a process of its own.
@@ -134,8 +149,14 @@ fn main() -> anyhow::Result<()> {
         for mode in [Mode::Spin, Mode::Event] {
             let namespace = format!("fusion-bench-{pid}-{model}-{}", mode.name());
             let rig = start_rig(&fusiond, &namespace, model, mode)?;
-            let h = end_to_end(&rig.client, mode, count, imu_hz, imu_value(model))?;
-            rows.push(Row { name: format!("fusiond {model}, --wait {}", mode.name()), mode, one_way: false, h });
+            let e2e = end_to_end(&rig.client, mode, count, imu_hz, imu_value(model))?;
+            rows.push(Row {
+                name: format!("fusiond {model}, --wait {}", mode.name()),
+                mode,
+                one_way: false,
+                h: e2e.latency,
+                daemon: Some(e2e.daemon),
+            });
             let warmup = count / 10;
             let plan = PublisherPlan { rate_hz: imu_hz, count: count + warmup, sensor: 2, wake: mode == Mode::Event };
             let _publisher = spawn_publisher(&namespace, model, plan)?;
@@ -145,6 +166,7 @@ fn main() -> anyhow::Result<()> {
                 mode,
                 one_way: false,
                 h,
+                daemon: None,
             });
         }
     }
@@ -205,8 +227,8 @@ fn print_report(
         if quick { ", quick" } else { "" }
     );
     println!(
-        "{:<42} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>10}",
-        "", "p50", "p90", "p99", "p99.9", "max", "count", "p50/RTT"
+        "{:<42} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>10} {:>12}",
+        "", "p50", "p90", "p99", "p99.9", "max", "count", "p50/RTT", "daemon p50"
     );
     let us = |ns: u64| format!("{:.2} us", ns as f64 / 1e3);
     let mut json = Vec::new();
@@ -217,8 +239,9 @@ fn print_report(
         let div = if r.one_way { 2 } else { 1 };
         let q = |p: f64| r.h.value_at_quantile(p) / div;
         let ratio = if r.one_way { None } else { raw_rtt_p50(r.mode).map(|rtt| q(0.5) as f64 / rtt as f64) };
+        let daemon_p50 = r.daemon.as_ref().map(|d| d.value_at_quantile(0.5));
         println!(
-            "{:<42} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>10}",
+            "{:<42} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>10} {:>12}",
             format!("{}{}", r.name, if r.one_way { " (one way)" } else { "" }),
             us(q(0.5)),
             us(q(0.9)),
@@ -227,11 +250,13 @@ fn print_report(
             us(r.h.max() / div),
             r.h.len(),
             ratio.map_or_else(|| "-".into(), |x| format!("{x:.2}x")),
+            daemon_p50.map_or_else(|| "-".into(), us),
         );
         json.push(serde_json::json!({
             "name": r.name, "mode": r.mode.name(), "one_way_of_round_trip": r.one_way,
             "p50": q(0.5), "p90": q(0.9), "p99": q(0.99), "p999": q(0.999), "max": r.h.max() / div,
             "count": r.h.len(), "ratio_p50_to_raw_round_trip": ratio,
+            "daemon_p50": daemon_p50, "daemon_p99": r.daemon.as_ref().map(|d| d.value_at_quantile(0.99)),
         }));
     }
 

@@ -218,23 +218,32 @@ fn next_snapshot(
     })
 }
 
+/// End-to-end latencies of one run.
+#[derive(Debug)]
+pub struct EndToEnd {
+    /// Snapshot received − sample sent, ns.
+    pub latency: Histogram<u64>,
+    /// The daemon's part of it: snapshot published − sample received (the
+    /// daemon's clock), ns. The rest is the two trips through iceoryx2.
+    pub daemon: Histogram<u64>,
+}
+
 /// fusiond end to end: publishes `count` IMU samples at `rate_hz` (plus a position
-/// fix every 100th), each time waiting for the snapshot that names the sample;
-/// latency = snapshot received − sample sent, ns.
+/// fix every 100th), each time waiting for the snapshot that names the sample.
 pub fn end_to_end(
     client: &Client,
     mode: Mode,
     count: u64,
     rate_hz: f64,
     imu_value: ([f64; 3], [f64; 3]),
-) -> anyhow::Result<Histogram<u64>> {
+) -> anyhow::Result<EndToEnd> {
     let mut imu = client.imu_publisher(0)?;
     let mut pos = client.position_publisher(1)?;
     // The daemon only needs waking in event mode.
     imu.set_wake(mode == Mode::Event);
     pos.set_wake(mode == Mode::Event);
     let mut state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER)?;
-    let mut latency = histogram();
+    let (mut latency, mut daemon) = (histogram(), histogram());
     let mut pacer = Pacer::new(rate_hz);
     let warmup = count / 10;
     for seq in 0..(count + warmup) {
@@ -254,12 +263,13 @@ pub fn end_to_end(
                 let received = now_ns();
                 if seq >= warmup {
                     latency.record(received.saturating_sub(s.input_sent_ns))?;
+                    daemon.record(s.publish_ns.saturating_sub(s.input_received_ns))?;
                 }
                 break;
             }
         }
     }
-    Ok(latency)
+    Ok(EndToEnd { latency, daemon })
 }
 
 /// Starts `fusiond run` from `bin` in `namespace` with `config` written to `dir`.
