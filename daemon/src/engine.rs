@@ -305,6 +305,18 @@ impl<M: Model> Engine<M> {
         Insert::Processed { replayed, outcome }
     }
 
+    /// Brings what the next in-order insert reads and writes into the cache (the
+    /// history entries it touches, the state before the history, the sensor
+    /// table) without changing anything. For a live loop that busy-waits: a
+    /// sample that arrives after an idle gap then does not wait on memory.
+    pub fn warm(&self) {
+        self.history.warm();
+        std::hint::black_box(self.base);
+        std::hint::black_box(&self.sensors[..]).iter().for_each(|s| {
+            std::hint::black_box(s.stats);
+        });
+    }
+
     /// Hands every entry still in the history to `on_final` (end of input).
     pub fn flush(&mut self, on_final: &mut impl FnMut(&Entry<M::State>)) {
         while !self.history.is_empty() {

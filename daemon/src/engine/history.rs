@@ -59,6 +59,16 @@ impl<E: Copy> History<E> {
         true
     }
 
+    /// Reads the entries an append touches next: the newest (the state it starts
+    /// from), the oldest (evicted when the window moves on) and the slot it will
+    /// write, so that they are in the cache when it comes.
+    pub fn warm(&self) {
+        for slot in [self.order.back(), self.order.front(), self.free.last()].into_iter().flatten() {
+            // A copy through `black_box` reads every cache line of the entry.
+            std::hint::black_box(self.slots[*slot as usize]);
+        }
+    }
+
     /// Removes the oldest entry; it stays readable until the next insert.
     pub fn pop_front(&mut self) -> Option<&E> {
         let slot = self.order.pop_front()?;
