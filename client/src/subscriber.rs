@@ -7,6 +7,7 @@ use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use iceoryx2::sample::Sample;
+use iceoryx2::service::port_factory::event::PortFactory;
 
 use crate::ClientError;
 
@@ -35,7 +36,11 @@ const WAIT_SLICE: Duration = Duration::from_millis(5);
 pub struct StateSubscriber {
     service: String,
     subscriber: Subscriber<ipc::Service, StateSnapshot, ()>,
-    listener: Listener<ipc::Service>,
+    event: PortFactory<ipc::Service>,
+    /// Created by the first [`wait_next`](Self::wait_next): a reader that only
+    /// polls has none, so fusiond's notify after every snapshot does not write to
+    /// it (about 1 µs of the daemon's time per listener).
+    listener: Option<Listener<ipc::Service>>,
     held: Option<Sample<ipc::Service, StateSnapshot, ()>>,
 }
 
@@ -56,8 +61,20 @@ impl StateSubscriber {
             .create()
             .map_err(|e| port(format!("{e:?}")))?;
         let event = fusion_shared::service::event_service(client.node(), &names.state)?;
-        let listener = event.listener_builder().create().map_err(|e| port(format!("{e:?}")))?;
-        Ok(Self { service: names.state.clone(), subscriber, listener, held: None })
+        Ok(Self { service: names.state.clone(), subscriber, event, listener: None, held: None })
+    }
+
+    /// The listener on `<ns>/state`, created on first use.
+    fn listener(&mut self) -> Result<&Listener<ipc::Service>, ClientError> {
+        let listener = match self.listener.take() {
+            Some(l) => l,
+            None => self
+                .event
+                .listener_builder()
+                .create()
+                .map_err(|e| ClientError::Port { service: self.service.clone(), detail: format!("{e:?}") })?,
+        };
+        Ok(self.listener.insert(listener))
     }
 
     fn receive(&mut self) -> Result<bool, ClientError> {
@@ -99,7 +116,7 @@ impl StateSubscriber {
             if left.is_zero() {
                 return Ok(None);
             }
-            match self.listener.timed_wait(|_| {}, left.min(WAIT_SLICE)) {
+            match self.listener()?.timed_wait(|_| {}, left.min(WAIT_SLICE)) {
                 Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
                 Err(e) => {
                     return Err(ClientError::Receive { service: self.service.clone(), detail: format!("{e:?}") });

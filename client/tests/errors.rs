@@ -4,17 +4,11 @@ use fusion_client::{Client, ClientError};
 use fusion_shared::service::{self, ServiceNames};
 use iceoryx2::prelude::*;
 
+mod common;
+use common::remove_domain_files;
+
 fn domain(tag: &str) -> String {
     format!("fc{}{tag}", std::process::id())
-}
-
-fn remove_domain_files(domain: &str) {
-    let prefix = service::domain_prefix(domain).unwrap();
-    for e in std::fs::read_dir("/dev/shm").into_iter().flatten().flatten() {
-        if e.file_name().to_string_lossy().starts_with(&prefix) {
-            let _ = std::fs::remove_file(e.path());
-        }
-    }
 }
 
 #[test]
