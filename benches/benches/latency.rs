@@ -1,7 +1,8 @@
 //! Latency of fusiond beside the floor set by raw iceoryx2, measured in one run:
 //! a table on stdout and `target/fusion-bench/latency.json` (numbers in ns).
 //! `FUSION_BENCH_QUICK=1` takes a short sample; `FUSION_BENCH_IMU_HZ` sets the IMU
-//! rate of the end-to-end rows (default 1000); `FUSION_BENCH_FUSIOND=PATH` runs that
+//! rate of the end-to-end rows (default 1000); `FUSION_BENCH_SAMPLES` the samples per
+//! latency row (default 10 000, quick 1 000); `FUSION_BENCH_FUSIOND=PATH` runs that
 //! fusiond binary instead of building one. See the README's performance section.
 
 #![allow(missing_docs)]
@@ -100,7 +101,11 @@ fn main() -> anyhow::Result<()> {
         return Ok(());
     }
     let quick = std::env::var("FUSION_BENCH_QUICK").is_ok_and(|v| v != "0");
-    let count: u64 = if quick { 1_000 } else { 10_000 };
+    let count: u64 = std::env::var("FUSION_BENCH_SAMPLES").ok().and_then(|v| v.parse().ok()).unwrap_or(if quick {
+        1_000
+    } else {
+        10_000
+    });
     let imu_hz: f64 = std::env::var("FUSION_BENCH_IMU_HZ").ok().and_then(|v| v.parse().ok()).unwrap_or(1000.0);
     let started = Instant::now();
 

@@ -101,8 +101,31 @@ struct SmallCholesky<T: RealField + Copy, const M: usize> {
 }
 
 impl<T: RealField + Copy, const M: usize> SmallCholesky<T, M> {
+    /// The factor of a symmetric `S`, or `None` if `S` is not positive definite
+    /// (or not finite). Cholesky–Banachiewicz, row by row (Golub & Van Loan 2013,
+    /// alg. 4.2.1), on the lower triangle of `S`.
     fn new(S: SMatrix<T, M, M>) -> Option<Self> {
-        Cholesky::new(S).map(|c| Self { l: c.unpack() })
+        let mut l = SMatrix::<T, M, M>::zeros();
+        for j in 0..M {
+            let mut d = S[(j, j)];
+            for k in 0..j {
+                d -= l[(j, k)] * l[(j, k)];
+            }
+            // Refuses d ≤ 0 and NaN alike.
+            if d.partial_cmp(&T::zero()) != Some(std::cmp::Ordering::Greater) {
+                return None;
+            }
+            let ljj = d.sqrt();
+            l[(j, j)] = ljj;
+            for i in (j + 1)..M {
+                let mut v = S[(i, j)];
+                for k in 0..j {
+                    v -= l[(i, k)] * l[(j, k)];
+                }
+                l[(i, j)] = v / ljj;
+            }
+        }
+        Some(Self { l })
     }
 
     /// `w` with `L w = y`, so that `wᵀ w = yᵀ S⁻¹ y`.
@@ -246,9 +269,7 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         &mut self,
         propagate: impl FnOnce(&mut SVector<T, N>, &mut SMatrix<T, N, N>),
     ) -> Result<(), FilterError> {
-        let mut next = *self;
-        propagate(&mut next.x, &mut next.P);
-        self.accept(next, "predicted state")
+        self.change_or_keep("predicted state", propagate)
     }
 
     fn finish_predict(
@@ -261,6 +282,24 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         symmetrize(&mut P);
         // Math note: P⁻ is symmetric by construction; PD follows from P ≻ 0, Q ⪰ 0.
         self.accept(Self { x, P }, "predicted state")
+    }
+
+    /// Changes the estimate in place with `change`, and puts the previous one back
+    /// (refusing the change) if the result is not finite. The copy is taken before
+    /// the work, not after it: writing the result in place leaves no store of the
+    /// whole covariance for the next reader of it to wait on.
+    fn change_or_keep(
+        &mut self,
+        what: &'static str,
+        change: impl FnOnce(&mut SVector<T, N>, &mut SMatrix<T, N, N>),
+    ) -> Result<(), FilterError> {
+        let before = *self;
+        change(&mut self.x, &mut self.P);
+        if !all_finite(&self.x) || !all_finite(&self.P) {
+            *self = before;
+            return Err(FilterError::NonFinite(what));
+        }
+        Ok(())
     }
 
     /// Takes `next` as the new estimate if everything in it is finite; otherwise
@@ -362,9 +401,10 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
             return Ok(diagnostics);
         }
 
-        let mut next = Self { x: self.x + dx, P: self.P };
-        joseph::joseph_low_rank(&mut next.P, &K, &PHt, &S);
-        self.accept(next, "updated state")?;
+        self.change_or_keep("updated state", |x, P| {
+            *x += dx;
+            joseph::joseph_low_rank(P, &K, &PHt, &S);
+        })?;
         Ok(diagnostics)
     }
 }
@@ -468,6 +508,21 @@ mod tests {
         assert_eq!(*kf.x(), Vector2::new(1.0, 2.0));
         assert_eq!(kf.P()[(0, 0)], 16.0);
         assert_eq!(kf.P()[(0, 1)], 2.0);
+    }
+
+    #[test]
+    fn small_cholesky_matches_nalgebra_and_refuses_what_is_not_positive_definite() {
+        let S = nalgebra::Matrix3::new(4.0, 1.2, -0.6, 1.2, 3.0, 0.5, -0.6, 0.5, 2.0);
+        let ours = SmallCholesky::new(S).unwrap().l;
+        let reference = Cholesky::new(S).unwrap().unpack();
+        assert!((ours - reference).amax() < 1e-15, "{ours} against {reference}");
+        // Positive leading minors but the last pivot negative; a zero pivot; NaN.
+        let indefinite = nalgebra::Matrix3::new(1.0, 0.9, 0.9, 0.9, 1.0, -0.9, 0.9, -0.9, 1.0);
+        assert!(SmallCholesky::new(indefinite).is_none());
+        assert!(SmallCholesky::new(nalgebra::Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)).is_none());
+        let mut nan = S;
+        nan[(2, 2)] = f64::NAN;
+        assert!(SmallCholesky::new(nan).is_none());
     }
 
     #[test]

@@ -29,7 +29,7 @@ pub(crate) fn joseph_low_rank<T: RealField + Copy, const N: usize, const M: usiz
 /// `p ← p − K Bᵀ − G Kᵀ` with `G = B − K S` on column-major arrays
 /// (`p[column][row]`), upper triangle mirrored to the lower one, so the result is
 /// exactly symmetric. Column `j` is `p`'s minus `2M` scaled columns of `K` and
-/// `G`: loops of constant length that vectorise (whole columns: the few entries
+/// `G`, in blocks of four rows that vectorise (whole columns: the few entries
 /// below the diagonal cost less than loops of varying length). Compiled for AVX2
 /// as well, chosen at run time: the same operations in the same order, so the
 /// same bits either way.
@@ -49,10 +49,29 @@ fn joseph_columns<T: RealField + Copy, const N: usize, const M: usize>(
         }
     }
     for (j, col) in p.iter_mut().enumerate() {
-        for m in 0..M {
-            let (bj, kj) = (b[m][j], k[m][j]);
-            for i in 0..N {
-                col[i] -= k[m][i] * bj + g[m][i] * kj;
+        let src = *col;
+        let (bj, kj): ([T; M], [T; M]) = (std::array::from_fn(|m| b[m][j]), std::array::from_fn(|m| k[m][j]));
+        let row = |i: usize| {
+            let mut v = src[i];
+            for m in 0..M {
+                v -= k[m][i] * bj[m] + g[m][i] * kj[m];
+            }
+            v
+        };
+        if N < 4 {
+            for (i, v) in col.iter_mut().enumerate() {
+                *v = row(i);
+            }
+            continue;
+        }
+        // Rows in fours, the last four ending at row N − 1 (overlapping the one
+        // before when 4 does not divide N: computed from `src`, the rows written
+        // twice get the same value twice). Fours of constant length vectorise
+        // whole; a remainder of 1–3 rows would cost as much as the rest.
+        for c in 0..N.div_ceil(4) {
+            let base = (4 * c).min(N - 4);
+            for r in 0..4 {
+                col[base + r] = row(base + r);
             }
         }
     }

@@ -71,8 +71,16 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         if !all_finite(z) || !all_finite(predicted) || !all_finite(R) {
             return Err(FilterError::NonFinite("measurement"));
         }
-        let PHt: SMatrix<T, N, M> = self.P.fixed_view::<N, M>(0, offset).into_owned();
-        let mut S: SMatrix<T, M, M> = self.P.fixed_view::<M, M>(offset, offset) + R;
+        // P Hᵀ: columns `offset..offset + M` of P; S = H P Hᵀ + R: their rows there.
+        // (Plain array copies: nalgebra's strided views cost more than the copy.)
+        let mut PHt = SMatrix::<T, N, M>::zeros();
+        PHt.data.0.copy_from_slice(&self.P.data.0[offset..offset + M]);
+        let mut S = *R;
+        for (s, b) in S.data.0.iter_mut().zip(&PHt.data.0) {
+            for (v, p) in s.iter_mut().zip(&b[offset..offset + M]) {
+                *v += *p;
+            }
+        }
         symmetrize(&mut S);
         let chol = SmallCholesky::new(S).ok_or(FilterError::InnovationNotPositiveDefinite)?;
         let y = z - predicted;
@@ -86,9 +94,14 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         if decision != UpdateDecision::Accepted {
             return Ok(core);
         }
-        let mut next = Self { x: self.x + K * y, P: self.P };
-        joseph_low_rank(&mut next.P, &K, &PHt, &S);
-        self.accept(next, "updated state")?;
+        self.change_or_keep("updated state", |x, P| {
+            for (k, y) in K.data.0.iter().zip(y.iter()) {
+                for (x, k) in x.iter_mut().zip(k) {
+                    *x += *k * *y;
+                }
+            }
+            joseph_low_rank(P, &K, &PHt, &S);
+        })?;
         Ok(core)
     }
 }
