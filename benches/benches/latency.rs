@@ -14,8 +14,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use fusion_benches::latency::{
-    ChildGuard, LateCost, Mode, PublisherPlan, Trial, end_to_end, fan_out_reader, late_data, ping, pong, publisher,
-    start_daemon, throughput,
+    ChildGuard, EndToEnd, LateCost, Mode, Pinger, Prober, PublisherPlan, Trial, fan_out_reader, histogram, late_data,
+    ping, pong, publisher, start_daemon, throughput,
 };
 use fusion_client::Client;
 use hdrhistogram::Histogram;
@@ -35,6 +35,10 @@ struct Row {
     h: Histogram<u64>,
     /// Daemon time (snapshot published − sample received), where measured.
     daemon: Option<Histogram<u64>>,
+    /// Raw ping-pong round trips measured in blocks taking turns with this row's.
+    raw_rtt: Option<Histogram<u64>>,
+    /// Per pair of blocks: end-to-end p50 / raw round-trip p50.
+    block_ratios: Vec<f64>,
 }
 
 /// The IMU values each model is fed: at rest (linear: a small world acceleration;
@@ -51,7 +55,7 @@ fn config_of(model: &str) -> &'static str {
 /// when dropped, also on error.
 struct Rig {
     client: Client,
-    _daemon: ChildGuard,
+    daemon: ChildGuard,
     config_path: PathBuf,
 }
 
@@ -71,7 +75,17 @@ fn start_rig(fusiond: &std::path::Path, namespace: &str, model: &str, mode: Mode
         anyhow::ensure!(started.elapsed() < Duration::from_secs(20), "fusiond did not start");
         std::thread::sleep(Duration::from_millis(20));
     }
-    Ok(Rig { client, _daemon: daemon, config_path })
+    Ok(Rig { client, daemon, config_path })
+}
+
+/// Starts this binary as the pong side of a raw ping-pong on `base`.
+fn spawn_pong(base: &str, mode: Mode) -> anyhow::Result<ChildGuard> {
+    let child = Command::new(std::env::current_exe()?)
+        .env("FUSION_BENCH_PONG", base)
+        .env("FUSION_BENCH_MODE", mode.name())
+        .stdout(Stdio::null())
+        .spawn()?;
+    Ok(ChildGuard(child))
 }
 
 /// Starts this binary as the publisher process of `plan` into `namespace`.
@@ -129,38 +143,62 @@ fn main() -> anyhow::Result<()> {
     std::fs::create_dir_all(&out_dir)?;
     let pid = std::process::id();
 
-    // 1. Raw iceoryx2 ping-pong, paced like the end-to-end rows.
+    // 1. Raw iceoryx2 ping-pong alone, paced like the end-to-end rows.
     let mut rows = Vec::new();
     for mode in [Mode::Spin, Mode::Event] {
         let base = format!("fusion-bench-{pid}-raw-{}", mode.name());
-        let child = Command::new(std::env::current_exe()?)
-            .env("FUSION_BENCH_PONG", &base)
-            .env("FUSION_BENCH_MODE", mode.name())
-            .stdout(Stdio::null())
-            .spawn()?;
-        let mut guard = ChildGuard(child);
-        let h = ping(&base, mode, count, imu_hz, &mut guard)?;
+        let _pong = spawn_pong(&base, mode)?;
+        let h = ping(&base, mode, count, imu_hz)?;
         rows.push(Row {
             name: format!("raw iceoryx2 ping-pong, {}", mode.name()),
             mode,
             one_way: true,
             h,
             daemon: None,
+            raw_rtt: None,
+            block_ratios: Vec::new(),
         });
     }
-    // 2. End to end, publisher and reader in one process; then the fan-out case
-    //    with the publisher in a process of its own.
+    // 2. End to end, publisher and reader in one process, in blocks that take
+    //    turns with blocks of raw ping-pong (the other side paused); then the
+    //    fan-out case with the publisher in a process of its own.
+    let blocks = 10;
+    let per_block = (count / blocks).max(1);
+    let warm = (per_block / 10).max(5);
     for model in ["linear", "ins"] {
         for mode in [Mode::Spin, Mode::Event] {
             let namespace = format!("fusion-bench-{pid}-{model}-{}", mode.name());
             let rig = start_rig(&fusiond, &namespace, model, mode)?;
-            let e2e = end_to_end(&rig.client, mode, count, imu_hz, imu_value(model))?;
+            let base = format!("{namespace}-raw");
+            let pong = spawn_pong(&base, mode)?;
+            let mut pinger = Pinger::connect(&base, mode)?;
+            let mut prober = Prober::new(&rig.client, mode, imu_value(model))?;
+            let (mut e2e, mut raw_rtt, mut block_ratios) = (EndToEnd::new(), histogram(), Vec::new());
+            for _ in 0..blocks {
+                rig.daemon.pause()?;
+                pong.resume()?;
+                let mut raw_block = histogram();
+                pinger.run(per_block + warm, warm, imu_hz, &mut raw_block)?;
+                pong.pause()?;
+                rig.daemon.resume()?;
+                let mut block = EndToEnd::new();
+                prober.run(per_block + warm, warm, imu_hz, &mut block)?;
+                block_ratios
+                    .push(block.latency.value_at_quantile(0.5) as f64 / raw_block.value_at_quantile(0.5) as f64);
+                raw_rtt.add(&raw_block)?;
+                e2e.latency.add(&block.latency)?;
+                e2e.daemon.add(&block.daemon)?;
+            }
+            pong.resume()?;
+            pinger.finish()?;
             rows.push(Row {
                 name: format!("fusiond {model}, --wait {}", mode.name()),
                 mode,
                 one_way: false,
                 h: e2e.latency,
                 daemon: Some(e2e.daemon),
+                raw_rtt: Some(raw_rtt),
+                block_ratios,
             });
             let warmup = count / 10;
             let plan = PublisherPlan { rate_hz: imu_hz, count: count + warmup, sensor: 2, wake: mode == Mode::Event };
@@ -172,6 +210,8 @@ fn main() -> anyhow::Result<()> {
                 one_way: false,
                 h,
                 daemon: None,
+                raw_rtt: None,
+                block_ratios: Vec::new(),
             });
         }
     }
@@ -232,8 +272,8 @@ fn print_report(
         if quick { ", quick" } else { "" }
     );
     println!(
-        "{:<42} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>10} {:>12}",
-        "", "p50", "p90", "p99", "p99.9", "max", "count", "p50/RTT", "daemon p50"
+        "{:<42} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>10} {:>14} {:>12}",
+        "", "p50", "p90", "p99", "p99.9", "max", "count", "p50/RTT", "raw 1-way p50", "daemon p50"
     );
     let us = |ns: u64| format!("{:.2} us", ns as f64 / 1e3);
     let mut json = Vec::new();
@@ -243,10 +283,16 @@ fn print_report(
         // Raw rows report one way (RTT / 2); end-to-end rows are already one way.
         let div = if r.one_way { 2 } else { 1 };
         let q = |p: f64| r.h.value_at_quantile(p) / div;
-        let ratio = if r.one_way { None } else { raw_rtt_p50(r.mode).map(|rtt| q(0.5) as f64 / rtt as f64) };
+        // The raw round trip measured in turns with this row's blocks, or else
+        // the raw row of the same mode.
+        let rtt = r.raw_rtt.as_ref().map(|h| h.value_at_quantile(0.5)).or_else(|| raw_rtt_p50(r.mode));
+        let ratio = if r.one_way { None } else { rtt.map(|rtt| q(0.5) as f64 / rtt as f64) };
+        let interleaved_one_way = r.raw_rtt.as_ref().map(|h| h.value_at_quantile(0.5) / 2);
         let daemon_p50 = r.daemon.as_ref().map(|d| d.value_at_quantile(0.5));
+        let mut blocks = r.block_ratios.clone();
+        blocks.sort_by(f64::total_cmp);
         println!(
-            "{:<42} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>10} {:>12}",
+            "{:<42} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>10} {:>14} {:>12}",
             format!("{}{}", r.name, if r.one_way { " (one way)" } else { "" }),
             us(q(0.5)),
             us(q(0.9)),
@@ -255,6 +301,7 @@ fn print_report(
             us(r.h.max() / div),
             r.h.len(),
             ratio.map_or_else(|| "-".into(), |x| format!("{x:.2}x")),
+            interleaved_one_way.map_or_else(|| "-".into(), us),
             daemon_p50.map_or_else(|| "-".into(), us),
         );
         json.push(serde_json::json!({
@@ -262,6 +309,9 @@ fn print_report(
             "p50": q(0.5), "p90": q(0.9), "p99": q(0.99), "p999": q(0.999), "max": r.h.max() / div,
             "count": r.h.len(), "ratio_p50_to_raw_round_trip": ratio,
             "daemon_p50": daemon_p50, "daemon_p99": r.daemon.as_ref().map(|d| d.value_at_quantile(0.99)),
+            "raw_one_way_p50_interleaved": interleaved_one_way,
+            "block_ratios_min_median_max": (!blocks.is_empty())
+                .then(|| [blocks[0], blocks[blocks.len() / 2], blocks[blocks.len() - 1]]),
         }));
     }
 

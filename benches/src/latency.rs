@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use fusion_client::{Client, ImuSample, now_ns};
 use fusion_shared::service;
 use hdrhistogram::Histogram;
-use iceoryx2::port::listener::Listener;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
@@ -96,9 +96,11 @@ impl PingPongEnd {
             }
             match mode {
                 Mode::Spin => std::hint::spin_loop(),
-                Mode::Event => {
-                    self.listener.timed_wait(|_| {}, Duration::from_millis(100))?;
-                }
+                Mode::Event => match self.listener.timed_wait(|_| {}, Duration::from_millis(100)) {
+                    // A signal (SIGCONT after the bench paused this process) ends the wait early.
+                    Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
+                    Err(e) => return Err(e.into()),
+                },
             }
         }
     }
@@ -121,9 +123,30 @@ pub fn pong(base: &str, mode: Mode) -> anyhow::Result<()> {
 /// Ends a child process however it is (kill, then reap).
 pub struct ChildGuard(pub Child);
 
+impl ChildGuard {
+    /// Sends `signal` (a `kill` name such as `STOP`) to the child.
+    fn signal(&self, signal: &str) -> anyhow::Result<()> {
+        let status = Command::new("kill").arg(format!("-{signal}")).arg(self.0.id().to_string()).status()?;
+        anyhow::ensure!(status.success(), "kill -{signal} {} failed", self.0.id());
+        Ok(())
+    }
+
+    /// Freezes the child (SIGSTOP): a busy-polling process stops taking a core.
+    pub fn pause(&self) -> anyhow::Result<()> {
+        self.signal("STOP")
+    }
+
+    /// Lets a paused child run again (SIGCONT).
+    pub fn resume(&self) -> anyhow::Result<()> {
+        self.signal("CONT")
+    }
+}
+
 impl Drop for ChildGuard {
     fn drop(&mut self) {
         if matches!(self.0.try_wait(), Ok(None)) {
+            // A paused child would not see SIGTERM, and SIGKILL leaves its files.
+            let _ = self.signal("CONT");
             let _ = Command::new("kill").args(["-TERM", &self.0.id().to_string()]).status();
             let deadline = Instant::now() + Duration::from_secs(5);
             while matches!(self.0.try_wait(), Ok(None)) && Instant::now() < deadline {
@@ -163,42 +186,66 @@ impl Pacer {
     }
 }
 
-/// Raw iceoryx2 ping-pong with an `ImuSample` payload between this process and
-/// `pong_process` (already started on `base`), one ping per tick at `rate_hz`:
-/// round-trip times, ns.
-pub fn ping(
-    base: &str,
+/// The ping side of the raw iceoryx2 ping-pong with an `ImuSample` payload, against
+/// a pong process (already started on `base`); it can ping in several blocks.
+pub struct Pinger {
+    end: PingPongEnd,
     mode: Mode,
-    count: u64,
-    rate_hz: f64,
-    _pong: &mut ChildGuard,
-) -> anyhow::Result<Histogram<u64>> {
-    let end = PingPongEnd::open(base, "ping", "pong")?;
-    let mut rtt = histogram();
-    // Let the pong side connect: retry the first ping until it answers.
-    let started = Instant::now();
-    loop {
-        end.send(ImuSample { seq: u64::MAX - 1, ..Default::default() }, mode)?;
-        if end.receive(mode)?.is_some() {
-            break;
-        }
-        anyhow::ensure!(started.elapsed() < Duration::from_secs(20), "pong did not answer");
-    }
-    let mut pacer = Pacer::new(rate_hz);
-    for seq in 0..count {
-        pacer.wait();
-        let t0 = now_ns();
-        end.send(ImuSample { seq, t_ns: t0, ..Default::default() }, mode)?;
+    seq: u64,
+}
+
+impl Pinger {
+    /// Connects to the pong side: retries a first ping until it answers.
+    pub fn connect(base: &str, mode: Mode) -> anyhow::Result<Self> {
+        let end = PingPongEnd::open(base, "ping", "pong")?;
+        let started = Instant::now();
         loop {
-            match end.receive(mode)? {
-                Some(s) if s.seq == seq => break,
-                Some(_) => {}
-                None => anyhow::bail!("ping {seq}: no answer"),
+            end.send(ImuSample { seq: u64::MAX - 1, ..Default::default() }, mode)?;
+            if end.receive(mode)?.is_some() {
+                break;
+            }
+            anyhow::ensure!(started.elapsed() < Duration::from_secs(20), "pong did not answer");
+        }
+        Ok(Self { end, mode, seq: 0 })
+    }
+
+    /// One ping per tick at `rate_hz`, `count` of them: the round-trip times of
+    /// all but the first `warmup` go to `rtt`, ns.
+    pub fn run(&mut self, count: u64, warmup: u64, rate_hz: f64, rtt: &mut Histogram<u64>) -> anyhow::Result<()> {
+        let mut pacer = Pacer::new(rate_hz);
+        for k in 0..count {
+            pacer.wait();
+            let seq = self.seq;
+            self.seq += 1;
+            let t0 = now_ns();
+            self.end.send(ImuSample { seq, t_ns: t0, ..Default::default() }, self.mode)?;
+            loop {
+                match self.end.receive(self.mode)? {
+                    Some(s) if s.seq == seq => break,
+                    Some(_) => {}
+                    None => anyhow::bail!("ping {seq}: no answer"),
+                }
+            }
+            if k >= warmup {
+                rtt.record(now_ns() - t0)?;
             }
         }
-        rtt.record(now_ns() - t0)?;
+        Ok(())
     }
-    end.send(ImuSample { seq: u64::MAX, ..Default::default() }, mode)?;
+
+    /// Tells the pong side to exit.
+    pub fn finish(self) -> anyhow::Result<()> {
+        self.end.send(ImuSample { seq: u64::MAX, ..Default::default() }, self.mode)
+    }
+}
+
+/// Raw iceoryx2 ping-pong between this process and a pong process (already
+/// started on `base`), one ping per tick at `rate_hz`: round-trip times, ns.
+pub fn ping(base: &str, mode: Mode, count: u64, rate_hz: f64) -> anyhow::Result<Histogram<u64>> {
+    let mut pinger = Pinger::connect(base, mode)?;
+    let mut rtt = histogram();
+    pinger.run(count, 0, rate_hz, &mut rtt)?;
+    pinger.finish()?;
     Ok(rtt)
 }
 
@@ -218,7 +265,7 @@ fn next_snapshot(
     })
 }
 
-/// End-to-end latencies of one run.
+/// End-to-end latencies.
 #[derive(Debug)]
 pub struct EndToEnd {
     /// Snapshot received − sample sent, ns.
@@ -228,48 +275,73 @@ pub struct EndToEnd {
     pub daemon: Histogram<u64>,
 }
 
-/// fusiond end to end: publishes `count` IMU samples at `rate_hz` (plus a position
-/// fix every 100th), each time waiting for the snapshot that names the sample.
-pub fn end_to_end(
-    client: &Client,
+impl EndToEnd {
+    /// Empty histograms.
+    pub fn new() -> Self {
+        Self { latency: histogram(), daemon: histogram() }
+    }
+}
+
+impl Default for EndToEnd {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// A client of fusiond that publishes IMU samples (plus a position fix every
+/// 100th) and waits for the snapshot that names each; it can run in several
+/// blocks, its sequence numbers going on from one to the next.
+pub struct Prober {
+    imu: fusion_client::ImuPublisher,
+    pos: fusion_client::PositionPublisher,
+    state: fusion_client::StateSubscriber,
     mode: Mode,
-    count: u64,
-    rate_hz: f64,
     imu_value: ([f64; 3], [f64; 3]),
-) -> anyhow::Result<EndToEnd> {
-    let mut imu = client.imu_publisher(0)?;
-    let mut pos = client.position_publisher(1)?;
-    // The daemon only needs waking in event mode.
-    imu.set_wake(mode == Mode::Event);
-    pos.set_wake(mode == Mode::Event);
-    let mut state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER)?;
-    let (mut latency, mut daemon) = (histogram(), histogram());
-    let mut pacer = Pacer::new(rate_hz);
-    let warmup = count / 10;
-    for seq in 0..(count + warmup) {
-        pacer.wait();
-        let t = now_ns();
-        if seq % 100 == 50 {
-            pos.publish(t, [0.0; 3], [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64])?;
-        }
-        imu.publish(t, imu_value.0, imu_value.1)?;
-        let deadline = Instant::now() + Duration::from_secs(2);
-        loop {
-            let snap = next_snapshot(&mut state, mode, deadline, seq)?;
-            if let Some(s) = snap
-                && s.input_kind == 0
-                && s.input_seq == seq
-            {
-                let received = now_ns();
-                if seq >= warmup {
-                    latency.record(received.saturating_sub(s.input_sent_ns))?;
-                    daemon.record(s.publish_ns.saturating_sub(s.input_received_ns))?;
+    seq: u64,
+}
+
+impl Prober {
+    /// Publishers (IMU sensor 0, position sensor 1) and a reader on `client`.
+    pub fn new(client: &Client, mode: Mode, imu_value: ([f64; 3], [f64; 3])) -> anyhow::Result<Self> {
+        let mut imu = client.imu_publisher(0)?;
+        let mut pos = client.position_publisher(1)?;
+        // The daemon only needs waking in event mode.
+        imu.set_wake(mode == Mode::Event);
+        pos.set_wake(mode == Mode::Event);
+        let state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER)?;
+        Ok(Self { imu, pos, state, mode, imu_value, seq: 0 })
+    }
+
+    /// `count` IMU samples at `rate_hz`; all but the first `warmup` are recorded.
+    pub fn run(&mut self, count: u64, warmup: u64, rate_hz: f64, out: &mut EndToEnd) -> anyhow::Result<()> {
+        let mut pacer = Pacer::new(rate_hz);
+        for k in 0..count {
+            let seq = self.seq;
+            self.seq += 1;
+            pacer.wait();
+            let t = now_ns();
+            if seq % 100 == 50 {
+                self.pos.publish(t, [0.0; 3], [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64])?;
+            }
+            self.imu.publish(t, self.imu_value.0, self.imu_value.1)?;
+            let deadline = Instant::now() + Duration::from_secs(2);
+            loop {
+                let snap = next_snapshot(&mut self.state, self.mode, deadline, seq)?;
+                if let Some(s) = snap
+                    && s.input_kind == 0
+                    && s.input_seq == seq
+                {
+                    let received = now_ns();
+                    if k >= warmup {
+                        out.latency.record(received.saturating_sub(s.input_sent_ns))?;
+                        out.daemon.record(s.publish_ns.saturating_sub(s.input_received_ns))?;
+                    }
+                    break;
                 }
-                break;
             }
         }
+        Ok(())
     }
-    Ok(EndToEnd { latency, daemon })
 }
 
 /// Starts `fusiond run` from `bin` in `namespace` with `config` written to `dir`.
