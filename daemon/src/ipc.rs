@@ -3,11 +3,13 @@
 //! One thread owns every iceoryx2 port (they are `!Send`). Each turn of the loop
 //! drains both sample subscribers, feeds every sample to the engine with the
 //! daemon's clock, publishes one [`StateSnapshot`] per processed sample and then
-//! notifies `<ns>/state` once. Between turns it either busy-polls (`spin`) or
-//! sleeps on the `<ns>/wake` listener (`event`). Every 10 ms it re-evaluates the
-//! health (a stream that stopped is marked stale even though nothing arrives),
-//! refreshes connections so a late reader gets the latest snapshot, and every
-//! summary interval hands counters to the summary thread.
+//! notifies `<ns>/state` once, then loans the chunk of the next snapshot. Between
+//! turns it either busy-polls (`spin`, keeping what the next sample will touch in
+//! the cache, every 100 µs while idle) or sleeps on the `<ns>/wake` listener
+//! (`event`). Every 10 ms it re-evaluates the health (a stream that stopped is
+//! marked stale even though nothing arrives), refreshes connections so a late
+//! reader gets the latest snapshot, and every summary interval hands counters to
+//! the summary thread.
 
 use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicBool, Ordering};

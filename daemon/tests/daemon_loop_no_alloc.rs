@@ -10,7 +10,8 @@
 //! One allocation per published snapshot is iceoryx2's, not ours, and cannot be
 //! avoided through its API: `Publisher::loan_uninit` (also behind `send_copy`)
 //! creates an `Rc` for the loaned chunk's shared state (iceoryx2 0.10,
-//! `port/details/chunk_mut_shared_state.rs`, `ChunkMutSharedState::new`). The
+//! `port/details/chunk_mut_shared_state.rs`, `ChunkMutSharedState::new`); fusiond
+//! loans the next chunk after notifying the readers, off the latency path. The
 //! tests therefore check that every allocation in the loop has that one size and
 //! that there is at most one per snapshot: anything else the loop allocated would
 //! show up as another size or as more allocations.
