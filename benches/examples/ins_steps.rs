@@ -9,39 +9,17 @@
 
 use std::hint::black_box;
 
+use fusion_benches::{ins_fix, ins_imu, ins_model};
 use fusion_daemon::filter::ChiSquareGate;
 use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::InsModel;
-use fusion_shared::{ImuSample, PositionSample, Sample};
+use fusion_shared::Sample;
 
 fn main() {
     let n: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(10_000);
     let timed = std::env::args().nth(2).is_some_and(|a| a == "time");
-    let config = fusion_daemon::config::Config::parse(
-        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
-         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n\
-         initial_state = [0,0,0, 9,0,0, 1,0,0,0, 0,0,0, 0,0,0]\n\
-         initial_covariance_diagonal = [1,1,1, 1,1,1, 0.01,0.01,0.01, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n\
-         [gating]\nprobability = 0.999\n",
-    )
-    .expect("valid config");
-    let model = InsModel::from_config(&config).expect("valid model");
-    let imu = |t: u64| {
-        Sample::Imu(ImuSample {
-            t_ns: t,
-            accel_mps2: [0.3, 0.1, 9.81],
-            gyro_radps: [0.01, -0.02, 0.2],
-            ..Default::default()
-        })
-    };
-    let pos = |t: u64| {
-        Sample::Position(PositionSample {
-            t_ns: t,
-            pos_m: [0.045, 0.0, 0.0],
-            cov_m2: [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64],
-            ..Default::default()
-        })
-    };
+    let model = ins_model();
+    let (imu, pos) = (ins_imu, ins_fix);
     let mut state = model.initial_state();
     model.step(&mut state, &imu(0));
     let mut t = 0;

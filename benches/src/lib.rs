@@ -9,6 +9,8 @@ pub mod latency;
 
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_daemon::config::Config;
+use fusion_daemon::model::ins::InsModel;
+use fusion_shared::{ImuSample, PositionSample, Sample};
 
 /// The drive used by the throughput benchmarks: 1 kHz IMU, 10 Hz positions arriving
 /// 20–120 ms late, `seconds` long.
@@ -26,4 +28,33 @@ pub fn linear_config() -> Config {
          initial_covariance_diagonal = [100,100,100,225,225,225]\n[gating]\nprobability = 0.999\n",
     )
     .expect("benchmark config is valid")
+}
+
+/// The `ins` model of the filter-step benchmarks: Kalibr MEMS noise, moving at
+/// 9 m/s, gating on.
+pub fn ins_model() -> InsModel {
+    let config = Config::parse(
+        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n\
+         initial_state = [0,0,0, 9,0,0, 1,0,0,0, 0,0,0, 0,0,0]\n\
+         initial_covariance_diagonal = [1,1,1, 1,1,1, 0.01,0.01,0.01, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n\
+         [gating]\nprobability = 0.999\n",
+    )
+    .expect("benchmark config is valid");
+    InsModel::from_config(&config).expect("benchmark config is an ins config")
+}
+
+/// An IMU sample at `t_ns` for [`ins_model`]: specific force near gravity, a slow turn.
+pub fn ins_imu(t_ns: u64) -> Sample {
+    Sample::Imu(ImuSample { t_ns, accel_mps2: [0.3, 0.1, 9.81], gyro_radps: [0.01, -0.02, 0.2], ..Default::default() })
+}
+
+/// A position fix at `t_ns` for [`ins_model`], 4.5 cm off the start.
+pub fn ins_fix(t_ns: u64) -> Sample {
+    Sample::Position(PositionSample {
+        t_ns,
+        pos_m: [0.045, 0.0, 0.0],
+        cov_m2: [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64],
+        ..Default::default()
+    })
 }
