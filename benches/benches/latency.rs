@@ -17,7 +17,7 @@ use fusion_benches::latency::{
     ChildGuard, EndToEnd, LateCost, Mode, Pinger, Prober, PublisherPlan, Trial, fan_out_reader, histogram, late_data,
     ping, pong, publisher, start_daemon, throughput,
 };
-use fusion_client::Client;
+use fusion_client::{Client, ImuSample, StateSnapshot};
 use hdrhistogram::Histogram;
 
 const LINEAR: &str = "[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n[filter]\ninitial_state = [0,0,0,0,0,0]\n\
@@ -78,11 +78,13 @@ fn start_rig(fusiond: &std::path::Path, namespace: &str, model: &str, mode: Mode
     Ok(Rig { client, daemon, config_path })
 }
 
-/// Starts this binary as the pong side of a raw ping-pong on `base`.
-fn spawn_pong(base: &str, mode: Mode) -> anyhow::Result<ChildGuard> {
+/// Starts this binary as the pong side of a raw ping-pong on `base`, answering with
+/// an `ImuSample` or (`snapshot`) a `StateSnapshot`.
+fn spawn_pong(base: &str, mode: Mode, snapshot: bool) -> anyhow::Result<ChildGuard> {
     let child = Command::new(std::env::current_exe()?)
         .env("FUSION_BENCH_PONG", base)
         .env("FUSION_BENCH_MODE", mode.name())
+        .env("FUSION_BENCH_PONG_PAYLOAD", if snapshot { "snapshot" } else { "imu" })
         .stdout(Stdio::null())
         .spawn()?;
     Ok(ChildGuard(child))
@@ -103,7 +105,10 @@ fn main() -> anyhow::Result<()> {
     // Roles of this same binary, re-executed: the pong side and the publisher process.
     if let Ok(base) = std::env::var("FUSION_BENCH_PONG") {
         let mode = Mode::parse(&std::env::var("FUSION_BENCH_MODE")?).context("mode")?;
-        return pong(&base, mode);
+        return match std::env::var("FUSION_BENCH_PONG_PAYLOAD").as_deref() {
+            Ok("snapshot") => pong::<StateSnapshot>(&base, mode),
+            _ => pong::<ImuSample>(&base, mode),
+        };
     }
     if let Ok(namespace) = std::env::var("FUSION_BENCH_PUBLISHER") {
         let model = std::env::var("FUSION_BENCH_MODEL")?;
@@ -143,35 +148,71 @@ fn main() -> anyhow::Result<()> {
     std::fs::create_dir_all(&out_dir)?;
     let pid = std::process::id();
 
-    // 1. Raw iceoryx2 ping-pong alone, paced like the end-to-end rows.
+    // 1. Raw iceoryx2 ping-pong alone, paced like the end-to-end rows. Busy-poll also
+    //    with a 3.9 KB answer (what fusiond answers with), in blocks taking turns.
+    let blocks = 10;
+    let per_block = (count / blocks).max(1);
+    let warm = (per_block / 10).max(5);
     let mut rows = Vec::new();
     for mode in [Mode::Spin, Mode::Event] {
         let base = format!("fusion-bench-{pid}-raw-{}", mode.name());
-        let _pong = spawn_pong(&base, mode)?;
-        let h = ping(&base, mode, count, imu_hz)?;
+        let name = format!("raw iceoryx2 ping-pong, {} (one way)", mode.name());
+        let pong = spawn_pong(&base, mode, false)?;
+        if mode == Mode::Event {
+            let h = ping(&base, mode, count, imu_hz)?;
+            rows.push(Row { name, mode, one_way: true, h, daemon: None, raw_rtt: None, block_ratios: Vec::new() });
+            continue;
+        }
+        let big_base = format!("{base}-snapshot");
+        let big_pong = spawn_pong(&big_base, mode, true)?;
+        let mut small = Pinger::<ImuSample>::connect(&base, mode)?;
+        let mut big = Pinger::<StateSnapshot>::connect(&big_base, mode)?;
+        let (mut small_rtt, mut big_rtt, mut block_ratios) = (histogram(), histogram(), Vec::new());
+        for _ in 0..blocks {
+            big_pong.pause()?;
+            pong.resume()?;
+            let mut block = histogram();
+            small.run(per_block + warm, warm, imu_hz, &mut block)?;
+            small_rtt.add(&block)?;
+            pong.pause()?;
+            big_pong.resume()?;
+            let mut big_block = histogram();
+            big.run(per_block + warm, warm, imu_hz, &mut big_block)?;
+            big_rtt.add(&big_block)?;
+            block_ratios.push(big_block.value_at_quantile(0.5) as f64 / block.value_at_quantile(0.5) as f64);
+        }
+        pong.resume()?;
+        small.finish()?;
+        big.finish()?;
         rows.push(Row {
-            name: format!("raw iceoryx2 ping-pong, {}", mode.name()),
+            name,
             mode,
             one_way: true,
-            h,
+            h: small_rtt.clone(),
             daemon: None,
             raw_rtt: None,
             block_ratios: Vec::new(),
+        });
+        rows.push(Row {
+            name: format!("raw, {}, 3.9 KB answer (half round trip)", mode.name()),
+            mode,
+            one_way: true,
+            h: big_rtt,
+            daemon: None,
+            raw_rtt: Some(small_rtt),
+            block_ratios,
         });
     }
     // 2. End to end, publisher and reader in one process, in blocks that take
     //    turns with blocks of raw ping-pong (the other side paused); then the
     //    fan-out case with the publisher in a process of its own.
-    let blocks = 10;
-    let per_block = (count / blocks).max(1);
-    let warm = (per_block / 10).max(5);
     for model in ["linear", "ins"] {
         for mode in [Mode::Spin, Mode::Event] {
             let namespace = format!("fusion-bench-{pid}-{model}-{}", mode.name());
             let rig = start_rig(&fusiond, &namespace, model, mode)?;
             let base = format!("{namespace}-raw");
-            let pong = spawn_pong(&base, mode)?;
-            let mut pinger = Pinger::connect(&base, mode)?;
+            let pong = spawn_pong(&base, mode, false)?;
+            let mut pinger = Pinger::<ImuSample>::connect(&base, mode)?;
             let mut prober = Prober::new(&rig.client, mode, imu_value(model))?;
             let (mut e2e, mut raw_rtt, mut block_ratios) = (EndToEnd::new(), histogram(), Vec::new());
             for _ in 0..blocks {
@@ -283,17 +324,21 @@ fn print_report(
         // Raw rows report one way (RTT / 2); end-to-end rows are already one way.
         let div = if r.one_way { 2 } else { 1 };
         let q = |p: f64| r.h.value_at_quantile(p) / div;
-        // The raw round trip measured in turns with this row's blocks, or else
-        // the raw row of the same mode.
-        let rtt = r.raw_rtt.as_ref().map(|h| h.value_at_quantile(0.5)).or_else(|| raw_rtt_p50(r.mode));
-        let ratio = if r.one_way { None } else { rtt.map(|rtt| q(0.5) as f64 / rtt as f64) };
+        // Against the raw round trip measured in turns with this row's blocks (an
+        // end-to-end time, or the round trip with the 3.9 KB answer), or else the
+        // raw row of the same mode.
+        let ratio = match &r.raw_rtt {
+            Some(raw) => Some(r.h.value_at_quantile(0.5) as f64 / raw.value_at_quantile(0.5) as f64),
+            None if !r.one_way => raw_rtt_p50(r.mode).map(|rtt| q(0.5) as f64 / rtt as f64),
+            None => None,
+        };
         let interleaved_one_way = r.raw_rtt.as_ref().map(|h| h.value_at_quantile(0.5) / 2);
         let daemon_p50 = r.daemon.as_ref().map(|d| d.value_at_quantile(0.5));
         let mut blocks = r.block_ratios.clone();
         blocks.sort_by(f64::total_cmp);
         println!(
             "{:<42} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>10} {:>14} {:>12}",
-            format!("{}{}", r.name, if r.one_way { " (one way)" } else { "" }),
+            r.name,
             us(q(0.5)),
             us(q(0.9)),
             us(q(0.99)),

@@ -4,7 +4,7 @@
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use fusion_client::{Client, ImuSample, now_ns};
+use fusion_client::{Client, ImuSample, StateSnapshot, now_ns};
 use fusion_shared::service;
 use hdrhistogram::Histogram;
 use iceoryx2::port::listener::{Listener, ListenerWaitError};
@@ -47,36 +47,69 @@ pub fn histogram() -> Histogram<u64> {
     Histogram::new_with_bounds(1, 10_000_000_000, 3).expect("valid histogram bounds")
 }
 
-/// One end of the raw ping-pong.
-struct PingPongEnd {
+/// A payload of the raw ping-pong: it carries the sequence number it answers.
+pub trait Payload: ZeroCopySend + Copy + std::fmt::Debug + Default + 'static {
+    /// The sequence number.
+    fn seq(&self) -> u64;
+    /// A payload with `seq`, stamped `t_ns`.
+    fn with_seq(seq: u64, t_ns: u64) -> Self;
+}
+
+impl Payload for ImuSample {
+    fn seq(&self) -> u64 {
+        self.seq
+    }
+    fn with_seq(seq: u64, t_ns: u64) -> Self {
+        ImuSample { seq, t_ns, ..Default::default() }
+    }
+}
+
+/// The answer the size of what fusiond answers with (3.9 KB), every byte written.
+impl Payload for StateSnapshot {
+    fn seq(&self) -> u64 {
+        self.seq
+    }
+    fn with_seq(seq: u64, t_ns: u64) -> Self {
+        StateSnapshot { seq, publish_ns: t_ns, ..Default::default() }
+    }
+}
+
+/// One end of the raw ping-pong: sends `S`, receives `R`.
+struct PingPongEnd<S: Payload, R: Payload> {
     _node: Node<ipc::Service>,
-    publisher: Publisher<ipc::Service, ImuSample, ()>,
-    subscriber: Subscriber<ipc::Service, ImuSample, ()>,
+    publisher: Publisher<ipc::Service, S, ()>,
+    subscriber: Subscriber<ipc::Service, R, ()>,
     notifier: Notifier<ipc::Service>,
     listener: Listener<ipc::Service>,
 }
 
-impl PingPongEnd {
+impl<S: Payload, R: Payload> PingPongEnd<S, R> {
     /// `send_to`/`receive_from`: the two directions, `<base>/ping` and `<base>/pong`.
     fn open(base: &str, send_to: &str, receive_from: &str) -> anyhow::Result<Self> {
         let node = service::create_node("bench", &service::iceoryx_config(None).map_err(anyhow::Error::msg)?)
             .map_err(anyhow::Error::msg)?;
-        let pubsub = |dir: &str| -> anyhow::Result<_> {
-            let name: ServiceName = format!("{base}/{dir}").as_str().try_into()?;
-            Ok(node.service_builder(&name).publish_subscribe::<ImuSample>().open_or_create()?)
-        };
+        let name = |dir: &str| -> anyhow::Result<ServiceName> { Ok(format!("{base}/{dir}").as_str().try_into()?) };
         let event = |dir: &str| -> anyhow::Result<_> {
-            let name: ServiceName = format!("{base}/{dir}-event").as_str().try_into()?;
-            Ok(node.service_builder(&name).event().open_or_create()?)
+            Ok(node.service_builder(&name(&format!("{dir}-event"))?).event().open_or_create()?)
         };
-        let publisher = pubsub(send_to)?.publisher_builder().create()?;
-        let subscriber = pubsub(receive_from)?.subscriber_builder().create()?;
+        let publisher = node
+            .service_builder(&name(send_to)?)
+            .publish_subscribe::<S>()
+            .open_or_create()?
+            .publisher_builder()
+            .create()?;
+        let subscriber = node
+            .service_builder(&name(receive_from)?)
+            .publish_subscribe::<R>()
+            .open_or_create()?
+            .subscriber_builder()
+            .create()?;
         let notifier = event(send_to)?.notifier_builder().create()?;
         let listener = event(receive_from)?.listener_builder().create()?;
         Ok(Self { _node: node, publisher, subscriber, notifier, listener })
     }
 
-    fn send(&self, sample: ImuSample, mode: Mode) -> anyhow::Result<()> {
+    fn send(&self, sample: S, mode: Mode) -> anyhow::Result<()> {
         self.publisher.send_copy(sample)?;
         if mode == Mode::Event {
             self.notifier.notify()?;
@@ -85,7 +118,7 @@ impl PingPongEnd {
     }
 
     /// Waits for the next sample (up to 1 s).
-    fn receive(&self, mode: Mode) -> anyhow::Result<Option<ImuSample>> {
+    fn receive(&self, mode: Mode) -> anyhow::Result<Option<R>> {
         let deadline = Instant::now() + Duration::from_secs(1);
         loop {
             if let Some(s) = self.subscriber.receive()? {
@@ -106,15 +139,19 @@ impl PingPongEnd {
     }
 }
 
-/// The pong side: echoes every sample until one with `seq == u64::MAX`.
-pub fn pong(base: &str, mode: Mode) -> anyhow::Result<()> {
-    let end = PingPongEnd::open(base, "pong", "ping")?;
-    let idle_deadline = Instant::now() + Duration::from_secs(30);
+/// The pong side: answers every ping with an `R` of the same sequence number until
+/// one with `seq == u64::MAX`; gives up after 30 s without a ping.
+pub fn pong<R: Payload>(base: &str, mode: Mode) -> anyhow::Result<()> {
+    let end = PingPongEnd::<R, ImuSample>::open(base, "pong", "ping")?;
+    let mut last_ping = Instant::now();
     loop {
         match end.receive(mode)? {
             Some(s) if s.seq == u64::MAX => return Ok(()),
-            Some(s) => end.send(s, mode)?,
-            None if Instant::now() > idle_deadline => anyhow::bail!("pong: no ping for 30 s"),
+            Some(s) => {
+                last_ping = Instant::now();
+                end.send(R::with_seq(s.seq, s.t_ns), mode)?;
+            }
+            None if last_ping.elapsed() > Duration::from_secs(30) => anyhow::bail!("pong: no ping for 30 s"),
             None => {}
         }
     }
@@ -188,13 +225,13 @@ impl Pacer {
 
 /// The ping side of the raw iceoryx2 ping-pong with an `ImuSample` payload, against
 /// a pong process (already started on `base`); it can ping in several blocks.
-pub struct Pinger {
-    end: PingPongEnd,
+pub struct Pinger<R: Payload = ImuSample> {
+    end: PingPongEnd<ImuSample, R>,
     mode: Mode,
     seq: u64,
 }
 
-impl Pinger {
+impl<R: Payload> Pinger<R> {
     /// Connects to the pong side: retries a first ping until it answers.
     pub fn connect(base: &str, mode: Mode) -> anyhow::Result<Self> {
         let end = PingPongEnd::open(base, "ping", "pong")?;
@@ -221,7 +258,7 @@ impl Pinger {
             self.end.send(ImuSample { seq, t_ns: t0, ..Default::default() }, self.mode)?;
             loop {
                 match self.end.receive(self.mode)? {
-                    Some(s) if s.seq == seq => break,
+                    Some(s) if s.seq() == seq => break,
                     Some(_) => {}
                     None => anyhow::bail!("ping {seq}: no answer"),
                 }
@@ -242,7 +279,7 @@ impl Pinger {
 /// Raw iceoryx2 ping-pong between this process and a pong process (already
 /// started on `base`), one ping per tick at `rate_hz`: round-trip times, ns.
 pub fn ping(base: &str, mode: Mode, count: u64, rate_hz: f64) -> anyhow::Result<Histogram<u64>> {
-    let mut pinger = Pinger::connect(base, mode)?;
+    let mut pinger = Pinger::<ImuSample>::connect(base, mode)?;
     let mut rtt = histogram();
     pinger.run(count, 0, rate_hz, &mut rtt)?;
     pinger.finish()?;
