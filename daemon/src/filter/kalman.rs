@@ -263,8 +263,8 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
     /// structure of its `F` and `G` instead of dense products. `propagate(x, P)`
     /// must turn `(x, P)` in place into exactly `(x⁻, P⁻) = (f(x), F P Fᵀ + Q)` with
     /// `P⁻` symmetric (it is taken as it is, not symmetrised: a structured
-    /// propagation computes one triangle and mirrors it). It works on a copy, so a
-    /// non-finite result is refused and leaves the filter as it was.
+    /// propagation computes one triangle and mirrors it). A non-finite result is
+    /// refused and leaves the filter as it was.
     pub fn predict_structured(
         &mut self,
         propagate: impl FnOnce(&mut SVector<T, N>, &mut SMatrix<T, N, N>),
@@ -281,7 +281,7 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         let mut P = F * self.P * F.transpose() + Q;
         symmetrize(&mut P);
         // Math note: P⁻ is symmetric by construction; PD follows from P ≻ 0, Q ⪰ 0.
-        self.accept(Self { x, P }, "predicted state")
+        self.change_or_keep("predicted state", |x_, P_| (*x_, *P_) = (x, P))
     }
 
     /// Changes the estimate in place with `change`, and puts the previous one back
@@ -299,16 +299,6 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
             *self = before;
             return Err(FilterError::NonFinite(what));
         }
-        Ok(())
-    }
-
-    /// Takes `next` as the new estimate if everything in it is finite; otherwise
-    /// refuses it and keeps the current one.
-    fn accept(&mut self, next: Self, what: &'static str) -> Result<(), FilterError> {
-        if !all_finite(&next.x) || !all_finite(&next.P) {
-            return Err(FilterError::NonFinite(what));
-        }
-        *self = next;
         Ok(())
     }
 
