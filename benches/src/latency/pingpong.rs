@@ -1,0 +1,189 @@
+//! The floor: raw iceoryx2 ping-pong between this process and a pong process,
+//! busy-polling or sleeping on an event, answering with an `ImuSample` or a whole
+//! `StateSnapshot`.
+
+use std::time::{Duration, Instant};
+
+use fusion_client::{ImuSample, StateSnapshot, now_ns};
+use fusion_shared::service;
+use hdrhistogram::Histogram;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+
+use super::{Mode, Pacer, histogram};
+
+/// A payload of the raw ping-pong: it carries the sequence number it answers.
+pub trait Payload: ZeroCopySend + Copy + std::fmt::Debug + Default + 'static {
+    /// The sequence number.
+    fn seq(&self) -> u64;
+    /// A payload with `seq`, stamped `t_ns`.
+    fn with_seq(seq: u64, t_ns: u64) -> Self;
+}
+
+impl Payload for ImuSample {
+    fn seq(&self) -> u64 {
+        self.seq
+    }
+    fn with_seq(seq: u64, t_ns: u64) -> Self {
+        ImuSample { seq, t_ns, ..Default::default() }
+    }
+}
+
+/// The answer the size of what fusiond answers with (3.9 KB), every byte written.
+impl Payload for StateSnapshot {
+    fn seq(&self) -> u64 {
+        self.seq
+    }
+    fn with_seq(seq: u64, t_ns: u64) -> Self {
+        StateSnapshot { seq, publish_ns: t_ns, ..Default::default() }
+    }
+}
+
+/// One end of the raw ping-pong: sends `S`, receives `R`.
+struct PingPongEnd<S: Payload, R: Payload> {
+    _node: Node<ipc::Service>,
+    publisher: Publisher<ipc::Service, S, ()>,
+    subscriber: Subscriber<ipc::Service, R, ()>,
+    notifier: Notifier<ipc::Service>,
+    listener: Listener<ipc::Service>,
+}
+
+impl<S: Payload, R: Payload> PingPongEnd<S, R> {
+    /// `send_to`/`receive_from`: the two directions, `<base>/ping` and `<base>/pong`.
+    fn open(base: &str, send_to: &str, receive_from: &str) -> anyhow::Result<Self> {
+        let node = service::create_node("bench", &service::iceoryx_config(None).map_err(anyhow::Error::msg)?)
+            .map_err(anyhow::Error::msg)?;
+        let name = |dir: &str| -> anyhow::Result<ServiceName> { Ok(format!("{base}/{dir}").as_str().try_into()?) };
+        let event = |dir: &str| -> anyhow::Result<_> {
+            Ok(node.service_builder(&name(&format!("{dir}-event"))?).event().open_or_create()?)
+        };
+        let publisher = node
+            .service_builder(&name(send_to)?)
+            .publish_subscribe::<S>()
+            .open_or_create()?
+            .publisher_builder()
+            .create()?;
+        let subscriber = node
+            .service_builder(&name(receive_from)?)
+            .publish_subscribe::<R>()
+            .open_or_create()?
+            .subscriber_builder()
+            .create()?;
+        let notifier = event(send_to)?.notifier_builder().create()?;
+        let listener = event(receive_from)?.listener_builder().create()?;
+        Ok(Self { _node: node, publisher, subscriber, notifier, listener })
+    }
+
+    fn send(&self, sample: S, mode: Mode) -> anyhow::Result<()> {
+        self.publisher.send_copy(sample)?;
+        if mode == Mode::Event {
+            self.notifier.notify()?;
+        }
+        Ok(())
+    }
+
+    /// Waits for the next sample (up to 1 s).
+    fn receive(&self, mode: Mode) -> anyhow::Result<Option<R>> {
+        let deadline = Instant::now() + Duration::from_secs(1);
+        loop {
+            if let Some(s) = self.subscriber.receive()? {
+                return Ok(Some(*s));
+            }
+            if Instant::now() > deadline {
+                return Ok(None);
+            }
+            match mode {
+                Mode::Spin => std::hint::spin_loop(),
+                Mode::Event => match self.listener.timed_wait(|_| {}, Duration::from_millis(100)) {
+                    // A signal (SIGCONT after the bench paused this process) ends the wait early.
+                    Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
+                    Err(e) => return Err(e.into()),
+                },
+            }
+        }
+    }
+}
+
+/// The pong side: answers every ping with an `R` of the same sequence number until
+/// one with `seq == u64::MAX`; gives up after 30 s without a ping.
+pub fn pong<R: Payload>(base: &str, mode: Mode) -> anyhow::Result<()> {
+    let end = PingPongEnd::<R, ImuSample>::open(base, "pong", "ping")?;
+    let mut last_ping = Instant::now();
+    loop {
+        match end.receive(mode)? {
+            Some(s) if s.seq == u64::MAX => return Ok(()),
+            Some(s) => {
+                last_ping = Instant::now();
+                end.send(R::with_seq(s.seq, s.t_ns), mode)?;
+            }
+            None if last_ping.elapsed() > Duration::from_secs(30) => anyhow::bail!("pong: no ping for 30 s"),
+            None => {}
+        }
+    }
+}
+
+/// The ping side of the raw iceoryx2 ping-pong with an `ImuSample` payload, against
+/// a pong process (already started on `base`); it can ping in several blocks.
+pub struct Pinger<R: Payload = ImuSample> {
+    end: PingPongEnd<ImuSample, R>,
+    mode: Mode,
+    seq: u64,
+}
+
+impl<R: Payload> Pinger<R> {
+    /// Connects to the pong side: retries a first ping until it answers.
+    pub fn connect(base: &str, mode: Mode) -> anyhow::Result<Self> {
+        let end = PingPongEnd::open(base, "ping", "pong")?;
+        let started = Instant::now();
+        loop {
+            end.send(ImuSample { seq: u64::MAX - 1, ..Default::default() }, mode)?;
+            if end.receive(mode)?.is_some() {
+                break;
+            }
+            anyhow::ensure!(started.elapsed() < Duration::from_secs(20), "pong did not answer");
+        }
+        Ok(Self { end, mode, seq: 0 })
+    }
+
+    /// One ping per tick at `rate_hz`, `count` of them: the round-trip times of
+    /// all but the first `warmup` go to `rtt`, ns.
+    pub fn run(&mut self, count: u64, warmup: u64, rate_hz: f64, rtt: &mut Histogram<u64>) -> anyhow::Result<()> {
+        let mut pacer = Pacer::new(rate_hz);
+        for k in 0..count {
+            pacer.wait();
+            let seq = self.seq;
+            self.seq += 1;
+            let t0 = now_ns();
+            self.end.send(ImuSample { seq, t_ns: t0, ..Default::default() }, self.mode)?;
+            loop {
+                match self.end.receive(self.mode)? {
+                    Some(s) if s.seq() == seq => break,
+                    Some(_) => {}
+                    None => anyhow::bail!("ping {seq}: no answer"),
+                }
+            }
+            if k >= warmup {
+                rtt.record(now_ns() - t0)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Tells the pong side to exit.
+    pub fn finish(self) -> anyhow::Result<()> {
+        self.end.send(ImuSample { seq: u64::MAX, ..Default::default() }, self.mode)
+    }
+}
+
+/// Raw iceoryx2 ping-pong between this process and a pong process (already
+/// started on `base`), one ping per tick at `rate_hz`: round-trip times, ns.
+pub fn ping(base: &str, mode: Mode, count: u64, rate_hz: f64) -> anyhow::Result<Histogram<u64>> {
+    let mut pinger = Pinger::<ImuSample>::connect(base, mode)?;
+    let mut rtt = histogram();
+    pinger.run(count, 0, rate_hz, &mut rtt)?;
+    pinger.finish()?;
+    Ok(rtt)
+}
