@@ -19,6 +19,8 @@ use super::{Mode, Pacer, histogram};
 pub trait Payload: ZeroCopySend + Copy + std::fmt::Debug + Default + 'static {
     /// The sequence number.
     fn seq(&self) -> u64;
+    /// Its time stamp, ns.
+    fn stamp(&self) -> u64;
     /// A payload with `seq`, stamped `t_ns`.
     fn with_seq(seq: u64, t_ns: u64) -> Self;
 }
@@ -26,6 +28,9 @@ pub trait Payload: ZeroCopySend + Copy + std::fmt::Debug + Default + 'static {
 impl Payload for ImuSample {
     fn seq(&self) -> u64 {
         self.seq
+    }
+    fn stamp(&self) -> u64 {
+        self.t_ns
     }
     fn with_seq(seq: u64, t_ns: u64) -> Self {
         ImuSample { seq, t_ns, ..Default::default() }
@@ -36,6 +41,9 @@ impl Payload for ImuSample {
 impl Payload for StateSnapshot {
     fn seq(&self) -> u64 {
         self.seq
+    }
+    fn stamp(&self) -> u64 {
+        self.publish_ns
     }
     fn with_seq(seq: u64, t_ns: u64) -> Self {
         StateSnapshot { seq, publish_ns: t_ns, ..Default::default() }
@@ -85,12 +93,14 @@ impl<S: Payload, R: Payload> PingPongEnd<S, R> {
         Ok(())
     }
 
-    /// Waits for the next sample (up to 1 s).
-    fn receive(&self, mode: Mode) -> anyhow::Result<Option<R>> {
+    /// Waits for the next sample (up to 1 s): its sequence number and time stamp,
+    /// read in shared memory as fusiond's readers read a snapshot (not copied out:
+    /// copying a 3.9 KB answer would charge the floor for work a reader never does).
+    fn receive(&self, mode: Mode) -> anyhow::Result<Option<(u64, u64)>> {
         let deadline = Instant::now() + Duration::from_secs(1);
         loop {
             if let Some(s) = self.subscriber.receive()? {
-                return Ok(Some(*s));
+                return Ok(Some((s.seq(), s.stamp())));
             }
             if Instant::now() > deadline {
                 return Ok(None);
@@ -114,10 +124,10 @@ pub fn pong<R: Payload>(base: &str, mode: Mode) -> anyhow::Result<()> {
     let mut last_ping = Instant::now();
     loop {
         match end.receive(mode)? {
-            Some(s) if s.seq == u64::MAX => return Ok(()),
-            Some(s) => {
+            Some((seq, _)) if seq == u64::MAX => return Ok(()),
+            Some((seq, t_ns)) => {
                 last_ping = Instant::now();
-                end.send(R::with_seq(s.seq, s.t_ns), mode)?;
+                end.send(R::with_seq(seq, t_ns), mode)?;
             }
             None if last_ping.elapsed() > Duration::from_secs(30) => anyhow::bail!("pong: no ping for 30 s"),
             None => {}
@@ -160,7 +170,7 @@ impl<R: Payload> Pinger<R> {
             self.end.send(ImuSample { seq, t_ns: t0, ..Default::default() }, self.mode)?;
             loop {
                 match self.end.receive(self.mode)? {
-                    Some(s) if s.seq() == seq => break,
+                    Some((answered, _)) if answered == seq => break,
                     Some(_) => {}
                     None => anyhow::bail!("ping {seq}: no answer"),
                 }
