@@ -23,6 +23,7 @@ pub use publisher::{ImuPublisher, PositionPublisher};
 pub use subscriber::StateSubscriber;
 
 use fusion_shared::service::{self, ServiceNames};
+use fusion_shared::transport::Ipc;
 use iceoryx2::prelude::*;
 
 /// This process's connection to fusiond's services in one namespace.
@@ -32,7 +33,7 @@ use iceoryx2::prelude::*;
 pub struct Client {
     names: ServiceNames,
     /// Always `Some` until dropped.
-    node: Option<Node<ipc::Service>>,
+    node: Option<Node<Ipc>>,
     config: iceoryx2::config::Config,
 }
 
@@ -67,7 +68,7 @@ impl Client {
         &self.names
     }
 
-    pub(crate) fn node(&self) -> &Node<ipc::Service> {
+    pub(crate) fn node(&self) -> &Node<Ipc> {
         // Only `drop` takes the node out.
         self.node.as_ref().expect("the node lives as long as the client")
     }

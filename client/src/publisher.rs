@@ -1,5 +1,6 @@
 //! Sample publishers: a sensor process's side of fusiond.
 
+use fusion_shared::transport::Ipc;
 use fusion_shared::{ImuSample, PositionSample, now_ns};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
@@ -10,8 +11,8 @@ use crate::ClientError;
 /// Publishes one kind of sample zero-copy and wakes the daemon.
 struct SamplePublisher<T: std::fmt::Debug + ZeroCopySend + 'static> {
     service: String,
-    publisher: Publisher<ipc::Service, T, ()>,
-    wake: Option<Notifier<ipc::Service>>,
+    publisher: Publisher<Ipc, T, ()>,
+    wake: Option<Notifier<Ipc>>,
 }
 
 impl<T: std::fmt::Debug + ZeroCopySend + Copy + 'static> SamplePublisher<T> {

@@ -3,9 +3,9 @@
 use std::time::{Duration, Instant};
 
 use fusion_shared::StateSnapshot;
+use fusion_shared::transport::Ipc;
 use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::subscriber::Subscriber;
-use iceoryx2::prelude::*;
 use iceoryx2::sample::Sample;
 use iceoryx2::service::port_factory::event::PortFactory;
 
@@ -35,13 +35,13 @@ const WAIT_SLICE: Duration = Duration::from_millis(5);
 /// ```
 pub struct StateSubscriber {
     service: String,
-    subscriber: Subscriber<ipc::Service, StateSnapshot, ()>,
-    event: PortFactory<ipc::Service>,
+    subscriber: Subscriber<Ipc, StateSnapshot, ()>,
+    event: PortFactory<Ipc>,
     /// Created by the first [`wait_next`](Self::wait_next): a reader that only
     /// polls has none, so fusiond's notify after every snapshot does not write to
     /// it (about 1 µs of the daemon's time per listener).
-    listener: Option<Listener<ipc::Service>>,
-    held: Option<Sample<ipc::Service, StateSnapshot, ()>>,
+    listener: Option<Listener<Ipc>>,
+    held: Option<Sample<Ipc, StateSnapshot, ()>>,
 }
 
 impl StateSubscriber {
@@ -65,7 +65,7 @@ impl StateSubscriber {
     }
 
     /// The listener on `<ns>/state`, created on first use.
-    fn listener(&mut self) -> Result<&Listener<ipc::Service>, ClientError> {
+    fn listener(&mut self) -> Result<&Listener<Ipc>, ClientError> {
         let listener = match self.listener.take() {
             Some(l) => l,
             None => self

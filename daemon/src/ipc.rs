@@ -16,6 +16,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use fusion_shared::service::{self, InvalidNamespace, ServiceNames};
+use fusion_shared::transport::Ipc;
 use fusion_shared::{Sample, SampleKind, StateSnapshot, now_ns};
 use hdrhistogram::Histogram;
 use iceoryx2::port::listener::ListenerWaitError;
@@ -110,15 +111,15 @@ fn ipc<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> RunError + '_ {
 
 /// The ports of one daemon, created in the order a reader of the log expects.
 struct Ports {
-    imu: iceoryx2::port::subscriber::Subscriber<ipc::Service, fusion_shared::ImuSample, ()>,
-    position: iceoryx2::port::subscriber::Subscriber<ipc::Service, fusion_shared::PositionSample, ()>,
-    wake: iceoryx2::port::listener::Listener<ipc::Service>,
-    state: iceoryx2::port::publisher::Publisher<ipc::Service, StateSnapshot, ()>,
-    state_event: iceoryx2::port::notifier::Notifier<ipc::Service>,
+    imu: iceoryx2::port::subscriber::Subscriber<Ipc, fusion_shared::ImuSample, ()>,
+    position: iceoryx2::port::subscriber::Subscriber<Ipc, fusion_shared::PositionSample, ()>,
+    wake: iceoryx2::port::listener::Listener<Ipc>,
+    state: iceoryx2::port::publisher::Publisher<Ipc, StateSnapshot, ()>,
+    state_event: iceoryx2::port::notifier::Notifier<Ipc>,
 }
 
 impl Ports {
-    fn open(node: &Node<ipc::Service>, names: &ServiceNames) -> Result<Self, RunError> {
+    fn open(node: &Node<Ipc>, names: &ServiceNames) -> Result<Self, RunError> {
         let state = service::state_service(node, names, true)?;
         let state = match state.publisher_builder().create() {
             Ok(p) => p,
@@ -146,14 +147,13 @@ impl Ports {
 }
 
 /// A snapshot chunk loaned from the state publisher, not yet written or sent.
-type LoanedSnapshot = iceoryx2::sample_mut_uninit::SampleMutUninit<ipc::Service, MaybeUninit<StateSnapshot>, ()>;
+type LoanedSnapshot = iceoryx2::sample_mut_uninit::SampleMutUninit<Ipc, MaybeUninit<StateSnapshot>, ()>;
 
 /// The fusion loop's state besides the ports.
 struct Fusion<M: Model> {
     engine: Engine<M>,
     /// The chunk of the next snapshot, loaned right after the last send so that
-    /// loaning (and iceoryx2's allocation of its loan state) is off the path from
-    /// sample to snapshot.
+    /// loaning is off the path from sample to snapshot.
     loaned: Option<LoanedSnapshot>,
     health: HealthMonitor,
     health_now: (u32, u32),
@@ -236,7 +236,7 @@ impl<M: Model> Fusion<M> {
 
 /// Takes one sample off a subscriber (copied out, the shared-memory slot released).
 fn receive<T: std::fmt::Debug + ZeroCopySend + Copy>(
-    subscriber: &iceoryx2::port::subscriber::Subscriber<ipc::Service, T, ()>,
+    subscriber: &iceoryx2::port::subscriber::Subscriber<Ipc, T, ()>,
     errors: &mut u64,
     what: &str,
 ) -> Option<T> {

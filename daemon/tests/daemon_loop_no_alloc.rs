@@ -7,14 +7,11 @@
 //! (the summary thread and the publishing test thread are not counted). Samples
 //! go in lockstep from a client, so every sample is known to be processed.
 //!
-//! One allocation per published snapshot is iceoryx2's, not ours, and cannot be
-//! avoided through its API: `Publisher::loan_uninit` (also behind `send_copy`)
-//! creates an `Rc` for the loaned chunk's shared state (iceoryx2 0.10,
-//! `port/details/chunk_mut_shared_state.rs`, `ChunkMutSharedState::new`); fusiond
-//! loans the next chunk after notifying the readers, off the latency path. The
-//! tests therefore check that every allocation in the loop has that one size and
-//! that there is at most one per snapshot: anything else the loop allocated would
-//! show up as another size or as more allocations.
+//! Publishing used to cost one allocation per snapshot: iceoryx2 0.10's
+//! `ipc::Service` creates an `Rc` for every loaned chunk's shared state
+//! (`port/details/chunk_mut_shared_state.rs`). fusiond's ports use
+//! `fusion_shared::transport::Ipc`, which recycles that state's storage, so the
+//! loop must not allocate at all; the sizes are reported when it does.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -206,22 +203,14 @@ fn allocations_in_steady_state(namespace: &str, config: &str, wait: WaitMode, im
     Window { sizes, snapshots: last_seq - first_seq }
 }
 
-/// The loop allocates nothing but iceoryx2's one `Rc` per loaned snapshot.
+/// The loop allocated nothing while the window's snapshots went out.
 fn check(w: &Window, what: &str) {
     assert!(w.snapshots >= 2750, "{what}: {} snapshots in the window", w.snapshots);
-    // One size only: the loan's. A second size is an allocation of ours.
-    assert!(w.sizes.len() <= 1, "{what}: allocations of several sizes {:?} over {} snapshots", w.sizes, w.snapshots);
-    let n = w.sizes.first().map_or(0, |s| s.1);
-    // At most one per snapshot (+1: a housekeeping snapshot may be loaned just
-    // before the window closes).
-    assert!(n <= w.snapshots + 1, "{what}: {n} allocations for {} snapshots", w.snapshots);
-    if let Some(&(size, _)) = w.sizes.first() {
-        assert!(size <= 64, "{what}: a {size}-byte allocation is not iceoryx2's loan state");
-    }
+    assert!(w.sizes.is_empty(), "{what}: allocations (size, count) {:?} over {} snapshots", w.sizes, w.snapshots);
 }
 
 #[test]
-fn the_daemon_loop_allocates_nothing_but_iceoryx2s_loan_state() {
+fn the_daemon_loop_allocates_nothing_per_sample() {
     // One scenario after the other: the counters are per process.
     let spin = allocations_in_steady_state("alloc-spin", LINEAR, WaitMode::Spin, [0.0; 3]);
     check(&spin, "linear, spin");

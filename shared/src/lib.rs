@@ -4,6 +4,8 @@
 //! - [`snapshot`]: [`StateSnapshot`], what fusiond publishes.
 //! - [`service`]: service names under a namespace, QoS, and how every side opens them.
 //! - `jsonl` (feature `json`): the JSON-lines sample format of replay files.
+//! - [`transport`]: [`transport::Ipc`], the iceoryx2 service type of every port
+//!   (iceoryx2's `ipc` with pooled per-loan state: no allocation per sample).
 //! - [`time`]: [`now_ns`], the one clock of the system (CLOCK_MONOTONIC, ns).
 //!
 //! Every type here is `#[repr(C)]` with fixed-width fields only, units in the field
@@ -15,6 +17,7 @@ pub mod sample;
 pub mod service;
 pub mod snapshot;
 pub mod time;
+pub mod transport;
 
 pub use sample::{ImuSample, PositionSample, Sample, SampleKind};
 pub use snapshot::{SensorCounters, StateSnapshot};

@@ -16,6 +16,7 @@ use iceoryx2::prelude::*;
 use iceoryx2::service::builder::publish_subscribe::{PublishSubscribeOpenError, PublishSubscribeOpenOrCreateError};
 use iceoryx2::service::port_factory::{event, publish_subscribe};
 
+use crate::transport::Ipc;
 use crate::{ImuSample, PositionSample, StateSnapshot};
 
 /// The namespace when none is given.
@@ -118,13 +119,13 @@ pub fn domain_prefix(domain: &str) -> Option<String> {
 
 /// Creates a node named `name` for this process in `config`'s domain, with
 /// iceoryx2's own signal handling off (the binaries handle SIGINT/SIGTERM).
-pub fn create_node(name: &str, config: &Config) -> Result<Node<ipc::Service>, String> {
+pub fn create_node(name: &str, config: &Config) -> Result<Node<Ipc>, String> {
     let node_name: NodeName = name.try_into().map_err(|e| format!("node name {name:?}: {e:?}"))?;
     NodeBuilder::new()
         .name(&node_name)
         .config(config)
         .signal_handling_mode(SignalHandlingMode::Disabled)
-        .create::<ipc::Service>()
+        .create::<Ipc>()
         .map_err(|e| format!("cannot create iceoryx2 node: {e:?}"))
 }
 
@@ -199,9 +200,9 @@ fn service_name(name: &str) -> Result<ServiceName, ServiceError> {
 
 /// Opens (or creates) a sample service.
 fn samples<T: std::fmt::Debug + ZeroCopySend>(
-    node: &Node<ipc::Service>,
+    node: &Node<Ipc>,
     name: &str,
-) -> Result<publish_subscribe::PortFactory<ipc::Service, T, ()>, ServiceError> {
+) -> Result<publish_subscribe::PortFactory<Ipc, T, ()>, ServiceError> {
     node.service_builder(&service_name(name)?)
         .publish_subscribe::<T>()
         .enable_safe_overflow(true)
@@ -216,27 +217,27 @@ fn samples<T: std::fmt::Debug + ZeroCopySend>(
 
 /// Opens (or creates) `<ns>/imu`.
 pub fn imu_service(
-    node: &Node<ipc::Service>,
+    node: &Node<Ipc>,
     names: &ServiceNames,
-) -> Result<publish_subscribe::PortFactory<ipc::Service, ImuSample, ()>, ServiceError> {
+) -> Result<publish_subscribe::PortFactory<Ipc, ImuSample, ()>, ServiceError> {
     samples(node, &names.imu)
 }
 
 /// Opens (or creates) `<ns>/position`.
 pub fn position_service(
-    node: &Node<ipc::Service>,
+    node: &Node<Ipc>,
     names: &ServiceNames,
-) -> Result<publish_subscribe::PortFactory<ipc::Service, PositionSample, ()>, ServiceError> {
+) -> Result<publish_subscribe::PortFactory<Ipc, PositionSample, ()>, ServiceError> {
     samples(node, &names.position)
 }
 
 /// Opens `<ns>/state` (publish-subscribe, history 1); creates it too when
 /// `create` (the daemon), else it must exist (a reader).
 pub fn state_service(
-    node: &Node<ipc::Service>,
+    node: &Node<Ipc>,
     names: &ServiceNames,
     create: bool,
-) -> Result<publish_subscribe::PortFactory<ipc::Service, StateSnapshot, ()>, ServiceError> {
+) -> Result<publish_subscribe::PortFactory<Ipc, StateSnapshot, ()>, ServiceError> {
     let builder = node
         .service_builder(&service_name(&names.state)?)
         .publish_subscribe::<StateSnapshot>()
@@ -254,7 +255,7 @@ pub fn state_service(
 }
 
 /// Opens (or creates) an event service (`<ns>/wake` or `<ns>/state`).
-pub fn event_service(node: &Node<ipc::Service>, name: &str) -> Result<event::PortFactory<ipc::Service>, ServiceError> {
+pub fn event_service(node: &Node<Ipc>, name: &str) -> Result<event::PortFactory<Ipc>, ServiceError> {
     node.service_builder(&service_name(name)?)
         .event()
         .max_notifiers(MAX_EVENT_PORTS)
@@ -271,7 +272,7 @@ pub fn event_service(node: &Node<ipc::Service>, name: &str) -> Result<event::Por
 /// cannot collide.
 pub fn remove_domain_counter_if_last(config: &Config) {
     let mut others = 0;
-    let listed = Node::<ipc::Service>::list(config, |state| {
+    let listed = Node::<Ipc>::list(config, |state| {
         if !matches!(state, NodeState::Dead(_)) {
             others += 1;
         }
@@ -281,7 +282,7 @@ pub fn remove_domain_counter_if_last(config: &Config) {
         // SAFETY: no other node of the domain exists (checked just above); see the
         // function docs for a node appearing concurrently.
         // `iceoryx2::testing` is public but doc-hidden; pinned by the 0.10 lock.
-        let _ = unsafe { iceoryx2::testing::remove_global_mgmt_segment::<ipc::Service>(config) };
+        let _ = unsafe { iceoryx2::testing::remove_global_mgmt_segment::<Ipc>(config) };
     }
 }
 

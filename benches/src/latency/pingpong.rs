@@ -62,8 +62,13 @@ struct PingPongEnd<S: Payload, R: Payload> {
 impl<S: Payload, R: Payload> PingPongEnd<S, R> {
     /// `send_to`/`receive_from`: the two directions, `<base>/ping` and `<base>/pong`.
     fn open(base: &str, send_to: &str, receive_from: &str) -> anyhow::Result<Self> {
-        let node = service::create_node("bench", &service::iceoryx_config(None).map_err(anyhow::Error::msg)?)
-            .map_err(anyhow::Error::msg)?;
+        // Plain `ipc::Service`, as an application using iceoryx2 directly would (fusiond's
+        // ports use `fusion_shared::transport::Ipc`, the same with pooled loan state).
+        let node = NodeBuilder::new()
+            .name(&"bench".try_into()?)
+            .config(&service::iceoryx_config(None).map_err(anyhow::Error::msg)?)
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<ipc::Service>()?;
         let name = |dir: &str| -> anyhow::Result<ServiceName> { Ok(format!("{base}/{dir}").as_str().try_into()?) };
         let event = |dir: &str| -> anyhow::Result<_> {
             Ok(node.service_builder(&name(&format!("{dir}-event"))?).event().open_or_create()?)
