@@ -33,8 +33,8 @@ struct Row {
     mode: Mode,
     one_way: bool,
     h: Histogram<u64>,
-    /// Daemon time (snapshot published − sample received), where measured.
-    daemon: Option<Histogram<u64>>,
+    /// The legs of an end-to-end row (trip in, daemon, trip out), where measured.
+    legs: Option<EndToEnd>,
     /// Raw ping-pong round trips measured in blocks taking turns with this row's.
     raw_rtt: Option<Histogram<u64>>,
     /// Per pair of blocks: end-to-end p50 / raw round-trip p50.
@@ -160,7 +160,7 @@ fn main() -> anyhow::Result<()> {
         let pong = spawn_pong(&base, mode, false)?;
         if mode == Mode::Event {
             let h = ping(&base, mode, count, imu_hz)?;
-            rows.push(Row { name, mode, one_way: true, h, daemon: None, raw_rtt: None, block_ratios: Vec::new() });
+            rows.push(Row { name, mode, one_way: true, h, legs: None, raw_rtt: None, block_ratios: Vec::new() });
             continue;
         }
         let big_base = format!("{base}-snapshot");
@@ -189,7 +189,7 @@ fn main() -> anyhow::Result<()> {
             mode,
             one_way: true,
             h: small_rtt.clone(),
-            daemon: None,
+            legs: None,
             raw_rtt: None,
             block_ratios: Vec::new(),
         });
@@ -198,7 +198,7 @@ fn main() -> anyhow::Result<()> {
             mode,
             one_way: true,
             h: big_rtt,
-            daemon: None,
+            legs: None,
             raw_rtt: Some(small_rtt),
             block_ratios,
         });
@@ -227,8 +227,7 @@ fn main() -> anyhow::Result<()> {
                 block_ratios
                     .push(block.latency.value_at_quantile(0.5) as f64 / raw_block.value_at_quantile(0.5) as f64);
                 raw_rtt.add(&raw_block)?;
-                e2e.latency.add(&block.latency)?;
-                e2e.daemon.add(&block.daemon)?;
+                e2e.add(&block)?;
             }
             pong.resume()?;
             pinger.finish()?;
@@ -236,8 +235,8 @@ fn main() -> anyhow::Result<()> {
                 name: format!("fusiond {model}, --wait {}", mode.name()),
                 mode,
                 one_way: false,
-                h: e2e.latency,
-                daemon: Some(e2e.daemon),
+                h: e2e.latency.clone(),
+                legs: Some(e2e),
                 raw_rtt: Some(raw_rtt),
                 block_ratios,
             });
@@ -250,7 +249,7 @@ fn main() -> anyhow::Result<()> {
                 mode,
                 one_way: false,
                 h,
-                daemon: None,
+                legs: None,
                 raw_rtt: None,
                 block_ratios: Vec::new(),
             });
@@ -333,7 +332,8 @@ fn print_report(
             None => None,
         };
         let interleaved_one_way = r.raw_rtt.as_ref().map(|h| h.value_at_quantile(0.5) / 2);
-        let daemon_p50 = r.daemon.as_ref().map(|d| d.value_at_quantile(0.5));
+        let leg = |f: fn(&EndToEnd) -> &Histogram<u64>, p: f64| r.legs.as_ref().map(|e| f(e).value_at_quantile(p));
+        let daemon_p50 = leg(|e| &e.daemon, 0.5);
         let mut blocks = r.block_ratios.clone();
         blocks.sort_by(f64::total_cmp);
         println!(
@@ -353,11 +353,28 @@ fn print_report(
             "name": r.name, "mode": r.mode.name(), "one_way_of_round_trip": r.one_way,
             "p50": q(0.5), "p90": q(0.9), "p99": q(0.99), "p999": q(0.999), "max": r.h.max() / div,
             "count": r.h.len(), "ratio_p50_to_raw_round_trip": ratio,
-            "daemon_p50": daemon_p50, "daemon_p99": r.daemon.as_ref().map(|d| d.value_at_quantile(0.99)),
+            "daemon_p50": daemon_p50, "daemon_p99": leg(|e| &e.daemon, 0.99),
+            "to_daemon_p50": leg(|e| &e.to_daemon, 0.5), "from_daemon_p50": leg(|e| &e.from_daemon, 0.5),
             "raw_one_way_p50_interleaved": interleaved_one_way,
             "block_ratios_min_median_max": (!blocks.is_empty())
                 .then(|| [blocks[0], blocks[blocks.len() / 2], blocks[blocks.len() - 1]]),
         }));
+    }
+
+    println!("\nwhere the end-to-end time goes (p50 of each leg; raw one way from the blocks in turn)");
+    println!("{:<42} {:>12} {:>12} {:>12} {:>14}", "", "trip in", "daemon", "trip out", "raw one way");
+    for r in rows {
+        if let (Some(e), Some(raw)) = (&r.legs, &r.raw_rtt) {
+            let p50 = |h: &Histogram<u64>| us(h.value_at_quantile(0.5));
+            println!(
+                "{:<42} {:>12} {:>12} {:>12} {:>14}",
+                r.name,
+                p50(&e.to_daemon),
+                p50(&e.daemon),
+                p50(&e.from_daemon),
+                us(raw.value_at_quantile(0.5) / 2)
+            );
+        }
     }
 
     println!(

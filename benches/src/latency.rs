@@ -129,20 +129,35 @@ fn next_snapshot(
     })
 }
 
-/// End-to-end latencies.
-#[derive(Debug)]
+/// End-to-end latencies and their three legs (the processes share
+/// CLOCK_MONOTONIC, so the legs are differences of stamps taken in different
+/// processes).
+#[derive(Debug, Clone)]
 pub struct EndToEnd {
     /// Snapshot received − sample sent, ns.
     pub latency: Histogram<u64>,
-    /// The daemon's part of it: snapshot published − sample received (the
-    /// daemon's clock), ns. The rest is the two trips through iceoryx2.
+    /// Sample taken off fusiond's subscriber − sample sent: the trip in, ns.
+    pub to_daemon: Histogram<u64>,
+    /// The daemon's part: snapshot published − sample received (the daemon's
+    /// clock), ns.
     pub daemon: Histogram<u64>,
+    /// Snapshot received − snapshot published: the trip out (the send included), ns.
+    pub from_daemon: Histogram<u64>,
 }
 
 impl EndToEnd {
     /// Empty histograms.
     pub fn new() -> Self {
-        Self { latency: histogram(), daemon: histogram() }
+        Self { latency: histogram(), to_daemon: histogram(), daemon: histogram(), from_daemon: histogram() }
+    }
+
+    /// Adds `other`'s recordings to these.
+    pub fn add(&mut self, other: &Self) -> anyhow::Result<()> {
+        self.latency.add(&other.latency)?;
+        self.to_daemon.add(&other.to_daemon)?;
+        self.daemon.add(&other.daemon)?;
+        self.from_daemon.add(&other.from_daemon)?;
+        Ok(())
     }
 }
 
@@ -198,7 +213,9 @@ impl Prober {
                     let received = now_ns();
                     if k >= warmup {
                         out.latency.record(received.saturating_sub(s.input_sent_ns))?;
+                        out.to_daemon.record(s.input_received_ns.saturating_sub(s.input_sent_ns))?;
                         out.daemon.record(s.publish_ns.saturating_sub(s.input_received_ns))?;
+                        out.from_daemon.record(received.saturating_sub(s.publish_ns))?;
                     }
                     break;
                 }

@@ -33,15 +33,19 @@ pub fn linear_config() -> Config {
 /// The `ins` model of the filter-step benchmarks: Kalibr MEMS noise, moving at
 /// 9 m/s, gating on.
 pub fn ins_model() -> InsModel {
-    let config = Config::parse(
+    let config = Config::parse(&ins_config_text()).expect("benchmark config is valid");
+    InsModel::from_config(&config).expect("benchmark config is an ins config")
+}
+
+/// The config text of [`ins_model`].
+pub fn ins_config_text() -> String {
+    String::from(
         "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
          accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n\
          initial_state = [0,0,0, 9,0,0, 1,0,0,0, 0,0,0, 0,0,0]\n\
          initial_covariance_diagonal = [1,1,1, 1,1,1, 0.01,0.01,0.01, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n\
          [gating]\nprobability = 0.999\n",
     )
-    .expect("benchmark config is valid");
-    InsModel::from_config(&config).expect("benchmark config is an ins config")
 }
 
 /// An IMU sample at `t_ns` for [`ins_model`]: specific force near gravity, a slow turn.

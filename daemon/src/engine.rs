@@ -110,9 +110,9 @@ pub struct Engine<M: Model> {
     model: M,
     config: EngineConfig,
     history: History<Entry<M::State>>,
-    /// State before `history[0]`.
-    base: M::State,
-    base_is_initial: bool,
+    /// The model's initial state: the state before `history[0]` until an entry
+    /// has left the history (then it is that entry's, [`History::base`]).
+    initial: M::State,
     newest_t: Option<u64>,
     sensors: Vec<SensorSlot>,
     stats: EngineStats,
@@ -121,14 +121,14 @@ pub struct Engine<M: Model> {
 impl<M: Model> Engine<M> {
     /// An engine running `model` within `config`'s limits.
     pub fn new(model: M, config: EngineConfig) -> Self {
-        let base = model.initial_state();
+        let initial = model.initial_state();
         // Every slot is written now (see `History`): without that, the first
         // `history_capacity` samples would each pay page faults (tens of µs at p99)
         // on the live path.
         let filler = Entry {
             key: key_of(&Sample::Imu(Default::default())),
             sample: Sample::Imu(Default::default()),
-            state: base,
+            state: initial,
             outcome: StepOutcome::Propagated,
             slot: 0,
         };
@@ -137,8 +137,7 @@ impl<M: Model> Engine<M> {
             model,
             config,
             history,
-            base,
-            base_is_initial: true,
+            initial,
             newest_t: None,
             sensors: Vec::with_capacity(2 * config.max_sensors),
             stats: EngineStats::default(),
@@ -241,7 +240,7 @@ impl<M: Model> Engine<M> {
             |i| self.history[i].key,
             self.newest_t,
             self.config.history_ns,
-            self.base_is_initial,
+            self.history.base().is_none(),
         );
         let mut index = match placement {
             Placement::Append => self.history.len(),
@@ -268,32 +267,40 @@ impl<M: Model> Engine<M> {
         sensor.last_t_ns = Some(sensor.last_t_ns.map_or(key.t_ns, |t| t.max(key.t_ns)));
         sensor.stats.processed += 1;
 
-        let mut state = if index == 0 { self.base } else { self.history[index - 1].state };
-        let outcome = self.model.step(&mut state, sample);
-        count_outcome(&mut self.sensors[slot].stats, &outcome, 1);
+        // The new entry is stepped in its own slot from the entry before it (or
+        // the initial state): one copy of the state, no moves.
         let replayed = self.history.len() - index;
+        let (model, initial) = (&self.model, &self.initial);
+        let mut outcome = StepOutcome::Propagated;
+        let inserted = self.history.insert_with(index, |before, entry| {
+            entry.state = match before {
+                Some(b) => b.state,
+                None => *initial,
+            };
+            outcome = model.step(&mut entry.state, sample);
+            (entry.key, entry.sample, entry.outcome, entry.slot) = (key, *sample, outcome, slot as u16);
+        });
+        // Room was made above; the history moves slot indices, not entries, and
+        // never allocates.
+        debug_assert!(inserted, "the history had room");
+        count_outcome(&mut self.sensors[slot].stats, &outcome, 1);
         self.sensors[slot].last_nis = outcome.nis().or(self.sensors[slot].last_nis);
         if replayed > 0 {
             self.sensors[slot].stats.late += 1;
             self.stats.rewinds += 1;
             self.stats.replayed += replayed as u64;
         }
-        // Room was made above; the history moves slot indices, not entries, and
-        // never allocates.
-        let inserted = self.history.insert(index, Entry { key, sample: *sample, state, outcome, slot: slot as u16 });
-        debug_assert!(inserted, "the history had room");
         for j in (index + 1)..self.history.len() {
-            let mut state = self.history[j - 1].state;
-            let entry = &self.history[j];
-            let outcome = self.model.step(&mut state, &entry.sample);
-            let (old, entry_slot) = (entry.outcome, entry.slot as usize);
+            let Some((before, entry)) = self.history.pair_mut(j) else { break };
+            entry.state = before.state;
+            let old = entry.outcome;
+            let outcome = self.model.step(&mut entry.state, &entry.sample);
+            entry.outcome = outcome;
             if old != outcome {
+                let entry_slot = entry.slot as usize;
                 count_outcome(&mut self.sensors[entry_slot].stats, &old, -1);
                 count_outcome(&mut self.sensors[entry_slot].stats, &outcome, 1);
             }
-            let entry = &mut self.history[j];
-            entry.state = state;
-            entry.outcome = outcome;
         }
 
         let newest = self.newest_t.map_or(key.t_ns, |t| t.max(key.t_ns));
@@ -311,7 +318,9 @@ impl<M: Model> Engine<M> {
     /// sample that arrives after an idle gap then does not wait on memory.
     pub fn warm(&self) {
         self.history.warm();
-        std::hint::black_box(self.base);
+        if self.history.base().is_none() {
+            std::hint::black_box(self.initial);
+        }
         std::hint::black_box(&self.sensors[..]).iter().for_each(|s| {
             std::hint::black_box(s.stats);
         });
@@ -325,10 +334,9 @@ impl<M: Model> Engine<M> {
     }
 
     fn evict_front(&mut self, on_final: &mut impl FnMut(&Entry<M::State>)) {
+        // The entry stays in its slot as the history's base.
         if let Some(e) = self.history.pop_front() {
             on_final(e);
-            self.base = e.state;
-            self.base_is_initial = false;
         }
     }
 

@@ -2,6 +2,11 @@
 //! that a late sample inserted before 100 others moves 100 four-byte indices
 //! rather than 100 entries of up to 2.4 KB (the INS state), and every slot is
 //! allocated and written once, at start.
+//!
+//! The history also keeps the entry that left it last (the *base*: the state
+//! before the oldest entry) in its slot, and steps a new entry in the slot it
+//! will occupy ([`History::insert_with`]), so that a state is copied once per
+//! processed sample (from the entry before it) and not moved in and out.
 
 use std::collections::VecDeque;
 use std::ops::{Index, IndexMut};
@@ -10,69 +15,104 @@ use std::ops::{Index, IndexMut};
 /// insertion anywhere.
 pub(super) struct History<E> {
     /// Every slot, written at construction: the kernel maps pages on first write,
-    /// so no page fault is left for the live path.
+    /// so no page fault is left for the live path. One more than the capacity,
+    /// for the base.
     slots: Vec<E>,
     /// Slot of each entry, in processing order.
     order: VecDeque<u32>,
     /// Free slots; the one freed last is reused first (the most recently touched).
     free: Vec<u32>,
+    /// Slot of the entry that left the front last, kept until the next one leaves.
+    base: Option<u32>,
+    /// Most entries in `order`.
+    capacity: usize,
 }
 
 impl<E: Copy> History<E> {
-    /// Room for `capacity` entries; every slot starts as `filler`.
+    /// Room for `capacity` entries (and the base); every slot starts as `filler`.
     pub fn new(capacity: usize, filler: E) -> Self {
-        let capacity = capacity.min(u32::MAX as usize);
+        let capacity = capacity.min(u32::MAX as usize - 1);
         Self {
-            slots: vec![filler; capacity],
+            slots: vec![filler; capacity + 1],
             order: VecDeque::with_capacity(capacity),
-            free: (0..capacity as u32).rev().collect(),
+            free: (0..=capacity as u32).rev().collect(),
+            base: None,
+            capacity,
         }
     }
 
+    /// Entries held.
     pub fn len(&self) -> usize {
         self.order.len()
     }
 
+    /// Whether no entry is held.
     pub fn is_empty(&self) -> bool {
         self.order.is_empty()
     }
 
+    /// The oldest entry.
     pub fn front(&self) -> Option<&E> {
         self.order.front().map(|&s| &self.slots[s as usize])
     }
 
+    /// The newest entry.
     pub fn back(&self) -> Option<&E> {
         self.order.back().map(|&s| &self.slots[s as usize])
     }
 
+    /// The entry that left the front last, if one has.
+    pub fn base(&self) -> Option<&E> {
+        self.base.map(|s| &self.slots[s as usize])
+    }
+
+    /// Entries in order.
     pub fn iter(&self) -> impl Iterator<Item = &E> {
         self.order.iter().map(|&s| &self.slots[s as usize])
     }
 
-    /// Inserts `entry` at position `index` (`len()` appends). The caller keeps the
-    /// length below the capacity (the engine evicts first); a full history drops
-    /// nothing and refuses the entry, returning `false`.
-    pub fn insert(&mut self, index: usize, entry: E) -> bool {
+    /// Inserts an entry at position `index` (`0..=len`), written in its slot by
+    /// `write(before, slot)`: `before` is the entry before it (the base when
+    /// `index` is 0, if there is one), `slot` holds a stale entry to overwrite.
+    /// Returns false, writing nothing, when the history is full.
+    pub fn insert_with(&mut self, index: usize, write: impl FnOnce(Option<&E>, &mut E)) -> bool {
+        if self.order.len() >= self.capacity {
+            return false;
+        }
         let Some(slot) = self.free.pop() else { return false };
-        self.slots[slot as usize] = entry;
+        let before = if index == 0 { self.base } else { self.order.get(index - 1).copied() };
+        match before.and_then(|b| self.slots.get_disjoint_mut([b as usize, slot as usize]).ok()) {
+            Some([before, new]) => write(Some(before), new),
+            None => write(None, &mut self.slots[slot as usize]),
+        }
         self.order.insert(index, slot);
         true
     }
 
-    /// Reads the entries an append touches next: the newest (the state it starts
-    /// from), the oldest (evicted when the window moves on) and the slot it will
-    /// write, so that they are in the cache when it comes.
+    /// Entries `index - 1` and `index` (`1..len`), the second one mutable: for
+    /// re-stepping an entry from the one before it.
+    pub fn pair_mut(&mut self, index: usize) -> Option<(&E, &mut E)> {
+        let (a, b) = (*self.order.get(index.checked_sub(1)?)?, *self.order.get(index)?);
+        let [before, entry] = self.slots.get_disjoint_mut([a as usize, b as usize]).ok()?;
+        Some((before, entry))
+    }
+
+    /// Reads the slots the next in-order insert touches: the newest entry (copied
+    /// from), the oldest and the base (the next eviction), and the next free slot
+    /// (written).
     pub fn warm(&self) {
-        for slot in [self.order.back(), self.order.front(), self.free.last()].into_iter().flatten() {
-            // A copy through `black_box` reads every cache line of the entry.
+        for slot in [self.order.back(), self.order.front(), self.base.as_ref(), self.free.last()].into_iter().flatten()
+        {
             std::hint::black_box(self.slots[*slot as usize]);
         }
     }
 
-    /// Removes the oldest entry; it stays readable until the next insert.
+    /// Removes the oldest entry, which becomes the base, and returns it.
     pub fn pop_front(&mut self) -> Option<&E> {
         let slot = self.order.pop_front()?;
-        self.free.push(slot);
+        if let Some(old) = self.base.replace(slot) {
+            self.free.push(old);
+        }
         Some(&self.slots[slot as usize])
     }
 }
@@ -97,16 +137,38 @@ mod tests {
     #[test]
     fn behaves_like_a_deque_with_insertion() {
         let mut h = History::new(4, 0u64);
-        assert!(h.insert(0, 10) && h.insert(1, 30) && h.insert(1, 20));
+        let put = |h: &mut History<u64>, i, v| h.insert_with(i, |_, e| *e = v);
+        assert!(put(&mut h, 0, 10) && put(&mut h, 1, 30) && put(&mut h, 1, 20));
         assert_eq!(h.iter().copied().collect::<Vec<_>>(), [10, 20, 30]);
-        assert!(h.insert(0, 5));
-        assert!(!h.insert(4, 40), "full: refused");
+        assert!(put(&mut h, 0, 5));
+        assert!(!put(&mut h, 4, 40), "full: refused");
         assert_eq!(h.pop_front().copied(), Some(5));
-        assert!(h.insert(3, 40));
+        assert_eq!(h.base().copied(), Some(5), "the entry that left is the base");
+        assert!(put(&mut h, 3, 40));
         h[1] += 1;
         assert_eq!(h.iter().copied().collect::<Vec<_>>(), [10, 21, 30, 40]);
         assert_eq!((h.front().copied(), h.back().copied(), h.len()), (Some(10), Some(40), 4));
+        assert_eq!(h.base().copied(), Some(5), "a full history keeps its base");
         while h.pop_front().is_some() {}
         assert!(h.is_empty());
+        assert_eq!(h.base().copied(), Some(40));
+    }
+
+    #[test]
+    fn a_new_entry_is_written_from_the_one_before_it() {
+        let mut h = History::new(3, 0u64);
+        // The first entry has nothing before it.
+        assert!(h.insert_with(0, |before, e| *e = before.map_or(1, |b| b + 1)));
+        assert!(h.insert_with(1, |before, e| *e = before.map_or(1, |b| b + 1)));
+        assert!(h.insert_with(1, |before, e| *e = 10 * before.copied().unwrap_or(0)));
+        assert_eq!(h.iter().copied().collect::<Vec<_>>(), [1, 10, 2]);
+        h.pop_front();
+        // At the front, the base (the entry that left) is the one before.
+        assert!(h.insert_with(0, |before, e| *e = 100 + before.copied().unwrap_or(0)));
+        assert_eq!(h.iter().copied().collect::<Vec<_>>(), [101, 10, 2]);
+        let (before, entry) = h.pair_mut(2).unwrap();
+        *entry += *before;
+        assert_eq!(h.iter().copied().collect::<Vec<_>>(), [101, 10, 12]);
+        assert!(h.pair_mut(0).is_none() && h.pair_mut(3).is_none());
     }
 }
