@@ -2,8 +2,9 @@
 //!
 //! One thread owns every iceoryx2 port (they are `!Send`). Each turn of the loop
 //! drains both sample subscribers, feeds every sample to the engine with the
-//! daemon's clock, publishes one [`StateSnapshot`] per processed sample and then
-//! notifies `<ns>/state` once, then loans the chunk of the next snapshot. Between
+//! daemon's clock, publishes one [`StateSnapshot`] per processed sample (written
+//! in place in a shared-memory chunk loaned beforehand) and then notifies
+//! `<ns>/state` once, then loans the chunk of the next snapshot. Between
 //! turns it either busy-polls (`spin`, keeping what the next sample will touch in
 //! the cache, every 100 µs while idle) or sleeps on the `<ns>/wake` listener
 //! (`event`). Every 10 ms it re-evaluates the health (a stream that stopped is
@@ -11,7 +12,6 @@
 //! reader gets the latest snapshot, and every summary interval hands counters to
 //! the summary thread.
 
-use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
@@ -146,18 +146,19 @@ impl Ports {
     }
 }
 
-/// A snapshot chunk loaned from the state publisher, not yet written or sent.
-type LoanedSnapshot = iceoryx2::sample_mut_uninit::SampleMutUninit<Ipc, MaybeUninit<StateSnapshot>, ()>;
+/// A snapshot chunk loaned from the state publisher (holding a default
+/// snapshot, or one written while warming), not yet filled or sent.
+type LoanedSnapshot = iceoryx2::sample_mut::SampleMut<Ipc, StateSnapshot, ()>;
 
 /// The fusion loop's state besides the ports.
 struct Fusion<M: Model> {
     engine: Engine<M>,
     /// The chunk of the next snapshot, loaned right after the last send so that
-    /// loaning is off the path from sample to snapshot.
+    /// loaning (and writing its default content) is off the path from sample to
+    /// snapshot, which fills it in place.
     loaned: Option<LoanedSnapshot>,
     health: HealthMonitor,
     health_now: (u32, u32),
-    snapshot: StateSnapshot,
     latency: Histogram<u64>,
     report: RunReport,
     publish_errors: u64,
@@ -179,8 +180,7 @@ impl<M: Model> Fusion<M> {
         let initialised = self.engine.latest().is_some_and(|e| M::initialised(&e.state));
         self.health_now = self.health.evaluate(self.engine.sensors(), received_ns, initialised);
         let input = Input { sample: &sample, received_ns, replayed };
-        snapshot::fill(&mut self.snapshot, &self.engine, Some(input), self.health_now);
-        let published = self.publish(ports);
+        let published = self.publish(ports, Some(input));
         if let Some(published_ns) = published
             && replayed == 0
             && sample.sent_ns() > 0
@@ -190,20 +190,28 @@ impl<M: Model> Fusion<M> {
         }
     }
 
-    /// Stamps and sends the current snapshot; returns the publish time.
-    fn publish(&mut self, ports: &Ports) -> Option<u64> {
-        self.snapshot.seq = self.report.snapshots;
-        let publish_ns = now_ns();
-        self.snapshot.publish_ns = publish_ns;
+    /// Fills the next snapshot in its chunk (the estimate, `input` and the
+    /// current health), stamps and sends it; returns the publish time.
+    ///
+    /// [`snapshot::fill`] writes every field that can change, so filling a chunk
+    /// that holds a default (or an older) snapshot gives what filling one
+    /// snapshot over and over would (`snapshot` tests).
+    fn publish(&mut self, ports: &Ports, input: Option<Input<'_>>) -> Option<u64> {
         // Error texts are built only on failure.
         let loaned = match self.loaned.take() {
             Some(s) => Ok(s),
-            None => ports.state.loan_uninit().map_err(|e| format!("loan: {e:?}")),
+            None => ports.state.loan().map_err(|e| format!("loan: {e:?}")),
         };
-        let sent =
-            loaned.and_then(|s| s.write_payload(self.snapshot).send().map(|_| ()).map_err(|e| format!("send: {e:?}")));
+        let sent = loaned.and_then(|mut chunk| {
+            let snap = chunk.payload_mut();
+            snapshot::fill(snap, &self.engine, input, self.health_now);
+            snap.seq = self.report.snapshots;
+            let publish_ns = now_ns();
+            snap.publish_ns = publish_ns;
+            chunk.send().map(|_| publish_ns).map_err(|e| format!("send: {e:?}"))
+        });
         match sent {
-            Ok(_) => {
+            Ok(publish_ns) => {
                 self.report.snapshots += 1;
                 Some(publish_ns)
             }
@@ -218,17 +226,17 @@ impl<M: Model> Fusion<M> {
     }
 
     /// Spin mode, while idle: touches what the next sample will touch, the
-    /// engine's entries ([`Engine::warm`]), the snapshot, and the loaned chunk of
-    /// the next snapshot (loaning one if none is held), by writing the current
-    /// snapshot into it; it is overwritten before it is sent. Between samples a
-    /// millisecond apart this memory otherwise leaves the caches, and the next
-    /// sample pays the misses on its way to the reader.
+    /// engine's entries ([`Engine::warm`]) and the loaned chunk of the next
+    /// snapshot (loaning one if none is held), by rewriting its content. Between
+    /// samples a millisecond apart this memory otherwise leaves the caches, and
+    /// the next sample pays the misses on its way to the reader.
     fn warm(&mut self, ports: &Ports) {
         if self.loaned.is_none() {
-            self.loaned = ports.state.loan_uninit().ok();
+            self.loaned = ports.state.loan().ok();
         }
         if let Some(chunk) = self.loaned.as_mut() {
-            chunk.payload_mut().write(self.snapshot);
+            let snap = chunk.payload_mut();
+            *snap = std::hint::black_box(*snap);
         }
         self.engine.warm();
     }
@@ -278,7 +286,6 @@ fn run_model<M: Model>(
         loaned: None,
         health: HealthMonitor::new(config.health),
         health_now: (fusion_shared::snapshot::health::INITIALISING, 0),
-        snapshot: StateSnapshot::default(),
         // 1 ns to 10 s at 3 significant digits: allocated once, here.
         latency: Histogram::new_with_bounds(1, 10_000_000_000, 3).map_err(|e| RunError::Ipc(e.to_string()))?,
         report: RunReport::default(),
@@ -320,7 +327,7 @@ fn run_model<M: Model>(
             let _ = ports.state_event.notify();
             // The readers have their snapshot: loan the next one now, off the
             // latency path (if this fails, `publish` tries again and counts it).
-            fusion.loaned = ports.state.loan_uninit().ok();
+            fusion.loaned = ports.state.loan().ok();
         }
 
         let now = now_ns();
@@ -330,8 +337,7 @@ fn run_model<M: Model>(
             fusion.health_now = fusion.health.evaluate(fusion.engine.sensors(), now, initialised);
             if fusion.health_now != published_health && fusion.engine.latest().is_some() {
                 // Nothing arrived but the health changed (a stream went stale): say so.
-                snapshot::fill(&mut fusion.snapshot, &fusion.engine, None, fusion.health_now);
-                if fusion.publish(&ports).is_some() {
+                if fusion.publish(&ports, None).is_some() {
                     published_health = fusion.health_now;
                     let _ = ports.state_event.notify();
                 }

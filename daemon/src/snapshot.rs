@@ -53,6 +53,12 @@ fn counters(s: &SensorSlot) -> SensorCounters {
 
 /// Writes the engine's current estimate, counters and the given input and health
 /// into `snap` (all but `seq` and `publish_ns`, which the publisher stamps).
+///
+/// Every field that can change is written. The ones left alone stay as they
+/// were: the state and covariance beyond the model's size, sensor rows beyond
+/// the sensors seen (which only grow), and the estimate fields before the first
+/// processed sample. So filling a default snapshot, as the live loop does in a
+/// fresh shared-memory chunk, gives the same as refilling one snapshot.
 pub fn fill<M: Model>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Option<Input<'_>>, health: (u32, u32)) {
     snap.model = M::CODE;
     if let Some(latest) = engine.latest() {
@@ -157,5 +163,63 @@ mod tests {
         assert_eq!(snap.rewinds, 1);
         fill(&mut snap, &e, None, (health::DEGRADED, health::IMU_STALE));
         assert_eq!((snap.input_kind, snap.input_t_ns, snap.health), (INPUT_NONE, 0, health::DEGRADED));
+    }
+
+    /// fusiond fills each snapshot in a freshly loaned chunk that holds a default
+    /// snapshot: that must give what filling one snapshot over and over gives.
+    #[test]
+    fn filling_a_default_snapshot_gives_the_same_as_refilling_one() {
+        let mut e = Engine::new(
+            LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap(),
+            EngineConfig {
+                history_ns: 50_000_000,
+                history_capacity: 64,
+                max_sensors: 4,
+                max_future_ns: u64::MAX,
+                accel_range_mps2: 160.0,
+                gyro_range_radps: 35.0,
+            },
+        );
+        let mut kept = StateSnapshot::default();
+        for k in 0..200u64 {
+            let t = 1_000_000 * k;
+            // IMU sensor 0, a fix every 10th (some late), a second IMU sensor from
+            // sample 100 on (a new counter row), a health-only snapshot every 50th.
+            let mut samples =
+                vec![Sample::Imu(ImuSample { t_ns: t, seq: k, accel_mps2: [0.1, 0.0, 0.0], ..Default::default() })];
+            if k % 10 == 9 {
+                let late = if k % 30 == 29 { 5_000_000 } else { 0 };
+                samples.push(Sample::Position(PositionSample {
+                    t_ns: t - late,
+                    seq: k,
+                    sensor: 1,
+                    cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+                    ..Default::default()
+                }));
+            }
+            if k >= 100 {
+                samples.push(Sample::Imu(ImuSample { t_ns: t, seq: k, sensor: 3, ..Default::default() }));
+            }
+            for sample in &samples {
+                let crate::engine::Insert::Processed { replayed, .. } = e.insert(sample, Some(t), &mut |_| {}) else {
+                    panic!("sample {k} not processed");
+                };
+                let input = Some(Input { sample, received_ns: t + 1, replayed });
+                let health = (health::OK, k as u32);
+                let mut fresh = StateSnapshot::default();
+                fill(&mut kept, &e, input, health);
+                fill(&mut fresh, &e, input, health);
+                // Debug output compares NaN fields (no last NIS yet) as equal.
+                assert_eq!(format!("{fresh:?}"), format!("{kept:?}"), "sample {k}");
+            }
+            if k % 50 == 49 {
+                let mut fresh = StateSnapshot::default();
+                fill(&mut kept, &e, None, (health::DEGRADED, 0));
+                fill(&mut fresh, &e, None, (health::DEGRADED, 0));
+                assert_eq!(format!("{fresh:?}"), format!("{kept:?}"), "health-only snapshot {k}");
+            }
+        }
+        assert_eq!(kept.sensor_count, 3);
+        assert!(kept.rewinds > 0, "late fixes were replayed");
     }
 }
