@@ -39,6 +39,10 @@ enum Command {
         /// Seconds between summary log lines (info level).
         #[arg(long, default_value_t = 5.0)]
         summary_interval: f64,
+        /// Pin the fusion loop to this CPU (with `--wait spin`, give it a core that
+        /// nothing else busy runs on).
+        #[arg(long)]
+        cpu: Option<usize>,
     },
     /// Replay recorded samples (JSON lines) through the engine and write the estimates.
     Replay {
@@ -85,7 +89,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Run { config, namespace, wait, summary_interval } => {
+        Command::Run { config, namespace, wait, summary_interval, cpu } => {
             let config = Config::load(&config)?;
             let shutdown = Arc::new(AtomicBool::new(false));
             for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
@@ -99,6 +103,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 },
                 summary_interval: Duration::try_from_secs_f64(summary_interval)
                     .context("--summary-interval must be a positive number of seconds")?,
+                cpu,
             };
             fusion_daemon::ipc::run(&config, &options, &shutdown)?;
             Ok(())

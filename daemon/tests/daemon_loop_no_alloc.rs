@@ -133,7 +133,8 @@ fn allocations_in_steady_state(namespace: &str, config: &str, wait: WaitMode, im
     let domain = domain();
     let config = Config::parse(config).unwrap();
     let shutdown = Arc::new(AtomicBool::new(false));
-    let options = RunOptions { namespace: namespace.to_string(), wait, summary_interval: Duration::from_millis(50) };
+    let options =
+        RunOptions { namespace: namespace.to_string(), wait, summary_interval: Duration::from_millis(50), cpu: None };
     let daemon = {
         let shutdown = Arc::clone(&shutdown);
         std::thread::spawn(move || {

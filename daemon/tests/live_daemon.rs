@@ -258,27 +258,67 @@ fn sigkill_of_a_publisher_marks_its_stream_stale() {
 fn start_up_errors_are_clear_and_exit_non_zero() {
     let domain = TestDomain::new("startup");
     let dir = tempfile::tempdir().unwrap();
-    let run = |config: &str, namespace: &str| {
+    let run_with = |config: &str, namespace: &str, args: &[&str]| {
         let path = dir.path().join("c.toml");
         std::fs::write(&path, config).unwrap();
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_fusiond"))
             .args(["run", "--namespace", namespace, "--config"])
             .arg(&path)
+            .args(args)
             .env(fusion_shared::service::DOMAIN_ENV, &domain.domain)
             .output()
             .unwrap();
         (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
     };
+    let run = |config: &str, namespace: &str| run_with(config, namespace, &[]);
     let (code, err) = run(&config().replace("accel_noise_std = 0.3", "accel_noise_std = -1"), &domain.namespace);
     assert_eq!(code, Some(1));
     assert!(err.contains("model.accel_noise_std"), "{err}");
     let (code, err) = run(&config(), "no/slashes");
     assert_eq!(code, Some(1));
     assert!(err.contains("invalid namespace"), "{err}");
+    let (code, err) = run_with(&config(), &domain.namespace, &["--cpu", "100000"]);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("cannot pin to CPU 100000: this process may use CPUs"), "{err}");
     let mut daemon = Daemon::start(&domain, &config(), "event");
     let (code, err) = run(&config(), &domain.namespace);
     assert_eq!(code, Some(1));
     assert!(err.contains("already running"), "{err}");
+    assert!(daemon.terminate().success());
+}
+
+/// The CPUs a thread of `pid` may run on, from /proc.
+fn cpus_allowed(pid: u32, tid: &str) -> String {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/task/{tid}/status")).unwrap();
+    let line = status.lines().find(|l| l.starts_with("Cpus_allowed_list:")).unwrap();
+    line.split(':').nth(1).unwrap().trim().to_string()
+}
+
+#[test]
+fn cpu_pins_the_fusion_loop_and_nothing_else() {
+    let domain = TestDomain::new("pinned");
+    let mut daemon = Daemon::start_with(&domain, &config(), &["--wait", "spin", "--cpu", "0"]);
+    let pid = daemon.pid();
+    // The loop runs on the main thread (its id is the process id).
+    assert_eq!(cpus_allowed(pid, &pid.to_string()), "0");
+    let before = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    let others: Vec<String> = std::fs::read_dir(format!("/proc/{pid}/task"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|tid| *tid != pid.to_string())
+        .map(|tid| cpus_allowed(pid, &tid))
+        .collect();
+    assert!(!others.is_empty(), "the summary thread exists: {before}");
+    if std::thread::available_parallelism().map_or(1, |n| n.get()) > 1 {
+        assert!(others.iter().all(|c| c != "0"), "other threads keep every CPU: {others:?}");
+    }
+    // It fuses as usual.
+    let client = domain.client();
+    let mut reader = client.state_subscriber_with_buffer(64).unwrap();
+    let samples = scenario(0.2, (0, 0));
+    let snaps = publish_in_lockstep(&client, &mut reader, &samples);
+    assert_eq!(snaps.len(), samples.len());
+    assert!(daemon.stderr().contains("cpu=Some(0)"), "{}", daemon.stderr());
     assert!(daemon.terminate().success());
 }
 

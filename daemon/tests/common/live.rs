@@ -108,13 +108,19 @@ pub struct Daemon {
 
 impl Daemon {
     pub fn start(domain: &TestDomain, config: &str, wait: &str) -> Self {
+        Self::start_with(domain, config, &["--wait", wait])
+    }
+
+    /// `fusiond run` with `args` after the namespace and config.
+    pub fn start_with(domain: &TestDomain, config: &str, args: &[&str]) -> Self {
         let dir = tempfile::tempdir().unwrap();
         let config_path = dir.path().join("config.toml");
         std::fs::write(&config_path, config).unwrap();
         let stderr = dir.path().join("stderr.log");
         let child = Command::new(env!("CARGO_BIN_EXE_fusiond"))
-            .args(["run", "--namespace", &domain.namespace, "--wait", wait, "--config"])
+            .args(["run", "--namespace", &domain.namespace, "--config"])
             .arg(&config_path)
+            .args(args)
             .env(DOMAIN_ENV, &domain.domain)
             .env("RUST_LOG", "info")
             .stdout(Stdio::null())
