@@ -13,20 +13,18 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
+use fusion_benches::alloc::{Counting, Scenario, Window, steady_state};
 use fusion_benches::latency::{
-    ChildGuard, EndToEnd, LateCost, Mode, Pinger, Prober, PublisherPlan, Trial, fan_out_reader, histogram, late_data,
-    ping, pong, publisher, start_daemon, throughput,
+    ChildGuard, EndToEnd, INS_CONFIG, LINEAR_CONFIG, LateCost, Mode, Pinger, Prober, PublisherPlan, Trial,
+    fan_out_reader, histogram, late_data, ping, pong, publisher, start_daemon, throughput,
 };
 use fusion_client::{Client, ImuSample, StateSnapshot};
+use fusion_daemon::ipc::WaitMode;
 use hdrhistogram::Histogram;
 
-const LINEAR: &str = "[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n[filter]\ninitial_state = [0,0,0,0,0,0]\n\
-    initial_covariance_diagonal = [100,100,100,10,10,10]\n[gating]\nprobability = 0.999\n";
-const INS: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
-    accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n\
-    initial_state = [0,0,0, 0,0,0, 1,0,0,0, 0,0,0, 0,0,0]\n\
-    initial_covariance_diagonal = [1,1,1, 1,1,1, 0.01,0.01,0.01, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n\
-    [gating]\nprobability = 0.999\n";
+/// Counts the allocations of the daemon loop run in this process (section 6).
+#[global_allocator]
+static GLOBAL: Counting = Counting;
 
 struct Row {
     name: String,
@@ -48,7 +46,7 @@ fn imu_value(model: &str) -> ([f64; 3], [f64; 3]) {
 }
 
 fn config_of(model: &str) -> &'static str {
-    if model == "ins" { INS } else { LINEAR }
+    if model == "ins" { INS_CONFIG } else { LINEAR_CONFIG }
 }
 
 /// A running daemon and a connected client, torn down (process and its files)
@@ -286,7 +284,20 @@ fn main() -> anyhow::Result<()> {
         throughput_rows.push((model, -1.0, Trial { published: best.unwrap_or(0.0) as u64, ..Trial::default() }));
     }
 
-    print_report(&rows, &late_rows, &throughput_rows, quick, &out_dir)?;
+    // 6. Allocations of the daemon loop per processed sample, in this process.
+    let mut alloc_rows = Vec::new();
+    let (warm, measured) = if quick { (500, 1000) } else { (1000, 2000) };
+    for model in ["linear", "ins"] {
+        for (mode, wait) in [(Mode::Spin, WaitMode::Spin), (Mode::Event, WaitMode::Event)] {
+            let namespace = format!("fusion-bench-{pid}-{model}-{}-alloc", mode.name());
+            let accel_mps2 = imu_value(model).0;
+            let config = config_of(model);
+            let scenario = Scenario { namespace: &namespace, config, wait, accel_mps2, domain: None, warm, measured };
+            alloc_rows.push((model, mode, steady_state(&scenario)?));
+        }
+    }
+
+    print_report(&rows, &late_rows, &throughput_rows, &alloc_rows, quick, &out_dir)?;
     println!("whole run: {:.0} s", started.elapsed().as_secs_f64());
     Ok(())
 }
@@ -295,6 +306,7 @@ fn print_report(
     rows: &[Row],
     late_rows: &[(&str, LateCost)],
     throughput_rows: &[(&str, f64, Trial)],
+    alloc_rows: &[(&str, Mode, Window)],
     quick: bool,
     out_dir: &std::path::Path,
 ) -> anyhow::Result<()> {
@@ -429,6 +441,29 @@ fn print_report(
         json.push(serde_json::json!({
             "name": format!("throughput trial, {model}"), "rate_hz": rate, "published": t.published,
             "received": t.received, "lost": t.lost, "reader_missed": t.reader_missed, "clean": t.clean(),
+        }));
+    }
+
+    println!("\nallocations of the daemon loop (fusiond run's, on a counted thread of this process), steady state");
+    println!(
+        "{:<8} {:<6} {:>9} {:>10} {:>12} {:>11}",
+        "model", "wait", "samples", "snapshots", "allocations", "per sample"
+    );
+    for (model, mode, w) in alloc_rows {
+        let per_sample = w.allocations() as f64 / w.samples.max(1) as f64;
+        println!(
+            "{:<8} {:<6} {:>9} {:>10} {:>12} {:>11}",
+            model,
+            mode.name(),
+            w.samples,
+            w.snapshots,
+            w.allocations(),
+            format!("{per_sample:.3}")
+        );
+        json.push(serde_json::json!({
+            "name": format!("allocations, {model}, {}", mode.name()), "samples": w.samples,
+            "snapshots": w.snapshots, "allocations": w.allocations(), "per_sample": per_sample,
+            "sizes": w.sizes,
         }));
     }
     let path = out_dir.join("latency.json");

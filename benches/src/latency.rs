@@ -11,6 +11,16 @@ use hdrhistogram::Histogram;
 
 pub mod pingpong;
 
+/// The `linear` config of the live benchmarks (at rest, gating on).
+pub const LINEAR_CONFIG: &str = "[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n[filter]\ninitial_state = [0,0,0,0,0,0]\n\
+    initial_covariance_diagonal = [100,100,100,10,10,10]\n[gating]\nprobability = 0.999\n";
+/// The `ins` config of the live benchmarks (at rest, level, gating on).
+pub const INS_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+    accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n\
+    initial_state = [0,0,0, 0,0,0, 1,0,0,0, 0,0,0, 0,0,0]\n\
+    initial_covariance_diagonal = [1,1,1, 1,1,1, 0.01,0.01,0.01, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n\
+    [gating]\nprobability = 0.999\n";
+
 pub use pingpong::{Payload, Pinger, ping, pong};
 
 /// How both sides wait.

@@ -1,10 +1,12 @@
 //! fusion-benches: benchmarks of fusiond.
 //!
 //! - `benches/filter.rs` (criterion): filter steps and replay throughput.
-//! - `benches/latency.rs`: end-to-end latency beside raw iceoryx2 ([`latency`]).
+//! - `benches/latency.rs`: end-to-end latency beside raw iceoryx2 ([`latency`]), and
+//!   the live loop's allocations per sample ([`alloc`]).
 //!
 //! Run with `cargo bench -p fusion-benches`.
 
+pub mod alloc;
 pub mod latency;
 
 use fusion_client::sim::{Scenario, ScenarioConfig};
