@@ -7,9 +7,7 @@ use crate::engine::{Engine, SensorSlot};
 use crate::model::{Model, StepOutcome};
 use crate::reorder::key_of;
 
-/// Input kind code of a snapshot published because the health changed while no
-/// sample arrived (its `input_*` fields are zero).
-pub const INPUT_NONE: u32 = 2;
+pub use fusion_shared::snapshot::INPUT_NONE;
 
 /// The input that triggered a snapshot.
 #[derive(Debug, Clone, Copy)]

@@ -15,6 +15,10 @@ pub const MAX_STATE: usize = 16;
 pub const MAX_COV: usize = 15;
 /// Most sensors (of all kinds) a snapshot reports.
 pub const MAX_SENSORS: usize = 16;
+/// [`StateSnapshot::input_kind`] of a snapshot published because the health
+/// changed while no sample arrived (a stream went stale); its other `input_*`
+/// fields are zero.
+pub const INPUT_NONE: u32 = 2;
 
 /// Model codes of [`StateSnapshot::model`].
 pub mod model {
@@ -168,7 +172,7 @@ pub struct StateSnapshot {
     pub input_seq: u64,
     /// Input sensor id.
     pub input_sensor: u32,
-    /// Input kind ([`SampleKind`] as `u32`).
+    /// Input kind ([`SampleKind`] as `u32`), or [`INPUT_NONE`].
     pub input_kind: u32,
     /// Later samples re-processed because the input came late (0: in order).
     pub input_replayed: u32,

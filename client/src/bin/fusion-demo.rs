@@ -12,8 +12,8 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, bail};
 use clap::Parser;
 use fusion_client::sim::CarTrajectory;
-use fusion_client::{Client, now_ns};
-use fusion_shared::snapshot::health;
+use fusion_client::{Client, StateSnapshot, now_ns};
+use fusion_shared::snapshot::{INPUT_NONE, health};
 use hdrhistogram::Histogram;
 
 #[derive(Parser)]
@@ -166,6 +166,9 @@ fn main() -> anyhow::Result<()> {
     let mut latency = Histogram::<u64>::new_with_bounds(1, 10_000_000_000, 3)?;
     let (mut sum_sq, mut n_err) = (0.0, 0u64);
     let mut last = None;
+    // Health as of the last snapshot a sample triggered (later ones only say the
+    // sensors stopped).
+    let mut drive_health = None;
     let mut next_status = Instant::now();
     let end = Instant::now() + Duration::from_secs_f64(args.duration + 0.5);
     while !stop.load(Ordering::Relaxed) && Instant::now() < end {
@@ -188,6 +191,9 @@ fn main() -> anyhow::Result<()> {
             n_err += 1;
         }
         last = Some((*s, err));
+        if s.input_kind != INPUT_NONE {
+            drive_health = Some((s.health, s.health_reasons));
+        }
         if Instant::now() >= next_status {
             next_status = Instant::now() + Duration::from_millis(250);
             let c = s.sensor_counters();
@@ -235,15 +241,21 @@ fn main() -> anyhow::Result<()> {
         latency.value_at_quantile(0.99) as f64 / 1e3,
         latency.max() as f64 / 1e3,
     );
-    let reasons: Vec<&str> = s.health_reason_names().collect();
-    println!(
-        "  health at the end: {}{}",
-        health::name(s.health),
-        if reasons.is_empty() {
-            String::new()
-        } else {
-            format!(" ({}: the sensors stopped first)", reasons.join(", "))
+    let describe = |snap: &StateSnapshot| {
+        let reasons: Vec<&str> = snap.health_reason_names().collect();
+        let reasons = if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) };
+        format!("{}{reasons}", health::name(snap.health))
+    };
+    let during = drive_health.map(|(health, reasons)| {
+        let mut d = s;
+        (d.health, d.health_reasons) = (health, reasons);
+        d
+    });
+    match during {
+        Some(d) if (d.health, d.health_reasons) != (s.health, s.health_reasons) => {
+            println!("  health at the end of the drive: {}; after the sensors stopped: {}", describe(&d), describe(&s))
         }
-    );
+        _ => println!("  health at the end of the drive: {}", describe(&s)),
+    }
     Ok(())
 }
