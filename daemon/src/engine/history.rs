@@ -81,6 +81,7 @@ impl<E: Copy> History<E> {
         }
         let Some(slot) = self.free.pop() else { return false };
         let before = if index == 0 { self.base } else { self.order.get(index - 1).copied() };
+        // A free slot is never the base nor in `order`, so the two are disjoint.
         match before.and_then(|b| self.slots.get_disjoint_mut([b as usize, slot as usize]).ok()) {
             Some([before, new]) => write(Some(before), new),
             None => write(None, &mut self.slots[slot as usize]),
@@ -103,6 +104,7 @@ impl<E: Copy> History<E> {
     pub fn warm(&self) {
         for slot in [self.order.back(), self.order.front(), self.base.as_ref(), self.free.last()].into_iter().flatten()
         {
+            // A copy through `black_box` reads every cache line of the entry.
             std::hint::black_box(self.slots[*slot as usize]);
         }
     }
