@@ -297,7 +297,8 @@ fn cpus_allowed(pid: u32, tid: &str) -> String {
 #[test]
 fn cpu_pins_the_fusion_loop_and_nothing_else() {
     let domain = TestDomain::new("pinned");
-    let mut daemon = Daemon::start_with(&domain, &config(), &["--wait", "spin", "--cpu", "0"]);
+    // Event mode: a spinning loop pinned to CPU 0 would starve the tests running beside it.
+    let mut daemon = Daemon::start_with(&domain, &config(), &["--wait", "event", "--cpu", "0"]);
     let pid = daemon.pid();
     // The loop runs on the main thread (its id is the process id).
     assert_eq!(cpus_allowed(pid, &pid.to_string()), "0");
