@@ -1,5 +1,6 @@
-//! Latency of fusiond beside the floor set by raw iceoryx2, measured in one run:
-//! a table on stdout and `target/fusion-bench/latency.json` (numbers in ns).
+//! Latency of fusiond beside the floor set by raw iceoryx2, measured in one run,
+//! with late-data cost, throughput and the daemon loop's allocations per sample:
+//! tables on stdout and `target/fusion-bench/latency.json` (numbers in ns).
 //! `FUSION_BENCH_QUICK=1` takes a short sample; `FUSION_BENCH_IMU_HZ` sets the IMU
 //! rate of the end-to-end rows (default 1000); `FUSION_BENCH_SAMPLES` the samples per
 //! latency row (default 10 000, quick 1 000); `FUSION_BENCH_FUSIOND=PATH` runs that
