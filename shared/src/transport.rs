@@ -98,10 +98,24 @@ thread_local! {
     static FREE: FreeLists = const { FreeLists { heads: [const { Cell::new(core::ptr::null_mut()) }; CLASSES] } };
 }
 
-/// The layout of the blocks of size class `class`.
+/// The layouts of the size classes, `(class + 1) * GRANULE` bytes aligned to
+/// `GRANULE`; checked when compiling.
+const CLASS_LAYOUTS: [Layout; CLASSES] = {
+    let mut layouts = [Layout::new::<FreeBlock>(); CLASSES];
+    let mut class = 0;
+    while class < CLASSES {
+        layouts[class] = match Layout::from_size_align((class + 1) * GRANULE, GRANULE) {
+            Ok(layout) => layout,
+            Err(_) => panic!("invalid size class layout"),
+        };
+        class += 1;
+    }
+    layouts
+};
+
+/// The layout of the blocks of size class `class` (`class < CLASSES`).
 fn class_layout(class: usize) -> Layout {
-    // (class + 1) * 16 with align 16 is always a valid layout.
-    Layout::from_size_align((class + 1) * GRANULE, GRANULE).unwrap_or(Layout::new::<FreeBlock>())
+    CLASS_LAYOUTS[class]
 }
 
 /// The size class of `layout`, if its blocks are pooled.

@@ -1,39 +1,13 @@
 //! The engine allocates nothing per sample in steady state, in order or late.
 //!
-//! A counting global allocator (this test binary only) counts every allocation
+//! The counting allocator of [`fusion_benches::alloc`] counts every allocation
 //! made on this thread while samples are inserted after a warm-up.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
+use fusion_benches::alloc::{Counting, count_this_thread, sizes};
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig, Entry, Insert};
 use fusion_daemon::model::linear::LinearModel;
-
-struct Counting;
-
-thread_local! {
-    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator; only counts.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as our caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as our caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as our caller's.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
 
 #[global_allocator]
 static GLOBAL: Counting = Counting;
@@ -56,15 +30,16 @@ fn steady_state_insertion_allocates_nothing() {
     for s in warm {
         engine.insert(s, None, &mut sink);
     }
-    let before = ALLOCATIONS.with(Cell::get);
+    count_this_thread();
+    let before = sizes();
     let mut late = 0;
     for s in rest {
         if let Insert::Processed { replayed, .. } = engine.insert(s, Some(u64::MAX / 2), &mut sink) {
             late += (replayed > 0) as u64;
         }
     }
-    let allocations = ALLOCATIONS.with(Cell::get) - before;
+    let after = sizes();
     assert!(late > 50, "the measured stretch must include late samples (rewinds), had {late}");
     assert!(finals > 5000);
-    assert_eq!(allocations, 0, "allocations while inserting {} samples", rest.len());
+    assert_eq!(after, before, "allocations (size, count) while inserting {} samples", rest.len());
 }
