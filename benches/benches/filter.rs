@@ -16,13 +16,18 @@ use fusion_shared::{ImuSample, PositionSample, Sample};
 fn linear_steps(c: &mut Criterion) {
     let config = linear_config();
     let model = LinearModel::from_config(&config).unwrap();
-    let imu = |t: u64| Sample::Imu(ImuSample { t_ns: t, accel_mps2: [0.1, -0.2, 0.05], ..Default::default() });
+    let imu = |t: u64| {
+        Sample::Imu(ImuSample {
+            header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, t, 0, 0),
+            accel_mps2: [0.1, -0.2, 0.05],
+            ..Default::default()
+        })
+    };
     let pos = |t: u64| {
         Sample::Position(PositionSample {
-            t_ns: t,
+            header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Position, t, 0, 0),
             pos_m: [0.01, 0.02, -0.01],
             cov_m2: [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64],
-            ..Default::default()
         })
     };
     let mut state = model.initial_state();

@@ -40,7 +40,9 @@ fn run<M: Model>(model: M, config: &Config, n: u64, accel: [f64; 3]) {
     let t0 = 1_000_000_000u64;
     for k in 0..n {
         let t = t0 + k * 1_000_000;
-        let sample = Sample::Imu(ImuSample { t_ns: t, seq: k, sent_ns: t, accel_mps2: accel, ..Default::default() });
+        let mut imu = ImuSample::new(t, 0, k, accel, [0.0; 3]);
+        imu.header.sent_ns = t;
+        let sample = Sample::Imu(imu);
         handle(&mut engine, &mut health, black_box(&mut chunk), &sample, t + 500);
     }
 }

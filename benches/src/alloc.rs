@@ -16,7 +16,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use fusion_client::{Client, ImuSample, PositionSample, StateSubscriber, now_ns};
+use fusion_client::{Client, ImuSample, PositionSample, SampleKind, StateSubscriber, VelocitySample, now_ns};
 use fusion_daemon::config::Config;
 use fusion_daemon::ipc::{RunOptions, WaitMode, run};
 use fusion_shared::service;
@@ -99,7 +99,7 @@ pub fn sizes() -> Vec<(u64, u64)> {
 pub struct Window {
     /// (size, count) of the allocations, by size.
     pub sizes: Vec<(u64, u64)>,
-    /// Samples (IMU and position) processed in the window.
+    /// Samples (IMU, position and velocity) processed in the window.
     pub samples: u64,
     /// Snapshots published in the window.
     pub snapshots: u64,
@@ -163,7 +163,7 @@ pub fn steady_state(s: &Scenario<'_>) -> anyhow::Result<Window> {
         .map(|&(size, n)| (size, n - before.iter().find(|b| b.0 == size).map_or(0, |b| b.1)))
         .filter(|&(_, n)| n > 0)
         .collect();
-    Ok(Window { sizes, samples: s.measured + s.measured / 10, snapshots: window_snapshots })
+    Ok(Window { sizes, samples: s.measured + 2 * (s.measured / 10), snapshots: window_snapshots })
 }
 
 /// The client side of [`steady_state`]: counts before and after the window,
@@ -185,8 +185,10 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
     let mut reader = client.state_subscriber_with_buffer(service::STATE_BUFFER)?;
     let mut imu_pub = client.imu_publisher(0)?;
     let mut pos_pub = client.position_publisher(1)?;
+    let mut vel_pub = client.velocity_publisher(2)?;
     imu_pub.set_wake(true);
     pos_pub.set_wake(true);
+    vel_pub.set_wake(true);
     std::thread::sleep(Duration::from_millis(100));
 
     // Sample time starts 10 s in the past, so no timestamp is ever in the future.
@@ -200,19 +202,19 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
             first_seq = last_seq;
         }
         let t = t0 + k * 1_000_000;
-        imu_pub.publish_sample(ImuSample { t_ns: t, seq: k, accel_mps2: s.accel_mps2, ..Default::default() })?;
-        last_seq = await_snapshot(&mut reader, 0, k)?;
+        imu_pub.publish_sample(ImuSample::new(t, 0, k, s.accel_mps2, [0.0; 3]))?;
+        last_seq = await_snapshot(&mut reader, SampleKind::Imu as u32, k)?;
         if k % 10 == 5 {
             let late = if fixes % 50 == 49 { 100_000_000 } else { 0 };
-            let fix = PositionSample {
-                t_ns: t - late,
-                seq: fixes,
-                pos_m: [0.0; 3],
-                cov_m2: [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64],
-                ..Default::default()
-            };
+            let fix =
+                PositionSample::new(t - late, 1, fixes, [0.0; 3], [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64]);
             pos_pub.publish_sample(fix)?;
-            last_seq = await_snapshot(&mut reader, 1, fixes)?;
+            await_snapshot(&mut reader, SampleKind::Position as u32, fixes)?;
+            // A GNSS velocity with every fix (the vehicle at rest).
+            let vel =
+                VelocitySample::new(t - late, 2, fixes, [0.0; 3], [0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.04]);
+            vel_pub.publish_sample(vel)?;
+            last_seq = await_snapshot(&mut reader, SampleKind::Velocity as u32, fixes)?;
             fixes += 1;
         }
         if k % 100 == 0 {
@@ -220,10 +222,10 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
             std::thread::sleep(Duration::from_millis(12));
         }
     }
-    Ok((before, sizes(), last_seq - first_seq, s.warm + s.measured + fixes))
+    Ok((before, sizes(), last_seq - first_seq, s.warm + s.measured + 2 * fixes))
 }
 
-/// Waits for the snapshot of IMU sample `seq` (kind 0) or fix `seq` (kind 1);
+/// Waits for the snapshot of the sample of kind code `kind` with sequence number `seq`;
 /// returns the snapshot's own sequence number.
 fn await_snapshot(reader: &mut StateSubscriber, kind: u32, seq: u64) -> anyhow::Result<u64> {
     let deadline = Instant::now() + Duration::from_secs(10);

@@ -480,9 +480,12 @@ pub fn throughput(
             }
             last_seq = Some(s.seq);
             let count = (s.sensor_count as usize).min(s.sensors.len());
-            if let Some(c) = s.sensors[..count].iter().find(|c| c.kind == 0 && c.sensor == sensor) {
-                trial.received = c.received;
-                trial.lost = c.lost;
+            if let Some(c) = s.sensors[..count]
+                .iter()
+                .find(|c| c.kind == fusion_shared::SampleKind::Imu as u32 && c.sensor == sensor)
+            {
+                trial.received = c.counts.received;
+                trial.lost = c.counts.lost;
             }
         }
         Ok(())

@@ -52,15 +52,18 @@ pub fn ins_config_text() -> String {
 
 /// An IMU sample at `t_ns` for [`ins_model`]: specific force near gravity, a slow turn.
 pub fn ins_imu(t_ns: u64) -> Sample {
-    Sample::Imu(ImuSample { t_ns, accel_mps2: [0.3, 0.1, 9.81], gyro_radps: [0.01, -0.02, 0.2], ..Default::default() })
+    Sample::Imu(ImuSample {
+        header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, t_ns, 0, 0),
+        accel_mps2: [0.3, 0.1, 9.81],
+        gyro_radps: [0.01, -0.02, 0.2],
+    })
 }
 
 /// A position fix at `t_ns` for [`ins_model`], 4.5 cm off the start.
 pub fn ins_fix(t_ns: u64) -> Sample {
     Sample::Position(PositionSample {
-        t_ns,
+        header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Position, t_ns, 0, 0),
         pos_m: [0.045, 0.0, 0.0],
         cov_m2: [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64],
-        ..Default::default()
     })
 }

@@ -17,8 +17,9 @@ fn publishing_a_sample_allocates_nothing() {
     let config = service::iceoryx_config(Some(&domain)).unwrap();
     let node = service::create_node("alloc-test", &config).unwrap();
     let names = ServiceNames::new(namespace).unwrap();
-    let imu_sub = service::imu_service(&node, &names).unwrap().subscriber_builder().create().unwrap();
-    let pos_sub = service::position_service(&node, &names).unwrap().subscriber_builder().create().unwrap();
+    let imu_sub = service::sample_service::<ImuSample>(&node, &names).unwrap().subscriber_builder().create().unwrap();
+    let pos_sub =
+        service::sample_service::<PositionSample>(&node, &names).unwrap().subscriber_builder().create().unwrap();
 
     let client = Client::connect_in_domain(namespace, Some(&domain)).unwrap();
     let mut imu = client.imu_publisher(0).unwrap();
@@ -27,13 +28,13 @@ fn publishing_a_sample_allocates_nothing() {
     pos.set_wake(true);
     let mut received = 0u64;
     let mut publish = |k: u64| {
-        let reached = imu.publish_sample(ImuSample { t_ns: k, seq: k, ..Default::default() }).unwrap();
+        let reached = imu.publish_sample(ImuSample::new(k, 0, k, [0.0; 3], [0.0; 3])).unwrap();
         assert_eq!(reached, 1, "the subscriber is connected");
         if k.is_multiple_of(10) {
-            pos.publish_sample(PositionSample { t_ns: k, seq: k, ..Default::default() }).unwrap();
+            pos.publish_sample(PositionSample::new(k, 1, k, [0.0; 3], [0.0; 9])).unwrap();
         }
         while let Some(s) = imu_sub.receive().unwrap() {
-            received += u64::from(s.seq == k);
+            received += u64::from(s.header.seq == k);
         }
         while pos_sub.receive().unwrap().is_some() {}
     };

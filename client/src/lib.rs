@@ -1,7 +1,8 @@
 //! fusion-client: what other processes link to talk to fusiond.
 //!
 //! - [`Client`]: this process's connection to one namespace (one iceoryx2 node).
-//! - [`ImuPublisher`], [`PositionPublisher`]: publish samples zero-copy and wake the daemon.
+//! - [`SamplePublisher`] ([`ImuPublisher`], [`PositionPublisher`], [`VelocityPublisher`]):
+//!   publish samples of one sensor zero-copy and wake the daemon.
 //! - [`StateSubscriber`]: read the fused state: [`latest`](StateSubscriber::latest),
 //!   [`wait_next`](StateSubscriber::wait_next) (blocking on an event) and
 //!   [`spin_next`](StateSubscriber::spin_next) (busy-polling, lowest latency).
@@ -18,8 +19,10 @@ mod subscriber;
 
 pub use error::ClientError;
 pub use fusion_shared;
-pub use fusion_shared::{ImuSample, PositionSample, StateSnapshot, now_ns};
-pub use publisher::{ImuPublisher, PositionPublisher};
+pub use fusion_shared::{
+    ImuSample, PositionSample, Sample, SampleKind, StateSnapshot, VelocitySample, WireSample, now_ns,
+};
+pub use publisher::{ImuPublisher, PositionPublisher, SamplePublisher, SensorPublishers, VelocityPublisher};
 pub use subscriber::StateSubscriber;
 
 use fusion_shared::service::{self, ServiceNames};
@@ -73,14 +76,24 @@ impl Client {
         self.node.as_ref().expect("the node lives as long as the client")
     }
 
+    /// A publisher of samples of wire type `T` (any kind) for sensor id `sensor`.
+    pub fn publisher<T: WireSample>(&self, sensor: u32) -> Result<SamplePublisher<T>, ClientError> {
+        SamplePublisher::new(self, sensor)
+    }
+
+    /// A publisher of velocity measurements for sensor id `sensor`.
+    pub fn velocity_publisher(&self, sensor: u32) -> Result<VelocityPublisher, ClientError> {
+        SamplePublisher::new(self, sensor)
+    }
+
     /// A publisher of IMU samples for sensor id `sensor`.
     pub fn imu_publisher(&self, sensor: u32) -> Result<ImuPublisher, ClientError> {
-        ImuPublisher::new(self, sensor)
+        SamplePublisher::new(self, sensor)
     }
 
     /// A publisher of position fixes for sensor id `sensor`.
     pub fn position_publisher(&self, sensor: u32) -> Result<PositionPublisher, ClientError> {
-        PositionPublisher::new(self, sensor)
+        SamplePublisher::new(self, sensor)
     }
 
     /// A state reader that keeps up to 64 unread snapshots. Fails with

@@ -1,6 +1,6 @@
 //! The client's typed errors, against real iceoryx2 services in a private domain.
 
-use fusion_client::{Client, ClientError};
+use fusion_client::{Client, ClientError, SampleKind};
 use fusion_shared::service::{self, ServiceNames};
 use iceoryx2::prelude::*;
 
@@ -32,9 +32,21 @@ fn another_wire_version_is_an_incompatible_version() {
     let d = domain("oldwire");
     let names = ServiceNames::new("mixed").unwrap();
     let node = service::create_node("old-peer", &service::iceoryx_config(Some(&d)).unwrap()).unwrap();
-    // A peer built against another wire version: `<ns>/imu` carries another type.
-    let name: ServiceName = names.imu.as_str().try_into().unwrap();
-    let _old = node.service_builder(&name).publish_subscribe::<u64>().open_or_create().unwrap();
+    // A peer built against the v1 wire types: the same size, the v1 type name.
+    #[derive(Debug, Clone, Copy, ZeroCopySend)]
+    #[type_name("fusion.ImuSample.v1")]
+    #[repr(C)]
+    struct ImuSampleV1 {
+        t_ns: u64,
+        sent_ns: u64,
+        seq: u64,
+        sensor: u32,
+        _reserved: u32,
+        accel_mps2: [f64; 3],
+        gyro_radps: [f64; 3],
+    }
+    let name: ServiceName = names.samples(SampleKind::Imu).as_str().try_into().unwrap();
+    let _old = node.service_builder(&name).publish_subscribe::<ImuSampleV1>().open_or_create().unwrap();
     let client = Client::connect_in_domain("mixed", Some(&d)).unwrap();
     match client.imu_publisher(0) {
         Err(ClientError::IncompatibleVersion { service }) => assert_eq!(service, "mixed/imu"),

@@ -20,7 +20,7 @@ pub use stats::{EngineStats, SensorStats};
 
 use crate::model::{Model, StepOutcome};
 use crate::reorder::{Placement, Sample, SampleKey, Seen, SeqWindow, key_of, place};
-use crate::validate::{self, Rejection};
+use crate::validate::{Limits, Rejection};
 use history::History;
 
 /// Engine limits (from the `[filter]` and `[validation]` config tables).
@@ -34,10 +34,8 @@ pub struct EngineConfig {
     pub max_sensors: usize,
     /// Largest accepted lead of a timestamp over `now` (when `now` is given).
     pub max_future_ns: u64,
-    /// IMU acceleration range, m/s².
-    pub accel_range_mps2: f64,
-    /// IMU rate range, rad/s.
-    pub gyro_range_radps: f64,
+    /// Value limits of the payload checks.
+    pub limits: Limits,
 }
 
 impl EngineConfig {
@@ -48,8 +46,7 @@ impl EngineConfig {
             history_capacity: c.filter.history_capacity,
             max_sensors: c.validation.max_sensors,
             max_future_ns: c.validation.max_future_ns,
-            accel_range_mps2: c.validation.accel_range_mps2,
-            gyro_range_radps: c.validation.gyro_range_radps,
+            limits: c.validation.limits(),
         }
     }
 }
@@ -139,7 +136,7 @@ impl<M: Model> Engine<M> {
             history,
             initial,
             newest_t: None,
-            sensors: Vec::with_capacity(2 * config.max_sensors),
+            sensors: Vec::with_capacity(SampleKind::ALL.len() * config.max_sensors),
             stats: EngineStats::default(),
         }
     }
@@ -221,11 +218,7 @@ impl<M: Model> Engine<M> {
         }
         let stats = &mut sensor.stats;
 
-        let valid = match sample {
-            Sample::Imu(s) => validate::check_imu(s, self.config.accel_range_mps2, self.config.gyro_range_radps),
-            Sample::Position(s) => validate::check_position(s),
-        }
-        .and_then(|()| match now_ns {
+        let valid = crate::measurement::validate(sample, &self.config.limits).and_then(|()| match now_ns {
             Some(now) if key.t_ns > now.saturating_add(self.config.max_future_ns) => Err(Rejection::FutureTimestamp),
             _ => Ok(()),
         });
@@ -354,7 +347,7 @@ impl<M: Model> Engine<M> {
         if of_kind >= self.config.max_sensors {
             return None;
         }
-        // Within the capacity reserved in `new` (2 × max_sensors): no reallocation.
+        // Within the capacity reserved in `new` (kinds × max_sensors): no reallocation.
         self.sensors.push(SensorSlot {
             kind,
             sensor,
@@ -392,8 +385,7 @@ mod tests {
             history_capacity: 4096,
             max_sensors: 4,
             max_future_ns: 50_000_000,
-            accel_range_mps2: 160.0,
-            gyro_range_radps: 35.0,
+            limits: Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 },
         }
     }
 
@@ -404,8 +396,7 @@ mod tests {
     fn imu(t_ms: u64, seq: u64) -> Sample {
         let t = t_ms as f64 * 1e-3;
         Sample::Imu(ImuSample {
-            t_ns: t_ms * 1_000_000,
-            seq,
+            header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, t_ms * 1_000_000, 0, seq),
             accel_mps2: [t.sin(), (0.7 * t).cos(), 0.1],
             ..Default::default()
         })
@@ -413,12 +404,9 @@ mod tests {
 
     fn pos(t_ms: u64, seq: u64, x: f64) -> Sample {
         Sample::Position(PositionSample {
-            t_ns: t_ms * 1_000_000,
-            seq,
-            sensor: 1,
+            header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Position, t_ms * 1_000_000, 1, seq),
             pos_m: [x, 0.5 * x, -x],
             cov_m2: [0.25, 0.01, 0.0, 0.01, 0.25, 0.0, 0.0, 0.0, 0.5],
-            ..Default::default()
         })
     }
 
@@ -514,6 +502,58 @@ mod tests {
         assert_eq!(dirty.sensors()[1].stats.invalid, 1);
     }
 
+    /// A velocity sample with a NaN, a non-SPD covariance, a far-future time, a
+    /// duplicate or an unknown sensor is rejected and counted like the other
+    /// kinds, and never changes the estimate.
+    #[test]
+    fn bad_velocity_samples_are_counted_and_change_nothing() {
+        use fusion_shared::VelocitySample;
+        let mut clean = engine(None);
+        let mut dirty = engine(None);
+        let mut sink = |_: &Entry<_>| {};
+        let cov = [0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.04];
+        let good = Sample::Velocity(VelocitySample::new(1_000_000_000, 5, 0, [0.1, 0.0, 0.0], cov));
+        for s in stream() {
+            clean.insert(&s, None, &mut sink);
+            dirty.insert(&s, None, &mut sink);
+        }
+        clean.insert(&good, None, &mut sink);
+        dirty.insert(&good, None, &mut sink);
+        let now = 2_000_000_000;
+        let bad = |seq, t, vel: [f64; 3], cov| Sample::Velocity(VelocitySample::new(t, 5, seq, vel, cov));
+        let mut not_spd = cov;
+        not_spd[0] = -1.0;
+        assert_eq!(
+            dirty.insert(&bad(1, 1_900_000_000, [f64::NAN, 0.0, 0.0], cov), Some(now), &mut sink),
+            Insert::Rejected(Rejection::NonFinite)
+        );
+        assert_eq!(
+            dirty.insert(&bad(2, 1_900_000_000, [0.0; 3], not_spd), Some(now), &mut sink),
+            Insert::Rejected(Rejection::CovarianceNotPositiveDefinite)
+        );
+        assert_eq!(
+            dirty.insert(&bad(3, 3_000_000_000, [0.0; 3], cov), Some(now), &mut sink),
+            Insert::Rejected(Rejection::FutureTimestamp)
+        );
+        assert_eq!(dirty.insert(&good, Some(now), &mut sink), Insert::Duplicate);
+        let mut wrong_kind = good;
+        wrong_kind.header_mut().kind = SampleKind::Position as u32;
+        wrong_kind.header_mut().seq = 4;
+        assert_eq!(dirty.insert(&wrong_kind, Some(now), &mut sink), Insert::Rejected(Rejection::WrongKind));
+        // The table holds 4 velocity sensors: a fifth is an unknown sensor.
+        for id in 6..9 {
+            let s = Sample::Velocity(VelocitySample::new(1_000_000_000, id, 0, [0.0; 3], cov));
+            clean.insert(&s, None, &mut sink);
+            dirty.insert(&s, None, &mut sink);
+        }
+        let fifth = Sample::Velocity(VelocitySample::new(1_900_000_000, 9, 0, [50.0; 3], cov));
+        assert_eq!(dirty.insert(&fifth, Some(now), &mut sink), Insert::Rejected(Rejection::TooManySensors));
+        assert_eq!(clean.latest().unwrap().state, dirty.latest().unwrap().state);
+        let v = dirty.sensors().iter().find(|s| s.kind == SampleKind::Velocity && s.sensor == 5).unwrap().stats;
+        assert_eq!((v.received, v.processed, v.fused, v.invalid, v.duplicate), (6, 1, 1, 4, 1));
+        assert_eq!(dirty.stats().unknown_sensor, 1);
+    }
+
     #[test]
     fn sequence_gaps_count_as_lost_until_filled() {
         let mut e = engine(None);
@@ -541,7 +581,10 @@ mod tests {
         let mut e = engine(None);
         let mut sink = |_: &Entry<_>| {};
         for id in 0..5u32 {
-            let s = Sample::Imu(ImuSample { t_ns: 1, sensor: id, ..Default::default() });
+            let s = Sample::Imu(ImuSample {
+                header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, 1, id, 0),
+                ..Default::default()
+            });
             let r = e.insert(&s, None, &mut sink);
             assert_eq!(r == Insert::Rejected(Rejection::TooManySensors), id == 4);
         }

@@ -1,11 +1,13 @@
 //! Health of the live estimate: initialising, ok, or degraded with reasons.
 //!
 //! - A stream is stale when no sample of a sensor of that kind has arrived for
-//!   longer than its timeout (daemon clock).
-//! - The NIS of the last `N` fixes of a position sensor is persistently out of
-//!   bounds when the sum over the `k` fused ones leaves the two-sided χ²_{3k}
-//!   band at the configured probability (the sum of `k` independent χ²₃ variables
-//!   is χ²_{3k}: Bar-Shalom et al. 2001, §5.4.2, the time-average NIS test), or
+//!   longer than its kind's timeout (daemon clock). The health is "initialising"
+//!   until every kind the measurement modules mark required was processed.
+//! - The NIS of the last `N` measurements of a sensor is persistently out of
+//!   bounds when the sum over the `k` fused ones leaves the two-sided χ²_{mk}
+//!   band at the configured probability, `m` the kind's innovation dimension (the
+//!   sum of `k` independent χ²ₘ variables is χ²_{mk}: Bar-Shalom et al. 2001,
+//!   §5.4.2, the time-average NIS test), or
 //!   when more than half of them were gated (the filter locked itself out). Too
 //!   large means filter and sensor disagree, too small that the filter is far too
 //!   pessimistic. A gated outlier now and then is the gate doing its job and
@@ -20,7 +22,11 @@ use fusion_shared::snapshot::{MAX_SENSORS, health};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
 use crate::engine::SensorSlot;
+use crate::measurement::{self, MAX_INNOVATION_DIM};
 use crate::model::StepOutcome;
+
+/// Number of sample kinds.
+const KINDS: usize = SampleKind::ALL.len();
 
 /// Longest NIS window.
 pub const MAX_NIS_WINDOW: usize = 256;
@@ -31,19 +37,31 @@ pub const LOSS_HOLD_NS: u64 = 5_000_000_000;
 /// Health settings (the `[health]` config table).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HealthConfig {
-    /// An IMU stream is stale after this long without a sample, ns.
-    pub imu_timeout_ns: u64,
-    /// A position stream is stale after this long without a sample, ns.
-    pub position_timeout_ns: u64,
-    /// Fixes in the NIS window.
+    /// Per kind (index `code − 1`): a stream is stale after this long without a
+    /// sample, ns (`<kind>_timeout_ns`).
+    pub timeouts_ns: [u64; KINDS],
+    /// Measurements in the NIS window.
     pub nis_window: usize,
     /// Probability of the two-sided NIS band.
     pub nis_probability: f64,
 }
 
+impl HealthConfig {
+    /// The stale timeout of `kind`, ns.
+    pub fn timeout_ns(&self, kind: SampleKind) -> u64 {
+        self.timeouts_ns[kind as usize - 1]
+    }
+}
+
 impl Default for HealthConfig {
+    /// Each kind's own timeout ([`measurement::Measurement::TIMEOUT_NS`]), a window
+    /// of 20 and a band of 0.999.
     fn default() -> Self {
-        Self { imu_timeout_ns: 100_000_000, position_timeout_ns: 1_000_000_000, nis_window: 20, nis_probability: 0.999 }
+        let mut timeouts_ns = [0; KINDS];
+        for &k in SampleKind::ALL {
+            timeouts_ns[k as usize - 1] = measurement::default_timeout_ns(k);
+        }
+        Self { timeouts_ns, nis_window: 20, nis_probability: 0.999 }
     }
 }
 
@@ -59,8 +77,9 @@ struct NisWindow {
 #[derive(Debug, Clone)]
 pub struct HealthMonitor {
     config: HealthConfig,
-    /// `bands[k]`: χ²_{3k} band for the NIS sum of `k` fused 3-D fixes.
-    bands: [(f64, f64); MAX_NIS_WINDOW + 1],
+    /// `bands[m][k]`: χ²_{mk} band for the NIS sum of `k` fused measurements of
+    /// innovation dimension `m`.
+    bands: [[(f64, f64); MAX_NIS_WINDOW + 1]; MAX_INNOVATION_DIM + 1],
     windows: [NisWindow; MAX_SENSORS],
     lost_seen: [u64; MAX_SENSORS],
     last_loss_ns: Option<u64>,
@@ -71,22 +90,24 @@ impl HealthMonitor {
     pub fn new(mut config: HealthConfig) -> Self {
         config.nis_window = config.nis_window.clamp(1, MAX_NIS_WINDOW);
         let tail = (1.0 - config.nis_probability) / 2.0;
-        let mut bands = [(0.0, f64::INFINITY); MAX_NIS_WINDOW + 1];
-        for (k, band) in bands.iter_mut().enumerate().take(config.nis_window + 1).skip(1) {
-            if let Ok(chi2) = ChiSquared::new(3.0 * k as f64) {
-                *band = (chi2.inverse_cdf(tail), chi2.inverse_cdf(1.0 - tail));
+        let mut bands = [[(0.0, f64::INFINITY); MAX_NIS_WINDOW + 1]; MAX_INNOVATION_DIM + 1];
+        for (m, bands) in bands.iter_mut().enumerate().skip(1) {
+            for (k, band) in bands.iter_mut().enumerate().take(config.nis_window + 1).skip(1) {
+                if let Ok(chi2) = ChiSquared::new((m * k) as f64) {
+                    *band = (chi2.inverse_cdf(tail), chi2.inverse_cdf(1.0 - tail));
+                }
             }
         }
         let empty = NisWindow { values: [None; MAX_NIS_WINDOW], next: 0, len: 0 };
         Self { config, bands, windows: [empty; MAX_SENSORS], lost_seen: [0; MAX_SENSORS], last_loss_ns: None }
     }
 
-    /// The band for the NIS sum of `k` fused 3-D fixes.
-    pub fn nis_band(&self, k: usize) -> (f64, f64) {
-        self.bands[k.min(MAX_NIS_WINDOW)]
+    /// The band for the NIS sum of `k` fused measurements of innovation dimension `m`.
+    pub fn nis_band(&self, m: usize, k: usize) -> (f64, f64) {
+        self.bands[m.min(MAX_INNOVATION_DIM)][k.min(MAX_NIS_WINDOW)]
     }
 
-    /// Records the outcome of a processed position fix of sensor slot `slot`.
+    /// Records the outcome of a processed measurement of sensor slot `slot`.
     pub fn record(&mut self, slot: usize, outcome: &StepOutcome) {
         let value = match outcome {
             StepOutcome::Fused { nis } => Some(*nis),
@@ -103,19 +124,11 @@ impl HealthMonitor {
     /// `initialised` is the model's own readiness (e.g. alignment done).
     pub fn evaluate(&mut self, sensors: &[SensorSlot], now_ns: u64, initialised: bool) -> (u32, u32) {
         let mut reasons = 0;
-        let (mut imu_seen, mut position_seen) = (false, false);
+        let mut seen = [false; KINDS];
         for (i, s) in sensors.iter().enumerate().take(MAX_SENSORS) {
-            let (timeout, bit) = match s.kind {
-                SampleKind::Imu => (self.config.imu_timeout_ns, health::IMU_STALE),
-                SampleKind::Position => (self.config.position_timeout_ns, health::POSITION_STALE),
-            };
-            let processed = s.stats.processed > 0;
-            match s.kind {
-                SampleKind::Imu => imu_seen |= processed,
-                SampleKind::Position => position_seen |= processed,
-            }
-            if s.last_arrival_ns.is_some_and(|t| now_ns.saturating_sub(t) > timeout) {
-                reasons |= bit;
+            seen[s.kind as usize - 1] |= s.stats.processed > 0;
+            if s.last_arrival_ns.is_some_and(|t| now_ns.saturating_sub(t) > self.config.timeout_ns(s.kind)) {
+                reasons |= health::stale(s.kind);
             }
             if s.stats.lost > self.lost_seen[i] {
                 self.last_loss_ns = Some(now_ns);
@@ -125,7 +138,7 @@ impl HealthMonitor {
             if w.len == self.config.nis_window {
                 let fused = w.values[..w.len].iter().flatten();
                 let (k, sum) = fused.fold((0, 0.0), |(k, sum), v| (k + 1, sum + v));
-                let (lo, hi) = self.bands[k];
+                let (lo, hi) = self.nis_band(measurement::innovation_dim(s.kind), k);
                 if 2 * k < w.len || sum < lo || sum > hi {
                     reasons |= health::NIS_OUT_OF_BOUNDS;
                 }
@@ -134,7 +147,8 @@ impl HealthMonitor {
         if self.last_loss_ns.is_some_and(|t| now_ns.saturating_sub(t) < LOSS_HOLD_NS) {
             reasons |= health::SAMPLES_LOST;
         }
-        let state = if !(initialised && imu_seen && position_seen) {
+        let waiting = SampleKind::ALL.iter().any(|&k| measurement::required(k) && !seen[k as usize - 1]);
+        let state = if !initialised || waiting {
             health::INITIALISING
         } else if reasons != 0 {
             health::DEGRADED
@@ -160,8 +174,7 @@ mod tests {
                 history_capacity: 64,
                 max_sensors: 4,
                 max_future_ns: u64::MAX,
-                accel_range_mps2: 160.0,
-                gyro_range_radps: 35.0,
+                limits: crate::validate::Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 },
             },
         )
     }
@@ -171,12 +184,14 @@ mod tests {
         let mut e = engine();
         let mut h = HealthMonitor::new(HealthConfig::default());
         let mut sink = |_: &Entry<_>| {};
-        let imu = Sample::Imu(ImuSample { t_ns: 10, ..Default::default() });
+        let imu = Sample::Imu(ImuSample {
+            header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, 10, 0, 0),
+            ..Default::default()
+        });
         e.insert(&imu, Some(1_000), &mut sink);
         assert_eq!(h.evaluate(e.sensors(), 1_000, true).0, health::INITIALISING);
         let pos = Sample::Position(PositionSample {
-            t_ns: 11,
-            sensor: 1,
+            header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Position, 11, 1, 0),
             cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
             ..Default::default()
         });
@@ -195,7 +210,7 @@ mod tests {
         e.insert(&Sample::Imu(ImuSample::default()), Some(0), &mut sink);
         e.insert(
             &Sample::Position(PositionSample {
-                sensor: 1,
+                header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Position, 0, 1, 0),
                 cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
                 ..Default::default()
             }),
@@ -208,7 +223,10 @@ mod tests {
     #[test]
     fn persistently_inconsistent_nis_is_flagged_and_recovers() {
         let mut h = HealthMonitor::new(HealthConfig { nis_window: 10, ..Default::default() });
-        let (lo, hi) = h.nis_band(10);
+        let (lo, hi) = h.nis_band(3, 10);
+        // A 2-D measurement (the motion constraint): χ²₂₀ at 0.0005 and 0.9995 (tables: 5.40 and 47.50).
+        let (lo2, hi2) = h.nis_band(2, 10);
+        assert!((lo2 - 5.40).abs() < 0.01 && (hi2 - 47.50).abs() < 0.01, "{lo2} {hi2}");
         // χ²₃₀ at 0.0005 and 0.9995 (tables: 10.80 and 62.16).
         assert!((lo - 10.80).abs() < 0.01 && (hi - 62.16).abs() < 0.01, "{lo} {hi}");
         let e = fix_engine();
@@ -246,10 +264,24 @@ mod tests {
     #[test]
     fn losses_are_reported_for_a_while() {
         let mut e = engine();
-        let mut h = HealthMonitor::new(HealthConfig { imu_timeout_ns: u64::MAX, ..Default::default() });
+        let mut h = HealthMonitor::new(HealthConfig { timeouts_ns: [u64::MAX; KINDS], ..Default::default() });
         let mut sink = |_: &Entry<_>| {};
-        e.insert(&Sample::Imu(ImuSample { seq: 0, ..Default::default() }), Some(0), &mut sink);
-        e.insert(&Sample::Imu(ImuSample { seq: 5, t_ns: 1, ..Default::default() }), Some(0), &mut sink);
+        e.insert(
+            &Sample::Imu(ImuSample {
+                header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, 0, 0, 0),
+                ..Default::default()
+            }),
+            Some(0),
+            &mut sink,
+        );
+        e.insert(
+            &Sample::Imu(ImuSample {
+                header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, 1, 0, 5),
+                ..Default::default()
+            }),
+            Some(0),
+            &mut sink,
+        );
         assert_eq!(h.evaluate(e.sensors(), 10, true).1, health::SAMPLES_LOST);
         assert_eq!(h.evaluate(e.sensors(), 10 + LOSS_HOLD_NS, true).1, 0);
     }

@@ -3,11 +3,14 @@
 //! - [`filter`]: Kalman filter math (predict, Joseph update, gating, RTS smoother).
 //! - [`model`]: process and measurement models ([`model::linear`]).
 //! - [`reorder`]: processing-order key, late-sample placement, duplicate window.
-//! - [`validate`]: input checks with counted rejection reasons.
+//! - [`measurement`]: one module per sensor kind: validation, order, health, fusion.
+//! - [`validate`]: rejection reasons and limits of the input checks.
 //! - [`engine`]: reorder + model + filter + bounded history, deterministic, IPC-free.
 //! - [`snapshot`]: fills a `StateSnapshot` from the engine.
 //! - [`health`]: health of the live estimate (stale streams, NIS out of bounds, losses).
-//! - [`ipc`]: `fusiond run`, the live daemon over iceoryx2 (the only file that touches it).
+//! - [`live`]: the transport-free live core: engine, health, snapshots, housekeeping, summary.
+//! - [`ipc`]: `fusiond run` over iceoryx2 (the only file that touches it): N subscribers
+//!   merged by timestamp, the snapshot publisher.
 //! - [`summary`]: the low-rate summary log line, formatted off the fusion thread.
 //! - [`config`]: TOML configuration, validated at start-up.
 //! - [`replay`]: `fusiond replay`, JSON lines through the engine.
@@ -17,6 +20,8 @@ pub mod engine;
 pub mod filter;
 pub mod health;
 pub mod ipc;
+pub mod live;
+pub mod measurement;
 pub mod model;
 pub mod reorder;
 pub mod replay;

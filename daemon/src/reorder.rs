@@ -1,7 +1,8 @@
 //! Timestamp order and the late-sample policy.
 //!
-//! Samples are processed in the order of [`SampleKey`] `(t_ns, kind, sensor, seq)`,
-//! IMU before position at equal time. The engine keeps a bounded, key-sorted
+//! Samples are processed in the order of [`SampleKey`] `(t_ns, rank, kind, sensor,
+//! seq)`: at equal time by each kind's rank ([`crate::measurement::Measurement::RANK`],
+//! the IMU first). The engine keeps a bounded, key-sorted
 //! history; [`place`] decides where an arriving sample goes: appended (in order),
 //! inserted (late, fused exactly by rewind and replay), or dropped as too late.
 //! [`SeqWindow`] finds duplicates without searching the history.
@@ -14,7 +15,9 @@ use fusion_shared::SampleKind;
 pub struct SampleKey {
     /// Time of validity, ns.
     pub t_ns: u64,
-    /// IMU before position at equal time.
+    /// Rank of the kind at equal time ([`crate::measurement::rank`]).
+    pub rank: u8,
+    /// The kind.
     pub kind: SampleKind,
     /// Sensor id (per kind).
     pub sensor: u32,
@@ -24,10 +27,7 @@ pub struct SampleKey {
 
 /// The processing-order key of a sample.
 pub fn key_of(sample: &Sample) -> SampleKey {
-    match sample {
-        Sample::Imu(s) => SampleKey { t_ns: s.t_ns, kind: SampleKind::Imu, sensor: s.sensor, seq: s.seq },
-        Sample::Position(s) => SampleKey { t_ns: s.t_ns, kind: SampleKind::Position, sensor: s.sensor, seq: s.seq },
-    }
+    crate::measurement::key(sample)
 }
 
 /// Where an arriving sample goes in the history.
@@ -154,13 +154,14 @@ mod tests {
     use super::*;
 
     fn k(t: u64, kind: SampleKind, seq: u64) -> SampleKey {
-        SampleKey { t_ns: t, kind, sensor: 0, seq }
+        SampleKey { t_ns: t, rank: crate::measurement::rank(kind), kind, sensor: 0, seq }
     }
 
     #[test]
     fn imu_sorts_before_position_at_equal_time() {
         assert!(k(5, SampleKind::Imu, 9) < k(5, SampleKind::Position, 0));
         assert!(k(4, SampleKind::Position, 9) < k(5, SampleKind::Imu, 0));
+        assert!(k(5, SampleKind::Position, 9) < k(5, SampleKind::Velocity, 0));
     }
 
     #[test]

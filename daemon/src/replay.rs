@@ -5,13 +5,14 @@
 //! ```text
 //! {"imu": {"t_ns": 1000000, "sensor": 0, "seq": 0, "accel": [ax, ay, az], "gyro": [gx, gy, gz]}}
 //! {"position": {"t_ns": 1100000, "sensor": 1, "seq": 0, "pos": [x, y, z], "cov": [9 numbers, row-major]}}
+//! {"velocity": {"t_ns": 1100000, "sensor": 2, "seq": 0, "vel": [vx, vy, vz], "cov": [9 numbers, row-major]}}
 //! ```
 //!
 //! Output, one object per processed sample in processing order, written when the
 //! sample leaves the history (its estimate is final: no later sample can change it):
 //!
 //! ```text
-//! {"t_ns": …, "kind": "imu"|"position", "sensor": …, "seq": …, "x": […], "P": [n·n, row-major],
+//! {"t_ns": …, "kind": "imu"|"position"|"velocity", "sensor": …, "seq": …, "x": […], "P": [n·n, row-major],
 //!  "nis": number|null, "accepted": true|false|null}
 //! ```
 //!
@@ -23,11 +24,11 @@ use std::io::{BufRead, Write};
 use fusion_shared::jsonl;
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Config, ModelConfig};
+use fusion_shared::Counters;
+
+use crate::config::{Config, ConfigError};
 use crate::engine::{Engine, EngineConfig, Entry, Insert};
-use crate::model::ins::InsModel;
-use crate::model::linear::LinearModel;
-use crate::model::{Model, StepOutcome};
+use crate::model::{Model, StepOutcome, WithModel, with_model};
 use crate::reorder::{Sample, SampleKey};
 
 /// How many invalid lines the summary describes one by one.
@@ -40,8 +41,8 @@ pub enum ReplayError {
     #[error("i/o: {0}")]
     Io(#[from] std::io::Error),
     /// The configured model could not be built.
-    #[error("model: {0}")]
-    Model(String),
+    #[error(transparent)]
+    Model(#[from] ConfigError),
     /// The smoother failed (a prior covariance without Cholesky factor).
     #[error(transparent)]
     Smoother(#[from] crate::filter::SmootherError),
@@ -55,46 +56,26 @@ pub enum ReplayError {
 pub struct ReplaySummary {
     /// Non-blank lines read.
     pub read: u64,
-    /// Samples processed (output lines).
-    pub processed: u64,
-    /// Measurements fused.
-    pub fused: u64,
-    /// Measurements refused by the gate.
-    pub gated: u64,
-    /// Measurements refused by the filter (S not positive definite).
-    pub refused: u64,
-    /// Samples fused late by rewind and replay.
-    pub late: u64,
-    /// Samples dropped as older than the history.
-    pub too_late: u64,
-    /// Duplicate samples dropped.
-    pub duplicates: u64,
-    /// Lines rejected: malformed JSON, wrong shape, or invalid values.
-    pub invalid: u64,
+    /// What became of the samples, every sensor added up. Lines that were not
+    /// samples at all (malformed JSON, wrong shape) count as `invalid` too.
+    pub counts: Counters,
     /// Line number (1-based) and reason of the first invalid lines.
     pub invalid_lines: Vec<(u64, String)>,
 }
 
 impl std::fmt::Display for ReplaySummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let c = &self.counts;
         writeln!(
             f,
             "read {} lines: processed {}, fused {}, gated {}, refused {}, fused late {}, dropped too late {}, duplicates {}, invalid {}",
-            self.read,
-            self.processed,
-            self.fused,
-            self.gated,
-            self.refused,
-            self.late,
-            self.too_late,
-            self.duplicates,
-            self.invalid
+            self.read, c.processed, c.fused, c.gated, c.refused, c.late, c.too_late, c.duplicate, c.invalid
         )?;
         for (line, reason) in &self.invalid_lines {
             writeln!(f, "  line {line}: {reason}")?;
         }
-        if self.invalid > self.invalid_lines.len() as u64 {
-            writeln!(f, "  … and {} more invalid lines", self.invalid - self.invalid_lines.len() as u64)?;
+        if c.invalid > self.invalid_lines.len() as u64 {
+            writeln!(f, "  … and {} more invalid lines", c.invalid - self.invalid_lines.len() as u64)?;
         }
         Ok(())
     }
@@ -169,16 +150,14 @@ pub fn replay(
     output: impl Write,
     smooth: bool,
 ) -> Result<ReplaySummary, ReplayError> {
-    match config.model {
-        ModelConfig::Linear { .. } => {
-            let model = LinearModel::from_config(config).map_err(|e| ReplayError::Model(e.to_string()))?;
-            replay_model(model, config, input, output, smooth)
-        }
-        ModelConfig::Ins { .. } => {
-            let model = InsModel::from_config(config).map_err(|e| ReplayError::Model(e.to_string()))?;
-            replay_model(model, config, input, output, smooth)
+    struct Replay<'a, R, W>(&'a Config, R, W, bool);
+    impl<R: BufRead, W: Write> WithModel for Replay<'_, R, W> {
+        type Output = Result<ReplaySummary, ReplayError>;
+        fn run<M: Model>(self, model: M) -> Self::Output {
+            replay_model(model, self.0, self.1, self.2, self.3)
         }
     }
+    with_model(config, Replay(config, input, output, smooth))?
 }
 
 /// Where final entries go: straight to the output, or kept for the smoother.
@@ -226,8 +205,9 @@ fn replay_model<M: Model>(
     let mut summary = ReplaySummary::default();
     let mut sink = Sink::<M, _> { output, finals: smooth.then(Vec::new), error: None, _model: Default::default() };
 
+    // Lines that never became a sample; the engine counts the rest.
+    let mut unreadable = 0;
     let invalid = |summary: &mut ReplaySummary, line_no: u64, reason: String| {
-        summary.invalid += 1;
         if summary.invalid_lines.len() < INVALID_LINES_REPORTED {
             summary.invalid_lines.push((line_no, reason));
         }
@@ -242,6 +222,7 @@ fn replay_model<M: Model>(
         let sample = match parse_line(&line) {
             Ok(s) => s,
             Err(reason) => {
+                unreadable += 1;
                 invalid(&mut summary, line_no, reason);
                 continue;
             }
@@ -271,10 +252,10 @@ fn replay_model<M: Model>(
     }
     sink.output.flush()?;
 
-    let t = engine.totals(None);
-    (summary.processed, summary.fused, summary.gated, summary.refused) = (t.processed, t.fused, t.gated, t.refused);
-    (summary.late, summary.too_late, summary.duplicates) = (t.late, t.too_late, t.duplicate);
-    if summary.processed == 0 {
+    summary.counts = engine.totals(None);
+    // A sample refused for a full sensor table has no sensor to be counted on.
+    summary.counts.invalid += unreadable + engine.stats().unknown_sensor;
+    if summary.counts.processed == 0 {
         return Err(ReplayError::NothingProcessed(summary.read));
     }
     Ok(summary)

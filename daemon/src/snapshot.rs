@@ -33,16 +33,7 @@ fn counters(s: &SensorSlot) -> SensorCounters {
     SensorCounters {
         kind: s.kind as u32,
         sensor: s.sensor,
-        received: s.stats.received,
-        processed: s.stats.processed,
-        fused: s.stats.fused,
-        gated: s.stats.gated,
-        refused: s.stats.refused,
-        late: s.stats.late,
-        too_late: s.stats.too_late,
-        duplicate: s.stats.duplicate,
-        invalid: s.stats.invalid,
-        lost: s.stats.lost,
+        counts: s.stats,
         last_nis: s.last_nis.unwrap_or(f64::NAN),
         last_t_ns: s.last_t_ns.unwrap_or(0),
         last_arrival_ns: s.last_arrival_ns.unwrap_or(0),
@@ -128,36 +119,48 @@ mod tests {
                 history_capacity: 64,
                 max_sensors: 4,
                 max_future_ns: u64::MAX,
-                accel_range_mps2: 160.0,
-                gyro_range_radps: 35.0,
+                limits: crate::validate::Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 },
             },
         );
         let mut sink = |_: &Entry<_>| {};
-        let imu = Sample::Imu(ImuSample { t_ns: 100, sent_ns: 150, seq: 3, ..Default::default() });
+        let imu = Sample::Imu(ImuSample {
+            header: fusion_shared::SampleHeader {
+                t_ns: 100,
+                sent_ns: 150,
+                seq: 3,
+                ..fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, 0, 0, 0)
+            },
+            ..Default::default()
+        });
         e.insert(&imu, Some(170), &mut sink);
         let pos = Sample::Position(PositionSample {
-            t_ns: 90,
-            sent_ns: 160,
-            seq: 7,
-            sensor: 2,
+            header: fusion_shared::SampleHeader {
+                t_ns: 90,
+                sent_ns: 160,
+                seq: 7,
+                sensor: 2,
+                kind: fusion_shared::SampleKind::Position as u32,
+            },
             pos_m: [1.0, 2.0, 3.0],
             cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
-            ..Default::default()
         });
         e.insert(&pos, Some(180), &mut sink);
         let mut snap = StateSnapshot::default();
         fill(&mut snap, &e, Some(Input { sample: &pos, received_ns: 180, replayed: 1 }), (health::OK, 0));
         // The estimate is after the newest sample (the IMU at 100), the input was the late fix at 90.
-        assert_eq!((snap.t_ns, snap.sample_seq, snap.sample_kind, snap.outcome), (100, 3, 0, outcome::PROPAGATED));
+        assert_eq!((snap.t_ns, snap.sample_seq, snap.sample_kind, snap.outcome), (100, 3, 1, outcome::PROPAGATED));
         assert_eq!((snap.input_t_ns, snap.input_sent_ns, snap.input_received_ns), (90, 160, 180));
-        assert_eq!((snap.input_seq, snap.input_sensor, snap.input_kind, snap.input_replayed), (7, 2, 1, 1));
+        assert_eq!((snap.input_seq, snap.input_sensor, snap.input_kind, snap.input_replayed), (7, 2, 2, 1));
         assert_eq!((snap.state_len, snap.cov_dim, snap.model), (6, 6, fusion_shared::snapshot::model::LINEAR));
         let latest = e.latest().unwrap();
         assert_eq!(snap.state(), LinearModel::x(&latest.state));
         assert_eq!(snap.covariance(), LinearModel::covariance(&latest.state));
         assert_eq!(snap.sensor_count, 2);
         let p = snap.sensor_counters()[1];
-        assert_eq!((p.kind, p.sensor, p.received, p.fused, p.late, p.last_arrival_ns), (1, 2, 1, 1, 1, 180));
+        assert_eq!(
+            (p.kind, p.sensor, p.counts.received, p.counts.fused, p.counts.late, p.last_arrival_ns),
+            (2, 2, 1, 1, 1, 180)
+        );
         assert_eq!(snap.rewinds, 1);
         fill(&mut snap, &e, None, (health::DEGRADED, health::IMU_STALE));
         assert_eq!((snap.input_kind, snap.input_t_ns, snap.health), (INPUT_NONE, 0, health::DEGRADED));
@@ -174,8 +177,7 @@ mod tests {
                 history_capacity: 64,
                 max_sensors: 4,
                 max_future_ns: u64::MAX,
-                accel_range_mps2: 160.0,
-                gyro_range_radps: 35.0,
+                limits: crate::validate::Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 },
             },
         );
         let mut kept = StateSnapshot::default();
@@ -183,20 +185,24 @@ mod tests {
             let t = 1_000_000 * k;
             // IMU sensor 0, a fix every 10th (some late), a second IMU sensor from
             // sample 100 on (a new counter row), a health-only snapshot every 50th.
-            let mut samples =
-                vec![Sample::Imu(ImuSample { t_ns: t, seq: k, accel_mps2: [0.1, 0.0, 0.0], ..Default::default() })];
+            let mut samples = vec![Sample::Imu(ImuSample {
+                header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, t, 0, k),
+                accel_mps2: [0.1, 0.0, 0.0],
+                ..Default::default()
+            })];
             if k % 10 == 9 {
                 let late = if k % 30 == 29 { 5_000_000 } else { 0 };
                 samples.push(Sample::Position(PositionSample {
-                    t_ns: t - late,
-                    seq: k,
-                    sensor: 1,
+                    header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Position, t - late, 1, k),
                     cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
                     ..Default::default()
                 }));
             }
             if k >= 100 {
-                samples.push(Sample::Imu(ImuSample { t_ns: t, seq: k, sensor: 3, ..Default::default() }));
+                samples.push(Sample::Imu(ImuSample {
+                    header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, t, 3, k),
+                    ..Default::default()
+                }));
             }
             for sample in &samples {
                 let crate::engine::Insert::Processed { replayed, .. } = e.insert(sample, Some(t), &mut |_| {}) else {

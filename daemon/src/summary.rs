@@ -6,18 +6,18 @@ use std::thread::JoinHandle;
 
 use crossbeam::channel::{Receiver, Sender, TrySendError, bounded};
 use fusion_shared::snapshot::health;
+use fusion_shared::{Counters, SampleKind};
 
-use crate::engine::SensorStats;
+/// Number of sample kinds.
+const KINDS: usize = SampleKind::ALL.len();
 
 /// One summary interval.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Summary {
     /// Length of the interval, s.
     pub interval_s: f64,
-    /// IMU counts in the interval.
-    pub imu: SensorStats,
-    /// Position counts in the interval.
-    pub position: SensorStats,
+    /// Counts in the interval per kind (index `code − 1`).
+    pub kinds: [Counters; KINDS],
     /// Snapshots published in the interval.
     pub snapshots: u64,
     /// Publish latency (sample sent → snapshot published), ns: p50, p99, max; `None` without samples.
@@ -60,34 +60,43 @@ impl Drop for SummaryLogger {
     }
 }
 
+/// The text of one summary line.
+pub fn format(s: &Summary) -> String {
+    let rate = |n: u64| n as f64 / s.interval_s.max(1e-9);
+    let mut total = Counters::default();
+    let mut rates = Vec::with_capacity(KINDS);
+    for (k, c) in SampleKind::ALL.iter().zip(&s.kinds) {
+        total.add(c);
+        let r = rate(c.received);
+        if *k == SampleKind::Imu || c.received > 0 {
+            rates.push(if r >= 100.0 { format!("{} {r:.0}/s", k.name()) } else { format!("{} {r:.1}/s", k.name()) });
+        }
+    }
+    let reasons: Vec<&str> = health::reason_names(s.health.1).collect();
+    let latency = match s.latency_ns {
+        Some((p50, p99, max)) => format!("{:.1}/{:.1}/{:.1} us", p50 as f64 / 1e3, p99 as f64 / 1e3, max as f64 / 1e3),
+        None => "-".to_string(),
+    };
+    format!(
+        "{}: fused {}, gated {}, late {}, too late {}, duplicate {}, invalid {}, lost {}; \
+         {} snapshots; publish latency p50/p99/max {}; health {}{}",
+        rates.join(", "),
+        total.fused,
+        total.gated,
+        total.late,
+        total.too_late,
+        total.duplicate,
+        total.invalid,
+        total.lost,
+        s.snapshots,
+        latency,
+        health::name(s.health.0),
+        if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) },
+    )
+}
+
 fn log_loop(receiver: Receiver<Summary>) {
     for s in receiver {
-        let rate = |n: u64| n as f64 / s.interval_s.max(1e-9);
-        let reasons: Vec<&str> =
-            health::REASONS.iter().filter(|(bit, _)| s.health.1 & bit != 0).map(|(_, n)| *n).collect();
-        let latency = match s.latency_ns {
-            Some((p50, p99, max)) => {
-                format!("{:.1}/{:.1}/{:.1} us", p50 as f64 / 1e3, p99 as f64 / 1e3, max as f64 / 1e3)
-            }
-            None => "-".to_string(),
-        };
-        tracing::info!(
-            target: "fusiond::summary",
-            "imu {:.0}/s, position {:.1}/s: fused {}, gated {}, late {}, too late {}, duplicate {}, invalid {}, lost {}; \
-             {} snapshots; publish latency p50/p99/max {}; health {}{}",
-            rate(s.imu.received),
-            rate(s.position.received),
-            s.position.fused,
-            s.position.gated,
-            s.imu.late + s.position.late,
-            s.imu.too_late + s.position.too_late,
-            s.imu.duplicate + s.position.duplicate,
-            s.imu.invalid + s.position.invalid,
-            s.imu.lost + s.position.lost,
-            s.snapshots,
-            latency,
-            health::name(s.health.0),
-            if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) },
-        );
+        tracing::info!(target: "fusiond::summary", "{}", format(&s));
     }
 }

@@ -17,8 +17,7 @@ fn engine() -> Engine<LinearModel> {
             history_capacity: 1024,
             max_sensors: 4,
             max_future_ns: 0,
-            accel_range_mps2: 160.0,
-            gyro_range_radps: 35.0,
+            limits: fusion_daemon::validate::Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 },
         },
     )
 }
@@ -47,12 +46,12 @@ prop_compose! {
         for (dt_ms, accel, roll, l, pos) in steps {
             t += dt_ms * 1_000_000;
             let imu_id = (roll % 2) as usize;
-            out.push(Sample::Imu(ImuSample { t_ns: t, seq: imu_seq[imu_id], sensor: imu_id as u32, accel_mps2: accel, ..Default::default() }));
+            out.push(Sample::Imu(ImuSample { header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, t, imu_id as u32, imu_seq[imu_id]), accel_mps2: accel, ..Default::default() }));
             imu_seq[imu_id] += 1;
             if roll >= 7 {
                 // Sometimes at exactly the IMU time: IMU must go first.
                 let tp = if roll == 9 { t } else { t - 500_000 };
-                out.push(Sample::Position(PositionSample { t_ns: tp, seq: pos_seq, sensor: 0, pos_m: pos, cov_m2: cov(l), ..Default::default() }));
+                out.push(Sample::Position(PositionSample { header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Position, tp, 0, pos_seq), pos_m: pos, cov_m2: cov(l) }));
                 pos_seq += 1;
             }
         }
@@ -89,7 +88,7 @@ proptest! {
         delays in prop::collection::vec(0u64..HISTORY_NS / 2, 600),
     ) {
         let mut sorted = samples.clone();
-        sorted.sort_by_key(|s| (s.t_ns(), s.kind(), match s { Sample::Imu(i) => (i.sensor, i.seq), Sample::Position(p) => (p.sensor, p.seq) }));
+        sorted.sort_by_key(fusion_daemon::reorder::key_of);
         let (want, _) = run(&sorted);
         // Arrival = timestamp + a random delay below half the window: a sample is
         // never older than the newest arrived one by more than the window.

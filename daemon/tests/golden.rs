@@ -63,10 +63,20 @@ fn linear_drive_smoothed() {
 
 #[test]
 fn ins_drive_filtered() {
-    check("daemon/tests/golden/ins.toml", "daemon/tests/golden/ins_drive.jsonl", "daemon/tests/golden/ins.filtered.jsonl", false);
+    check(
+        "daemon/tests/golden/ins.toml",
+        "daemon/tests/golden/ins_drive.jsonl",
+        "daemon/tests/golden/ins.filtered.jsonl",
+        false,
+    );
 }
 
 #[test]
 fn ins_drive_smoothed() {
-    check("daemon/tests/golden/ins.toml", "daemon/tests/golden/ins_drive.jsonl", "daemon/tests/golden/ins.smoothed.jsonl", true);
+    check(
+        "daemon/tests/golden/ins.toml",
+        "daemon/tests/golden/ins_drive.jsonl",
+        "daemon/tests/golden/ins.smoothed.jsonl",
+        true,
+    );
 }

@@ -86,7 +86,7 @@ fn run(seed: u64, seconds: f64, position_std: f64, constraint: bool, stats: &mut
          initial_covariance_diagonal = [{}]\n[gating]\nprobability = 0.9999\n{}",
         fmt(&x0),
         fmt(&p0),
-        if constraint { "[constraints]\nnonholonomic_std_mps = 0.1\n" } else { "" }
+        if constraint { "[model.constraints]\nnonholonomic_std_mps = 0.1\n" } else { "" }
     ))
     .unwrap();
     let mut engine = Engine::new(InsModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));

@@ -90,7 +90,7 @@ fn late_positions_give_the_replay_final_state() {
     let lines = replay(&samples, &config());
     let last = snaps.last().unwrap();
     assert_same_estimate(last, lines.last().unwrap(), "final state");
-    let late: u64 = last.sensor_counters().iter().map(|c| c.late).sum();
+    let late: u64 = last.sensor_counters().iter().map(|c| c.counts.late).sum();
     assert!(late >= 25, "positions were fused late by rewind: {late}");
     assert!(snaps.iter().any(|s| s.input_replayed > 0 && s.input_t_ns < s.t_ns));
     assert!(daemon.terminate().success());
@@ -113,30 +113,31 @@ fn bad_samples_are_rejected_counted_and_change_nothing() {
             Sample::Imu(x) => {
                 if i % 97 == 5 {
                     let mut nan = *x;
-                    nan.seq = imu_seq;
+                    nan.header.seq = imu_seq;
                     nan.accel_mps2[1] = if i % 2 == 0 { f64::NAN } else { f64::INFINITY };
                     mixed.push((Sample::Imu(nan), false));
                     imu_seq += 1;
                     bad_count.0 += 1;
                 }
-                x.seq = imu_seq;
+                x.header.seq = imu_seq;
                 imu_seq += 1;
             }
             Sample::Position(x) => {
                 let mut bad = *x;
-                bad.seq = pos_seq;
+                bad.header.seq = pos_seq;
                 match pos_seq % 4 {
                     0 => bad.cov_m2 = [1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0], // indefinite
                     1 => bad.cov_m2[1] = 0.3,                                        // not symmetric
-                    2 => bad.t_ns = fusion_shared::now_ns() + 10_000_000_000,        // far future
+                    2 => bad.header.t_ns = fusion_shared::now_ns() + 10_000_000_000, // far future
                     _ => bad.pos_m[2] = f64::NAN,
                 }
                 mixed.push((Sample::Position(bad), false));
                 pos_seq += 1;
                 bad_count.1 += 1;
-                x.seq = pos_seq;
+                x.header.seq = pos_seq;
                 pos_seq += 1;
             }
+            Sample::Velocity(_) => {}
         }
         mixed.push((s, true));
     }
@@ -147,6 +148,7 @@ fn bad_samples_are_rejected_counted_and_change_nothing() {
         match *s {
             Sample::Imu(x) => imu.publish_sample(x).unwrap(),
             Sample::Position(x) => pos.publish_sample(x).unwrap(),
+            Sample::Velocity(_) => unreachable!("no velocity sensor in this scenario"),
         };
         if *good {
             loop {
@@ -163,8 +165,8 @@ fn bad_samples_are_rejected_counted_and_change_nothing() {
     let last = last.unwrap();
     assert_same_estimate(&last, lines.last().unwrap(), "final state with bad samples");
     let c = last.sensor_counters();
-    assert_eq!((c[0].invalid, c[1].invalid), bad_count, "{c:?}");
-    assert_eq!((c[0].lost, c[1].lost), (0, 0), "a rejected sample arrived: it is not lost");
+    assert_eq!((c[0].counts.invalid, c[1].counts.invalid), bad_count, "{c:?}");
+    assert_eq!((c[0].counts.lost, c[1].counts.lost), (0, 0), "a rejected sample arrived: it is not lost");
     assert!(daemon.terminate().success());
 }
 

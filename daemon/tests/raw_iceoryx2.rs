@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use common::live::{Daemon, TestDomain, triggered_by};
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_shared::service::{ServiceNames, iceoryx_config};
-use fusion_shared::{ImuSample, PositionSample, Sample, StateSnapshot, now_ns};
+use fusion_shared::{ImuSample, PositionSample, Sample, SampleKind, StateSnapshot, now_ns};
 use iceoryx2::prelude::*;
 
 #[test]
@@ -27,9 +27,14 @@ fn a_plain_iceoryx2_process_feeds_and_reads_the_daemon() {
         .create::<ipc::Service>()
         .unwrap();
     let open = |name: &str| ServiceName::new(name).unwrap();
-    let imu = node.service_builder(&open(&names.imu)).publish_subscribe::<ImuSample>().open().unwrap();
+    let imu =
+        node.service_builder(&open(&names.samples(SampleKind::Imu))).publish_subscribe::<ImuSample>().open().unwrap();
     let imu = imu.publisher_builder().create().unwrap();
-    let position = node.service_builder(&open(&names.position)).publish_subscribe::<PositionSample>().open().unwrap();
+    let position = node
+        .service_builder(&open(&names.samples(SampleKind::Position)))
+        .publish_subscribe::<PositionSample>()
+        .open()
+        .unwrap();
     let position = position.publisher_builder().create().unwrap();
     let wake = node.service_builder(&open(&names.wake)).event().open().unwrap().notifier_builder().create().unwrap();
     let state = node.service_builder(&open(&names.state)).publish_subscribe::<StateSnapshot>().open().unwrap();
@@ -40,16 +45,19 @@ fn a_plain_iceoryx2_process_feeds_and_reads_the_daemon() {
     let samples: Vec<Sample> = Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect();
     let mut last = None;
     for s in &samples {
-        match *s {
-            Sample::Imu(x) => imu.send_copy(ImuSample { sent_ns: now_ns(), ..x }).map(drop).unwrap(),
-            Sample::Position(x) => position.send_copy(PositionSample { sent_ns: now_ns(), ..x }).map(drop).unwrap(),
+        let mut s = *s;
+        s.header_mut().sent_ns = now_ns();
+        match s {
+            Sample::Imu(x) => imu.send_copy(x).map(drop).unwrap(),
+            Sample::Position(x) => position.send_copy(x).map(drop).unwrap(),
+            Sample::Velocity(_) => unreachable!("the scenario has no velocity sensor"),
         }
         wake.notify().unwrap();
         let deadline = Instant::now() + Duration::from_secs(10);
         last = loop {
             assert!(Instant::now() < deadline, "no snapshot for {s:?}");
             match state.receive().unwrap() {
-                Some(snap) if triggered_by(&snap, s) => break Some(*snap),
+                Some(snap) if triggered_by(&snap, &s) => break Some(*snap),
                 Some(_) => {}
                 None => std::thread::sleep(Duration::from_micros(200)),
             }

@@ -37,7 +37,14 @@ fn reference(input: &str, sigma_a: f64, gate: Option<f64>) -> Vec<RefStep> {
         .lines()
         .map(|l| {
             let v: Value = serde_json::from_str(l).unwrap();
-            let (kind, body) = if let Some(b) = v.get("imu") { (0u8, b.clone()) } else { (1u8, v["position"].clone()) };
+            // Kind order at equal time: IMU, position, velocity.
+            let (kind, body) = if let Some(b) = v.get("imu") {
+                (0u8, b.clone())
+            } else if let Some(b) = v.get("position") {
+                (1u8, b.clone())
+            } else {
+                (2u8, v["velocity"].clone())
+            };
             (
                 body["t_ns"].as_u64().unwrap(),
                 kind,
@@ -80,11 +87,12 @@ fn reference(input: &str, sigma_a: f64, gate: Option<f64>) -> Vec<RefStep> {
         if kind == 0 {
             a = vec(&body["accel"]);
         } else {
-            let z = vec(&body["pos"]);
+            // Position: H = [I 0]; velocity: H = [0 I].
+            let (z, offset) = if kind == 1 { (vec(&body["pos"]), 0) } else { (vec(&body["vel"]), 3) };
             let R = DMatrix::from_row_slice(3, 3, vec(&body["cov"]).as_slice());
             let mut H = DMatrix::zeros(3, 6);
             for i in 0..3 {
-                H[(i, i)] = 1.0;
+                H[(i, offset + i)] = 1.0;
             }
             let y = &z - &H * &x;
             let S = &H * &P * H.transpose() + &R;
@@ -102,7 +110,7 @@ fn reference(input: &str, sigma_a: f64, gate: Option<f64>) -> Vec<RefStep> {
         }
         out.push(RefStep {
             t_ns: t,
-            kind: if kind == 0 { "imu" } else { "position" },
+            kind: ["imu", "position", "velocity"][kind as usize],
             sensor,
             seq,
             x_prior,
@@ -187,6 +195,31 @@ fn replay_matches_the_independent_reference_filtered_and_smoothed() {
     compare(&got, &want);
 }
 
+/// GNSS velocity (`H = [0 I]`) in the stream, late like the fixes: the daemon
+/// equals the reference, filtered and smoothed.
+#[test]
+fn replay_with_velocity_matches_the_independent_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut c = fusion_client::sim::ScenarioConfig { seed: 12, duration_s: 10.0, ..Default::default() };
+    c.imu.rate_hz = 200.0;
+    c.imu.accel_noise_std = 0.1;
+    c.velocity = Some(fusion_client::sim::VelocityConfig { rate_hz: 5.0, ..Default::default() });
+    let scenario = fusion_client::sim::Scenario::generate(&c);
+    let input = dir.path().join("drive.jsonl");
+    common::write_input(&input, &scenario);
+    let text = std::fs::read_to_string(&input).unwrap();
+    assert_eq!(text.matches("\"velocity\"").count(), 51);
+    let config = common::linear_config(None);
+
+    let mut want = reference(&text, 0.3, None);
+    let (got, stderr) = common::run_replay(dir.path(), &config, &input, false);
+    compare(&got, &want);
+    assert_eq!(got.iter().filter(|l| l.kind == "velocity" && l.accepted == Some(true)).count(), 51, "{stderr}");
+    reference_smooth(&mut want);
+    let (got, _) = common::run_replay(dir.path(), &config, &input, true);
+    compare(&got, &want);
+}
+
 #[test]
 fn gating_rejects_exactly_the_outliers() {
     let dir = tempfile::tempdir().unwrap();
@@ -205,7 +238,7 @@ fn gating_rejects_exactly_the_outliers() {
             (
                 a.sample.t_ns(),
                 match a.sample {
-                    fusion_shared::Sample::Position(p) => p.seq,
+                    fusion_shared::Sample::Position(p) => p.header.seq,
                     _ => unreachable!(),
                 },
             )

@@ -3,102 +3,41 @@
 //! ```text
 //! {"imu": {"t_ns": 1000000, "sensor": 0, "seq": 0, "accel": [ax, ay, az], "gyro": [gx, gy, gz]}}
 //! {"position": {"t_ns": 1100000, "sensor": 1, "seq": 0, "pos": [x, y, z], "cov": [9 numbers, row-major]}}
+//! {"velocity": {"t_ns": 1100000, "sensor": 2, "seq": 0, "vel": [vx, vy, vz], "cov": [9 numbers, row-major]}}
 //! ```
+//!
+//! Each kind's fields are defined beside its wire type (`sample/<kind>.rs`).
 //!
 //! Unknown fields, wrong array lengths and numbers out of range are errors.
 
-use serde::{Deserialize, Serialize};
-
-use crate::{ImuSample, PositionSample, Sample};
-
-#[derive(Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, rename_all = "lowercase")]
-enum Line {
-    Imu(ImuLine),
-    Position(PositionLine),
-}
-
-#[derive(Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ImuLine {
-    t_ns: u64,
-    sensor: u32,
-    seq: u64,
-    accel: [f64; 3],
-    gyro: [f64; 3],
-}
-
-#[derive(Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct PositionLine {
-    t_ns: u64,
-    sensor: u32,
-    seq: u64,
-    pos: [f64; 3],
-    cov: [f64; 9],
-}
+use crate::Sample;
 
 /// Parses one line; the error text says what is wrong and where in the line.
 pub fn parse_sample(line: &str) -> Result<Sample, serde_json::Error> {
-    Ok(match serde_json::from_str::<Line>(line)? {
-        Line::Imu(s) => Sample::Imu(ImuSample {
-            t_ns: s.t_ns,
-            sent_ns: 0,
-            seq: s.seq,
-            sensor: s.sensor,
-            _reserved: 0,
-            accel_mps2: s.accel,
-            gyro_radps: s.gyro,
-        }),
-        Line::Position(s) => Sample::Position(PositionSample {
-            t_ns: s.t_ns,
-            sent_ns: 0,
-            seq: s.seq,
-            sensor: s.sensor,
-            _reserved: 0,
-            pos_m: s.pos,
-            cov_m2: s.cov,
-        }),
-    })
+    serde_json::from_str(line)
 }
 
 /// Formats a sample as one line (no newline); numbers round-trip exactly.
 pub fn format_sample(sample: &Sample) -> String {
-    let line = match *sample {
-        Sample::Imu(s) => {
-            Line::Imu(ImuLine { t_ns: s.t_ns, sensor: s.sensor, seq: s.seq, accel: s.accel_mps2, gyro: s.gyro_radps })
-        }
-        Sample::Position(s) => {
-            Line::Position(PositionLine { t_ns: s.t_ns, sensor: s.sensor, seq: s.seq, pos: s.pos_m, cov: s.cov_m2 })
-        }
-    };
     // Serialising plain numbers and arrays cannot fail; non-finite floats become null.
-    serde_json::to_string(&line).unwrap_or_default()
+    serde_json::to_string(sample).unwrap_or_default()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::{ImuSample, PositionSample, VelocitySample};
 
     #[test]
     fn lines_round_trip_exactly() {
-        let imu = Sample::Imu(ImuSample {
-            t_ns: 7,
-            sent_ns: 0,
-            seq: 3,
-            sensor: 2,
-            _reserved: 0,
-            accel_mps2: [0.1, 1.0 / 3.0, -2e-300],
-            gyro_radps: [1e300, 0.0, -0.5],
-        });
+        let imu = Sample::Imu(ImuSample::new(7, 2, 3, [0.1, 1.0 / 3.0, -2e-300], [1e300, 0.0, -0.5]));
         assert_eq!(parse_sample(&format_sample(&imu)).unwrap(), imu);
-        let pos = Sample::Position(PositionSample {
-            t_ns: 9,
-            cov_m2: [1.0; 9],
-            pos_m: [std::f64::consts::PI; 3],
-            ..Default::default()
-        });
+        let pos = Sample::Position(PositionSample::new(9, 0, 0, [std::f64::consts::PI; 3], [1.0; 9]));
         assert_eq!(parse_sample(&format_sample(&pos)).unwrap(), pos);
+        let vel = Sample::Velocity(VelocitySample::new(11, 4, 8, [1.5, -0.25, 1e-9], [0.01; 9]));
+        let line = format_sample(&vel);
+        assert!(line.starts_with(r#"{"velocity":{"t_ns":11,"sensor":4,"seq":8,"vel":[1.5,"#), "{line}");
+        assert_eq!(parse_sample(&line).unwrap(), vel);
     }
 
     #[test]
@@ -124,6 +63,6 @@ mod tests {
         assert!(matches!(parse_sample(a).unwrap(), Sample::Imu(s) if s.accel_mps2 == [1.0, 2.0, 3.0]));
         let b =
             r#"{"position": {"t_ns": 1100000, "sensor": 1, "seq": 0, "pos": [1, 2, 3], "cov": [1,0,0,0,1,0,0,0,1]}}"#;
-        assert!(matches!(parse_sample(b).unwrap(), Sample::Position(s) if s.sensor == 1));
+        assert!(matches!(parse_sample(b).unwrap(), Sample::Position(s) if s.header.sensor == 1));
     }
 }

@@ -1,6 +1,7 @@
 //! fusion-shared: the wire contract of fusiond and nothing else.
 //!
-//! - [`sample`]: [`ImuSample`] and [`PositionSample`], what sensor processes publish.
+//! - [`sample`]: what sensor processes publish: one [`SampleHeader`] and a payload per
+//!   kind ([`ImuSample`], [`PositionSample`], [`VelocitySample`]); [`SampleKind`] lists the kinds.
 //! - [`snapshot`]: [`StateSnapshot`], what fusiond publishes.
 //! - [`service`]: service names under a namespace, QoS, and how every side opens them.
 //! - `jsonl` (feature `json`): the JSON-lines sample format of replay files.
@@ -19,6 +20,8 @@ pub mod snapshot;
 pub mod time;
 pub mod transport;
 
-pub use sample::{ImuSample, PositionSample, Sample, SampleKind};
-pub use snapshot::{SensorCounters, StateSnapshot};
+pub use sample::{
+    ImuSample, KindVisitor, PositionSample, Sample, SampleHeader, SampleKind, VelocitySample, WireSample,
+};
+pub use snapshot::{Counters, SensorCounters, StateSnapshot};
 pub use time::now_ns;

@@ -1,45 +1,32 @@
 //! Sensor samples: what sensor processes publish and the daemon fuses.
 //!
-//! Layout rules (checked by `const` asserts below): `#[repr(C)]`, `ZeroCopySend`,
-//! fixed-width fields only, explicit `_reserved` padding, 8-byte alignment, and an
-//! explicit versioned type name: a reader built against another version fails to
-//! open the service instead of misreading bytes. Timestamps are `u64` nanoseconds
-//! of CLOCK_MONOTONIC ([`crate::now_ns`]).
+//! Every sample starts with the same [`SampleHeader`] (time of validity, send time,
+//! sequence number, sensor id, kind) followed by the payload of its kind. Each kind
+//! has its own file (its wire type, its JSON-lines form) and one line in the
+//! registry below, which generates [`SampleKind`], the in-process sum type
+//! [`Sample`] and the [`WireSample`] impls.
+//!
+//! Layout rules (checked by `const` asserts): `#[repr(C)]`, `ZeroCopySend`,
+//! fixed-width fields only, explicit padding, 8-byte alignment, and an explicit
+//! versioned type name (`fusion.<Type>.v2`): a reader built against another version
+//! fails to open the service instead of misreading bytes. Timestamps are `u64`
+//! nanoseconds of CLOCK_MONOTONIC ([`crate::now_ns`]).
 
 use iceoryx2::prelude::ZeroCopySend;
 
-/// The kind of a sample. Part of the processing-order key
-/// `(t_ns, kind, sensor, seq)`: at equal time an IMU sample is processed before
-/// a position sample.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-#[repr(u8)]
-pub enum SampleKind {
-    /// [`ImuSample`].
-    Imu = 0,
-    /// [`PositionSample`].
-    Position = 1,
-}
+mod imu;
+mod position;
+mod velocity;
 
-impl SampleKind {
-    /// Lower-case name as used in JSON and logs: `"imu"`, `"position"`.
-    pub const fn name(self) -> &'static str {
-        match self {
-            SampleKind::Imu => "imu",
-            SampleKind::Position => "position",
-        }
-    }
-}
+pub use imu::ImuSample;
+pub use position::PositionSample;
+pub use velocity::VelocitySample;
 
-/// One inertial measurement.
-///
-/// What `accel_mps2` means depends on the model the daemon runs: for `linear` it
-/// is the world-frame (ENU) acceleration with gravity removed; for `ins` it is the
-/// body-frame specific force `f = Rᵀ (a − g)`. `gyro_radps` is the body-frame
-/// angular rate.
-#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
-#[type_name("fusion.ImuSample.v1")]
+/// The header every sample starts with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ZeroCopySend)]
+#[type_name("fusion.SampleHeader.v2")]
 #[repr(C)]
-pub struct ImuSample {
+pub struct SampleHeader {
     /// Time of validity, ns of CLOCK_MONOTONIC.
     pub t_ns: u64,
     /// When the publisher sent it, ns of CLOCK_MONOTONIC (stamped by the client
@@ -47,91 +34,232 @@ pub struct ImuSample {
     pub sent_ns: u64,
     /// Sequence number, increasing by one per sample of this sensor.
     pub seq: u64,
-    /// Sensor id, unique among IMU sensors.
+    /// Sensor id, unique among the sensors of this kind.
     pub sensor: u32,
-    /// Explicit padding; write zero.
-    pub _reserved: u32,
-    /// Acceleration or specific force, m/s² (see the type's docs for the frame).
-    pub accel_mps2: [f64; 3],
-    /// Angular rate, rad/s, body frame.
-    pub gyro_radps: [f64; 3],
+    /// [`SampleKind`] code of the payload that follows. The daemon rejects a sample
+    /// whose code is not the kind of the service it arrived on (0 never is: a
+    /// zeroed sample is refused).
+    pub kind: u32,
 }
 
-/// One position fix with its covariance.
-#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
-#[type_name("fusion.PositionSample.v1")]
-#[repr(C)]
-pub struct PositionSample {
-    /// Time of validity, ns of CLOCK_MONOTONIC.
-    pub t_ns: u64,
-    /// When the publisher sent it, ns of CLOCK_MONOTONIC (0 in files).
-    pub sent_ns: u64,
-    /// Sequence number, increasing by one per sample of this sensor.
-    pub seq: u64,
-    /// Sensor id, unique among position sensors.
-    pub sensor: u32,
-    /// Explicit padding; write zero.
-    pub _reserved: u32,
-    /// Position, m, world frame ENU.
-    pub pos_m: [f64; 3],
-    /// Covariance of `pos_m`, m², row-major 3×3; must be symmetric positive definite.
-    pub cov_m2: [f64; 9],
+impl SampleHeader {
+    /// A header of `kind` with time `t_ns`, sensor and sequence number (`sent_ns` 0).
+    pub const fn new(kind: SampleKind, t_ns: u64, sensor: u32, seq: u64) -> Self {
+        Self { t_ns, sent_ns: 0, seq, sensor, kind: kind as u32 }
+    }
 }
 
-/// A sample of either kind (not a wire type: each kind has its own service).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Sample {
-    /// Inertial sample.
-    Imu(ImuSample),
-    /// Position fix.
-    Position(PositionSample),
+/// A wire type of one sample kind.
+pub trait WireSample: Copy + Default + PartialEq + std::fmt::Debug + ZeroCopySend + 'static {
+    /// The kind of the payload.
+    const KIND: SampleKind;
+    /// The header.
+    fn header(&self) -> &SampleHeader;
+    /// The header, to stamp.
+    fn header_mut(&mut self) -> &mut SampleHeader;
+    /// Wrapped in the sum type.
+    fn into_sample(self) -> Sample;
+}
+
+/// Something done once per wire type, in registry order (see [`SampleKind::visit_all`]).
+pub trait KindVisitor {
+    /// Called with each wire type.
+    fn visit<T: WireSample>(&mut self);
+}
+
+/// Generates [`SampleKind`], [`Sample`] and the [`WireSample`] impls from one list.
+macro_rules! sample_kinds {
+    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $ty:ident;)*) => {
+        /// The kind of a sample: its code on the wire ([`SampleHeader::kind`]) and in
+        /// snapshots. Codes start at 1; 0 is [`crate::snapshot::INPUT_NONE`].
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+        #[repr(u8)]
+        pub enum SampleKind {
+            $($(#[$doc])* $variant = $code,)*
+        }
+
+        impl SampleKind {
+            /// Every kind, in code order.
+            pub const ALL: &'static [SampleKind] = &[$(SampleKind::$variant),*];
+
+            /// Lower-case name, as in JSON, service names and logs.
+            pub const fn name(self) -> &'static str {
+                match self {
+                    $(SampleKind::$variant => $name,)*
+                }
+            }
+
+            /// The health reason of a stale stream of this kind.
+            pub const fn stale_reason(self) -> &'static str {
+                match self {
+                    $(SampleKind::$variant => concat!($name, " stale"),)*
+                }
+            }
+
+            /// The kind of a wire code, if it is one.
+            pub const fn from_code(code: u32) -> Option<SampleKind> {
+                match code {
+                    $($code => Some(SampleKind::$variant),)*
+                    _ => None,
+                }
+            }
+
+            /// The kind of a name, if it is one.
+            pub fn from_name(name: &str) -> Option<SampleKind> {
+                SampleKind::ALL.iter().copied().find(|k| k.name() == name)
+            }
+
+            /// Calls `visitor` with each wire type, in code order.
+            pub fn visit_all(visitor: &mut impl KindVisitor) {
+                $(visitor.visit::<$ty>();)*
+            }
+        }
+
+        /// A sample of any kind (not a wire type: each kind has its own service).
+        /// In JSON lines: `{"<kind name>": {…}}`.
+        #[derive(Debug, Clone, Copy, PartialEq)]
+        #[cfg_attr(feature = "json", derive(serde::Serialize, serde::Deserialize))]
+        pub enum Sample {
+            $($(#[$doc])* #[cfg_attr(feature = "json", serde(rename = $name))] $variant($ty),)*
+        }
+
+        impl Sample {
+            /// The header.
+            pub fn header(&self) -> &SampleHeader {
+                match self {
+                    $(Sample::$variant(s) => &s.header,)*
+                }
+            }
+
+            /// The header, to stamp.
+            pub fn header_mut(&mut self) -> &mut SampleHeader {
+                match self {
+                    $(Sample::$variant(s) => &mut s.header,)*
+                }
+            }
+
+            /// The kind of the payload (whatever the header says).
+            pub fn kind(&self) -> SampleKind {
+                match self {
+                    $(Sample::$variant(_) => SampleKind::$variant,)*
+                }
+            }
+        }
+
+        $(
+            impl WireSample for $ty {
+                const KIND: SampleKind = SampleKind::$variant;
+                fn header(&self) -> &SampleHeader {
+                    &self.header
+                }
+                fn header_mut(&mut self) -> &mut SampleHeader {
+                    &mut self.header
+                }
+                fn into_sample(self) -> Sample {
+                    Sample::$variant(self)
+                }
+            }
+
+            impl From<$ty> for Sample {
+                fn from(s: $ty) -> Sample {
+                    Sample::$variant(s)
+                }
+            }
+        )*
+    };
+}
+
+sample_kinds! {
+    /// [`ImuSample`]: specific force (or acceleration) and angular rate.
+    Imu = 1, "imu", ImuSample;
+    /// [`PositionSample`]: a 3-D position fix in the world frame.
+    Position = 2, "position", PositionSample;
+    /// [`VelocitySample`]: a 3-D velocity in the world frame (GNSS Doppler).
+    Velocity = 3, "velocity", VelocitySample;
 }
 
 impl Sample {
     /// Time of validity, ns.
     pub fn t_ns(&self) -> u64 {
-        match self {
-            Sample::Imu(s) => s.t_ns,
-            Sample::Position(s) => s.t_ns,
-        }
+        self.header().t_ns
     }
 
     /// When the publisher sent it, ns (0 if unknown).
     pub fn sent_ns(&self) -> u64 {
-        match self {
-            Sample::Imu(s) => s.sent_ns,
-            Sample::Position(s) => s.sent_ns,
-        }
+        self.header().sent_ns
     }
 
     /// Sensor id.
     pub fn sensor(&self) -> u32 {
-        match self {
-            Sample::Imu(s) => s.sensor,
-            Sample::Position(s) => s.sensor,
-        }
+        self.header().sensor
     }
 
     /// Sequence number.
     pub fn seq(&self) -> u64 {
-        match self {
-            Sample::Imu(s) => s.seq,
-            Sample::Position(s) => s.seq,
-        }
-    }
-
-    /// The kind.
-    pub fn kind(&self) -> SampleKind {
-        match self {
-            Sample::Imu(_) => SampleKind::Imu,
-            Sample::Position(_) => SampleKind::Position,
-        }
+        self.header().seq
     }
 }
 
+/// The JSON-lines form of a wire type: the header's `t_ns`, `sensor` and `seq`
+/// followed by the payload's fields (see [`crate::jsonl`]).
+#[cfg(feature = "json")]
+macro_rules! json_form {
+    ($ty:ident, $line:ident { $($(#[$doc:meta])* $json:ident: $jty:ty => $field:ident),* $(,)? }) => {
+        #[derive(serde::Serialize, serde::Deserialize)]
+        #[serde(deny_unknown_fields)]
+        pub(crate) struct $line {
+            t_ns: u64,
+            sensor: u32,
+            seq: u64,
+            $($json: $jty,)*
+        }
+
+        impl From<$line> for $ty {
+            fn from(l: $line) -> Self {
+                let header = $crate::sample::SampleHeader::new(
+                    <$ty as $crate::sample::WireSample>::KIND, l.t_ns, l.sensor, l.seq);
+                Self { header, $($field: l.$json,)* }
+            }
+        }
+
+        impl From<$ty> for $line {
+            fn from(s: $ty) -> Self {
+                Self { t_ns: s.header.t_ns, sensor: s.header.sensor, seq: s.header.seq, $($json: s.$field,)* }
+            }
+        }
+    };
+}
+#[cfg(feature = "json")]
+pub(crate) use json_form;
+
 const _: () = {
-    assert!(core::mem::size_of::<ImuSample>() == 80);
-    assert!(core::mem::align_of::<ImuSample>() == 8);
-    assert!(core::mem::size_of::<PositionSample>() == 128);
-    assert!(core::mem::align_of::<PositionSample>() == 8);
+    assert!(core::mem::size_of::<SampleHeader>() == 32);
+    assert!(core::mem::align_of::<SampleHeader>() == 8);
 };
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn codes_names_and_defaults_agree() {
+        for &k in SampleKind::ALL {
+            assert_eq!(SampleKind::from_code(k as u32), Some(k));
+            assert_eq!(SampleKind::from_name(k.name()), Some(k));
+            assert_ne!(k as u32, crate::snapshot::INPUT_NONE);
+        }
+        assert_eq!(SampleKind::from_code(0), None);
+        assert_eq!(ImuSample::default().header.kind, SampleKind::Imu as u32);
+        assert_eq!(PositionSample::default().header.kind, SampleKind::Position as u32);
+        assert_eq!(VelocitySample::default().header.kind, SampleKind::Velocity as u32);
+        struct Count(Vec<SampleKind>);
+        impl KindVisitor for Count {
+            fn visit<T: WireSample>(&mut self) {
+                self.0.push(T::KIND);
+            }
+        }
+        let mut c = Count(Vec::new());
+        SampleKind::visit_all(&mut c);
+        assert_eq!(c.0, SampleKind::ALL);
+    }
+}

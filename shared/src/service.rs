@@ -2,11 +2,13 @@
 //!
 //! | service | pattern | payload | who |
 //! |---|---|---|---|
-//! | `<ns>/imu` | publish-subscribe | [`ImuSample`] | sensors publish, fusiond subscribes |
-//! | `<ns>/position` | publish-subscribe | [`PositionSample`] | sensors publish, fusiond subscribes |
+//! | `<ns>/<kind>` | publish-subscribe | the kind's wire type | sensors publish, fusiond subscribes |
 //! | `<ns>/wake` | event | — | sensors notify after publishing, fusiond waits on it (`--wait event`) |
 //! | `<ns>/state` | publish-subscribe, history 1 | [`StateSnapshot`] | fusiond publishes, readers subscribe |
 //! | `<ns>/state` | event | — | fusiond notifies after publishing, readers wait on it |
+//!
+//! `<kind>` is each [`SampleKind`]'s name: `<ns>/imu` ([`crate::ImuSample`]),
+//! `<ns>/position` ([`crate::PositionSample`]), `<ns>/velocity` ([`crate::VelocitySample`]).
 //!
 //! Every side opens the services with the same settings through the functions
 //! here, so whichever process comes first creates them and the others open them.
@@ -17,7 +19,7 @@ use iceoryx2::service::builder::publish_subscribe::{PublishSubscribeOpenError, P
 use iceoryx2::service::port_factory::{event, publish_subscribe};
 
 use crate::transport::Ipc;
-use crate::{ImuSample, PositionSample, StateSnapshot};
+use crate::{SampleKind, StateSnapshot, WireSample};
 
 /// The namespace when none is given.
 pub const DEFAULT_NAMESPACE: &str = "fusion";
@@ -59,10 +61,6 @@ impl std::error::Error for InvalidNamespace {}
 pub struct ServiceNames {
     /// The namespace.
     pub namespace: String,
-    /// `<ns>/imu`.
-    pub imu: String,
-    /// `<ns>/position`.
-    pub position: String,
     /// `<ns>/wake`.
     pub wake: String,
     /// `<ns>/state`.
@@ -81,11 +79,16 @@ impl ServiceNames {
         }
         Ok(Self {
             namespace: namespace.to_string(),
-            imu: format!("{namespace}/imu"),
-            position: format!("{namespace}/position"),
             wake: format!("{namespace}/wake"),
             state: format!("{namespace}/state"),
         })
+    }
+}
+
+impl ServiceNames {
+    /// `<ns>/<kind>`: the service of the samples of `kind`.
+    pub fn samples(&self, kind: SampleKind) -> String {
+        format!("{}/{}", self.namespace, kind.name())
     }
 }
 
@@ -215,20 +218,12 @@ fn samples<T: std::fmt::Debug + ZeroCopySend>(
         .map_err(|e| classify_open_or_create(name, &e))
 }
 
-/// Opens (or creates) `<ns>/imu`.
-pub fn imu_service(
+/// Opens (or creates) `<ns>/<kind>`, the sample service of wire type `T`.
+pub fn sample_service<T: WireSample>(
     node: &Node<Ipc>,
     names: &ServiceNames,
-) -> Result<publish_subscribe::PortFactory<Ipc, ImuSample, ()>, ServiceError> {
-    samples(node, &names.imu)
-}
-
-/// Opens (or creates) `<ns>/position`.
-pub fn position_service(
-    node: &Node<Ipc>,
-    names: &ServiceNames,
-) -> Result<publish_subscribe::PortFactory<Ipc, PositionSample, ()>, ServiceError> {
-    samples(node, &names.position)
+) -> Result<publish_subscribe::PortFactory<Ipc, T, ()>, ServiceError> {
+    samples(node, &names.samples(T::KIND))
 }
 
 /// Opens `<ns>/state` (publish-subscribe, history 1); creates it too when
@@ -293,6 +288,7 @@ mod tests {
     #[test]
     fn namespaces_are_checked() {
         assert_eq!(ServiceNames::new("fusion").unwrap().state, "fusion/state");
+        assert_eq!(ServiceNames::new("fusion").unwrap().samples(SampleKind::Velocity), "fusion/velocity");
         assert!(ServiceNames::new("test-1.a_b").is_ok());
         for bad in ["", "a/b", "with space", "ü", &"x".repeat(65)] {
             assert!(ServiceNames::new(bad).is_err(), "{bad:?}");

@@ -17,8 +17,8 @@ pub const MAX_COV: usize = 15;
 pub const MAX_SENSORS: usize = 16;
 /// [`StateSnapshot::input_kind`] of a snapshot published because the health
 /// changed while no sample arrived (a stream went stale); its other `input_*`
-/// fields are zero.
-pub const INPUT_NONE: u32 = 2;
+/// fields are zero. No [`SampleKind`] has this code (theirs start at 1).
+pub const INPUT_NONE: u32 = 0;
 
 /// Model codes of [`StateSnapshot::model`].
 pub mod model {
@@ -39,6 +39,8 @@ pub mod model {
 
 /// Health states of [`StateSnapshot::health`].
 pub mod health {
+    use crate::SampleKind;
+
     /// Not yet a usable estimate (waiting for samples of every kind, or aligning).
     pub const INITIALISING: u32 = 0;
     /// Every stream is fresh and the filter is consistent.
@@ -46,15 +48,22 @@ pub mod health {
     /// An estimate exists but something is wrong: see the reason bits.
     pub const DEGRADED: u32 = 2;
 
-    /// Reason bit: no IMU sample for longer than the configured timeout.
-    pub const IMU_STALE: u32 = 1 << 0;
-    /// Reason bit: no position sample for longer than the configured timeout.
-    pub const POSITION_STALE: u32 = 1 << 1;
-    /// Reason bit: the NIS of recent position fixes is persistently outside its
-    /// chi-square band (filter and sensor disagree; fixes may be gated for good).
-    pub const NIS_OUT_OF_BOUNDS: u32 = 1 << 2;
+    /// Reason bit: the NIS of recent measurements of a sensor is persistently
+    /// outside its chi-square band (filter and sensor disagree; measurements may be
+    /// gated for good).
+    pub const NIS_OUT_OF_BOUNDS: u32 = 1 << 0;
     /// Reason bit: samples were lost (subscriber buffer overflow or sensor gaps).
-    pub const SAMPLES_LOST: u32 = 1 << 3;
+    pub const SAMPLES_LOST: u32 = 1 << 1;
+
+    /// Reason bit: no sample of `kind` for longer than its configured timeout
+    /// (bit `8 + code`).
+    pub const fn stale(kind: SampleKind) -> u32 {
+        1 << (8 + kind as u32)
+    }
+    /// Reason bit: no IMU sample for longer than the configured timeout.
+    pub const IMU_STALE: u32 = stale(SampleKind::Imu);
+    /// Reason bit: no position sample for longer than the configured timeout.
+    pub const POSITION_STALE: u32 = stale(SampleKind::Position);
 
     /// The name of a health state.
     pub const fn name(state: u32) -> &'static str {
@@ -66,13 +75,17 @@ pub mod health {
         }
     }
 
-    /// Every reason bit with its name.
-    pub const REASONS: [(u32, &str); 4] = [
-        (IMU_STALE, "imu stale"),
-        (POSITION_STALE, "position stale"),
-        (NIS_OUT_OF_BOUNDS, "nis out of bounds"),
-        (SAMPLES_LOST, "samples lost"),
-    ];
+    /// The reason bits that are not about one kind, with their names.
+    pub const GENERAL_REASONS: [(u32, &str); 2] =
+        [(NIS_OUT_OF_BOUNDS, "nis out of bounds"), (SAMPLES_LOST, "samples lost")];
+
+    /// Every reason bit set in `reasons`, by name: the general ones, then the
+    /// stale streams in kind order.
+    pub fn reason_names(reasons: u32) -> impl Iterator<Item = &'static str> {
+        let general = GENERAL_REASONS.into_iter().filter(move |(bit, _)| reasons & bit != 0).map(|(_, n)| n);
+        let stale = SampleKind::ALL.iter().filter(move |k| reasons & stale(**k) != 0).map(|k| k.stale_reason());
+        general.chain(stale)
+    }
 }
 
 /// Outcome codes of [`StateSnapshot::outcome`].
@@ -87,16 +100,15 @@ pub mod outcome {
     pub const REFUSED: u32 = 3;
 }
 
-/// Counters of one sensor, as in the engine.
-#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
-#[type_name("fusion.SensorCounters.v1")]
+/// What became of the samples of one sensor (or of several, added up): the one
+/// counters type of the engine, the snapshot and the replay summary.
+/// `fused`, `gated` and `refused` describe the current estimates: a rewind that
+/// changes a decision moves the count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ZeroCopySend)]
+#[type_name("fusion.Counters.v2")]
 #[repr(C)]
-pub struct SensorCounters {
-    /// [`SampleKind`] as `u32` (0 IMU, 1 position).
-    pub kind: u32,
-    /// Sensor id.
-    pub sensor: u32,
-    /// Samples received.
+pub struct Counters {
+    /// Samples that arrived.
     pub received: u64,
     /// Samples processed (in order or late).
     pub processed: u64,
@@ -104,9 +116,9 @@ pub struct SensorCounters {
     pub fused: u64,
     /// Measurements refused by the gate.
     pub gated: u64,
-    /// Measurements refused by the filter.
+    /// Measurements the filter refused (innovation covariance not positive definite).
     pub refused: u64,
-    /// Samples fused late by rewind and replay.
+    /// Samples processed late, by rewind and replay.
     pub late: u64,
     /// Samples dropped as older than the history.
     pub too_late: u64,
@@ -114,9 +126,71 @@ pub struct SensorCounters {
     pub duplicate: u64,
     /// Samples rejected by validation.
     pub invalid: u64,
-    /// Samples that never arrived: gaps in the sequence numbers (subscriber buffer
-    /// overflow, or the sensor skipped them).
+    /// Samples that never arrived: gaps in the sequence numbers (a subscriber
+    /// buffer overflow, or the sensor skipped them). A gap filled later is taken back.
     pub lost: u64,
+}
+
+impl Counters {
+    /// The counters as an array, in field order (for element-wise arithmetic).
+    const fn to_array(self) -> [u64; 10] {
+        [
+            self.received,
+            self.processed,
+            self.fused,
+            self.gated,
+            self.refused,
+            self.late,
+            self.too_late,
+            self.duplicate,
+            self.invalid,
+            self.lost,
+        ]
+    }
+
+    const fn from_array(a: [u64; 10]) -> Self {
+        Self {
+            received: a[0],
+            processed: a[1],
+            fused: a[2],
+            gated: a[3],
+            refused: a[4],
+            late: a[5],
+            too_late: a[6],
+            duplicate: a[7],
+            invalid: a[8],
+            lost: a[9],
+        }
+    }
+
+    /// Adds `other` counter by counter.
+    pub fn add(&mut self, other: &Counters) {
+        let (mut a, b) = (self.to_array(), other.to_array());
+        a.iter_mut().zip(b).for_each(|(x, y)| *x = x.wrapping_add(y));
+        *self = Self::from_array(a);
+    }
+
+    /// What happened since `before`, counter by counter. Counters that describe
+    /// current estimates (fused, gated, refused) or take back (lost) may shrink
+    /// through a rewind; their difference saturates at 0.
+    pub fn since(&self, before: &Counters) -> Counters {
+        let (mut a, b) = (self.to_array(), before.to_array());
+        a.iter_mut().zip(b).for_each(|(x, y)| *x = x.saturating_sub(y));
+        Self::from_array(a)
+    }
+}
+
+/// Counters of one sensor, as in the engine.
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[type_name("fusion.SensorCounters.v2")]
+#[repr(C)]
+pub struct SensorCounters {
+    /// [`SampleKind`] code.
+    pub kind: u32,
+    /// Sensor id.
+    pub sensor: u32,
+    /// What became of its samples.
+    pub counts: Counters,
     /// NIS of the measurement of this sensor processed last (NaN if none).
     pub last_nis: f64,
     /// Largest timestamp received, ns.
@@ -128,17 +202,13 @@ pub struct SensorCounters {
 impl SensorCounters {
     /// The kind, if the code is known.
     pub fn sample_kind(&self) -> Option<SampleKind> {
-        match self.kind {
-            0 => Some(SampleKind::Imu),
-            1 => Some(SampleKind::Position),
-            _ => None,
-        }
+        SampleKind::from_code(self.kind)
     }
 }
 
 /// The fusion state after one processed sample.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("fusion.StateSnapshot.v1")]
+#[type_name("fusion.StateSnapshot.v2")]
 #[repr(C)]
 pub struct StateSnapshot {
     /// Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
@@ -152,7 +222,7 @@ pub struct StateSnapshot {
     pub sample_seq: u64,
     /// Its sensor id.
     pub sample_sensor: u32,
-    /// Its kind ([`SampleKind`] as `u32`).
+    /// Its kind ([`SampleKind`] code).
     pub sample_kind: u32,
     /// What processing it did ([`outcome`]).
     pub outcome: u32,
@@ -172,7 +242,7 @@ pub struct StateSnapshot {
     pub input_seq: u64,
     /// Input sensor id.
     pub input_sensor: u32,
-    /// Input kind ([`SampleKind`] as `u32`), or [`INPUT_NONE`].
+    /// Input kind ([`SampleKind`] code), or [`INPUT_NONE`].
     pub input_kind: u32,
     /// Later samples re-processed because the input came late (0: in order).
     pub input_replayed: u32,
@@ -270,12 +340,13 @@ impl StateSnapshot {
     }
 
     /// The names of the health reason bits that are set.
-    pub fn health_reason_names(&self) -> impl Iterator<Item = &'static str> + '_ {
-        health::REASONS.iter().filter(|(bit, _)| self.health_reasons & bit != 0).map(|(_, name)| *name)
+    pub fn health_reason_names(&self) -> impl Iterator<Item = &'static str> + use<> {
+        health::reason_names(self.health_reasons)
     }
 }
 
 const _: () = {
+    assert!(core::mem::size_of::<Counters>() == 80);
     assert!(core::mem::size_of::<SensorCounters>() == 112);
     assert!(core::mem::align_of::<StateSnapshot>() == 8);
     assert!(

@@ -27,13 +27,13 @@ pub trait Payload: ZeroCopySend + Copy + std::fmt::Debug + Default + 'static {
 
 impl Payload for ImuSample {
     fn seq(&self) -> u64 {
-        self.seq
+        self.header.seq
     }
     fn stamp(&self) -> u64 {
-        self.t_ns
+        self.header.t_ns
     }
     fn with_seq(seq: u64, t_ns: u64) -> Self {
-        ImuSample { seq, t_ns, ..Default::default() }
+        ImuSample::new(t_ns, 0, seq, [0.0; 3], [0.0; 3])
     }
 }
 
@@ -154,7 +154,7 @@ impl<R: Payload> Pinger<R> {
         let end = PingPongEnd::open(base, "ping", "pong")?;
         let started = Instant::now();
         loop {
-            end.send(ImuSample { seq: u64::MAX - 1, ..Default::default() }, mode)?;
+            end.send(ImuSample::new(0, 0, u64::MAX - 1, [0.0; 3], [0.0; 3]), mode)?;
             if end.receive(mode)?.is_some() {
                 break;
             }
@@ -172,7 +172,7 @@ impl<R: Payload> Pinger<R> {
             let seq = self.seq;
             self.seq += 1;
             let t0 = now_ns();
-            self.end.send(ImuSample { seq, t_ns: t0, ..Default::default() }, self.mode)?;
+            self.end.send(ImuSample::new(t0, 0, seq, [0.0; 3], [0.0; 3]), self.mode)?;
             loop {
                 match self.end.receive(self.mode)? {
                     Some((answered, _)) if answered == seq => break,
@@ -189,7 +189,7 @@ impl<R: Payload> Pinger<R> {
 
     /// Tells the pong side to exit.
     pub fn finish(self) -> anyhow::Result<()> {
-        self.end.send(ImuSample { seq: u64::MAX, ..Default::default() }, self.mode)
+        self.end.send(ImuSample::new(0, 0, u64::MAX, [0.0; 3], [0.0; 3]), self.mode)
     }
 }
 

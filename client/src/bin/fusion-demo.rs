@@ -40,7 +40,7 @@ const INS_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density =
     initial_state = [0, 0, 0, 10, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0]\n\
     initial_covariance_diagonal = [1, 1, 1, 100, 100, 4, 0.01, 0.01, 1, 0.0025, 0.0025, 0.0025, 1e-6, 1e-6, 1e-6]\n\
     history_ns = 1_000_000_000\n\n[gating]\nprobability = 0.999\n\n\
-    [constraints]\n# a car: no sideways or vertical body velocity, up to 0.1 m/s\nnonholonomic_std_mps = 0.1\n";
+    [model.constraints]\n# a car: no sideways or vertical body velocity, up to 0.1 m/s\nnonholonomic_std_mps = 0.1\n";
 
 const CONFIG: &str = "[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n\n[filter]\n\
     initial_state = [0, 0, 0, 0, 0, 0]\n# the car is already moving: sigma_v 15 m/s\n\
@@ -152,14 +152,15 @@ fn main() -> anyhow::Result<()> {
             .args(["run", role, "--namespace", &namespace, "--outliers", "0.03"])
             .args(["--seed", &args.seed.to_string(), "--duration", &args.duration.to_string()])
             .args(["--start-at-ns", &start_ns.to_string()])
-            .args(if role == "--imu-only" { imu_args } else { &[] })
+            .args(if role == "--imu-only" { imu_args } else { &["--velocity-rate", "10"] })
             .stderr(Stdio::null())
             .spawn()?)
     };
     children.0.push(("fusion-sim --imu-only", sim("--imu-only")?));
     children.0.push(("fusion-sim --position-only", sim("--position-only")?));
     println!(
-        "  fusion-sim --imu-only (400 Hz) and fusion-sim --position-only (10 Hz, 20-120 ms late, 3 % outliers) started\n"
+        "  fusion-sim --imu-only and fusion-sim --position-only (a GNSS receiver: 10 Hz positions with 3 % outliers \
+         and 10 Hz Doppler velocities, 20-120 ms late) started\n"
     );
 
     let truth = CarTrajectory::new(args.seed);
@@ -205,8 +206,8 @@ fn main() -> anyhow::Result<()> {
                 x[2],
                 err,
                 health::name(s.health),
-                pos.map_or(0, |c| c.fused),
-                pos.map_or(0, |c| c.gated),
+                pos.map_or(0, |c| c.counts.fused),
+                pos.map_or(0, |c| c.counts.gated),
                 latency.value_at_quantile(0.5) as f64 / 1e3,
             );
             let _ = std::io::stdout().flush();
@@ -219,10 +220,11 @@ fn main() -> anyhow::Result<()> {
     let sd: Vec<f64> = s.std_devs().collect();
     println!("\nresult after {:.1} s of driving:", (s.t_ns as f64 - start_ns as f64) * 1e-9);
     for c in s.sensor_counters() {
-        let kind = if c.kind == 0 { "imu     " } else { "position" };
+        let kind = fusion_shared::SampleKind::from_code(c.kind).map_or("?", |k| k.name());
+        let n = &c.counts;
         println!(
-            "  {kind} {}: received {}, fused {}, gated {}, fused late {}, dropped too late {}, invalid {}, lost {}",
-            c.sensor, c.received, c.fused, c.gated, c.late, c.too_late, c.invalid, c.lost
+            "  {kind:<8} {}: received {}, fused {}, gated {}, fused late {}, dropped too late {}, invalid {}, lost {}",
+            c.sensor, n.received, n.fused, n.gated, n.late, n.too_late, n.invalid, n.lost
         );
     }
     println!(

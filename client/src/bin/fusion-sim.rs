@@ -1,8 +1,9 @@
 //! `fusion-sim`: simulated IMU and position sensors on one ground-truth trajectory.
 //!
 //! - `fusion-sim run`: publish live to a running fusiond, paced by the clock:
-//!   both sensors, or one of them (`--imu-only`, `--position-only`) so they can
-//!   run as separate processes on the same trajectory and start time; or a file
+//!   every sensor (IMU, position, and velocity with `--velocity-rate`), or the IMU
+//!   or the GNSS receiver alone (`--imu-only`, `--position-only`) so they can run
+//!   as separate processes on the same trajectory and start time; or a file
 //!   (`--input`), as fast as the daemon takes it or paced by its timestamps.
 //! - `fusion-sim record`: write a drive as replay input (JSON lines, arrival
 //!   order) and its truth (JSON lines, one per sample, timestamp order).
@@ -18,9 +19,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
-use fusion_client::sim::{CarTrajectory, ImuOutput, ImuSim, PositionSim, Scenario, ScenarioConfig};
-use fusion_client::{Client, now_ns};
-use fusion_shared::Sample;
+use fusion_client::sim::{
+    Arrival, CarTrajectory, ImuOutput, ImuSim, PositionSim, Scenario, ScenarioConfig, VelocityConfig, VelocitySim,
+};
+use fusion_client::{Client, SampleKind, SensorPublishers, now_ns};
 use fusion_shared::jsonl::{format_sample, parse_sample};
 
 #[derive(Parser)]
@@ -40,7 +42,7 @@ enum Command {
         /// Publish only the IMU.
         #[arg(long, conflicts_with = "position_only")]
         imu_only: bool,
-        /// Publish only the position fixes.
+        /// Publish only the GNSS receiver: position fixes (and velocities with --velocity-rate).
         #[arg(long)]
         position_only: bool,
         /// Publish this file (replay input format) instead of simulating.
@@ -114,6 +116,12 @@ struct SimArgs {
     /// Largest position delay, ms.
     #[arg(long, default_value_t = 120)]
     position_delay_max_ms: u64,
+    /// Velocity (GNSS Doppler) rate, Hz; 0: no velocity sensor.
+    #[arg(long, default_value_t = 0.0)]
+    velocity_rate: f64,
+    /// Horizontal velocity noise, m/s (vertical: 2×).
+    #[arg(long, default_value_t = 0.05)]
+    velocity_noise: f64,
     /// Probability of a lost fix.
     #[arg(long, default_value_t = 0.0)]
     dropouts: f64,
@@ -162,6 +170,14 @@ impl SimArgs {
         c.position.delay_max_ns = self.position_delay_max_ms * 1_000_000;
         c.position.dropout_probability = self.dropouts;
         c.position.outlier_probability = self.outliers;
+        c.velocity = (self.velocity_rate > 0.0).then(|| VelocityConfig {
+            rate_hz: self.velocity_rate,
+            noise_std_mps: self.velocity_noise,
+            vertical_noise_std_mps: 2.0 * self.velocity_noise,
+            delay_min_ns: c.position.delay_min_ns,
+            delay_max_ns: c.position.delay_max_ns,
+            ..Default::default()
+        });
         c
     }
 }
@@ -183,12 +199,32 @@ fn main() -> anyhow::Result<()> {
             let end_ns = start + (config.duration_s * 1e9) as u64;
             let imu_sim = (!position_only)
                 .then(|| ImuSim::new(trajectory.clone(), config.imu.clone(), config.imu_output, start, config.seed));
-            let pos_sim =
-                (!imu_only).then(|| PositionSim::new(trajectory, config.position.clone(), start, config.seed));
-            let mut imu = imu_sim.as_ref().map(|_| client.imu_publisher(config.imu.sensor)).transpose()?;
-            let mut pos = pos_sim.as_ref().map(|_| client.position_publisher(config.position.sensor)).transpose()?;
-            let (n_imu, n_pos) = play(ArrivalMerge::new(imu_sim, pos_sim), imu.as_mut(), pos.as_mut(), end_ns, &stop)?;
-            eprintln!("fusion-sim: published {n_imu} IMU samples and {n_pos} position fixes");
+            let mut delayed: Vec<Box<dyn Iterator<Item = Arrival> + Send>> = Vec::new();
+            let mut publishers = SensorPublishers::default();
+            if imu_sim.is_some() {
+                publishers.imu = Some(client.imu_publisher(config.imu.sensor)?);
+            }
+            if !imu_only {
+                delayed.push(Box::new(PositionSim::new(
+                    trajectory.clone(),
+                    config.position.clone(),
+                    start,
+                    config.seed,
+                )));
+                publishers.position = Some(client.position_publisher(config.position.sensor)?);
+                if let Some(v) = &config.velocity {
+                    delayed.push(Box::new(VelocitySim::new(trajectory, v.clone(), start, config.seed)));
+                    publishers.velocity = Some(client.velocity_publisher(v.sensor)?);
+                }
+            }
+            let counts = play(ArrivalMerge::new(imu_sim, delayed), &mut publishers, end_ns, &stop)?;
+            let counts: Vec<String> = SampleKind::ALL
+                .iter()
+                .zip(counts)
+                .filter(|(_, n)| *n > 0)
+                .map(|(k, n)| format!("{n} {} samples", k.name()))
+                .collect();
+            eprintln!("fusion-sim: published {}", counts.join(", "));
             Ok(())
         }
         Command::Record { output, truth, sim } => {
@@ -228,8 +264,7 @@ const ACK_TIMEOUT: Duration = Duration::from_millis(50);
 /// snapshots.
 fn publish_file(client: &Client, path: &std::path::Path, realtime: bool, stop: &AtomicBool) -> anyhow::Result<()> {
     let file = std::io::BufReader::new(std::fs::File::open(path).with_context(|| path.display().to_string())?);
-    let mut imu = client.imu_publisher(0)?;
-    let mut pos = client.position_publisher(1)?;
+    let mut publishers = SensorPublishers::all(client)?;
     let mut state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER)?;
     let (mut published, mut skipped, mut unacknowledged) = (0u64, 0u64, 0u64);
     let mut pace: Option<(u64, u64)> = None; // (first timestamp, wall time of it)
@@ -253,10 +288,7 @@ fn publish_file(client: &Client, path: &std::path::Path, realtime: bool, stop: &
             let (t0, wall0) = *pace.get_or_insert((sample.t_ns(), now_ns()));
             sleep_until(wall0 + sample.t_ns().saturating_sub(t0), stop);
         }
-        match sample {
-            Sample::Imu(s) => imu.publish_sample(s)?,
-            Sample::Position(s) => pos.publish_sample(s)?,
-        };
+        publishers.publish(sample)?;
         published += 1;
         if !realtime {
             let deadline = std::time::Instant::now() + ACK_TIMEOUT;

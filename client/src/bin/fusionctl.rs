@@ -44,11 +44,7 @@ enum Command {
 }
 
 fn kind_name(code: u32) -> &'static str {
-    match code {
-        0 => "imu",
-        1 => "position",
-        _ => "none",
-    }
+    fusion_shared::SampleKind::from_code(code).map_or("none", |k| k.name())
 }
 
 fn finite(v: f64) -> Option<f64> {
@@ -62,9 +58,11 @@ fn to_json(s: &StateSnapshot) -> serde_json::Value {
         .iter()
         .map(|c| {
             json!({
-                "kind": kind_name(c.kind), "sensor": c.sensor, "received": c.received, "processed": c.processed,
-                "fused": c.fused, "gated": c.gated, "refused": c.refused, "late": c.late, "too_late": c.too_late,
-                "duplicate": c.duplicate, "invalid": c.invalid, "lost": c.lost, "last_nis": finite(c.last_nis),
+                "kind": kind_name(c.kind), "sensor": c.sensor, "received": c.counts.received,
+                "processed": c.counts.processed, "fused": c.counts.fused, "gated": c.counts.gated,
+                "refused": c.counts.refused, "late": c.counts.late, "too_late": c.counts.too_late,
+                "duplicate": c.counts.duplicate, "invalid": c.counts.invalid, "lost": c.counts.lost,
+                "last_nis": finite(c.last_nis),
             })
         })
         .collect();
@@ -204,14 +202,14 @@ fn describe(s: &StateSnapshot) -> String {
         o += &format!(
             "  {:<12} {:>9} {:>9} {:>7} {:>6} {:>8} {:>9} {:>7} {:>6} {:>9}\n",
             format!("{} {}", kind_name(c.kind), c.sensor),
-            c.received,
-            c.fused,
-            c.gated,
-            c.late,
-            c.too_late,
-            c.duplicate,
-            c.invalid,
-            c.lost,
+            c.counts.received,
+            c.counts.fused,
+            c.counts.gated,
+            c.counts.late,
+            c.counts.too_late,
+            c.counts.duplicate,
+            c.counts.invalid,
+            c.counts.lost,
             finite(c.last_nis).map_or("-".into(), |v| format!("{v:.2}")),
         );
     }

@@ -1,7 +1,7 @@
 //! Simulated sensors for tests, demos and benchmarks.
 //!
 //! - [`trajectory`]: closed-form car-like ground truth.
-//! - [`sensors`]: IMU and position sensor models (rates, noise, delay, jitter,
+//! - [`sensors`]: IMU, position and velocity sensor models (rates, noise, delay, jitter,
 //!   dropouts, outliers) and [`Scenario`], a whole drive in arrival order.
 //! - [`player`]: publishing them live, paced by the clock.
 
@@ -9,5 +9,8 @@ pub mod player;
 pub mod sensors;
 pub mod trajectory;
 
-pub use sensors::{Arrival, ImuConfig, ImuOutput, ImuSim, PositionConfig, PositionSim, Scenario, ScenarioConfig};
+pub use sensors::{
+    Arrival, ImuConfig, ImuOutput, ImuSim, PositionConfig, PositionSim, Scenario, ScenarioConfig, VelocityConfig,
+    VelocitySim,
+};
 pub use trajectory::{CarTrajectory, TruthState};

@@ -5,30 +5,34 @@ use std::collections::BinaryHeap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use fusion_shared::{Sample, now_ns};
+use fusion_shared::now_ns;
 
-use super::sensors::{Arrival, ImuSim, PositionSim};
-use crate::{ClientError, ImuPublisher, PositionPublisher};
+use super::sensors::{Arrival, ImuSim};
+use crate::{ClientError, SensorPublishers};
 
-/// Merges an IMU stream (arrivals in order) and a position stream (arrivals out
-/// of order: random delays) into one stream in arrival order.
+/// A stream whose samples arrive at or after their timestamps, in timestamp order.
+type Delayed = std::iter::Peekable<Box<dyn Iterator<Item = Arrival> + Send>>;
+
+/// Merges an IMU stream (arrivals in order) and delayed streams (positions,
+/// velocities: each in timestamp order, arriving out of order after random
+/// delays) into one stream in arrival order.
 ///
-/// A position with timestamp `t` arrives at or after `t`, so every position that
-/// can arrive before time `b` has been pulled once the position iterator has
+/// A delayed sample with timestamp `t` arrives at or after `t`, so every one that
+/// can arrive before time `b` has been pulled once each delayed iterator has
 /// passed timestamp `b`.
 pub struct ArrivalMerge {
     imu: Option<std::iter::Peekable<ImuSim>>,
-    positions: Option<std::iter::Peekable<PositionSim>>,
+    delayed: Vec<Delayed>,
     pending: BinaryHeap<Reverse<(u64, u64, usize)>>,
     slots: Vec<Option<Arrival>>,
 }
 
 impl ArrivalMerge {
-    /// Merges the given streams (either may be absent).
-    pub fn new(imu: Option<ImuSim>, positions: Option<PositionSim>) -> Self {
+    /// Merges the given streams (the IMU may be absent, `delayed` empty).
+    pub fn new(imu: Option<ImuSim>, delayed: Vec<Box<dyn Iterator<Item = Arrival> + Send>>) -> Self {
         Self {
             imu: imu.map(Iterator::peekable),
-            positions: positions.map(Iterator::peekable),
+            delayed: delayed.into_iter().map(Iterator::peekable).collect(),
             pending: BinaryHeap::new(),
             slots: Vec::new(),
         }
@@ -41,17 +45,17 @@ impl Iterator for ArrivalMerge {
     fn next(&mut self) -> Option<Arrival> {
         let imu_next = self.imu.as_mut().and_then(|i| i.peek().map(|a| a.arrival_ns));
         let pending_min = |heap: &BinaryHeap<Reverse<(u64, u64, usize)>>| heap.peek().map(|Reverse(k)| k.0);
-        if let Some(positions) = &mut self.positions {
+        for stream in &mut self.delayed {
             loop {
                 let bound = match (imu_next, pending_min(&self.pending)) {
                     (Some(a), Some(b)) => a.min(b),
                     (Some(a), None) | (None, Some(a)) => a,
                     (None, None) => u64::MAX,
                 };
-                match positions.peek() {
+                match stream.peek() {
                     Some(p) if p.sample.t_ns() <= bound => {
                         // The simulators are endless: `next` follows a successful `peek`.
-                        let Some(p) = positions.next() else { break };
+                        let Some(p) = stream.next() else { break };
                         let slot = self.slots.iter().position(Option::is_none).unwrap_or_else(|| {
                             self.slots.push(None);
                             self.slots.len() - 1
@@ -63,12 +67,12 @@ impl Iterator for ArrivalMerge {
                 }
             }
         }
-        let take_position = match (imu_next, pending_min(&self.pending)) {
+        let take_delayed = match (imu_next, pending_min(&self.pending)) {
             (Some(a), Some(b)) => b < a,
             (None, Some(_)) => true,
             (_, None) => false,
         };
-        if take_position {
+        if take_delayed {
             let Reverse((_, _, slot)) = self.pending.pop()?;
             self.slots[slot].take()
         } else {
@@ -91,31 +95,21 @@ pub fn sleep_until(t_ns: u64, stop: &AtomicBool) {
 
 /// Publishes `arrivals` at their arrival times until they end, `end_ns` passes
 /// or `stop` is set. Samples of a kind without a publisher are skipped. Returns
-/// the number published of each kind.
+/// the number published of each kind (index `code − 1`).
 pub fn play(
     arrivals: impl Iterator<Item = Arrival>,
-    mut imu: Option<&mut ImuPublisher>,
-    mut position: Option<&mut PositionPublisher>,
+    publishers: &mut SensorPublishers,
     end_ns: u64,
     stop: &AtomicBool,
-) -> Result<(u64, u64), ClientError> {
-    let mut counts = (0, 0);
+) -> Result<[u64; fusion_shared::SampleKind::ALL.len()], ClientError> {
+    let mut counts = [0; fusion_shared::SampleKind::ALL.len()];
     for a in arrivals {
         if a.arrival_ns > end_ns || stop.load(Ordering::Relaxed) {
             break;
         }
-        match (a.sample, imu.as_deref_mut(), position.as_deref_mut()) {
-            (Sample::Imu(s), Some(p), _) => {
-                sleep_until(a.arrival_ns, stop);
-                p.publish_sample(s)?;
-                counts.0 += 1;
-            }
-            (Sample::Position(s), _, Some(p)) => {
-                sleep_until(a.arrival_ns, stop);
-                p.publish_sample(s)?;
-                counts.1 += 1;
-            }
-            _ => {}
+        sleep_until(a.arrival_ns, stop);
+        if publishers.publish(a.sample)?.is_some() {
+            counts[a.sample.kind() as usize - 1] += 1;
         }
     }
     Ok(counts)
@@ -124,14 +118,20 @@ pub fn play(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::{CarTrajectory, ImuConfig, ImuOutput, PositionConfig};
+    use crate::sim::{CarTrajectory, ImuConfig, ImuOutput, PositionConfig, PositionSim, VelocityConfig, VelocitySim};
+    use fusion_shared::Sample;
 
     #[test]
     fn merge_is_in_arrival_order_and_complete() {
         let traj = CarTrajectory::new(1);
         let imu = ImuSim::new(traj.clone(), ImuConfig::default(), ImuOutput::WorldAcceleration, 0, 1);
-        let pos = PositionSim::new(traj, PositionConfig { delay_max_ns: 300_000_000, ..Default::default() }, 0, 1);
-        let merged: Vec<Arrival> = ArrivalMerge::new(Some(imu), Some(pos)).take(5000).collect();
+        let pos =
+            PositionSim::new(traj.clone(), PositionConfig { delay_max_ns: 300_000_000, ..Default::default() }, 0, 1);
+        let vel = VelocitySim::new(traj.clone(), VelocityConfig::default(), 0, 1);
+        let merged: Vec<Arrival> =
+            ArrivalMerge::new(Some(imu), vec![Box::new(pos), Box::new(vel)]).take(5000).collect();
+        let velocities = merged.iter().filter(|a| matches!(a.sample, Sample::Velocity(_))).count();
+        assert!(velocities > 100, "{velocities}");
         assert!(merged.windows(2).all(|w| w[0].arrival_ns <= w[1].arrival_ns));
         let positions: Vec<u64> =
             merged.iter().filter(|a| matches!(a.sample, Sample::Position(_))).map(|a| a.sample.seq()).collect();

@@ -1,11 +1,12 @@
-//! Simulated sensors: IMU and position fixes sampled from a [`CarTrajectory`].
+//! Simulated sensors: IMU, position fixes and velocities (GNSS Doppler) sampled
+//! from a [`CarTrajectory`].
 //!
 //! Each sensor is an iterator of [`Arrival`]s in timestamp order, so the same
 //! code serves a file writer (merge by arrival time) and live publishers (pace by
 //! arrival time). All randomness comes from seeded ChaCha8 streams: the same
 //! configuration and seed give the same samples, bit for bit.
 
-use fusion_shared::{ImuSample, PositionSample, Sample};
+use fusion_shared::{ImuSample, PositionSample, Sample, VelocitySample};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -124,6 +125,36 @@ impl Default for PositionConfig {
     }
 }
 
+/// Velocity (GNSS Doppler) simulation settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VelocityConfig {
+    /// Rate, Hz.
+    pub rate_hz: f64,
+    /// Standard deviation of the horizontal noise, m/s (reported in the covariance).
+    pub noise_std_mps: f64,
+    /// Standard deviation of the vertical noise, m/s.
+    pub vertical_noise_std_mps: f64,
+    /// Delay from time of validity to publication: uniform in [min, max], ns.
+    pub delay_min_ns: u64,
+    /// See `delay_min_ns`.
+    pub delay_max_ns: u64,
+    /// Sensor id.
+    pub sensor: u32,
+}
+
+impl Default for VelocityConfig {
+    fn default() -> Self {
+        Self {
+            rate_hz: 10.0,
+            noise_std_mps: 0.05,
+            vertical_noise_std_mps: 0.1,
+            delay_min_ns: 20_000_000,
+            delay_max_ns: 120_000_000,
+            sensor: 2,
+        }
+    }
+}
+
 /// What the IMU measures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ImuOutput {
@@ -198,15 +229,7 @@ impl Iterator for ImuSim {
             ImuOutput::BodySpecificForce => truth.specific_force_mps2(self.config.gravity_mps2) + self.accel_bias,
         } + gaussian3(&mut self.rng) * self.config.accel_noise_std;
         let gyro = truth.omega_body_radps + self.gyro_bias + gaussian3(&mut self.rng) * self.config.gyro_noise_std;
-        let sample = ImuSample {
-            t_ns,
-            seq: self.index,
-            sensor: self.config.sensor,
-            _reserved: 0,
-            sent_ns: 0,
-            accel_mps2: accel.into(),
-            gyro_radps: gyro.into(),
-        };
+        let sample = ImuSample::new(t_ns, self.config.sensor, self.index, accel.into(), gyro.into());
         self.index += 1;
         Some(Arrival { arrival_ns: t_ns + self.config.delay_ns, sample: Sample::Imu(sample), outlier: false })
     }
@@ -257,18 +280,51 @@ impl Iterator for PositionSim {
             }
             let var = std.component_mul(&std);
             let t_ns = self.start_ns + offset_ns;
-            let sample = PositionSample {
-                t_ns,
-                seq: self.seq,
-                sensor: c.sensor,
-                _reserved: 0,
-                sent_ns: 0,
-                pos_m: pos.into(),
-                cov_m2: [var.x, 0.0, 0.0, 0.0, var.y, 0.0, 0.0, 0.0, var.z],
-            };
+            let cov = [var.x, 0.0, 0.0, 0.0, var.y, 0.0, 0.0, 0.0, var.z];
+            let sample = PositionSample::new(t_ns, c.sensor, self.seq, pos.into(), cov);
             self.seq += 1;
             return Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Position(sample), outlier });
         }
+    }
+}
+
+/// Simulated velocities (an endless iterator): the true world-frame velocity plus
+/// white noise, with the noise's covariance.
+#[derive(Debug, Clone)]
+pub struct VelocitySim {
+    trajectory: CarTrajectory,
+    config: VelocityConfig,
+    start_ns: u64,
+    index: u64,
+    rng: ChaCha8Rng,
+}
+
+impl VelocitySim {
+    /// Velocities on `trajectory`, the first at `start_ns` (trajectory time 0).
+    pub fn new(trajectory: CarTrajectory, config: VelocityConfig, start_ns: u64, seed: u64) -> Self {
+        // Its own stream: adding the sensor leaves every other sample unchanged.
+        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7665_6c00);
+        Self { trajectory, config, start_ns, index: 0, rng }
+    }
+}
+
+impl Iterator for VelocitySim {
+    type Item = Arrival;
+
+    fn next(&mut self) -> Option<Arrival> {
+        let c = &self.config;
+        let offset_ns = to_ns(self.index as f64 / c.rate_hz);
+        let delay = self.rng.random_range(c.delay_min_ns..=c.delay_max_ns.max(c.delay_min_ns));
+        let noise = gaussian3(&mut self.rng);
+        let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
+        let std = Vector3::new(c.noise_std_mps, c.noise_std_mps, c.vertical_noise_std_mps);
+        let vel = truth.vel_mps + noise.component_mul(&std);
+        let var = std.component_mul(&std);
+        let t_ns = self.start_ns + offset_ns;
+        let cov = [var.x, 0.0, 0.0, 0.0, var.y, 0.0, 0.0, 0.0, var.z];
+        let sample = VelocitySample::new(t_ns, c.sensor, self.index, vel.into(), cov);
+        self.index += 1;
+        Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Velocity(sample), outlier: false })
     }
 }
 
@@ -298,6 +354,8 @@ pub struct ScenarioConfig {
     pub imu_output: ImuOutput,
     /// Position settings.
     pub position: PositionConfig,
+    /// Velocity sensor, if any.
+    pub velocity: Option<VelocityConfig>,
 }
 
 impl Default for ScenarioConfig {
@@ -309,6 +367,7 @@ impl Default for ScenarioConfig {
             imu: ImuConfig::default(),
             imu_output: ImuOutput::WorldAcceleration,
             position: PositionConfig::default(),
+            velocity: None,
         }
     }
 }
@@ -322,7 +381,11 @@ impl Scenario {
             .take_while(|a| a.sample.t_ns() <= end_ns);
         let pos = PositionSim::new(trajectory.clone(), config.position.clone(), config.start_ns, config.seed)
             .take_while(|a| a.sample.t_ns() <= end_ns);
-        let mut arrivals: Vec<Arrival> = imu.chain(pos).collect();
+        let vel = config.velocity.iter().flat_map(|v| {
+            VelocitySim::new(trajectory.clone(), v.clone(), config.start_ns, config.seed)
+                .take_while(|a| a.sample.t_ns() <= end_ns)
+        });
+        let mut arrivals: Vec<Arrival> = imu.chain(pos).chain(vel).collect();
         arrivals.sort_by_key(|a| (a.arrival_ns, a.sample.t_ns()));
         Self { trajectory, start_ns: config.start_ns, arrivals }
     }
@@ -367,7 +430,7 @@ mod tests {
         let mut outliers = 0;
         for a in &s.arrivals {
             if let Sample::Position(p) = a.sample {
-                let err = (Vector3::from(p.pos_m) - s.truth_at(p.t_ns).pos_m).norm();
+                let err = (Vector3::from(p.pos_m) - s.truth_at(p.header.t_ns).pos_m).norm();
                 assert_eq!(a.outlier, err > 10.0, "err {err}");
                 outliers += a.outlier as usize;
             }

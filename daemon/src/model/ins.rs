@@ -28,16 +28,10 @@
 //! error reset. Before the first IMU sample (and during static alignment) the
 //! nominal state is held and only the covariance grows.
 //!
-//! Optional land-vehicle motion constraint (`[constraints]`, Groves 2013, §15.4.1;
-//! Dissanayake et al., "The aiding of a low-cost strapdown inertial measurement
-//! unit using vehicle model constraints for land vehicle applications", IEEE
-//! T-RA 2001): a wheeled vehicle does not slide sideways or lift off, so the
-//! lateral and vertical components of the body-frame velocity `v_b = Rᵀ v` are
-//! zero up to a noise `σ_nhc` (slip, suspension travel). On an IMU sample at most
-//! every `interval` and above a minimum forward speed, a pseudo-measurement
-//! `z = [0, 0] = [v_b,y, v_b,z] + n` is fused with the gate, then injected like a
-//! fix, once the attitude is known to 0.1 rad (before, the linearisation is poor). With the local attitude error, `v_b,true ≈ v_b + Rᵀ δv + [v_b]× δθ`, so
-//! the rows of `H` are rows 1 and 2 of `Rᵀ` on δv and of `[v_b]×` on δθ.
+//! Measurements are fused by their kinds' modules ([`crate::measurement`]), with
+//! [`InsModel::update_block`] for those that observe a 3-vector of the nominal
+//! state; the optional land-vehicle motion constraint
+//! ([`crate::measurement::nonholonomic`]) is fused after IMU samples.
 //!
 //! Discretisation over `dt` with `f = f_m − b_a`, `ω = ω_m − b_g` held (Solà eq. 260, 269–271):
 //!
@@ -68,12 +62,15 @@ use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 mod error_state;
 
-use error_state::{ProcessNoise, Transition, inject, inject_and_reset};
+pub(crate) use error_state::inject_and_reset;
+use error_state::{ProcessNoise, Transition, inject};
 
 use super::{Model, StepOutcome, advance_time};
+use crate::config::{Config, ConfigError, ModelConfig, invalid, positive};
 use crate::filter::{
     ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, rts_smooth,
 };
+pub use crate::measurement::nonholonomic::Nonholonomic;
 use crate::reorder::Sample;
 
 /// Error-state dimension.
@@ -94,23 +91,66 @@ pub struct ImuNoise {
     pub gyroscope_random_walk: f64,
 }
 
-/// Attitude uncertainty (1σ, rad, any axis) above which the motion constraint
-/// waits: 0.1 rad, where the small-angle error of its linearisation reaches 0.5 %.
-pub const NONHOLONOMIC_MAX_ATTITUDE_SD: f64 = 0.1;
-
-/// The land-vehicle motion constraint: zero lateral and vertical body velocity
-/// (see the module docs).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Nonholonomic {
-    /// Standard deviation of the lateral and vertical body velocity, m/s.
-    pub std_mps: f64,
-    /// Least time between two constraint updates, ns.
-    pub interval_ns: u64,
-    /// Forward speed below which the constraint is not applied, m/s.
-    pub min_speed_mps: f64,
+/// The `ins` model's parameters as configured (`[model]` with `kind = "ins"`, Kalibr
+/// names and units).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InsParams {
+    /// Accelerometer white noise density σ_a, m/s²/√Hz.
+    pub accelerometer_noise_density: f64,
+    /// Gyroscope white noise density σ_g, rad/s/√Hz.
+    pub gyroscope_noise_density: f64,
+    /// Accelerometer bias random walk σ_aw, m/s³/√Hz.
+    pub accelerometer_random_walk: f64,
+    /// Gyroscope bias random walk σ_gw, rad/s²/√Hz.
+    pub gyroscope_random_walk: f64,
+    /// Gravity, m/s².
+    #[serde(default = "InsParams::default_gravity")]
+    pub gravity_mps2: f64,
+    /// Static alignment (`[model.alignment]`), if any.
+    pub alignment: Option<AlignmentParams>,
+    /// Land-vehicle motion constraint (`[model.constraints]`), if any.
+    pub constraints: Option<ConstraintParams>,
 }
 
-/// The `ins` model's parameters.
+impl InsParams {
+    fn default_gravity() -> f64 {
+        9.80665
+    }
+}
+
+/// `[model.alignment]`: roll, pitch and gyro bias from the first samples at rest.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AlignmentParams {
+    /// IMU samples averaged.
+    pub static_samples: u32,
+}
+
+/// `[model.constraints]`: the land-vehicle motion constraint ([`Nonholonomic`]).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConstraintParams {
+    /// Standard deviation of the lateral and vertical body velocity, m/s.
+    pub nonholonomic_std_mps: f64,
+    /// Least time between two constraint updates, ns.
+    #[serde(default = "ConstraintParams::default_interval_ns")]
+    pub nonholonomic_interval_ns: u64,
+    /// Forward speed below which the constraint is not applied, m/s.
+    #[serde(default = "ConstraintParams::default_min_speed")]
+    pub nonholonomic_min_speed_mps: f64,
+}
+
+impl ConstraintParams {
+    fn default_interval_ns() -> u64 {
+        50_000_000
+    }
+    fn default_min_speed() -> f64 {
+        1.0
+    }
+}
+
+/// The `ins` model.
 #[derive(Debug, Clone)]
 pub struct InsModel {
     noise: ImuNoise,
@@ -137,7 +177,7 @@ pub struct InsState {
     /// Nominal state [p, v, q_wxyz, b_a, b_g].
     nominal: [f64; NOMINAL],
     /// Error-state filter (its mean is zero between updates).
-    kf: KalmanFilter<f64, N>,
+    pub(crate) kf: KalmanFilter<f64, N>,
     t_ns: Option<u64>,
     /// Held IMU sample (specific force, rate), if any arrived.
     held: Option<(Vector3<f64>, Vector3<f64>)>,
@@ -146,9 +186,9 @@ pub struct InsState {
     sum_f: Vector3<f64>,
     sum_w: Vector3<f64>,
     /// IMU values are held and the alignment (if any) is done.
-    ready: bool,
+    pub(crate) ready: bool,
     /// Time of the last motion-constraint update.
-    constrained_ns: Option<u64>,
+    pub(crate) constrained_ns: Option<u64>,
 }
 
 impl InsState {
@@ -245,26 +285,45 @@ impl InsModel {
         self
     }
 
-    /// The model of a validated config with `kind = "ins"`.
-    pub fn from_config(config: &crate::config::Config) -> Result<Self, crate::config::ConfigError> {
-        let crate::config::ModelConfig::Ins { noise, gravity_mps2, alignment_samples, nonholonomic } = config.model
-        else {
-            return Err(crate::config::ConfigError::Invalid { key: "model.kind", problem: "not \"ins\"".into() });
+    /// The model of a config with `kind = "ins"`.
+    pub fn from_config(config: &Config) -> Result<Self, ConfigError> {
+        let ModelConfig::Ins(p) = &config.model else {
+            return Err(invalid("model.kind", "not \"ins\""));
         };
-        let invalid = |key, problem: String| crate::config::ConfigError::Invalid { key, problem };
-        let x0: [f64; NOMINAL] = config
-            .filter
-            .initial_state
-            .as_slice()
-            .try_into()
-            .map_err(|_| invalid("filter.initial_state", "needs 16 values".into()))?;
-        let p0: [f64; N] = config
-            .filter
-            .initial_covariance_diagonal
-            .as_slice()
-            .try_into()
-            .map_err(|_| invalid("filter.initial_covariance_diagonal", "needs 15 values".into()))?;
-        Self::new(noise, gravity_mps2, x0, p0, config.gating.clone(), alignment_samples)
+        let noise = ImuNoise {
+            accelerometer_noise_density: positive("model.accelerometer_noise_density", p.accelerometer_noise_density)?,
+            gyroscope_noise_density: positive("model.gyroscope_noise_density", p.gyroscope_noise_density)?,
+            accelerometer_random_walk: positive("model.accelerometer_random_walk", p.accelerometer_random_walk)?,
+            gyroscope_random_walk: positive("model.gyroscope_random_walk", p.gyroscope_random_walk)?,
+        };
+        let gravity = positive("model.gravity_mps2", p.gravity_mps2)?;
+        let nonholonomic = match p.constraints {
+            None => None,
+            Some(c) => {
+                let min_speed_mps = c.nonholonomic_min_speed_mps;
+                if !(min_speed_mps.is_finite() && min_speed_mps >= 0.0) {
+                    return Err(invalid(
+                        "model.constraints.nonholonomic_min_speed_mps",
+                        format!("must be a finite number >= 0, got {min_speed_mps}"),
+                    ));
+                }
+                Some(Nonholonomic {
+                    std_mps: positive("model.constraints.nonholonomic_std_mps", c.nonholonomic_std_mps)?,
+                    interval_ns: c.nonholonomic_interval_ns,
+                    min_speed_mps,
+                })
+            }
+        };
+        let (x0, p0) = super::initial_values::<NOMINAL, N>(config)?;
+        let norm = x0[6..10].iter().map(|v| v * v).sum::<f64>().sqrt();
+        if (norm - 1.0).abs() > 1e-3 {
+            return Err(invalid(
+                "filter.initial_state",
+                format!("entries 6..10 are the attitude quaternion [w, x, y, z] and must have norm 1, got {norm}"),
+            ));
+        }
+        let alignment = p.alignment.map_or(0, |a| a.static_samples);
+        Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)
             .map(|m| m.with_nonholonomic(nonholonomic))
             .map_err(|e| invalid("filter.initial_state", e.to_string()))
     }
@@ -334,76 +393,55 @@ impl InsModel {
         if let Some(dt) = advance_time(&mut s.t_ns, sample.t_ns()) {
             self.propagate(s, dt, log);
         }
-        match sample {
-            Sample::Imu(imu) => {
-                let (f, w) = (Vector3::from(imu.accel_mps2), Vector3::from(imu.gyro_radps));
-                s.held = Some((f, w));
-                if s.aligned < self.alignment_samples {
-                    s.sum_f += f;
-                    s.sum_w += w;
-                    s.aligned += 1;
-                    if s.aligned == self.alignment_samples {
-                        self.align(s);
-                    }
-                }
-                s.ready = s.aligned >= self.alignment_samples;
-                let mut injected = None;
-                if let Some(c) = self.nonholonomic
-                    && s.ready
-                    && s.constrained_ns.is_none_or(|t| sample.t_ns() >= t.saturating_add(c.interval_ns))
-                {
-                    s.constrained_ns = Some(sample.t_ns());
-                    injected = self.constrain(s, &c);
-                }
-                (StepOutcome::Propagated, injected)
-            }
-            Sample::Position(pos) => {
-                let z = Vector3::from(pos.pos_m);
-                let R = Matrix3::from_row_slice(&pos.cov_m2);
-                // H selects δp; the error state is zero before the update, so h(x) = p (nominal).
-                let (decision, nis) = match s.kf.update_selection_lean(&z, &s.p(), 0, &R, self.gate.as_ref()) {
-                    Ok(d) => d,
-                    Err(_) => return (StepOutcome::Refused, None),
-                };
-                if decision != UpdateDecision::Accepted {
-                    return (StepOutcome::Gated { nis }, None);
-                }
-                (StepOutcome::Fused { nis }, Some(inject_and_reset(s)))
-            }
-        }
+        crate::measurement::fuse(sample, self, s)
     }
 
-    /// Fuses the motion constraint `[v_b,y, v_b,z] = 0` (see the module docs) and
-    /// injects the correction, which it returns. Below the minimum speed, or when
-    /// the gate refuses it (the vehicle skids), nothing changes.
-    fn constrain(&self, s: &mut InsState, c: &Nonholonomic) -> Option<SVector<f64, N>> {
-        let R = s.q().to_rotation_matrix().into_inner();
-        let v_b = R.transpose() * s.v();
-        if v_b.x < c.min_speed_mps {
-            return None;
-        }
-        // The constraint is linear in δθ only for small attitude errors: with the
-        // heading still unknown (e.g. at start, before fixes have shown the track)
-        // it would pull the estimate the wrong way.
-        let P = s.kf.P();
-        if (6..9).any(|i| P[(i, i)] > NONHOLONOMIC_MAX_ATTITUDE_SD * NONHOLONOMIC_MAX_ATTITUDE_SD) {
-            return None;
-        }
-        let mut H = SMatrix::<f64, 2, N>::zeros();
-        let vx = v_b.cross_matrix();
-        for r in 0..2 {
-            for k in 0..3 {
-                H[(r, 3 + k)] = R[(k, r + 1)]; // (Rᵀ)[r+1][k]
-                H[(r, 6 + k)] = vx[(r + 1, k)];
+    /// Holds an IMU sample's specific force `f` and rate `w` for the next
+    /// propagations, summing them during the static alignment (aligning at its end).
+    pub(crate) fn hold_imu(&self, s: &mut InsState, f: Vector3<f64>, w: Vector3<f64>) {
+        s.held = Some((f, w));
+        if s.aligned < self.alignment_samples {
+            s.sum_f += f;
+            s.sum_w += w;
+            s.aligned += 1;
+            if s.aligned == self.alignment_samples {
+                self.align(s);
             }
         }
-        let predicted = nalgebra::Vector2::new(v_b.y, v_b.z);
-        let Rn = nalgebra::Matrix2::identity() * (c.std_mps * c.std_mps);
-        let options = crate::filter::UpdateOptions { gate: self.gate.as_ref(), fault_detector: None };
-        match s.kf.update_nonlinear(&nalgebra::Vector2::zeros(), &predicted, &H, &Rn, options) {
-            Ok(d) if d.decision == UpdateDecision::Accepted => Some(inject_and_reset(s)),
-            _ => None,
+        s.ready = s.aligned >= self.alignment_samples;
+    }
+
+    /// The motion constraint, if configured.
+    pub fn nonholonomic(&self) -> Option<&Nonholonomic> {
+        self.nonholonomic.as_ref()
+    }
+
+    /// The gate, if gating is on.
+    pub fn gate(&self) -> Option<&ChiSquareGate> {
+        self.gate.as_ref()
+    }
+
+    /// Fuses `z = x[offset..offset+3] + n`, `n ~ N(0, R)`, a measurement of three
+    /// consecutive nominal states that are also error states (δp at 0, δv at 3):
+    /// `H` selects them, `h(x) = predicted` (the nominal value: the error is zero
+    /// before the update). Joseph form, gated as configured; a fused correction is
+    /// injected into the nominal state and the error reset, and returned.
+    pub(crate) fn update_block(
+        &self,
+        s: &mut InsState,
+        z: &Vector3<f64>,
+        predicted: &Vector3<f64>,
+        offset: usize,
+        R: &Matrix3<f64>,
+    ) -> (StepOutcome, Option<SVector<f64, N>>) {
+        let (decision, nis) = match s.kf.update_selection_lean(z, predicted, offset, R, self.gate.as_ref()) {
+            Ok(d) => d,
+            Err(_) => return (StepOutcome::Refused, None),
+        };
+        if decision != UpdateDecision::Accepted {
+            return (StepOutcome::Gated { nis }, None);
         }
+        (StepOutcome::Fused { nis }, Some(inject_and_reset(s)))
     }
 
     /// Static alignment from the mean specific force and rate (vehicle at rest):
@@ -425,6 +463,7 @@ impl InsModel {
 impl Model for InsModel {
     type State = InsState;
     type Record = InsRecord;
+    type Correction = Option<SVector<f64, N>>;
     const KIND: &'static str = "ins";
     const CODE: u32 = fusion_shared::snapshot::model::INS;
 

@@ -15,6 +15,7 @@
 //!              P ← F P Fᵀ + G (σₐ² I₃) Gᵀ,  t_f ← t
 //! IMU:       a ← accel
 //! position:  z = pos, H = [I 0], R = cov; Joseph-form update, gated if configured
+//! velocity:  z = vel, H = [0 I], R = cov; likewise
 //! ```
 //!
 //! This is the discrete white-noise acceleration model of Bar-Shalom, Li and
@@ -27,11 +28,26 @@
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use super::{Model, StepOutcome, advance_time};
+use crate::config::{Config, ConfigError, ModelConfig, invalid, positive};
 use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, rts_smooth};
 use crate::reorder::Sample;
 
 /// State dimension.
 pub const N: usize = 6;
+
+/// The `linear` model's parameters (`[model]` with `kind = "linear"`).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinearParams {
+    /// σₐ, m/s²: white-noise acceleration per IMU interval.
+    pub accel_noise_std: f64,
+}
+
+impl Default for LinearParams {
+    fn default() -> Self {
+        Self { accel_noise_std: 0.3 }
+    }
+}
 
 /// The `linear` model's parameters.
 #[derive(Debug, Clone)]
@@ -46,7 +62,8 @@ pub struct LinearModel {
 pub struct LinearState {
     kf: KalmanFilter<f64, N>,
     t_ns: Option<u64>,
-    accel: Vector3<f64>,
+    /// Held IMU acceleration (the input of the next propagations).
+    pub(crate) accel: Vector3<f64>,
 }
 
 impl LinearState {
@@ -69,26 +86,15 @@ impl LinearModel {
         Ok(Self { sigma_a, initial, gate })
     }
 
-    /// The model of a validated config with `kind = "linear"`.
-    pub fn from_config(config: &crate::config::Config) -> Result<Self, crate::config::ConfigError> {
-        let invalid = |key, problem: &str| crate::config::ConfigError::Invalid { key, problem: problem.to_string() };
-        let crate::config::ModelConfig::Linear { accel_noise_std } = config.model else {
+    /// The model of a config with `kind = "linear"`.
+    pub fn from_config(config: &Config) -> Result<Self, ConfigError> {
+        let ModelConfig::Linear(params) = &config.model else {
             return Err(invalid("model.kind", "not \"linear\""));
         };
-        let x0: [f64; N] = config
-            .filter
-            .initial_state
-            .as_slice()
-            .try_into()
-            .map_err(|_| invalid("filter.initial_state", "needs 6 values"))?;
-        let p0: [f64; N] = config
-            .filter
-            .initial_covariance_diagonal
-            .as_slice()
-            .try_into()
-            .map_err(|_| invalid("filter.initial_covariance_diagonal", "needs 6 values"))?;
-        Self::new(accel_noise_std, x0, p0, config.gating.clone())
-            .map_err(|e| invalid("filter.initial_covariance_diagonal", &e.to_string()))
+        let sigma_a = positive("model.accel_noise_std", params.accel_noise_std)?;
+        let (x0, p0) = super::initial_values::<N, N>(config)?;
+        Self::new(sigma_a, x0, p0, config.gating.clone())
+            .map_err(|e| invalid("filter.initial_covariance_diagonal", e.to_string()))
     }
 
     /// `F` and `Q = G σₐ² Gᵀ` for a step of `dt` seconds, with `Q` in closed form:
@@ -123,22 +129,25 @@ impl LinearModel {
                 log.predicted(&s.kf, &F);
             }
         }
-        match sample {
-            Sample::Imu(imu) => {
-                s.accel = Vector3::from(imu.accel_mps2);
-                StepOutcome::Propagated
-            }
-            Sample::Position(p) => {
-                let z = Vector3::from(p.pos_m);
-                let R = Matrix3::from_row_slice(&p.cov_m2);
-                // H = [I 0]: the position states are selected.
-                let predicted = Vector3::new(s.kf.x()[0], s.kf.x()[1], s.kf.x()[2]);
-                match s.kf.update_selection_lean(&z, &predicted, 0, &R, self.gate.as_ref()) {
-                    Ok((UpdateDecision::Accepted, nis)) => StepOutcome::Fused { nis },
-                    Ok((_, nis)) => StepOutcome::Gated { nis },
-                    Err(_) => StepOutcome::Refused,
-                }
-            }
+        crate::measurement::fuse(sample, self, s).0
+    }
+
+    /// Fuses `z = x[offset..offset+3] + v`, `v ~ N(0, R)`: `H` selects three
+    /// consecutive states (position at 0, velocity at 3). Joseph-form update,
+    /// gated as configured.
+    pub(crate) fn update_block(
+        &self,
+        s: &mut LinearState,
+        z: &Vector3<f64>,
+        offset: usize,
+        R: &Matrix3<f64>,
+    ) -> StepOutcome {
+        let x = s.kf.x();
+        let predicted = Vector3::new(x[offset], x[offset + 1], x[offset + 2]);
+        match s.kf.update_selection_lean(z, &predicted, offset, R, self.gate.as_ref()) {
+            Ok((UpdateDecision::Accepted, nis)) => StepOutcome::Fused { nis },
+            Ok((_, nis)) => StepOutcome::Gated { nis },
+            Err(_) => StepOutcome::Refused,
         }
     }
 
@@ -185,6 +194,7 @@ fn propagate(x: &mut SVector<f64, N>, P: &mut SMatrix<f64, N, N>, a: &Vector3<f6
 impl Model for LinearModel {
     type State = LinearState;
     type Record = RtsStep<f64, N>;
+    type Correction = ();
     const KIND: &'static str = "linear";
     const CODE: u32 = fusion_shared::snapshot::model::LINEAR;
 
@@ -237,7 +247,13 @@ mod tests {
     fn constant_acceleration_integrates_exactly() {
         let m = model();
         let mut s = m.initial_state();
-        let imu = |t: u64| Sample::Imu(ImuSample { t_ns: t, accel_mps2: [1.0, -2.0, 0.5], ..Default::default() });
+        let imu = |t: u64| {
+            Sample::Imu(ImuSample {
+                header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, t, 0, 0),
+                accel_mps2: [1.0, -2.0, 0.5],
+                ..Default::default()
+            })
+        };
         m.step(&mut s, &imu(1_000_000_000));
         for i in 1..=100 {
             m.step(&mut s, &imu(1_000_000_000 + i * 10_000_000));
@@ -256,10 +272,9 @@ mod tests {
         let m = model();
         let mut s = m.initial_state();
         let p = PositionSample {
-            t_ns: 5,
+            header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Position, 5, 0, 0),
             pos_m: [1.0, 0.0, 0.0],
             cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
-            ..Default::default()
         };
         let out = m.step(&mut s, &Sample::Position(p));
         // Prior P₀ = I, R = I: K = ½ on the position block, x = ½ z, NIS = 1²/2.
@@ -291,7 +306,11 @@ mod tests {
     fn equal_timestamps_do_not_propagate() {
         let m = model();
         let mut s = m.initial_state();
-        let imu = Sample::Imu(ImuSample { t_ns: 7, accel_mps2: [3.0, 0.0, 0.0], ..Default::default() });
+        let imu = Sample::Imu(ImuSample {
+            header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, 7, 0, 0),
+            accel_mps2: [3.0, 0.0, 0.0],
+            ..Default::default()
+        });
         m.step(&mut s, &imu);
         let before = s.kf;
         m.step(&mut s, &imu);

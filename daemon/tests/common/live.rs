@@ -206,11 +206,13 @@ pub fn triggered_by(s: &StateSnapshot, sample: &Sample) -> bool {
 pub fn publish_in_lockstep(client: &Client, reader: &mut StateSubscriber, samples: &[Sample]) -> Vec<StateSnapshot> {
     let mut imu = client.imu_publisher(0).unwrap();
     let mut pos = client.position_publisher(1).unwrap();
+    let mut vel = client.velocity_publisher(2).unwrap();
     let mut out = Vec::with_capacity(samples.len());
     for s in samples {
         match *s {
             Sample::Imu(x) => imu.publish_sample(x).unwrap(),
             Sample::Position(x) => pos.publish_sample(x).unwrap(),
+            Sample::Velocity(x) => vel.publish_sample(x).unwrap(),
         };
         let deadline = Instant::now() + Duration::from_secs(10);
         loop {

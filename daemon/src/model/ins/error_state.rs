@@ -181,7 +181,7 @@ pub(super) fn inject(s: &mut InsState, dx: &SVector<f64, N>) {
 /// Injects the error into the nominal state and resets it (Solà eq. 282–287):
 /// [`inject`], `δx ← 0`, `P ← G P Gᵀ` with `G = diag(I, I, I − [½δθ]×, I, I)`.
 /// Returns the injected error.
-pub(super) fn inject_and_reset(s: &mut InsState) -> SVector<f64, N> {
+pub(crate) fn inject_and_reset(s: &mut InsState) -> SVector<f64, N> {
     let dx = *s.kf.x();
     inject(s, &dx);
     let dtheta = Vector3::new(dx[6], dx[7], dx[8]);

@@ -31,7 +31,11 @@ fn p0() -> [f64; N] {
 }
 
 fn imu(t_ns: u64, seq: u64, f: Vector3<f64>, w: Vector3<f64>) -> Sample {
-    Sample::Imu(ImuSample { t_ns, seq, accel_mps2: f.into(), gyro_radps: w.into(), ..Default::default() })
+    Sample::Imu(ImuSample {
+        header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Imu, t_ns, 0, seq),
+        accel_mps2: f.into(),
+        gyro_radps: w.into(),
+    })
 }
 
 #[test]
@@ -123,12 +127,9 @@ fn noiseless_constant_acceleration_is_tracked_to_numerical_precision() {
         if k % 20 == 0 {
             let (p, _) = truth(t as f64 * 1e-9);
             let fix = PositionSample {
-                t_ns: t,
-                seq: k / 20,
-                sensor: 1,
+                header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Position, t, 1, k / 20),
                 pos_m: p.into(),
                 cov_m2: [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-4],
-                ..Default::default()
             };
             m.step(&mut s, &Sample::Position(fix));
         }
@@ -170,12 +171,9 @@ fn a_stationary_vehicle_stays_put_and_its_accelerometer_bias_converges() {
         if k % 20 == 0 {
             let z = n(0.3);
             let fix = PositionSample {
-                t_ns: t,
-                seq: k / 20,
-                sensor: 1,
+                header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Position, t, 1, k / 20),
                 pos_m: z.into(),
                 cov_m2: [0.09, 0.0, 0.0, 0.0, 0.09, 0.0, 0.0, 0.0, 0.09],
-                ..Default::default()
             };
             m.step(&mut s, &Sample::Position(fix));
         }

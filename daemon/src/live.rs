@@ -1,0 +1,443 @@
+//! The live core: engine, health, snapshot filling, housekeeping and summary
+//! pacing, behind two small traits, with no transport in it.
+//!
+//! - A [`SampleSource`] gives the next received sample (the iceoryx2 source merges
+//!   its subscribers by timestamp) and sleeps until woken.
+//! - A [`SnapshotSink`] lends a snapshot to fill and sends it, wakes readers after
+//!   a batch, lets late readers connect, and keeps its next chunk warm.
+//!
+//! [`run`] is the loop of `fusiond run`: each turn takes the waiting samples (at
+//! most [`BATCH`]), feeds each to the engine with the daemon's clock and publishes
+//! one [`StateSnapshot`] per processed sample, then flushes the sink once. Every
+//! [`HOUSEKEEPING_NS`] it re-evaluates the health (a stream that stopped is
+//! marked stale even though nothing arrives, and a health-only snapshot says so),
+//! refreshes the sink's connections, and every summary interval hands a
+//! [`Summary`] to the caller. Between turns it busy-polls ([`WaitMode::Spin`],
+//! warming what the next sample touches every [`WARM_NS`]) or sleeps on the
+//! source ([`WaitMode::Event`]).
+//!
+//! A test drives it in-process with a vector source and a recording sink
+//! (`tests` below); `ipc.rs` plugs in iceoryx2.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use fusion_shared::snapshot::health;
+use fusion_shared::{Counters, Sample, SampleKind, StateSnapshot, now_ns};
+use hdrhistogram::Histogram;
+
+use crate::engine::{Engine, Insert};
+use crate::health::{HealthConfig, HealthMonitor};
+use crate::model::Model;
+use crate::snapshot::{self, Input};
+use crate::summary::Summary;
+
+/// Health and housekeeping period.
+pub const HOUSEKEEPING_NS: u64 = 10_000_000;
+/// Spin mode: while no sample arrives, the memory the next sample will touch is
+/// read (and the sink's next snapshot written) this often, so that the next
+/// sample finds it in the cache.
+pub const WARM_NS: u64 = 100_000;
+/// Samples per turn before housekeeping gets a look in.
+pub const BATCH: usize = 512;
+
+/// How the daemon waits for samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WaitMode {
+    /// Busy-poll the source: lowest latency, one core fully used.
+    Spin,
+    /// Sleep on the source's wake-up between samples: no CPU while idle.
+    Event,
+}
+
+/// Where samples come from.
+pub trait SampleSource {
+    /// The next waiting sample, if any (never blocks).
+    fn next(&mut self) -> Option<Sample>;
+    /// Sleeps until a sample may be waiting, at most `timeout`.
+    fn wait(&mut self, timeout: Duration);
+}
+
+/// Where snapshots go.
+pub trait SnapshotSink {
+    /// Lends a snapshot (a default one, or one this sink lent before) to `fill`,
+    /// then sends it. Returns whether it was sent; failures are the sink's to count.
+    fn publish(&mut self, fill: impl FnOnce(&mut StateSnapshot)) -> bool;
+    /// After a turn that published: wake the readers, prepare the next snapshot.
+    fn flush(&mut self);
+    /// Housekeeping: let readers that connected since the last send get the latest.
+    fn refresh(&mut self);
+    /// Spin mode, while idle: touch the next snapshot's memory.
+    fn warm(&mut self);
+}
+
+/// What a run did, for the caller (and tests).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RunReport {
+    /// Samples taken from the source.
+    pub received: u64,
+    /// Snapshots published.
+    pub snapshots: u64,
+}
+
+/// The live state of the daemon besides its transport.
+pub struct LiveCore<M: Model> {
+    engine: Engine<M>,
+    health: HealthMonitor,
+    health_now: (u32, u32),
+    published_health: (u32, u32),
+    latency: Histogram<u64>,
+    report: RunReport,
+    summary_ns: u64,
+    next_housekeeping: u64,
+    /// Start of the summary interval, and the counters and snapshot count then.
+    last_summary: (u64, [Counters; SampleKind::ALL.len()], u64),
+}
+
+impl<M: Model> LiveCore<M> {
+    /// A core around `engine`, with a summary every `summary_interval` from `now_ns`.
+    pub fn new(engine: Engine<M>, health: HealthConfig, summary_interval: Duration, now_ns: u64) -> Self {
+        let initialising = (health::INITIALISING, 0);
+        Self {
+            engine,
+            health: HealthMonitor::new(health),
+            health_now: initialising,
+            published_health: initialising,
+            // 1 ns to 10 s at 3 significant digits: allocated once, here. The
+            // bounds are constants this crate checks in a test.
+            latency: Histogram::new_with_bounds(1, 10_000_000_000, 3).expect("valid histogram bounds"),
+            report: RunReport::default(),
+            summary_ns: summary_interval.as_nanos().clamp(1, u64::MAX as u128) as u64,
+            next_housekeeping: now_ns,
+            last_summary: (now_ns, [Counters::default(); SampleKind::ALL.len()], 0),
+        }
+    }
+
+    /// The engine.
+    pub fn engine(&self) -> &Engine<M> {
+        &self.engine
+    }
+
+    /// What the run did so far.
+    pub fn report(&self) -> RunReport {
+        self.report
+    }
+
+    /// Health state and reasons as last evaluated.
+    pub fn health(&self) -> (u32, u32) {
+        self.health_now
+    }
+
+    fn initialised(&self) -> bool {
+        self.engine.latest().is_some_and(|e| M::initialised(&e.state))
+    }
+
+    /// Feeds one sample to the engine and publishes the resulting snapshot.
+    pub fn handle(&mut self, sample: Sample, sink: &mut impl SnapshotSink) {
+        self.report.received += 1;
+        let received_ns = now_ns();
+        let Insert::Processed { replayed, outcome } = self.engine.insert(&sample, Some(received_ns), &mut |_| {})
+        else {
+            return;
+        };
+        if let Some(slot) = self.engine.slot_of(sample.kind(), sample.sensor()) {
+            self.health.record(slot, &outcome);
+        }
+        let initialised = self.initialised();
+        self.health_now = self.health.evaluate(self.engine.sensors(), received_ns, initialised);
+        let input = Input { sample: &sample, received_ns, replayed };
+        if let Some(published_ns) = self.publish(sink, Some(input))
+            && replayed == 0
+            && sample.sent_ns() > 0
+        {
+            // Out-of-range values (clock skew between processes) are not recorded.
+            let _ = self.latency.record(published_ns.saturating_sub(sample.sent_ns()));
+        }
+    }
+
+    /// Fills the sink's snapshot (the estimate, `input` and the current health),
+    /// stamps it; returns the publish time if it was sent.
+    ///
+    /// [`snapshot::fill`] writes every field that can change, so filling a
+    /// snapshot that holds a default (or an older) one gives what filling one
+    /// snapshot over and over would (`snapshot` tests).
+    fn publish(&mut self, sink: &mut impl SnapshotSink, input: Option<Input<'_>>) -> Option<u64> {
+        let mut publish_ns = 0;
+        let (engine, health, seq) = (&self.engine, self.health_now, self.report.snapshots);
+        let sent = sink.publish(|snap| {
+            snapshot::fill(snap, engine, input, health);
+            snap.seq = seq;
+            publish_ns = now_ns();
+            snap.publish_ns = publish_ns;
+        });
+        sent.then(|| {
+            self.report.snapshots += 1;
+            publish_ns
+        })
+    }
+
+    /// Takes up to [`BATCH`] waiting samples from `source` and publishes their
+    /// snapshots, then flushes the sink once. Returns the samples taken.
+    pub fn turn(&mut self, source: &mut impl SampleSource, sink: &mut impl SnapshotSink) -> usize {
+        let snapshots_before = self.report.snapshots;
+        let mut taken = 0;
+        while taken < BATCH {
+            let Some(sample) = source.next() else { break };
+            self.handle(sample, sink);
+            taken += 1;
+        }
+        if self.report.snapshots > snapshots_before {
+            self.published_health = self.health_now;
+            sink.flush();
+        }
+        taken
+    }
+
+    /// Runs the housekeeping if it is due at `now`: re-evaluates the health and
+    /// publishes a health-only snapshot if it changed, refreshes the sink, and
+    /// returns the summary of the interval when one is due.
+    pub fn housekeeping(&mut self, now: u64, sink: &mut impl SnapshotSink) -> Option<Summary> {
+        if now < self.next_housekeeping {
+            return None;
+        }
+        self.next_housekeeping = now + HOUSEKEEPING_NS;
+        let initialised = self.initialised();
+        self.health_now = self.health.evaluate(self.engine.sensors(), now, initialised);
+        if self.health_now != self.published_health
+            && self.engine.latest().is_some()
+            && self.publish(sink, None).is_some()
+        {
+            // Nothing arrived but the health changed (a stream went stale): say so.
+            self.published_health = self.health_now;
+            sink.flush();
+        }
+        sink.refresh();
+        if now.saturating_sub(self.last_summary.0) < self.summary_ns {
+            return None;
+        }
+        let mut kinds = [Counters::default(); SampleKind::ALL.len()];
+        for (total, &kind) in kinds.iter_mut().zip(SampleKind::ALL) {
+            *total = self.engine.totals(Some(kind));
+        }
+        let h = &self.latency;
+        let latency_ns = (!h.is_empty()).then(|| (h.value_at_quantile(0.5), h.value_at_quantile(0.99), h.max()));
+        let (since, before, snapshots) = &self.last_summary;
+        let mut interval = [Counters::default(); SampleKind::ALL.len()];
+        for ((d, now_c), then_c) in interval.iter_mut().zip(&kinds).zip(before) {
+            *d = now_c.since(then_c);
+        }
+        let summary = Summary {
+            interval_s: (now - since) as f64 * 1e-9,
+            kinds: interval,
+            snapshots: self.report.snapshots - snapshots,
+            latency_ns,
+            health: self.health_now,
+        };
+        self.latency.reset();
+        self.last_summary = (now, kinds, self.report.snapshots);
+        Some(summary)
+    }
+
+    /// When the next housekeeping is due, ns.
+    pub fn next_housekeeping(&self) -> u64 {
+        self.next_housekeeping
+    }
+
+    /// Spin mode, while idle: brings what the next in-order sample touches into
+    /// the cache ([`Engine::warm`]).
+    pub fn warm(&self) {
+        self.engine.warm();
+    }
+}
+
+/// Runs `core` on `source` and `sink` until `shutdown` becomes true, handing each
+/// interval's summary to `on_summary`.
+pub fn run<M: Model>(
+    core: &mut LiveCore<M>,
+    source: &mut impl SampleSource,
+    sink: &mut impl SnapshotSink,
+    wait: WaitMode,
+    shutdown: &AtomicBool,
+    on_summary: &mut impl FnMut(Summary),
+) -> RunReport {
+    let mut next_warm = now_ns();
+    while !shutdown.load(Ordering::Relaxed) {
+        let taken = core.turn(source, sink);
+        let now = now_ns();
+        if let Some(summary) = core.housekeeping(now, sink) {
+            on_summary(summary);
+        }
+        if taken > 0 {
+            next_warm = now + WARM_NS;
+            continue;
+        }
+        match wait {
+            WaitMode::Spin => {
+                if now >= next_warm {
+                    sink.warm();
+                    core.warm();
+                    next_warm = now_ns() + WARM_NS;
+                }
+                std::hint::spin_loop();
+            }
+            WaitMode::Event => {
+                let timeout = Duration::from_nanos(core.next_housekeeping().saturating_sub(now_ns()).max(1));
+                source.wait(timeout);
+            }
+        }
+    }
+    core.report()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::VecDeque;
+
+    use fusion_shared::{ImuSample, PositionSample, VelocitySample};
+
+    use super::*;
+    use crate::config::Config;
+    use crate::engine::EngineConfig;
+    use crate::model::linear::LinearModel;
+
+    /// Hands out queued samples; once empty, asks for a stop.
+    struct QueueSource<'a> {
+        queue: VecDeque<Sample>,
+        stop: &'a AtomicBool,
+    }
+
+    impl SampleSource for QueueSource<'_> {
+        fn next(&mut self) -> Option<Sample> {
+            let s = self.queue.pop_front();
+            if s.is_none() {
+                self.stop.store(true, Ordering::Relaxed);
+            }
+            s
+        }
+        fn wait(&mut self, _: Duration) {}
+    }
+
+    /// Keeps every snapshot; refuses to send while `full`.
+    #[derive(Default)]
+    struct VecSink {
+        sent: Vec<StateSnapshot>,
+        next: Option<StateSnapshot>,
+        flushes: usize,
+        full: bool,
+    }
+
+    impl SnapshotSink for VecSink {
+        fn publish(&mut self, fill: impl FnOnce(&mut StateSnapshot)) -> bool {
+            let mut snap = self.next.take().unwrap_or_default();
+            fill(&mut snap);
+            if self.full {
+                return false;
+            }
+            self.sent.push(snap);
+            true
+        }
+        fn flush(&mut self) {
+            self.flushes += 1;
+        }
+        fn refresh(&mut self) {}
+        fn warm(&mut self) {}
+    }
+
+    fn core() -> LiveCore<LinearModel> {
+        let config = Config::default_config();
+        let engine = Engine::new(LinearModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
+        LiveCore::new(engine, config.health, Duration::from_secs(3600), now_ns())
+    }
+
+    const COV: [f64; 9] = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.25];
+
+    /// 0.3 s of samples stamped in the last second (not in the future).
+    fn samples() -> Vec<Sample> {
+        let t0 = now_ns() - 1_000_000_000;
+        let mut v = Vec::new();
+        for k in 0..300u64 {
+            let t = t0 + k * 1_000_000;
+            v.push(ImuSample::new(t, 0, k, [0.1, 0.0, 0.0], [0.0; 3]).into());
+            if k % 20 == 10 {
+                // A fix arriving 5 ms late, and a velocity.
+                v.push(PositionSample::new(t - 5_000_000, 1, k / 20, [0.0; 3], COV).into());
+                v.push(VelocitySample::new(t, 2, k / 20, [0.0; 3], COV).into());
+            }
+        }
+        v
+    }
+
+    /// The live core, driven in-process, publishes one snapshot per processed
+    /// sample with the estimate `fusiond replay`'s engine gives for the same
+    /// arrival order, and health and counters of every kind.
+    #[test]
+    fn the_live_core_publishes_what_the_engine_computes() {
+        let stop = AtomicBool::new(false);
+        let input = samples();
+        let mut source = QueueSource { queue: input.iter().copied().collect(), stop: &stop };
+        let mut sink = VecSink::default();
+        let mut core = core();
+        let mut summaries = 0;
+        let report = run(&mut core, &mut source, &mut sink, WaitMode::Spin, &stop, &mut |_| summaries += 1);
+        assert_eq!(report, RunReport { received: input.len() as u64, snapshots: input.len() as u64 });
+        assert_eq!(sink.sent.len(), input.len());
+        assert!(sink.flushes >= 1);
+
+        let config = Config::default_config();
+        let mut engine = Engine::new(LinearModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
+        for (i, (sample, snap)) in input.iter().zip(&sink.sent).enumerate() {
+            engine.insert(sample, None, &mut |_| {});
+            let latest = engine.latest().unwrap();
+            assert_eq!(snap.state(), LinearModel::x(&latest.state), "snapshot {i}");
+            assert_eq!(snap.covariance(), LinearModel::covariance(&latest.state), "snapshot {i}");
+            assert_eq!((snap.seq, snap.input_seq, snap.input_kind), (i as u64, sample.seq(), sample.kind() as u32));
+        }
+        let last = sink.sent.last().unwrap();
+        assert_eq!(last.health, health::OK, "reasons {:?}", last.health_reason_names().collect::<Vec<_>>());
+        let velocity = last.sensor_counters().iter().find(|c| c.sample_kind() == Some(SampleKind::Velocity)).unwrap();
+        assert_eq!((velocity.counts.received, velocity.counts.fused), (15, 15));
+        assert!(last.rewinds > 0, "late fixes were fused by rewind");
+    }
+
+    #[test]
+    fn a_stream_that_stops_is_reported_stale_without_input_and_refused_sends_are_not_counted() {
+        let mut core = core();
+        let mut sink = VecSink::default();
+        let t0 = now_ns();
+        core.handle(ImuSample::new(t0, 0, 0, [0.0; 3], [0.0; 3]).into(), &mut sink);
+        core.handle(PositionSample::new(t0, 1, 0, [0.0; 3], COV).into(), &mut sink);
+        assert_eq!(core.health(), (health::OK, 0));
+        // 150 ms later the IMU (100 ms timeout) is stale: a health-only snapshot.
+        assert!(core.housekeeping(t0 + 150_000_000, &mut sink).is_none());
+        let last = sink.sent.last().unwrap();
+        assert_eq!((last.health, last.health_reasons), (health::DEGRADED, health::IMU_STALE));
+        assert_eq!(last.input_kind, fusion_shared::snapshot::INPUT_NONE);
+        sink.full = true;
+        core.handle(ImuSample::new(t0 + 1, 0, 1, [0.0; 3], [0.0; 3]).into(), &mut sink);
+        assert_eq!(core.report(), RunReport { received: 3, snapshots: 3 });
+    }
+
+    #[test]
+    fn summaries_come_at_their_interval_with_counts_per_kind() {
+        let config = Config::default_config();
+        let engine = Engine::new(LinearModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
+        let t0 = now_ns();
+        let mut core = LiveCore::new(engine, config.health, Duration::from_secs(1), t0);
+        let mut sink = VecSink::default();
+        for s in samples().into_iter().take(40) {
+            core.handle(s, &mut sink);
+        }
+        assert!(core.housekeeping(t0 + 500_000_000, &mut sink).is_none());
+        let s = core.housekeeping(t0 + 1_500_000_000, &mut sink).expect("a summary after 1 s");
+        // IMU samples 0..=35 and a fix and a velocity after the 10th and the 30th.
+        assert_eq!(s.kinds[SampleKind::Imu as usize - 1].received, 36);
+        assert_eq!(s.kinds[SampleKind::Velocity as usize - 1].received, 2);
+        // One per sample, and a health-only one at each housekeeping: the IMU went
+        // stale (after 100 ms), then the position and velocity (after 1 s).
+        assert_eq!(s.snapshots, 42);
+        assert_eq!(
+            s.health.1,
+            health::stale(SampleKind::Imu) | health::stale(SampleKind::Position) | health::stale(SampleKind::Velocity)
+        );
+    }
+}

@@ -1,0 +1,75 @@
+//! The IMU: it drives the propagation. Not a measurement update: the models hold
+//! its values (zero-order hold) and propagate with them to the next sample.
+//!
+//! Validation: finite, and `|accel| ≤ validation.accel_range_mps2`,
+//! `|gyro| ≤ validation.gyro_range_radps` (a value beyond the sensor's range is a
+//! corrupted sample).
+
+use fusion_shared::ImuSample;
+use nalgebra::Vector3;
+
+use super::{Fuse, Limits, Measurement, Rejection, finite, nonholonomic};
+use crate::model::StepOutcome;
+use crate::model::ins::{InsModel, InsState};
+use crate::model::linear::{LinearModel, LinearState};
+
+impl Measurement for ImuSample {
+    const RANK: u8 = 0;
+    const TIMEOUT_NS: u64 = 100_000_000;
+    const INNOVATION_DIM: usize = 0;
+    const REQUIRED: bool = true;
+
+    fn validate(&self, limits: &Limits) -> Result<(), Rejection> {
+        finite(&self.accel_mps2)?;
+        finite(&self.gyro_radps)?;
+        let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        if norm(&self.accel_mps2) > limits.accel_range_mps2 || norm(&self.gyro_radps) > limits.gyro_range_radps {
+            return Err(Rejection::OutOfRange);
+        }
+        Ok(())
+    }
+}
+
+/// `linear`: the world-frame acceleration is held as the input of the next steps.
+impl Fuse<LinearModel> for ImuSample {
+    fn fuse(&self, _: &LinearModel, s: &mut LinearState) -> (StepOutcome, ()) {
+        s.accel = Vector3::from(self.accel_mps2);
+        (StepOutcome::Propagated, ())
+    }
+}
+
+/// `ins`: specific force and rate are held (and summed during the static
+/// alignment); then the motion constraint, if configured, is due at most every
+/// `interval` ([`nonholonomic`]).
+impl Fuse<InsModel> for ImuSample {
+    fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<nalgebra::SVector<f64, 15>>) {
+        model.hold_imu(s, Vector3::from(self.accel_mps2), Vector3::from(self.gyro_radps));
+        let t = self.header.t_ns;
+        let mut injected = None;
+        if let Some(c) = model.nonholonomic()
+            && s.ready
+            && s.constrained_ns.is_none_or(|last| t >= last.saturating_add(c.interval_ns))
+        {
+            s.constrained_ns = Some(t);
+            injected = nonholonomic::fuse(c, model, s);
+        }
+        (StepOutcome::Propagated, injected)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_bad_value_has_its_reason() {
+        let limits = Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 };
+        let imu = ImuSample { gyro_radps: [0.0, f64::INFINITY, 0.0], ..Default::default() };
+        assert_eq!(imu.validate(&limits), Err(Rejection::NonFinite));
+        assert_eq!(ImuSample::default().validate(&limits), Ok(()));
+        let fast = ImuSample { gyro_radps: [30.0, 30.0, 0.0], ..Default::default() };
+        assert_eq!(fast.validate(&limits), Err(Rejection::OutOfRange));
+        let hard = ImuSample { accel_mps2: [0.0, 0.0, 200.0], ..Default::default() };
+        assert_eq!(hard.validate(&limits), Err(Rejection::OutOfRange));
+    }
+}

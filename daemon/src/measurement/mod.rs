@@ -1,0 +1,183 @@
+//! Measurement kinds: one module per sensor kind, everything the daemon knows of it.
+//!
+//! Each module gives, for its wire type ([`fusion_shared::sample`]):
+//!
+//! - [`Measurement`]: its validation, its processing rank at equal time, its
+//!   default health timeout, its innovation dimension (the NIS band of the
+//!   health), and whether the health waits for it;
+//! - [`Fuse`]: how each model fuses it (h(x), H, R, or a model-specific step).
+//!
+//! The registry at the end of this file is the only list of kinds in the daemon:
+//! it generates the dispatch from a [`Sample`] to its kind's module. Adding a kind
+//! is a new module here, its wire type in `fusion-shared` and one line in each
+//! registry (see `docs/architecture.md`). [`nonholonomic`] is a pseudo-measurement:
+//! the land-vehicle motion constraint, fused by the `ins` model after IMU samples.
+
+pub mod imu;
+pub mod nonholonomic;
+pub mod position;
+pub mod velocity;
+
+use fusion_shared::{ImuSample, PositionSample, Sample, SampleKind, VelocitySample, WireSample};
+use nalgebra::Matrix3;
+
+use crate::model::{Model, StepOutcome};
+use crate::reorder::SampleKey;
+pub use crate::validate::{Limits, Rejection};
+
+/// What the daemon knows of one sample kind, beside its fusion ([`Fuse`]).
+pub trait Measurement: WireSample {
+    /// Processing order at equal time: lower first. The IMU (0) goes first, so a
+    /// measurement at the time of an IMU sample is fused after the propagation to it.
+    const RANK: u8;
+    /// Health: a stream of this kind is stale after this long without a sample
+    /// (the default of `[health] <kind>_timeout_ns`), ns.
+    const TIMEOUT_NS: u64;
+    /// Innovation dimension (the χ² degrees of freedom of one NIS), 0 for a kind
+    /// that is not a measurement update (the IMU drives the propagation).
+    const INNOVATION_DIM: usize;
+    /// Whether the health stays "initialising" until a sample of this kind was processed.
+    const REQUIRED: bool;
+
+    /// Checks the payload; the header is the engine's business.
+    fn validate(&self, limits: &Limits) -> Result<(), Rejection>;
+}
+
+/// How model `M` fuses a sample of this kind. The state has already been
+/// propagated to the sample's time; `M::Correction` is what a model needs to know
+/// of the update afterwards (the `ins` model: the error injected, for its smoother).
+pub trait Fuse<M: Model> {
+    /// Fuses the sample into `state`.
+    fn fuse(&self, model: &M, state: &mut M::State) -> (StepOutcome, M::Correction);
+}
+
+/// Checks that every value is finite.
+pub fn finite(values: &[f64]) -> Result<(), Rejection> {
+    if values.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(Rejection::NonFinite) }
+}
+
+/// Checks a 3×3 row-major covariance: finite, symmetric to 1e-9 of its largest
+/// entry, with a Cholesky factor (positive definite).
+pub fn covariance3(cov: &[f64; 9]) -> Result<(), Rejection> {
+    finite(cov)?;
+    let c = Matrix3::from_row_slice(cov);
+    if (c - c.transpose()).amax() > SYMMETRY_TOLERANCE * c.amax() {
+        return Err(Rejection::CovarianceNotSymmetric);
+    }
+    if nalgebra::Cholesky::new(c).is_none() {
+        return Err(Rejection::CovarianceNotPositiveDefinite);
+    }
+    Ok(())
+}
+
+/// Relative tolerance of the symmetry check, against the largest entry.
+const SYMMETRY_TOLERANCE: f64 = 1e-9;
+
+/// Generates the dispatch from a [`Sample`] (or a [`SampleKind`]) to its module.
+macro_rules! registry {
+    ($($variant:ident => $ty:ty;)*) => {
+        /// Processing rank of a kind ([`Measurement::RANK`]).
+        pub const fn rank(kind: SampleKind) -> u8 {
+            match kind {
+                $(SampleKind::$variant => <$ty as Measurement>::RANK,)*
+            }
+        }
+
+        /// Default health timeout of a kind ([`Measurement::TIMEOUT_NS`]), ns.
+        pub const fn default_timeout_ns(kind: SampleKind) -> u64 {
+            match kind {
+                $(SampleKind::$variant => <$ty as Measurement>::TIMEOUT_NS,)*
+            }
+        }
+
+        /// Innovation dimension of a kind ([`Measurement::INNOVATION_DIM`]).
+        pub const fn innovation_dim(kind: SampleKind) -> usize {
+            match kind {
+                $(SampleKind::$variant => <$ty as Measurement>::INNOVATION_DIM,)*
+            }
+        }
+
+        /// Whether the health waits for a kind ([`Measurement::REQUIRED`]).
+        pub const fn required(kind: SampleKind) -> bool {
+            match kind {
+                $(SampleKind::$variant => <$ty as Measurement>::REQUIRED,)*
+            }
+        }
+
+        /// Validates a sample: its header names the kind of its payload, and the
+        /// payload passes its kind's checks.
+        pub fn validate(sample: &Sample, limits: &Limits) -> Result<(), Rejection> {
+            if sample.header().kind != sample.kind() as u32 {
+                return Err(Rejection::WrongKind);
+            }
+            match sample {
+                $(Sample::$variant(s) => s.validate(limits),)*
+            }
+        }
+
+        /// Fuses a sample into a state of model `M` (propagated to its time already).
+        pub fn fuse<M: Model>(sample: &Sample, model: &M, state: &mut M::State) -> (StepOutcome, M::Correction)
+        where
+            $($ty: Fuse<M>,)*
+        {
+            match sample {
+                $(Sample::$variant(s) => s.fuse(model, state),)*
+            }
+        }
+    };
+}
+
+registry! {
+    Imu => ImuSample;
+    Position => PositionSample;
+    Velocity => VelocitySample;
+}
+
+/// The processing-order key of a sample.
+pub fn key(sample: &Sample) -> SampleKey {
+    let h = sample.header();
+    let kind = sample.kind();
+    SampleKey { t_ns: h.t_ns, rank: rank(kind), kind, sensor: h.sensor, seq: h.seq }
+}
+
+/// The largest innovation dimension of any kind (the health's NIS bands).
+pub const MAX_INNOVATION_DIM: usize = 3;
+
+const _: () = {
+    let mut i = 0;
+    while i < SampleKind::ALL.len() {
+        assert!(innovation_dim(SampleKind::ALL[i]) <= MAX_INNOVATION_DIM);
+        i += 1;
+    }
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_bad_covariance_has_its_reason() {
+        assert_eq!(covariance3(&[1.0, 0.1, 0.0, 0.1, 1.0, 0.0, 0.0, 0.0, 2.0]), Ok(()));
+        assert_eq!(covariance3(&[1.0, 0.5, 0.0, 0.1, 1.0, 0.0, 0.0, 0.0, 2.0]), Err(Rejection::CovarianceNotSymmetric));
+        assert_eq!(
+            covariance3(&[1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 2.0]),
+            Err(Rejection::CovarianceNotPositiveDefinite)
+        );
+        assert_eq!(covariance3(&[0.0; 9]), Err(Rejection::CovarianceNotPositiveDefinite));
+        assert_eq!(covariance3(&[f64::NAN; 9]), Err(Rejection::NonFinite));
+    }
+
+    #[test]
+    fn imu_goes_first_at_equal_time_and_the_header_must_name_the_payload() {
+        for &k in SampleKind::ALL {
+            assert!(k == SampleKind::Imu || rank(k) > rank(SampleKind::Imu));
+        }
+        let mut p = PositionSample::new(5, 0, 0, [0.0; 3], [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+        let limits = Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 };
+        assert_eq!(validate(&Sample::Position(p), &limits), Ok(()));
+        p.header.kind = SampleKind::Imu as u32;
+        assert_eq!(validate(&Sample::Position(p), &limits), Err(Rejection::WrongKind));
+        p.header.kind = 0;
+        assert_eq!(validate(&Sample::Position(p), &limits), Err(Rejection::WrongKind));
+    }
+}

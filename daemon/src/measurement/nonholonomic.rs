@@ -1,0 +1,75 @@
+//! The land-vehicle motion constraint, a pseudo-measurement of the `ins` model.
+//!
+//! A wheeled vehicle does not slide sideways or lift off, so the lateral and
+//! vertical components of the body-frame velocity `v_b = Rᵀ v` are zero up to a
+//! noise `σ_nhc` (slip, suspension travel): `z = [0, 0] = [v_b,y, v_b,z] + n`
+//! (Groves 2013, §15.4.1; Dissanayake et al., "The aiding of a low-cost strapdown
+//! inertial measurement unit using vehicle model constraints for land vehicle
+//! applications", IEEE T-RA 2001).
+//!
+//! With the local attitude error `q_true = q ⊗ Exp(δθ)`,
+//! `v_b,true ≈ v_b + Rᵀ δv + [v_b]× δθ`, so the rows of `H` are rows 1 and 2 of
+//! `Rᵀ` on δv and of `[v_b]×` on δθ; `R = σ_nhc² I₂`.
+//!
+//! It has no wire type: the `ins` model fuses it after an IMU sample, at most every
+//! `interval`, above a minimum forward speed, and once the attitude is known to
+//! [`MAX_ATTITUDE_SD`] (before, the linearisation is poor). It is gated like any
+//! measurement; a refused one (the vehicle skids) changes nothing.
+
+#![allow(non_snake_case)]
+
+use nalgebra::{Matrix2, SMatrix, SVector, Vector2};
+
+use crate::filter::{UpdateDecision, UpdateOptions};
+use crate::model::ins::{InsModel, InsState, N};
+
+/// Innovation dimension: lateral and vertical body velocity.
+pub const INNOVATION_DIM: usize = 2;
+
+/// Attitude uncertainty (1σ, rad, any axis) above which the constraint waits:
+/// 0.1 rad, where the small-angle error of its linearisation reaches 0.5 %.
+pub const MAX_ATTITUDE_SD: f64 = 0.1;
+
+/// The constraint's parameters (`[model.constraints]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Nonholonomic {
+    /// Standard deviation of the lateral and vertical body velocity, m/s.
+    pub std_mps: f64,
+    /// Least time between two constraint updates, ns.
+    pub interval_ns: u64,
+    /// Forward speed below which the constraint is not applied, m/s.
+    pub min_speed_mps: f64,
+}
+
+/// Fuses `[v_b,y, v_b,z] = 0` into `s` and injects the correction, which it
+/// returns. Below the minimum speed, with the attitude not yet known, or when
+/// the gate refuses it, nothing changes.
+pub fn fuse(c: &Nonholonomic, model: &InsModel, s: &mut InsState) -> Option<SVector<f64, N>> {
+    let R = s.q().to_rotation_matrix().into_inner();
+    let v_b = R.transpose() * s.v();
+    if v_b.x < c.min_speed_mps {
+        return None;
+    }
+    // The constraint is linear in δθ only for small attitude errors: with the
+    // heading still unknown (e.g. at start, before fixes have shown the track)
+    // it would pull the estimate the wrong way.
+    let P = s.filter().P();
+    if (6..9).any(|i| P[(i, i)] > MAX_ATTITUDE_SD * MAX_ATTITUDE_SD) {
+        return None;
+    }
+    let mut H = SMatrix::<f64, INNOVATION_DIM, N>::zeros();
+    let vx = v_b.cross_matrix();
+    for r in 0..2 {
+        for k in 0..3 {
+            H[(r, 3 + k)] = R[(k, r + 1)]; // (Rᵀ)[r+1][k]
+            H[(r, 6 + k)] = vx[(r + 1, k)];
+        }
+    }
+    let predicted = Vector2::new(v_b.y, v_b.z);
+    let Rn = Matrix2::identity() * (c.std_mps * c.std_mps);
+    let options = UpdateOptions { gate: model.gate(), fault_detector: None };
+    match s.kf.update_nonlinear(&Vector2::zeros(), &predicted, &H, &Rn, options) {
+        Ok(d) if d.decision == UpdateDecision::Accepted => Some(crate::model::ins::inject_and_reset(s)),
+        _ => None,
+    }
+}

@@ -1,0 +1,63 @@
+//! The position fix: `z = p + v`, `v ~ N(0, R)`, R the sample's covariance.
+//!
+//! - `linear`: `H = [I 0]` (the position states are selected), Joseph-form update.
+//! - `ins`: `H` selects δp; the error state is zero before the update, so
+//!   `h(x) = p` (nominal); the correction is injected into the nominal state and
+//!   the error reset (Solà 2017, §7.2–7.3).
+//!
+//! Validation: finite, covariance symmetric positive definite.
+
+#![allow(non_snake_case)]
+
+use fusion_shared::PositionSample;
+use nalgebra::{Matrix3, SVector, Vector3};
+
+use super::{Fuse, Limits, Measurement, Rejection, covariance3, finite};
+use crate::model::StepOutcome;
+use crate::model::ins::{InsModel, InsState};
+use crate::model::linear::{LinearModel, LinearState};
+
+impl Measurement for PositionSample {
+    const RANK: u8 = 1;
+    const TIMEOUT_NS: u64 = 1_000_000_000;
+    const INNOVATION_DIM: usize = 3;
+    const REQUIRED: bool = true;
+
+    fn validate(&self, _: &Limits) -> Result<(), Rejection> {
+        finite(&self.pos_m)?;
+        covariance3(&self.cov_m2)
+    }
+}
+
+impl Fuse<LinearModel> for PositionSample {
+    fn fuse(&self, model: &LinearModel, s: &mut LinearState) -> (StepOutcome, ()) {
+        let z = Vector3::from(self.pos_m);
+        let R = Matrix3::from_row_slice(&self.cov_m2);
+        (model.update_block(s, &z, 0, &R), ())
+    }
+}
+
+impl Fuse<InsModel> for PositionSample {
+    fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, 15>>) {
+        let z = Vector3::from(self.pos_m);
+        let R = Matrix3::from_row_slice(&self.cov_m2);
+        let predicted = s.p();
+        model.update_block(s, &z, &predicted, 0, &R)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_bad_value_has_its_reason() {
+        let limits = Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 };
+        let good = [1.0, 0.1, 0.0, 0.1, 1.0, 0.0, 0.0, 0.0, 2.0];
+        assert_eq!(PositionSample::new(0, 0, 0, [1.0, 2.0, 3.0], good).validate(&limits), Ok(()));
+        let nan = PositionSample::new(0, 0, 0, [1.0, f64::NAN, 3.0], good);
+        assert_eq!(nan.validate(&limits), Err(Rejection::NonFinite));
+        let bad = PositionSample::new(0, 0, 0, [1.0, 2.0, 3.0], [1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 2.0]);
+        assert_eq!(bad.validate(&limits), Err(Rejection::CovarianceNotPositiveDefinite));
+    }
+}

@@ -1,0 +1,94 @@
+//! The velocity measurement (GNSS Doppler): `z = v + n`, `n ~ N(0, R)`, with `v`
+//! the world-frame (ENU) velocity and R the sample's covariance.
+//!
+//! - `linear`: `H = [0 I]` (the velocity states are selected), Joseph-form update.
+//! - `ins`: `H` selects δv; `h(x) = v` (nominal, the error being zero before the
+//!   update); the correction is injected and the error reset, as for a fix.
+//!   Through the cross-covariances the velocity also corrects attitude and
+//!   accelerometer bias (Groves 2013, §14.2.7, loosely coupled velocity update).
+//!
+//! Validation: finite, covariance symmetric positive definite. Not required by
+//! the health (a vehicle may have no such sensor); stale after 1 s once seen.
+
+#![allow(non_snake_case)]
+
+use fusion_shared::VelocitySample;
+use nalgebra::{Matrix3, SVector, Vector3};
+
+use super::{Fuse, Limits, Measurement, Rejection, covariance3, finite};
+use crate::model::StepOutcome;
+use crate::model::ins::{InsModel, InsState};
+use crate::model::linear::{LinearModel, LinearState};
+
+impl Measurement for VelocitySample {
+    const RANK: u8 = 2;
+    const TIMEOUT_NS: u64 = 1_000_000_000;
+    const INNOVATION_DIM: usize = 3;
+    const REQUIRED: bool = false;
+
+    fn validate(&self, _: &Limits) -> Result<(), Rejection> {
+        finite(&self.vel_mps)?;
+        covariance3(&self.cov_m2ps2)
+    }
+}
+
+impl Fuse<LinearModel> for VelocitySample {
+    fn fuse(&self, model: &LinearModel, s: &mut LinearState) -> (StepOutcome, ()) {
+        let z = Vector3::from(self.vel_mps);
+        let R = Matrix3::from_row_slice(&self.cov_m2ps2);
+        (model.update_block(s, &z, 3, &R), ())
+    }
+}
+
+impl Fuse<InsModel> for VelocitySample {
+    fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, 15>>) {
+        let z = Vector3::from(self.vel_mps);
+        let R = Matrix3::from_row_slice(&self.cov_m2ps2);
+        let predicted = s.v();
+        model.update_block(s, &z, &predicted, 3, &R)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Model;
+
+    const COV: [f64; 9] = [0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.04];
+
+    #[test]
+    fn every_bad_value_has_its_reason() {
+        let limits = Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 };
+        assert_eq!(VelocitySample::new(0, 0, 0, [1.0, 2.0, 3.0], COV).validate(&limits), Ok(()));
+        let inf = VelocitySample::new(0, 0, 0, [f64::INFINITY, 2.0, 3.0], COV);
+        assert_eq!(inf.validate(&limits), Err(Rejection::NonFinite));
+        let mut asym = COV;
+        asym[1] = 0.005;
+        assert_eq!(
+            VelocitySample::new(0, 0, 0, [0.0; 3], asym).validate(&limits),
+            Err(Rejection::CovarianceNotSymmetric)
+        );
+        let mut neg = COV;
+        neg[8] = -0.04;
+        assert_eq!(
+            VelocitySample::new(0, 0, 0, [0.0; 3], neg).validate(&limits),
+            Err(Rejection::CovarianceNotPositiveDefinite)
+        );
+    }
+
+    /// `linear`: H = [0 I]. With P₀ = I and R = I the gain on the velocity block is
+    /// ½, the position is untouched (no correlation yet), and NIS = |z|²/2.
+    #[test]
+    fn linear_fuses_the_velocity_block() {
+        let m = LinearModel::new(0.5, [0.0; 6], [1.0; 6], None).unwrap();
+        let mut s = m.initial_state();
+        let z = VelocitySample::new(5, 0, 0, [2.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+        let (out, ()) = z.fuse(&m, &mut s);
+        assert!(matches!(out, StepOutcome::Fused { nis } if (nis - 2.0).abs() < 1e-15), "{out:?}");
+        let x = s.filter().x();
+        assert_eq!(x[0], 0.0);
+        assert!((x[3] - 1.0).abs() < 1e-15, "{}", x[3]);
+        assert!((s.filter().P()[(3, 3)] - 0.5).abs() < 1e-15);
+        assert_eq!(s.filter().P()[(0, 0)], 1.0);
+    }
+}
