@@ -343,12 +343,16 @@ fn ins_live_gives_the_replay_estimates() {
     let mut c = ScenarioConfig { seed: 21, duration_s: 2.0, ..Default::default() };
     c.imu = fusion_client::sim::ImuConfig::kalibr(200.0, 0.02, 0.001, 0.001, 1e-5);
     c.imu_output = fusion_client::sim::ImuOutput::BodySpecificForce;
+    // A GNSS receiver with Doppler velocity as well: fused on δv.
+    c.velocity = Some(fusion_client::sim::VelocityConfig::default());
     let mut samples: Vec<Sample> = Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect();
     samples.sort_by_key(|s| (s.t_ns(), s.kind(), s.sensor(), s.seq()));
     let snaps = publish_in_lockstep(&client, &mut reader, &samples);
     let lines = replay(&samples, &ins_config());
     let last = snaps.last().unwrap();
     assert_eq!((last.model, last.state_len, last.cov_dim), (fusion_shared::snapshot::model::INS, 16, 15));
+    let velocity = last.sensor_counters().iter().find(|c| c.kind == fusion_shared::SampleKind::Velocity as u32);
+    assert!(velocity.is_some_and(|c| c.counts.fused == 21), "{velocity:?}");
     assert_eq!(snaps.len(), lines.len());
     for (i, (s, l)) in snaps.iter().zip(&lines).enumerate() {
         assert_same_estimate(s, l, &format!("ins sample {i}"));

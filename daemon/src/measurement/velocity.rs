@@ -91,4 +91,29 @@ mod tests {
         assert!((s.filter().P()[(3, 3)] - 0.5).abs() < 1e-15);
         assert_eq!(s.filter().P()[(0, 0)], 1.0);
     }
+
+    /// `ins`: H selects δv. With P₀ = I on δv and R = I the nominal velocity moves
+    /// half way, the error is reset (mean 0, δv variance ½), NIS = |z − v|²/2.
+    #[test]
+    fn ins_fuses_the_velocity_error_and_injects_it() {
+        use crate::model::ins::{ImuNoise, InsModel};
+        let noise = ImuNoise {
+            accelerometer_noise_density: 0.02,
+            gyroscope_noise_density: 0.001,
+            accelerometer_random_walk: 0.001,
+            gyroscope_random_walk: 1e-5,
+        };
+        let mut x0 = [0.0; 16];
+        x0[3] = 10.0;
+        x0[6] = 1.0;
+        let m = InsModel::new(noise, 9.80665, x0, [1.0; 15], None, 0).unwrap();
+        let mut s = m.initial_state();
+        let z = VelocitySample::new(5, 0, 0, [12.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+        let (out, injected) = z.fuse(&m, &mut s);
+        assert!(matches!(out, StepOutcome::Fused { nis } if (nis - 2.0).abs() < 1e-12), "{out:?}");
+        assert!((s.v().x - 11.0).abs() < 1e-12 && s.p().x == 0.0, "v {:?}", s.v());
+        assert!((injected.unwrap()[3] - 1.0).abs() < 1e-12);
+        assert!((s.filter().P()[(3, 3)] - 0.5).abs() < 1e-12);
+        assert!(s.filter().x().iter().all(|e| *e == 0.0), "the error is reset");
+    }
 }
