@@ -419,10 +419,7 @@ mod tests {
             |table: &str| Config::parse(&INS.replace("[filter]", &format!("[model.constraints]\n{table}[filter]")));
         let ModelConfig::Ins(p) = with("nonholonomic_std_mps = 0.2\n").unwrap().model else { panic!() };
         let nhc = p.constraints.unwrap();
-        assert_eq!(
-            (nhc.nonholonomic_std_mps, nhc.nonholonomic_interval_ns, nhc.nonholonomic_min_speed_mps),
-            (0.2, 50_000_000, 1.0)
-        );
+        assert_eq!((nhc.std_mps, nhc.interval_ns, nhc.min_speed_mps), (0.2, 50_000_000, 1.0));
         let bad = |table: &str| with(table).unwrap_err().to_string();
         assert!(bad("nonholonomic_std_mps = 0\n").contains("model.constraints.nonholonomic_std_mps"));
         assert!(bad("nonholonomic_std_mps = 0.1\nnonholonomic_min_speed_mps = -1\n").contains("min_speed"));

@@ -30,15 +30,28 @@ pub const INNOVATION_DIM: usize = 2;
 /// 0.1 rad, where the small-angle error of its linearisation reaches 0.5 %.
 pub const MAX_ATTITUDE_SD: f64 = 0.1;
 
-/// The constraint's parameters (`[model.constraints]`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The constraint's parameters (`[model.constraints]`, keys `nonholonomic_*`).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Nonholonomic {
     /// Standard deviation of the lateral and vertical body velocity, m/s.
+    #[serde(rename = "nonholonomic_std_mps")]
     pub std_mps: f64,
-    /// Least time between two constraint updates, ns.
+    /// Least time between two constraint updates, ns (default 50 ms).
+    #[serde(rename = "nonholonomic_interval_ns", default = "Nonholonomic::default_interval_ns")]
     pub interval_ns: u64,
-    /// Forward speed below which the constraint is not applied, m/s.
+    /// Forward speed below which the constraint is not applied, m/s (default 1).
+    #[serde(rename = "nonholonomic_min_speed_mps", default = "Nonholonomic::default_min_speed")]
     pub min_speed_mps: f64,
+}
+
+impl Nonholonomic {
+    fn default_interval_ns() -> u64 {
+        50_000_000
+    }
+    fn default_min_speed() -> f64 {
+        1.0
+    }
 }
 
 /// Fuses `[v_b,y, v_b,z] = 0` into `s` and injects the correction, which it

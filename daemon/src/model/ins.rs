@@ -110,7 +110,7 @@ pub struct InsParams {
     /// Static alignment (`[model.alignment]`), if any.
     pub alignment: Option<AlignmentParams>,
     /// Land-vehicle motion constraint (`[model.constraints]`), if any.
-    pub constraints: Option<ConstraintParams>,
+    pub constraints: Option<Nonholonomic>,
 }
 
 impl InsParams {
@@ -125,29 +125,6 @@ impl InsParams {
 pub struct AlignmentParams {
     /// IMU samples averaged.
     pub static_samples: u32,
-}
-
-/// `[model.constraints]`: the land-vehicle motion constraint ([`Nonholonomic`]).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ConstraintParams {
-    /// Standard deviation of the lateral and vertical body velocity, m/s.
-    pub nonholonomic_std_mps: f64,
-    /// Least time between two constraint updates, ns.
-    #[serde(default = "ConstraintParams::default_interval_ns")]
-    pub nonholonomic_interval_ns: u64,
-    /// Forward speed below which the constraint is not applied, m/s.
-    #[serde(default = "ConstraintParams::default_min_speed")]
-    pub nonholonomic_min_speed_mps: f64,
-}
-
-impl ConstraintParams {
-    fn default_interval_ns() -> u64 {
-        50_000_000
-    }
-    fn default_min_speed() -> f64 {
-        1.0
-    }
 }
 
 /// The `ins` model.
@@ -297,23 +274,15 @@ impl InsModel {
             gyroscope_random_walk: positive("model.gyroscope_random_walk", p.gyroscope_random_walk)?,
         };
         let gravity = positive("model.gravity_mps2", p.gravity_mps2)?;
-        let nonholonomic = match p.constraints {
-            None => None,
-            Some(c) => {
-                let min_speed_mps = c.nonholonomic_min_speed_mps;
-                if !(min_speed_mps.is_finite() && min_speed_mps >= 0.0) {
-                    return Err(invalid(
-                        "model.constraints.nonholonomic_min_speed_mps",
-                        format!("must be a finite number >= 0, got {min_speed_mps}"),
-                    ));
-                }
-                Some(Nonholonomic {
-                    std_mps: positive("model.constraints.nonholonomic_std_mps", c.nonholonomic_std_mps)?,
-                    interval_ns: c.nonholonomic_interval_ns,
-                    min_speed_mps,
-                })
+        if let Some(c) = &p.constraints {
+            positive("model.constraints.nonholonomic_std_mps", c.std_mps)?;
+            if !(c.min_speed_mps.is_finite() && c.min_speed_mps >= 0.0) {
+                return Err(invalid(
+                    "model.constraints.nonholonomic_min_speed_mps",
+                    format!("must be a finite number >= 0, got {}", c.min_speed_mps),
+                ));
             }
-        };
+        }
         let (x0, p0) = super::initial_values::<NOMINAL, N>(config)?;
         let norm = x0[6..10].iter().map(|v| v * v).sum::<f64>().sqrt();
         if (norm - 1.0).abs() > 1e-3 {
@@ -324,7 +293,7 @@ impl InsModel {
         }
         let alignment = p.alignment.map_or(0, |a| a.static_samples);
         Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)
-            .map(|m| m.with_nonholonomic(nonholonomic))
+            .map(|m| m.with_nonholonomic(p.constraints))
             .map_err(|e| invalid("filter.initial_state", e.to_string()))
     }
 
