@@ -5,7 +5,7 @@
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use fusion_client::{Client, now_ns};
+use fusion_client::{Client, SampleKind, now_ns};
 use fusion_shared::service;
 use hdrhistogram::Histogram;
 
@@ -217,7 +217,7 @@ impl Prober {
             loop {
                 let snap = next_snapshot(&mut self.state, self.mode, deadline, seq)?;
                 if let Some(s) = snap
-                    && s.input_kind == 0
+                    && s.input_kind == SampleKind::Imu as u32
                     && s.input_seq == seq
                 {
                     let received = now_ns();
@@ -342,7 +342,7 @@ pub fn fan_out_reader(
         };
         let received = now_ns();
         idle_since = Instant::now();
-        if s.input_kind == 0 && s.input_sensor == sensor && s.input_seq >= skip {
+        if s.input_kind == SampleKind::Imu as u32 && s.input_sensor == sensor && s.input_seq >= skip {
             latency.record(received.saturating_sub(s.input_sent_ns))?;
         }
     }
@@ -406,12 +406,12 @@ pub fn late_data(
             let Some(s) = next_snapshot(&mut state, mode, deadline, seq)? else { continue };
             let received = now_ns();
             let processing = s.publish_ns.saturating_sub(s.input_received_ns);
-            if s.input_kind == 1 && with_late && s.input_seq == late_seq {
+            if s.input_kind == SampleKind::Position as u32 && with_late && s.input_seq == late_seq {
                 late_seen = true;
                 cost.late_processing.record(processing)?;
                 cost.replayed.record(u64::from(s.input_replayed).max(1))?;
             }
-            if s.input_kind == 0 && s.input_seq == seq {
+            if s.input_kind == SampleKind::Imu as u32 && s.input_seq == seq {
                 if seq >= warmup {
                     let e2e = received.saturating_sub(s.input_sent_ns);
                     if with_late {

@@ -56,6 +56,8 @@ pub trait SampleSource {
     fn next(&mut self) -> Option<Sample>;
     /// Sleeps until a sample may be waiting, at most `timeout`.
     fn wait(&mut self, timeout: Duration);
+    /// Housekeeping (every [`HOUSEKEEPING_NS`]): look for new or gone senders.
+    fn refresh(&mut self) {}
 }
 
 /// Where snapshots go.
@@ -196,7 +198,12 @@ impl<M: Model> LiveCore<M> {
     /// Runs the housekeeping if it is due at `now`: re-evaluates the health and
     /// publishes a health-only snapshot if it changed, refreshes the sink, and
     /// returns the summary of the interval when one is due.
-    pub fn housekeeping(&mut self, now: u64, sink: &mut impl SnapshotSink) -> Option<Summary> {
+    pub fn housekeeping(
+        &mut self,
+        now: u64,
+        source: &mut impl SampleSource,
+        sink: &mut impl SnapshotSink,
+    ) -> Option<Summary> {
         if now < self.next_housekeeping {
             return None;
         }
@@ -212,6 +219,7 @@ impl<M: Model> LiveCore<M> {
             sink.flush();
         }
         sink.refresh();
+        source.refresh();
         if now.saturating_sub(self.last_summary.0) < self.summary_ns {
             return None;
         }
@@ -264,7 +272,7 @@ pub fn run<M: Model>(
     while !shutdown.load(Ordering::Relaxed) {
         let taken = core.turn(source, sink);
         let now = now_ns();
-        if let Some(summary) = core.housekeeping(now, sink) {
+        if let Some(summary) = core.housekeeping(now, source, sink) {
             on_summary(summary);
         }
         if taken > 0 {
@@ -315,6 +323,12 @@ mod tests {
             s
         }
         fn wait(&mut self, _: Duration) {}
+    }
+
+    /// A source with nothing in it.
+    fn none() -> QueueSource<'static> {
+        static STOP: AtomicBool = AtomicBool::new(false);
+        QueueSource { queue: VecDeque::new(), stop: &STOP }
     }
 
     /// Keeps every snapshot; refuses to send while `full`.
@@ -408,7 +422,7 @@ mod tests {
         core.handle(PositionSample::new(t0, 1, 0, [0.0; 3], COV).into(), &mut sink);
         assert_eq!(core.health(), (health::OK, 0));
         // 150 ms later the IMU (100 ms timeout) is stale: a health-only snapshot.
-        assert!(core.housekeeping(t0 + 150_000_000, &mut sink).is_none());
+        assert!(core.housekeeping(t0 + 150_000_000, &mut none(), &mut sink).is_none());
         let last = sink.sent.last().unwrap();
         assert_eq!((last.health, last.health_reasons), (health::DEGRADED, health::IMU_STALE));
         assert_eq!(last.input_kind, fusion_shared::snapshot::INPUT_NONE);
@@ -427,8 +441,8 @@ mod tests {
         for s in samples().into_iter().take(40) {
             core.handle(s, &mut sink);
         }
-        assert!(core.housekeeping(t0 + 500_000_000, &mut sink).is_none());
-        let s = core.housekeeping(t0 + 1_500_000_000, &mut sink).expect("a summary after 1 s");
+        assert!(core.housekeeping(t0 + 500_000_000, &mut none(), &mut sink).is_none());
+        let s = core.housekeeping(t0 + 1_500_000_000, &mut none(), &mut sink).expect("a summary after 1 s");
         // IMU samples 0..=35 and a fix and a velocity after the 10th and the 30th.
         assert_eq!(s.kinds[SampleKind::Imu as usize - 1].received, 36);
         assert_eq!(s.kinds[SampleKind::Velocity as usize - 1].received, 2);

@@ -289,7 +289,7 @@ impl Default for StateSnapshot {
             input_received_ns: 0,
             input_seq: 0,
             input_sensor: 0,
-            input_kind: 0,
+            input_kind: INPUT_NONE,
             input_replayed: 0,
             health: health::INITIALISING,
             health_reasons: 0,

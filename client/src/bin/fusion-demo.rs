@@ -198,7 +198,7 @@ fn main() -> anyhow::Result<()> {
         if Instant::now() >= next_status {
             next_status = Instant::now() + Duration::from_millis(250);
             let c = s.sensor_counters();
-            let pos = c.iter().find(|c| c.kind == 1);
+            let pos = c.iter().find(|c| c.kind == fusion_shared::SampleKind::Position as u32);
             print!(
                 "\r  t {t:5.1} s  pos ({:7.2},{:7.2},{:6.2}) m  err {:5.2} m  {:<12}  fixes {:3} fused {:2} gated  latency p50 {:5.0} us ",
                 x[0],
