@@ -334,7 +334,7 @@ fn health_config(raw: RawHealth) -> Result<HealthConfig, ConfigError> {
         if value == 0 {
             return Err(invalid(format!("health.{key}"), "must be > 0"));
         }
-        health.timeouts_ns[kind as usize - 1] = value;
+        health.timeouts_ns[kind.index()] = value;
     }
     health.nis_window = raw.nis_window.unwrap_or(health.nis_window);
     health.nis_probability = raw.nis_probability.unwrap_or(health.nis_probability);

@@ -136,7 +136,7 @@ impl<M: Model> Engine<M> {
             history,
             initial,
             newest_t: None,
-            sensors: Vec::with_capacity(SampleKind::ALL.len() * config.max_sensors),
+            sensors: Vec::with_capacity(SampleKind::COUNT * config.max_sensors),
             stats: EngineStats::default(),
         }
     }

@@ -26,7 +26,7 @@ use crate::measurement::{self, MAX_INNOVATION_DIM};
 use crate::model::StepOutcome;
 
 /// Number of sample kinds.
-const KINDS: usize = SampleKind::ALL.len();
+const KINDS: usize = SampleKind::COUNT;
 
 /// Longest NIS window.
 pub const MAX_NIS_WINDOW: usize = 256;
@@ -37,7 +37,7 @@ pub const LOSS_HOLD_NS: u64 = 5_000_000_000;
 /// Health settings (the `[health]` config table).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HealthConfig {
-    /// Per kind (index `code − 1`): a stream is stale after this long without a
+    /// Per kind (index [`SampleKind::index`]): a stream is stale after this long without a
     /// sample, ns (`<kind>_timeout_ns`).
     pub timeouts_ns: [u64; KINDS],
     /// Measurements in the NIS window.
@@ -49,7 +49,7 @@ pub struct HealthConfig {
 impl HealthConfig {
     /// The stale timeout of `kind`, ns.
     pub fn timeout_ns(&self, kind: SampleKind) -> u64 {
-        self.timeouts_ns[kind as usize - 1]
+        self.timeouts_ns[kind.index()]
     }
 }
 
@@ -59,7 +59,7 @@ impl Default for HealthConfig {
     fn default() -> Self {
         let mut timeouts_ns = [0; KINDS];
         for &k in SampleKind::ALL {
-            timeouts_ns[k as usize - 1] = measurement::default_timeout_ns(k);
+            timeouts_ns[k.index()] = measurement::default_timeout_ns(k);
         }
         Self { timeouts_ns, nis_window: 20, nis_probability: 0.999 }
     }
@@ -126,7 +126,7 @@ impl HealthMonitor {
         let mut reasons = 0;
         let mut seen = [false; KINDS];
         for (i, s) in sensors.iter().enumerate().take(MAX_SENSORS) {
-            seen[s.kind as usize - 1] |= s.stats.processed > 0;
+            seen[s.kind.index()] |= s.stats.processed > 0;
             if s.last_arrival_ns.is_some_and(|t| now_ns.saturating_sub(t) > self.config.timeout_ns(s.kind)) {
                 reasons |= health::stale(s.kind);
             }
@@ -147,7 +147,7 @@ impl HealthMonitor {
         if self.last_loss_ns.is_some_and(|t| now_ns.saturating_sub(t) < LOSS_HOLD_NS) {
             reasons |= health::SAMPLES_LOST;
         }
-        let waiting = SampleKind::ALL.iter().any(|&k| measurement::required(k) && !seen[k as usize - 1]);
+        let waiting = SampleKind::ALL.iter().any(|&k| measurement::required(k) && !seen[k.index()]);
         let state = if !initialised || waiting {
             health::INITIALISING
         } else if reasons != 0 {

@@ -93,7 +93,7 @@ pub struct LiveCore<M: Model> {
     summary_ns: u64,
     next_housekeeping: u64,
     /// Start of the summary interval, and the counters and snapshot count then.
-    last_summary: (u64, [Counters; SampleKind::ALL.len()], u64),
+    last_summary: (u64, [Counters; SampleKind::COUNT], u64),
 }
 
 impl<M: Model> LiveCore<M> {
@@ -111,7 +111,7 @@ impl<M: Model> LiveCore<M> {
             report: RunReport::default(),
             summary_ns: summary_interval.as_nanos().clamp(1, u64::MAX as u128) as u64,
             next_housekeeping: now_ns,
-            last_summary: (now_ns, [Counters::default(); SampleKind::ALL.len()], 0),
+            last_summary: (now_ns, [Counters::default(); SampleKind::COUNT], 0),
         }
     }
 
@@ -223,14 +223,14 @@ impl<M: Model> LiveCore<M> {
         if now.saturating_sub(self.last_summary.0) < self.summary_ns {
             return None;
         }
-        let mut kinds = [Counters::default(); SampleKind::ALL.len()];
+        let mut kinds = [Counters::default(); SampleKind::COUNT];
         for (total, &kind) in kinds.iter_mut().zip(SampleKind::ALL) {
             *total = self.engine.totals(Some(kind));
         }
         let h = &self.latency;
         let latency_ns = (!h.is_empty()).then(|| (h.value_at_quantile(0.5), h.value_at_quantile(0.99), h.max()));
         let (since, before, snapshots) = &self.last_summary;
-        let mut interval = [Counters::default(); SampleKind::ALL.len()];
+        let mut interval = [Counters::default(); SampleKind::COUNT];
         for ((d, now_c), then_c) in interval.iter_mut().zip(&kinds).zip(before) {
             *d = now_c.since(then_c);
         }
@@ -444,8 +444,8 @@ mod tests {
         assert!(core.housekeeping(t0 + 500_000_000, &mut none(), &mut sink).is_none());
         let s = core.housekeeping(t0 + 1_500_000_000, &mut none(), &mut sink).expect("a summary after 1 s");
         // IMU samples 0..=35 and a fix and a velocity after the 10th and the 30th.
-        assert_eq!(s.kinds[SampleKind::Imu as usize - 1].received, 36);
-        assert_eq!(s.kinds[SampleKind::Velocity as usize - 1].received, 2);
+        assert_eq!(s.kinds[SampleKind::Imu.index()].received, 36);
+        assert_eq!(s.kinds[SampleKind::Velocity.index()].received, 2);
         // One per sample, and a health-only one at each housekeeping: the IMU went
         // stale (after 100 ms), then the position and velocity (after 1 s).
         assert_eq!(s.snapshots, 42);

@@ -9,14 +9,14 @@ use fusion_shared::snapshot::health;
 use fusion_shared::{Counters, SampleKind};
 
 /// Number of sample kinds.
-const KINDS: usize = SampleKind::ALL.len();
+const KINDS: usize = SampleKind::COUNT;
 
 /// One summary interval.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Summary {
     /// Length of the interval, s.
     pub interval_s: f64,
-    /// Counts in the interval per kind (index `code − 1`).
+    /// Counts in the interval per kind (index [`SampleKind::index`]).
     pub kinds: [Counters; KINDS],
     /// Snapshots published in the interval.
     pub snapshots: u64,

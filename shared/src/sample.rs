@@ -81,6 +81,13 @@ macro_rules! sample_kinds {
         impl SampleKind {
             /// Every kind, in code order.
             pub const ALL: &'static [SampleKind] = &[$(SampleKind::$variant),*];
+            /// Number of kinds.
+            pub const COUNT: usize = SampleKind::ALL.len();
+
+            /// Position in [`SampleKind::ALL`] (`code − 1`): the index of per-kind arrays.
+            pub const fn index(self) -> usize {
+                self as usize - 1
+            }
 
             /// Lower-case name, as in JSON, service names and logs.
             pub const fn name(self) -> &'static str {

@@ -95,21 +95,21 @@ pub fn sleep_until(t_ns: u64, stop: &AtomicBool) {
 
 /// Publishes `arrivals` at their arrival times until they end, `end_ns` passes
 /// or `stop` is set. Samples of a kind without a publisher are skipped. Returns
-/// the number published of each kind (index `code − 1`).
+/// the number published of each kind (index [`fusion_shared::SampleKind::index`]).
 pub fn play(
     arrivals: impl Iterator<Item = Arrival>,
     publishers: &mut SensorPublishers,
     end_ns: u64,
     stop: &AtomicBool,
-) -> Result<[u64; fusion_shared::SampleKind::ALL.len()], ClientError> {
-    let mut counts = [0; fusion_shared::SampleKind::ALL.len()];
+) -> Result<[u64; fusion_shared::SampleKind::COUNT], ClientError> {
+    let mut counts = [0; fusion_shared::SampleKind::COUNT];
     for a in arrivals {
         if a.arrival_ns > end_ns || stop.load(Ordering::Relaxed) {
             break;
         }
         sleep_until(a.arrival_ns, stop);
         if publishers.publish(a.sample)?.is_some() {
-            counts[a.sample.kind() as usize - 1] += 1;
+            counts[a.sample.kind().index()] += 1;
         }
     }
     Ok(counts)

@@ -22,7 +22,6 @@ use fusion_shared::{ImuSample, PositionSample, Sample, SampleKind, VelocitySampl
 use nalgebra::Matrix3;
 
 use crate::model::{Model, StepOutcome};
-use crate::reorder::SampleKey;
 pub use crate::validate::{Limits, Rejection};
 
 /// What the daemon knows of one sample kind, beside its fusion ([`Fuse`]).
@@ -133,19 +132,12 @@ registry! {
     Velocity => VelocitySample;
 }
 
-/// The processing-order key of a sample.
-pub fn key(sample: &Sample) -> SampleKey {
-    let h = sample.header();
-    let kind = sample.kind();
-    SampleKey { t_ns: h.t_ns, rank: rank(kind), kind, sensor: h.sensor, seq: h.seq }
-}
-
 /// The largest innovation dimension of any kind (the health's NIS bands).
 pub const MAX_INNOVATION_DIM: usize = 3;
 
 const _: () = {
     let mut i = 0;
-    while i < SampleKind::ALL.len() {
+    while i < SampleKind::COUNT {
         assert!(innovation_dim(SampleKind::ALL[i]) <= MAX_INNOVATION_DIM);
         i += 1;
     }
