@@ -185,7 +185,7 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
     let mut reader = client.state_subscriber_with_buffer(service::STATE_BUFFER)?;
     let mut imu_pub = client.imu_publisher(0)?;
     let mut pos_pub = client.position_publisher(1)?;
-    let mut vel_pub = client.velocity_publisher(2)?;
+    let mut vel_pub = client.publisher::<fusion_client::VelocitySample>(2)?;
     imu_pub.set_wake(true);
     pos_pub.set_wake(true);
     vel_pub.set_wake(true);

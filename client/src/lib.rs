@@ -1,12 +1,13 @@
 //! fusion-client: what other processes link to talk to fusiond.
 //!
 //! - [`Client`]: this process's connection to one namespace (one iceoryx2 node).
-//! - [`SamplePublisher`] ([`ImuPublisher`], [`PositionPublisher`], [`VelocityPublisher`]):
-//!   publish samples of one sensor zero-copy and wake the daemon.
+//! - [`SamplePublisher`] (from [`Client::publisher`], for any kind; aliases
+//!   [`ImuPublisher`], [`PositionPublisher`]): publish samples of one sensor zero-copy
+//!   and wake the daemon; [`SensorPublishers`] publishes a [`Sample`] of any kind.
 //! - [`StateSubscriber`]: read the fused state: [`latest`](StateSubscriber::latest),
 //!   [`wait_next`](StateSubscriber::wait_next) (blocking on an event) and
 //!   [`spin_next`](StateSubscriber::spin_next) (busy-polling, lowest latency).
-//! - [`sim`]: simulated IMU and position sensors on a ground-truth trajectory.
+//! - [`sim`]: a simulated sensor of every kind on a ground-truth trajectory.
 //!
 //! The wire types and service names live in [`fusion_shared`]. The library pulls
 //! no command-line or logging-backend crates; the binaries (`fusion-sim`,
@@ -19,10 +20,10 @@ mod subscriber;
 
 pub use error::ClientError;
 pub use fusion_shared;
-pub use fusion_shared::{
-    ImuSample, PositionSample, Sample, SampleKind, StateSnapshot, VelocitySample, WireSample, now_ns,
-};
-pub use publisher::{ImuPublisher, PositionPublisher, SamplePublisher, SensorPublishers, VelocityPublisher};
+// Every kind's wire type, whatever the kinds are.
+pub use fusion_shared::sample::*;
+pub use fusion_shared::{StateSnapshot, now_ns};
+pub use publisher::{ImuPublisher, PositionPublisher, SamplePublisher, SensorPublishers};
 pub use subscriber::StateSubscriber;
 
 use fusion_shared::service::{self, ServiceNames};
@@ -78,11 +79,6 @@ impl Client {
 
     /// A publisher of samples of wire type `T` (any kind) for sensor id `sensor`.
     pub fn publisher<T: WireSample>(&self, sensor: u32) -> Result<SamplePublisher<T>, ClientError> {
-        SamplePublisher::new(self, sensor)
-    }
-
-    /// A publisher of velocity measurements for sensor id `sensor`.
-    pub fn velocity_publisher(&self, sensor: u32) -> Result<VelocityPublisher, ClientError> {
         SamplePublisher::new(self, sensor)
     }
 

@@ -1,14 +1,16 @@
 //! Sample publishers: a sensor process's side of fusiond.
 
 use fusion_shared::transport::Ipc;
-use fusion_shared::{ImuSample, PositionSample, Sample, SampleHeader, VelocitySample, WireSample, now_ns};
+use fusion_shared::{ImuSample, KindVisitor, PositionSample, Sample, SampleHeader, SampleKind, WireSample, now_ns};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 
 use crate::ClientError;
 
 /// Publishes samples of one kind (wire type `T`) for one sensor on `<ns>/<kind>`,
-/// zero-copy, and wakes the daemon.
+/// zero-copy, and wakes the daemon. Every kind has one, from
+/// [`Client::publisher`](crate::Client::publisher); the IMU and position ones have
+/// aliases with a `publish` taking the payload's fields.
 ///
 /// ```
 /// # fn main() -> Result<(), fusion_client::ClientError> {
@@ -44,20 +46,6 @@ pub type ImuPublisher = SamplePublisher<ImuSample>;
 /// # }
 /// ```
 pub type PositionPublisher = SamplePublisher<PositionSample>;
-/// Publishes velocity measurements (GNSS Doppler) on `<ns>/velocity`.
-///
-/// ```no_run
-/// # fn main() -> Result<(), fusion_client::ClientError> {
-/// use fusion_client::Client;
-/// let client = Client::connect("fusion")?;
-/// let mut doppler = client.velocity_publisher(2)?;
-/// let cov = [0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.04]; // m²/s², row-major
-/// doppler.publish(fusion_shared::now_ns(), [13.9, -3.6, 0.0], cov)?;
-/// # Ok(())
-/// # }
-/// ```
-pub type VelocityPublisher = SamplePublisher<VelocitySample>;
-
 impl<T: WireSample> SamplePublisher<T> {
     pub(crate) fn new(client: &crate::Client, sensor: u32) -> Result<Self, ClientError> {
         let names = client.names();
@@ -105,6 +93,27 @@ impl<T: WireSample> SamplePublisher<T> {
         Ok(delivered)
     }
 
+    /// Publishes `sample` as this sensor's next sample: stamps its header with this
+    /// publisher's sensor id and next sequence number (and `sent_ns`); the time
+    /// of validity and the payload are the caller's. Returns the subscribers reached.
+    ///
+    /// ```no_run
+    /// # fn main() -> Result<(), fusion_client::ClientError> {
+    /// use fusion_client::{Client, VelocitySample};
+    /// let client = Client::connect("fusion")?;
+    /// let mut doppler = client.publisher::<VelocitySample>(2)?;
+    /// let cov = [0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.04]; // m²/s², row-major
+    /// let t_ns = fusion_shared::now_ns();
+    /// doppler.publish_next(VelocitySample::new(t_ns, 0, 0, [13.9, -3.6, 0.0], cov))?;
+    /// # Ok(())
+    /// # }
+    /// ```
+    pub fn publish_next(&mut self, mut sample: T) -> Result<usize, ClientError> {
+        let t_ns = sample.header().t_ns;
+        *sample.header_mut() = self.next_header(t_ns);
+        self.publish_sample(sample)
+    }
+
     /// The header of this sensor's next sample at `t_ns` (taking its sequence number).
     fn next_header(&mut self, t_ns: u64) -> SampleHeader {
         let header = SampleHeader::new(T::KIND, t_ns, self.sensor, self.next_seq);
@@ -133,47 +142,69 @@ impl PositionPublisher {
     }
 }
 
-impl VelocityPublisher {
-    /// Publishes a velocity of this sensor with the next sequence number: time of
-    /// validity `t_ns`, velocity (m/s, ENU) and its covariance (m²/s², row-major
-    /// 3×3, symmetric positive definite). Returns the subscribers reached.
-    pub fn publish(&mut self, t_ns: u64, vel_mps: [f64; 3], cov_m2ps2: [f64; 9]) -> Result<usize, ClientError> {
-        let header = self.next_header(t_ns);
-        self.publish_sample(VelocitySample { header, vel_mps, cov_m2ps2 })
+/// A [`SamplePublisher`] of any kind, behind [`SensorPublishers`].
+trait AnyPublisher {
+    /// Publishes `sample` as given; `None` if it is not of this publisher's kind.
+    fn publish_any(&mut self, sample: &Sample) -> Option<Result<usize, ClientError>>;
+}
+
+impl<T: WireSample> AnyPublisher for SamplePublisher<T> {
+    fn publish_any(&mut self, sample: &Sample) -> Option<Result<usize, ClientError>> {
+        T::from_sample(sample).map(|s| self.publish_sample(s))
     }
 }
 
-/// One publisher per sample kind (each optional): publishes a [`Sample`] of any
-/// kind on its kind's publisher.
+/// At most one publisher per sample kind: publishes a [`Sample`] of any kind on
+/// its kind's publisher (a replay file, a simulated drive).
 #[derive(Default)]
 pub struct SensorPublishers {
-    /// IMU samples.
-    pub imu: Option<ImuPublisher>,
-    /// Position fixes.
-    pub position: Option<PositionPublisher>,
-    /// Velocities.
-    pub velocity: Option<VelocityPublisher>,
+    by_kind: [Option<Box<dyn AnyPublisher>>; SampleKind::COUNT],
 }
 
 impl SensorPublishers {
-    /// Publishers of every kind, for the sensor ids the simulators use (IMU 0,
-    /// position 1, velocity 2; the samples keep their own ids).
+    /// A publisher for every kind, for samples that carry their own sensor ids
+    /// and sequence numbers (a replay file).
     pub fn all(client: &crate::Client) -> Result<Self, ClientError> {
-        Ok(Self {
-            imu: Some(client.imu_publisher(0)?),
-            position: Some(client.position_publisher(1)?),
-            velocity: Some(client.velocity_publisher(2)?),
-        })
+        let mut publishers = Self::default();
+        for &kind in SampleKind::ALL {
+            publishers.open(client, kind, 0)?;
+        }
+        Ok(publishers)
+    }
+
+    /// Opens (or replaces) the publisher of `kind` for sensor id `sensor`.
+    pub fn open(&mut self, client: &crate::Client, kind: SampleKind, sensor: u32) -> Result<(), ClientError> {
+        struct Open<'a> {
+            client: &'a crate::Client,
+            kind: SampleKind,
+            sensor: u32,
+            opened: Option<Result<Box<dyn AnyPublisher>, ClientError>>,
+        }
+        impl KindVisitor for Open<'_> {
+            fn visit<T: WireSample>(&mut self) {
+                if T::KIND == self.kind {
+                    let publisher = SamplePublisher::<T>::new(self.client, self.sensor);
+                    self.opened = Some(publisher.map(|p| Box::new(p) as Box<dyn AnyPublisher>));
+                }
+            }
+        }
+        let mut open = Open { client, kind, sensor, opened: None };
+        SampleKind::visit_all(&mut open);
+        // `visit_all` visits every kind, this one included.
+        let publisher = open.opened.expect("every kind is visited")?;
+        self.by_kind[kind.index()] = Some(publisher);
+        Ok(())
+    }
+
+    /// Whether a publisher of `kind` is open.
+    pub fn has(&self, kind: SampleKind) -> bool {
+        self.by_kind[kind.index()].is_some()
     }
 
     /// Publishes `sample` as given (see [`SamplePublisher::publish_sample`]) on
     /// the publisher of its kind. `Ok(None)`: there is none for that kind.
     pub fn publish(&mut self, sample: Sample) -> Result<Option<usize>, ClientError> {
-        match sample {
-            Sample::Imu(s) => self.imu.as_mut().map(|p| p.publish_sample(s)),
-            Sample::Position(s) => self.position.as_mut().map(|p| p.publish_sample(s)),
-            Sample::Velocity(s) => self.velocity.as_mut().map(|p| p.publish_sample(s)),
-        }
-        .transpose()
+        let publisher = self.by_kind[sample.kind().index()].as_mut();
+        publisher.and_then(|p| p.publish_any(&sample)).transpose()
     }
 }

@@ -4,7 +4,7 @@
 //! Each table is read into the struct of its owner: `[model]` into the model's own
 //! parameters through the tagged [`ModelConfig`] ([`LinearParams`], [`InsParams`]),
 //! `[health]` into [`HealthConfig`], and so on. Defaults are written once, in the
-//! `Default` impls; `fusiond print-config` prints [`DEFAULT_CONFIG`], which a test
+//! `Default` impls; `fusiond print-config` prints [`default_config_text`], which a test
 //! checks against them, and which is also what an empty file means.
 
 use std::path::Path;
@@ -18,8 +18,9 @@ use crate::model::ins::InsParams;
 use crate::model::linear::LinearParams;
 use crate::validate::Limits;
 
-/// The default configuration with comments, as printed by `fusiond print-config`.
-pub const DEFAULT_CONFIG: &str = r#"# fusiond configuration. Units are SI; frames: world ENU, body forward-left-up.
+/// The default configuration with comments, as printed by `fusiond print-config`
+/// ([`default_config_text`] fills in the per-kind lines).
+const DEFAULT_CONFIG_TEMPLATE: &str = r#"# fusiond configuration. Units are SI; frames: world ENU, body forward-left-up.
 
 [model]
 # "linear": constant-velocity model driven by world-frame acceleration with
@@ -47,12 +48,9 @@ probability = 0.999
 
 [health]
 # A stream is stale (health "degraded") after this long without a sample, per
-# sample kind: <kind>_timeout_ns. The health stays "initialising" until IMU and
-# position samples were processed; velocity is optional.
-imu_timeout_ns = 100_000_000
-position_timeout_ns = 1_000_000_000
-velocity_timeout_ns = 1_000_000_000
-# NIS test over the last nis_window measurements of each sensor: degraded when
+# sample kind: <kind>_timeout_ns. The health stays "initialising" until samples
+# of {required} were processed; the other kinds are optional.
+{timeouts}# NIS test over the last nis_window measurements of each sensor: degraded when
 # their sum leaves the two-sided chi-square band at nis_probability.
 nis_window = 20
 nis_probability = 0.999
@@ -60,7 +58,7 @@ nis_probability = 0.999
 [validation]
 # Live samples stamped more than this far ahead of the daemon's clock are rejected.
 max_future_ns = 50_000_000
-# Distinct sensor ids per kind (imu, position, velocity) the daemon tracks.
+# Distinct sensor ids per kind ({kinds}) the daemon tracks.
 max_sensors = 8
 # IMU samples beyond the sensor's range are rejected: |accel| (m/s^2), |gyro| (rad/s).
 accel_range_mps2 = 160.0     # 16 g
@@ -84,6 +82,36 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   initial_state = [px, py, pz, vx, vy, vz, qw, qx, qy, qz, bax, bay, baz, bgx, bgy, bgz]
 #   initial_covariance_diagonal = [15 values: dp(3), dv(3), dtheta(3), dba(3), dbg(3)]
 "#;
+
+/// The default configuration with comments, as printed by `fusiond print-config`:
+/// what an empty file means. A test checks it against the `Default` impls.
+pub fn default_config_text() -> String {
+    let names = |required: bool| -> Vec<&str> {
+        let kinds = SampleKind::ALL.iter().filter(|&&k| !required || crate::measurement::required(k));
+        kinds.map(|k| k.name()).collect()
+    };
+    let timeouts: String = SampleKind::ALL
+        .iter()
+        .map(|&k| format!("{}_timeout_ns = {}\n", k.name(), grouped(crate::measurement::default_timeout_ns(k))))
+        .collect();
+    DEFAULT_CONFIG_TEMPLATE
+        .replace("{required}", &names(true).join(" and "))
+        .replace("{timeouts}", &timeouts)
+        .replace("{kinds}", &names(false).join(", "))
+}
+
+/// `n` with its digits in groups of three (`1_000_000`), as TOML allows.
+fn grouped(n: u64) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i) % 3 == 0 {
+            out.push('_');
+        }
+        out.push(c);
+    }
+    out
+}
 
 /// A configuration problem found at start-up.
 #[derive(Debug, thiserror::Error)]
@@ -258,7 +286,7 @@ pub struct Config {
 }
 
 impl Default for Config {
-    /// The defaults of every table, as [`DEFAULT_CONFIG`] writes them out.
+    /// The defaults of every table, as [`default_config_text`] writes them out.
     fn default() -> Self {
         Self {
             model: ModelConfig::default(),
@@ -278,10 +306,10 @@ impl Config {
         Self::parse(&text)
     }
 
-    /// The default configuration ([`DEFAULT_CONFIG`]).
+    /// The default configuration ([`default_config_text`]).
     pub fn default_config() -> Self {
-        // DEFAULT_CONFIG is a constant checked by the test `print_config_is_the_defaults`.
-        Self::parse(DEFAULT_CONFIG).expect("DEFAULT_CONFIG is valid")
+        // Checked by the test `print_config_is_the_defaults`.
+        Self::parse(&default_config_text()).expect("the default config is valid")
     }
 
     /// Parses and validates TOML text; the model is built once to check its parameters.
@@ -356,7 +384,17 @@ mod tests {
 
     #[test]
     fn print_config_is_the_defaults() {
-        assert_eq!(Config::parse(DEFAULT_CONFIG).unwrap(), Config::default());
+        let text = default_config_text();
+        assert_eq!(Config::parse(&text).unwrap(), Config::default());
+        for &k in SampleKind::ALL {
+            assert!(text.contains(&format!("\n{}_timeout_ns = ", k.name())), "{text}");
+        }
+        assert!(!text.contains('{'), "every placeholder is filled: {text}");
+        assert!(text.contains("position_timeout_ns = 1_000_000_000\n"), "{text}");
+        assert_eq!(
+            (grouped(7), grouped(100), grouped(1000), grouped(100_000_000)),
+            ("7".into(), "100".into(), "1_000".into(), "100_000_000".into())
+        );
     }
 
     fn err(text: &str) -> String {

@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
-use fusion_daemon::config::{Config, DEFAULT_CONFIG};
+use fusion_daemon::config::{Config, default_config_text};
 use fusion_daemon::ipc::{RunOptions, WaitMode};
 use fusion_daemon::replay;
 
@@ -109,7 +109,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::PrintConfig => {
-            print!("{DEFAULT_CONFIG}");
+            print!("{}", default_config_text());
             Ok(())
         }
         Command::Replay { config, input, output, smooth } => {

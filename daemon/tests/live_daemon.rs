@@ -137,19 +137,14 @@ fn bad_samples_are_rejected_counted_and_change_nothing() {
                 x.header.seq = pos_seq;
                 pos_seq += 1;
             }
-            Sample::Velocity(_) => {}
+            _ => {}
         }
         mixed.push((s, true));
     }
-    let mut imu = client.imu_publisher(0).unwrap();
-    let mut pos = client.position_publisher(1).unwrap();
+    let mut publishers = fusion_client::SensorPublishers::all(&client).unwrap();
     let mut last = None;
     for (s, good) in &mixed {
-        match *s {
-            Sample::Imu(x) => imu.publish_sample(x).unwrap(),
-            Sample::Position(x) => pos.publish_sample(x).unwrap(),
-            Sample::Velocity(_) => unreachable!("no velocity sensor in this scenario"),
-        };
+        publishers.publish(*s).unwrap();
         if *good {
             loop {
                 let snap = reader.wait_next(Duration::from_secs(10)).unwrap().expect("snapshot");
@@ -344,7 +339,7 @@ fn ins_live_gives_the_replay_estimates() {
     c.imu = fusion_client::sim::ImuConfig::kalibr(200.0, 0.02, 0.001, 0.001, 1e-5);
     c.imu_output = fusion_client::sim::ImuOutput::BodySpecificForce;
     // A GNSS receiver with Doppler velocity as well: fused on δv.
-    c.velocity = Some(fusion_client::sim::VelocityConfig::default());
+    c.aiding.push(std::sync::Arc::new(fusion_client::sim::VelocityConfig::default()));
     let mut samples: Vec<Sample> = Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect();
     samples.sort_by_key(|s| (s.t_ns(), s.kind(), s.sensor(), s.seq()));
     let snaps = publish_in_lockstep(&client, &mut reader, &samples);

@@ -50,7 +50,7 @@ fn a_plain_iceoryx2_process_feeds_and_reads_the_daemon() {
         match s {
             Sample::Imu(x) => imu.send_copy(x).map(drop).unwrap(),
             Sample::Position(x) => position.send_copy(x).map(drop).unwrap(),
-            Sample::Velocity(_) => unreachable!("the scenario has no velocity sensor"),
+            other => unreachable!("the scenario has IMU and position sensors only: {other:?}"),
         }
         wake.notify().unwrap();
         let deadline = Instant::now() + Duration::from_secs(10);

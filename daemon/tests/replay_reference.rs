@@ -203,7 +203,7 @@ fn replay_with_velocity_matches_the_independent_reference() {
     let mut c = fusion_client::sim::ScenarioConfig { seed: 12, duration_s: 10.0, ..Default::default() };
     c.imu.rate_hz = 200.0;
     c.imu.accel_noise_std = 0.1;
-    c.velocity = Some(fusion_client::sim::VelocityConfig { rate_hz: 5.0, ..Default::default() });
+    c.aiding.push(std::sync::Arc::new(fusion_client::sim::VelocityConfig { rate_hz: 5.0, ..Default::default() }));
     let scenario = fusion_client::sim::Scenario::generate(&c);
     let input = dir.path().join("drive.jsonl");
     common::write_input(&input, &scenario);

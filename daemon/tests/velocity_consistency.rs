@@ -23,7 +23,9 @@ fn run(seed: u64, velocity: bool) -> (f64, u64, f64) {
     let mut c = ScenarioConfig { seed, duration_s: 20.0, ..Default::default() };
     c.imu.rate_hz = 200.0;
     c.imu.accel_noise_std = 0.1;
-    c.velocity = velocity.then(VelocityConfig::default);
+    if velocity {
+        c.aiding.push(std::sync::Arc::new(VelocityConfig::default()));
+    }
     let scenario = Scenario::generate(&c);
     let config = Config::parse(CONFIG).unwrap();
     let mut engine = Engine::new(LinearModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));

@@ -1,7 +1,8 @@
 //! fusion-shared: the wire contract of fusiond and nothing else.
 //!
 //! - [`sample`]: what sensor processes publish: one [`SampleHeader`] and a payload per
-//!   kind ([`ImuSample`], [`PositionSample`], [`VelocitySample`]); [`SampleKind`] lists the kinds.
+//!   kind ([`ImuSample`], [`PositionSample`], [`VelocitySample`], …); [`SampleKind`] lists
+//!   the kinds, [`for_each_sample_kind!`] is the list they come from.
 //! - [`snapshot`]: [`StateSnapshot`], what fusiond publishes.
 //! - [`service`]: service names under a namespace, QoS, and how every side opens them.
 //! - `jsonl` (feature `json`): the JSON-lines sample format of replay files.
@@ -20,8 +21,7 @@ pub mod snapshot;
 pub mod time;
 pub mod transport;
 
-pub use sample::{
-    ImuSample, KindVisitor, PositionSample, Sample, SampleHeader, SampleKind, VelocitySample, WireSample,
-};
+// Every kind's wire type, whatever the kinds are (see `for_each_sample_kind!`).
+pub use sample::*;
 pub use snapshot::{Counters, SensorCounters, StateSnapshot};
 pub use time::now_ns;

@@ -2,9 +2,12 @@
 //!
 //! Every sample starts with the same [`SampleHeader`] (time of validity, send time,
 //! sequence number, sensor id, kind) followed by the payload of its kind. Each kind
-//! has its own file (its wire type, its JSON-lines form) and one line in the
-//! registry below, which generates [`SampleKind`], the in-process sum type
-//! [`Sample`] and the [`WireSample`] impls.
+//! has its own file (its wire type, its JSON-lines form) and one line in
+//! [`for_each_sample_kind!`](crate::for_each_sample_kind), the one list of kinds in
+//! the whole system. From it this file generates the kind's module, [`SampleKind`],
+//! the in-process sum type [`Sample`] and the [`WireSample`] impls; the daemon
+//! generates its measurement registry and the client its simulators from the same
+//! list.
 //!
 //! Layout rules (checked by `const` asserts): `#[repr(C)]`, `ZeroCopySend`,
 //! fixed-width fields only, explicit padding, 8-byte alignment, and an explicit
@@ -13,14 +16,6 @@
 //! nanoseconds of CLOCK_MONOTONIC ([`crate::now_ns`]).
 
 use iceoryx2::prelude::ZeroCopySend;
-
-mod imu;
-mod position;
-mod velocity;
-
-pub use imu::ImuSample;
-pub use position::PositionSample;
-pub use velocity::VelocitySample;
 
 /// The header every sample starts with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ZeroCopySend)]
@@ -59,6 +54,8 @@ pub trait WireSample: Copy + Default + PartialEq + std::fmt::Debug + ZeroCopySen
     fn header_mut(&mut self) -> &mut SampleHeader;
     /// Wrapped in the sum type.
     fn into_sample(self) -> Sample;
+    /// The payload of `sample` if it is of this kind.
+    fn from_sample(sample: &Sample) -> Option<Self>;
 }
 
 /// Something done once per wire type, in registry order (see [`SampleKind::visit_all`]).
@@ -67,9 +64,39 @@ pub trait KindVisitor {
     fn visit<T: WireSample>(&mut self);
 }
 
-/// Generates [`SampleKind`], [`Sample`] and the [`WireSample`] impls from one list.
+/// The list of sample kinds: the only place a kind is registered.
+///
+/// Each line is `Variant = code, "name", module, WireType;`: the [`SampleKind`]
+/// variant, its wire code (from 1, never reused), its lower-case name (service
+/// `<ns>/<name>`, JSON-lines tag, config keys), the module of its files
+/// (`shared/src/sample/<module>.rs`, `daemon/src/measurement/<module>.rs`,
+/// `client/src/sim/<module>.rs`) and its wire type.
+///
+/// `for_each_sample_kind!(callback)` expands to `callback! { <the list> }`, so each
+/// crate generates what it needs of every kind from this one list.
+#[macro_export]
+macro_rules! for_each_sample_kind {
+    ($callback:ident) => {
+        $callback! {
+            /// [`ImuSample`](crate::sample::ImuSample): specific force (or acceleration) and angular rate.
+            Imu = 1, "imu", imu, ImuSample;
+            /// [`PositionSample`](crate::sample::PositionSample): a 3-D position fix in the world frame.
+            Position = 2, "position", position, PositionSample;
+            /// [`VelocitySample`](crate::sample::VelocitySample): a 3-D velocity in the world frame (GNSS Doppler).
+            Velocity = 3, "velocity", velocity, VelocitySample;
+        }
+    };
+}
+
+/// Generates each kind's module, [`SampleKind`], [`Sample`] and the [`WireSample`]
+/// impls from [`for_each_sample_kind!`](crate::for_each_sample_kind).
 macro_rules! sample_kinds {
-    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $ty:ident;)*) => {
+    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident;)*) => {
+        $(
+            mod $module;
+            pub use $module::$ty;
+        )*
+
         /// The kind of a sample: its code on the wire ([`SampleHeader::kind`]) and in
         /// snapshots. Codes start at 1; 0 is [`crate::snapshot::INPUT_NONE`].
         #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -165,6 +192,13 @@ macro_rules! sample_kinds {
                 fn into_sample(self) -> Sample {
                     Sample::$variant(self)
                 }
+                fn from_sample(sample: &Sample) -> Option<Self> {
+                    match sample {
+                        Sample::$variant(s) => Some(*s),
+                        #[allow(unreachable_patterns)]
+                        _ => None,
+                    }
+                }
             }
 
             impl From<$ty> for Sample {
@@ -176,14 +210,7 @@ macro_rules! sample_kinds {
     };
 }
 
-sample_kinds! {
-    /// [`ImuSample`]: specific force (or acceleration) and angular rate.
-    Imu = 1, "imu", ImuSample;
-    /// [`PositionSample`]: a 3-D position fix in the world frame.
-    Position = 2, "position", PositionSample;
-    /// [`VelocitySample`]: a 3-D velocity in the world frame (GNSS Doppler).
-    Velocity = 3, "velocity", VelocitySample;
-}
+crate::for_each_sample_kind!(sample_kinds);
 
 impl Sample {
     /// Time of validity, ns.

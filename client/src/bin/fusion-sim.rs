@@ -20,7 +20,7 @@ use std::time::Duration;
 
 use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
 use fusion_client::sim::{
-    Arrival, CarTrajectory, ImuOutput, ImuSim, PositionSim, Scenario, ScenarioConfig, VelocityConfig, VelocitySim,
+    AidingSim, Arrival, CarTrajectory, ImuOutput, ImuSim, Scenario, ScenarioConfig, VelocityConfig,
 };
 use fusion_client::{Client, SampleKind, SensorPublishers, now_ns};
 use fusion_shared::jsonl::{format_sample, parse_sample};
@@ -42,7 +42,7 @@ enum Command {
         /// Publish only the IMU.
         #[arg(long, conflicts_with = "position_only")]
         imu_only: bool,
-        /// Publish only the GNSS receiver: position fixes (and velocities with --velocity-rate).
+        /// Publish only the aiding sensors: position fixes (and velocities with --velocity-rate).
         #[arg(long)]
         position_only: bool,
         /// Publish this file (replay input format) instead of simulating.
@@ -170,14 +170,16 @@ impl SimArgs {
         c.position.delay_max_ns = self.position_delay_max_ms * 1_000_000;
         c.position.dropout_probability = self.dropouts;
         c.position.outlier_probability = self.outliers;
-        c.velocity = (self.velocity_rate > 0.0).then(|| VelocityConfig {
-            rate_hz: self.velocity_rate,
-            noise_std_mps: self.velocity_noise,
-            vertical_noise_std_mps: 2.0 * self.velocity_noise,
-            delay_min_ns: c.position.delay_min_ns,
-            delay_max_ns: c.position.delay_max_ns,
-            ..Default::default()
-        });
+        if self.velocity_rate > 0.0 {
+            c.aiding.push(Arc::new(VelocityConfig {
+                rate_hz: self.velocity_rate,
+                noise_std_mps: self.velocity_noise,
+                vertical_noise_std_mps: 2.0 * self.velocity_noise,
+                delay_min_ns: c.position.delay_min_ns,
+                delay_max_ns: c.position.delay_max_ns,
+                ..Default::default()
+            }));
+        }
         c
     }
 }
@@ -202,19 +204,13 @@ fn main() -> anyhow::Result<()> {
             let mut delayed: Vec<Box<dyn Iterator<Item = Arrival> + Send>> = Vec::new();
             let mut publishers = SensorPublishers::default();
             if imu_sim.is_some() {
-                publishers.imu = Some(client.imu_publisher(config.imu.sensor)?);
+                publishers.open(&client, SampleKind::Imu, config.imu.sensor)?;
             }
             if !imu_only {
-                delayed.push(Box::new(PositionSim::new(
-                    trajectory.clone(),
-                    config.position.clone(),
-                    start,
-                    config.seed,
-                )));
-                publishers.position = Some(client.position_publisher(config.position.sensor)?);
-                if let Some(v) = &config.velocity {
-                    delayed.push(Box::new(VelocitySim::new(trajectory, v.clone(), start, config.seed)));
-                    publishers.velocity = Some(client.velocity_publisher(v.sensor)?);
+                let position: &dyn AidingSim = &config.position;
+                for sim in std::iter::once(position).chain(config.aiding.iter().map(|a| &**a)) {
+                    delayed.push(sim.arrivals(&trajectory, start, config.seed));
+                    publishers.open(&client, sim.kind(), sim.sensor())?;
                 }
             }
             let counts = play(ArrivalMerge::new(imu_sim, delayed), &mut publishers, end_ns, &stop)?;

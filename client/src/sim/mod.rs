@@ -1,16 +1,48 @@
 //! Simulated sensors for tests, demos and benchmarks.
 //!
 //! - [`trajectory`]: closed-form car-like ground truth.
-//! - [`sensors`]: IMU, position and velocity sensor models (rates, noise, delay, jitter,
-//!   dropouts, outliers) and [`Scenario`], a whole drive in arrival order.
+//! - one module per sample kind ([`imu`], [`position`], [`velocity`], …, declared from
+//!   `fusion_shared::for_each_sample_kind!`): that kind's sensor model (rate, noise,
+//!   delay, …), an endless iterator of [`Arrival`]s;
+//! - [`scenario`]: [`Scenario`], a whole drive in arrival order;
 //! - [`player`]: publishing them live, paced by the clock.
 
+use std::fmt::Debug;
+
+use fusion_shared::SampleKind;
+
 pub mod player;
-pub mod sensors;
+pub mod scenario;
 pub mod trajectory;
 
-pub use sensors::{
-    Arrival, ImuConfig, ImuOutput, ImuSim, PositionConfig, PositionSim, Scenario, ScenarioConfig, VelocityConfig,
-    VelocitySim,
-};
+/// Declares each kind's simulator module (`sim/<module>.rs`) and re-exports it.
+macro_rules! kind_modules {
+    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident;)*) => {
+        $(
+            pub mod $module;
+            pub use $module::*;
+        )*
+    };
+}
+fusion_shared::for_each_sample_kind!(kind_modules);
+
+pub use scenario::{Arrival, Scenario, ScenarioConfig};
 pub use trajectory::{CarTrajectory, TruthState};
+
+/// A simulated sensor besides the IMU (whose stream drives time): its settings,
+/// from which it makes its stream of [`Arrival`]s on a trajectory. A [`Scenario`]
+/// and `fusion-sim` take any number of them.
+pub trait AidingSim: Debug + Send + Sync {
+    /// The kind of sample it makes.
+    fn kind(&self) -> SampleKind;
+    /// Its sensor id.
+    fn sensor(&self) -> u32;
+    /// Its samples on `trajectory`, trajectory time 0 at `start_ns`, noise from
+    /// `seed` (each sensor draws from its own stream), in timestamp order.
+    fn arrivals(
+        &self,
+        trajectory: &CarTrajectory,
+        start_ns: u64,
+        seed: u64,
+    ) -> Box<dyn Iterator<Item = Arrival> + Send>;
+}

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use fusion_shared::now_ns;
 
-use super::sensors::{Arrival, ImuSim};
+use super::{Arrival, ImuSim};
 use crate::{ClientError, SensorPublishers};
 
 /// A stream whose samples arrive at or after their timestamps, in timestamp order.

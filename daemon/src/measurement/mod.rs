@@ -7,18 +7,17 @@
 //!   health), and whether the health waits for it;
 //! - [`Fuse`]: how each model fuses it (h(x), H, R, or a model-specific step).
 //!
-//! The registry at the end of this file is the only list of kinds in the daemon:
-//! it generates the dispatch from a [`Sample`] to its kind's module. Adding a kind
-//! is a new module here, its wire type in `fusion-shared` and one line in each
-//! registry (see `docs/architecture.md`). [`nonholonomic`] is a pseudo-measurement:
-//! the land-vehicle motion constraint, fused by the `ins` model after IMU samples.
+//! The daemon keeps no list of kinds of its own: the registry at the end of this
+//! file is generated from `fusion_shared::for_each_sample_kind!`, declaring each
+//! kind's module (`measurement/<module>.rs`) and the dispatch from a [`Sample`] to
+//! it. Adding a kind is its wire type and one line in `fusion-shared`, and its
+//! module here (see `docs/architecture.md`). [`nonholonomic`] is a
+//! pseudo-measurement: the land-vehicle motion constraint, fused by the `ins` model
+//! after IMU samples.
 
-pub mod imu;
 pub mod nonholonomic;
-pub mod position;
-pub mod velocity;
 
-use fusion_shared::{ImuSample, PositionSample, Sample, SampleKind, VelocitySample, WireSample};
+use fusion_shared::{Sample, SampleKind, WireSample};
 use nalgebra::Matrix3;
 
 use crate::model::{Model, StepOutcome};
@@ -72,34 +71,37 @@ pub fn covariance3(cov: &[f64; 9]) -> Result<(), Rejection> {
 /// Relative tolerance of the symmetry check, against the largest entry.
 const SYMMETRY_TOLERANCE: f64 = 1e-9;
 
-/// Generates the dispatch from a [`Sample`] (or a [`SampleKind`]) to its module.
+/// Generates each kind's module and the dispatch from a [`Sample`] (or a
+/// [`SampleKind`]) to it, from `fusion_shared::for_each_sample_kind!`.
 macro_rules! registry {
-    ($($variant:ident => $ty:ty;)*) => {
+    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident;)*) => {
+        $(pub mod $module;)*
+
         /// Processing rank of a kind ([`Measurement::RANK`]).
         pub const fn rank(kind: SampleKind) -> u8 {
             match kind {
-                $(SampleKind::$variant => <$ty as Measurement>::RANK,)*
+                $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::RANK,)*
             }
         }
 
         /// Default health timeout of a kind ([`Measurement::TIMEOUT_NS`]), ns.
         pub const fn default_timeout_ns(kind: SampleKind) -> u64 {
             match kind {
-                $(SampleKind::$variant => <$ty as Measurement>::TIMEOUT_NS,)*
+                $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::TIMEOUT_NS,)*
             }
         }
 
         /// Innovation dimension of a kind ([`Measurement::INNOVATION_DIM`]).
         pub const fn innovation_dim(kind: SampleKind) -> usize {
             match kind {
-                $(SampleKind::$variant => <$ty as Measurement>::INNOVATION_DIM,)*
+                $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::INNOVATION_DIM,)*
             }
         }
 
         /// Whether the health waits for a kind ([`Measurement::REQUIRED`]).
         pub const fn required(kind: SampleKind) -> bool {
             match kind {
-                $(SampleKind::$variant => <$ty as Measurement>::REQUIRED,)*
+                $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::REQUIRED,)*
             }
         }
 
@@ -117,7 +119,7 @@ macro_rules! registry {
         /// Fuses a sample into a state of model `M` (propagated to its time already).
         pub fn fuse<M: Model>(sample: &Sample, model: &M, state: &mut M::State) -> (StepOutcome, M::Correction)
         where
-            $($ty: Fuse<M>,)*
+            $(fusion_shared::$ty: Fuse<M>,)*
         {
             match sample {
                 $(Sample::$variant(s) => s.fuse(model, state),)*
@@ -126,11 +128,7 @@ macro_rules! registry {
     };
 }
 
-registry! {
-    Imu => ImuSample;
-    Position => PositionSample;
-    Velocity => VelocitySample;
-}
+fusion_shared::for_each_sample_kind!(registry);
 
 /// The largest innovation dimension of any kind (the health's NIS bands).
 pub const MAX_INNOVATION_DIM: usize = 3;
@@ -145,6 +143,8 @@ const _: () = {
 
 #[cfg(test)]
 mod tests {
+    use fusion_shared::PositionSample;
+
     use super::*;
 
     #[test]

@@ -204,16 +204,10 @@ pub fn triggered_by(s: &StateSnapshot, sample: &Sample) -> bool {
 /// Publishes samples one by one, each after the snapshot of the previous one:
 /// the daemon sees exactly this arrival order. Returns the snapshots.
 pub fn publish_in_lockstep(client: &Client, reader: &mut StateSubscriber, samples: &[Sample]) -> Vec<StateSnapshot> {
-    let mut imu = client.imu_publisher(0).unwrap();
-    let mut pos = client.position_publisher(1).unwrap();
-    let mut vel = client.velocity_publisher(2).unwrap();
+    let mut publishers = fusion_client::SensorPublishers::all(client).unwrap();
     let mut out = Vec::with_capacity(samples.len());
     for s in samples {
-        match *s {
-            Sample::Imu(x) => imu.publish_sample(x).unwrap(),
-            Sample::Position(x) => pos.publish_sample(x).unwrap(),
-            Sample::Velocity(x) => vel.publish_sample(x).unwrap(),
-        };
+        publishers.publish(*s).unwrap().expect("a publisher of every kind");
         let deadline = Instant::now() + Duration::from_secs(10);
         loop {
             let left = deadline.saturating_duration_since(Instant::now());

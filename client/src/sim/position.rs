@@ -1,0 +1,117 @@
+//! Simulated position fixes (GNSS): the truth plus white noise with its covariance,
+//! arriving after random delays, with optional dropouts and gross outliers.
+
+use fusion_shared::{PositionSample, Sample, SampleKind};
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::scenario::{Arrival, gaussian3, to_ns};
+use super::trajectory::CarTrajectory;
+use super::AidingSim;
+
+/// Position simulation settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PositionConfig {
+    /// Fix rate, Hz.
+    pub rate_hz: f64,
+    /// Standard deviation of the horizontal noise, m (reported in the covariance).
+    pub noise_std_m: f64,
+    /// Standard deviation of the vertical noise, m.
+    pub vertical_noise_std_m: f64,
+    /// Delay from time of validity to publication: uniform in [min, max], ns.
+    pub delay_min_ns: u64,
+    /// See `delay_min_ns`.
+    pub delay_max_ns: u64,
+    /// Probability that a fix is lost.
+    pub dropout_probability: f64,
+    /// Probability that a fix is a gross outlier.
+    pub outlier_probability: f64,
+    /// Size of an outlier's error, m (random direction).
+    pub outlier_m: f64,
+    /// Sensor id.
+    pub sensor: u32,
+}
+
+impl Default for PositionConfig {
+    fn default() -> Self {
+        Self {
+            rate_hz: 10.0,
+            noise_std_m: 0.5,
+            vertical_noise_std_m: 0.8,
+            delay_min_ns: 20_000_000,
+            delay_max_ns: 120_000_000,
+            dropout_probability: 0.0,
+            outlier_probability: 0.0,
+            outlier_m: 30.0,
+            sensor: 1,
+        }
+    }
+}
+
+/// Simulated position fixes (an endless iterator; dropped fixes are skipped).
+#[derive(Debug, Clone)]
+pub struct PositionSim {
+    trajectory: CarTrajectory,
+    config: PositionConfig,
+    start_ns: u64,
+    index: u64,
+    seq: u64,
+    rng: ChaCha8Rng,
+}
+
+impl PositionSim {
+    /// Fixes on `trajectory`, the first at `start_ns` (trajectory time 0).
+    pub fn new(trajectory: CarTrajectory, config: PositionConfig, start_ns: u64, seed: u64) -> Self {
+        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x706f_7300);
+        Self { trajectory, config, start_ns, index: 0, seq: 0, rng }
+    }
+}
+
+impl Iterator for PositionSim {
+    type Item = Arrival;
+
+    fn next(&mut self) -> Option<Arrival> {
+        loop {
+            let offset_ns = to_ns(self.index as f64 / self.config.rate_hz);
+            self.index += 1;
+            let c = &self.config;
+            // Draw every random number of a fix whether or not it is used, so a
+            // change of one probability does not shift the whole stream.
+            let dropped = self.rng.random::<f64>() < c.dropout_probability;
+            let outlier = self.rng.random::<f64>() < c.outlier_probability;
+            let delay = self.rng.random_range(c.delay_min_ns..=c.delay_max_ns.max(c.delay_min_ns));
+            let noise = gaussian3(&mut self.rng);
+            let direction = gaussian3(&mut self.rng).normalize();
+            if dropped {
+                continue;
+            }
+            let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
+            let std = Vector3::new(c.noise_std_m, c.noise_std_m, c.vertical_noise_std_m);
+            let mut pos = truth.pos_m + noise.component_mul(&std);
+            if outlier {
+                pos += direction * c.outlier_m;
+            }
+            let var = std.component_mul(&std);
+            let t_ns = self.start_ns + offset_ns;
+            let cov = [var.x, 0.0, 0.0, 0.0, var.y, 0.0, 0.0, 0.0, var.z];
+            let sample = PositionSample::new(t_ns, c.sensor, self.seq, pos.into(), cov);
+            self.seq += 1;
+            return Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Position(sample), outlier });
+        }
+    }
+}
+
+impl AidingSim for PositionConfig {
+    fn kind(&self) -> SampleKind {
+        SampleKind::Position
+    }
+
+    fn sensor(&self) -> u32 {
+        self.sensor
+    }
+
+    fn arrivals(&self, trajectory: &CarTrajectory, start_ns: u64, seed: u64) -> Box<dyn Iterator<Item = Arrival> + Send> {
+        Box::new(PositionSim::new(trajectory.clone(), self.clone(), start_ns, seed))
+    }
+}

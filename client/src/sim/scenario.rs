@@ -1,0 +1,156 @@
+//! A whole simulated drive: every sensor's samples merged in arrival order.
+//!
+//! Each sensor is an iterator of [`Arrival`]s in timestamp order, so the same
+//! code serves a file writer (merge by arrival time) and live publishers (pace by
+//! arrival time). All randomness comes from seeded ChaCha8 streams, one per
+//! sensor: the same configuration and seed give the same samples, bit for bit,
+//! and adding a sensor leaves the others' samples unchanged.
+
+use std::sync::Arc;
+
+use fusion_shared::Sample;
+use nalgebra::Vector3;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use super::AidingSim;
+use super::imu::{ImuConfig, ImuOutput, ImuSim};
+use super::position::{PositionConfig, PositionSim};
+use super::trajectory::{CarTrajectory, TruthState};
+
+/// A sample with the time it reaches the daemon.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Arrival {
+    /// When the sample is published, ns on the same clock as its timestamp.
+    pub arrival_ns: u64,
+    /// The sample.
+    pub sample: Sample,
+    /// True for an injected gross outlier.
+    pub outlier: bool,
+}
+
+/// A standard normal 3-vector.
+pub(crate) fn gaussian3(rng: &mut ChaCha8Rng) -> Vector3<f64> {
+    Vector3::new(StandardNormal.sample(rng), StandardNormal.sample(rng), StandardNormal.sample(rng))
+}
+
+/// Seconds to ns, rounded.
+pub(crate) fn to_ns(t_s: f64) -> u64 {
+    (t_s * 1e9).round() as u64
+}
+
+/// A whole recorded drive: every sensor's samples merged in arrival order.
+#[derive(Debug, Clone)]
+pub struct Scenario {
+    /// The truth behind the samples.
+    pub trajectory: CarTrajectory,
+    /// Trajectory time 0, ns.
+    pub start_ns: u64,
+    /// Samples in arrival order (ties: timestamp order).
+    pub arrivals: Vec<Arrival>,
+}
+
+/// Settings of a recorded drive.
+#[derive(Debug, Clone)]
+pub struct ScenarioConfig {
+    /// Seed of the trajectory and all noise.
+    pub seed: u64,
+    /// Length, s.
+    pub duration_s: f64,
+    /// Trajectory time 0, ns.
+    pub start_ns: u64,
+    /// IMU settings.
+    pub imu: ImuConfig,
+    /// What the IMU measures.
+    pub imu_output: ImuOutput,
+    /// Position settings.
+    pub position: PositionConfig,
+    /// Further sensors (velocity, …), each with its own settings.
+    pub aiding: Vec<Arc<dyn AidingSim>>,
+}
+
+impl Default for ScenarioConfig {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            duration_s: 20.0,
+            start_ns: 1_000_000_000,
+            imu: ImuConfig::default(),
+            imu_output: ImuOutput::WorldAcceleration,
+            position: PositionConfig::default(),
+            aiding: Vec::new(),
+        }
+    }
+}
+
+impl Scenario {
+    /// Simulates a drive.
+    pub fn generate(config: &ScenarioConfig) -> Self {
+        let trajectory = CarTrajectory::new(config.seed);
+        let end_ns = config.start_ns + to_ns(config.duration_s);
+        let imu = ImuSim::new(trajectory.clone(), config.imu.clone(), config.imu_output, config.start_ns, config.seed)
+            .take_while(|a| a.sample.t_ns() <= end_ns);
+        let pos = PositionSim::new(trajectory.clone(), config.position.clone(), config.start_ns, config.seed)
+            .take_while(|a| a.sample.t_ns() <= end_ns);
+        let aiding = config.aiding.iter().flat_map(|sim| {
+            sim.arrivals(&trajectory, config.start_ns, config.seed).take_while(|a| a.sample.t_ns() <= end_ns)
+        });
+        let mut arrivals: Vec<Arrival> = imu.chain(pos).chain(aiding).collect();
+        arrivals.sort_by_key(|a| (a.arrival_ns, a.sample.t_ns()));
+        Self { trajectory, start_ns: config.start_ns, arrivals }
+    }
+
+    /// The truth at a sample time, ns.
+    pub fn truth_at(&self, t_ns: u64) -> TruthState {
+        self.trajectory.at((t_ns as f64 - self.start_ns as f64) * 1e-9)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn positions_arrive_late_and_out_of_order() {
+        let s = Scenario::generate(&ScenarioConfig {
+            imu: ImuConfig { rate_hz: 200.0, jitter_ns: 500_000, ..Default::default() },
+            ..Default::default()
+        });
+        let n_imu = s.arrivals.iter().filter(|a| matches!(a.sample, Sample::Imu(_))).count();
+        let n_pos = s.arrivals.len() - n_imu;
+        // 20 s at 200 Hz; the last one may jitter past the end.
+        assert!((4000..=4001).contains(&n_imu) && n_pos == 201, "{n_imu} {n_pos}");
+        // Arrival order differs from timestamp order.
+        let out_of_order = s.arrivals.windows(2).filter(|w| w[1].sample.t_ns() < w[0].sample.t_ns()).count();
+        assert!(out_of_order > 150);
+        for a in &s.arrivals {
+            let delay = a.arrival_ns - a.sample.t_ns();
+            if let Sample::Position(_) = a.sample {
+                assert!((20_000_000..=120_000_000).contains(&delay));
+            }
+        }
+    }
+
+    #[test]
+    fn outliers_are_flagged_and_far_off() {
+        let s = Scenario::generate(&ScenarioConfig {
+            position: PositionConfig { outlier_probability: 0.1, dropout_probability: 0.1, ..Default::default() },
+            ..Default::default()
+        });
+        let mut outliers = 0;
+        for a in &s.arrivals {
+            if let Sample::Position(p) = a.sample {
+                let err = (Vector3::from(p.pos_m) - s.truth_at(p.header.t_ns).pos_m).norm();
+                assert_eq!(a.outlier, err > 10.0, "err {err}");
+                outliers += a.outlier as usize;
+            }
+        }
+        assert!(outliers > 5);
+    }
+
+    #[test]
+    fn the_same_seed_gives_the_same_drive() {
+        let c = ScenarioConfig { duration_s: 2.0, ..Default::default() };
+        assert_eq!(Scenario::generate(&c).arrivals, Scenario::generate(&c).arrivals);
+    }
+}

@@ -1,0 +1,95 @@
+//! Simulated velocities (GNSS Doppler): the true world-frame velocity plus white
+//! noise with its covariance, arriving after random delays.
+
+use fusion_shared::{Sample, SampleKind, VelocitySample};
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::scenario::{Arrival, gaussian3, to_ns};
+use super::trajectory::CarTrajectory;
+use super::AidingSim;
+
+/// Velocity (GNSS Doppler) simulation settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VelocityConfig {
+    /// Rate, Hz.
+    pub rate_hz: f64,
+    /// Standard deviation of the horizontal noise, m/s (reported in the covariance).
+    pub noise_std_mps: f64,
+    /// Standard deviation of the vertical noise, m/s.
+    pub vertical_noise_std_mps: f64,
+    /// Delay from time of validity to publication: uniform in [min, max], ns.
+    pub delay_min_ns: u64,
+    /// See `delay_min_ns`.
+    pub delay_max_ns: u64,
+    /// Sensor id.
+    pub sensor: u32,
+}
+
+impl Default for VelocityConfig {
+    fn default() -> Self {
+        Self {
+            rate_hz: 10.0,
+            noise_std_mps: 0.05,
+            vertical_noise_std_mps: 0.1,
+            delay_min_ns: 20_000_000,
+            delay_max_ns: 120_000_000,
+            sensor: 2,
+        }
+    }
+}
+
+/// Simulated velocities (an endless iterator): the true world-frame velocity plus
+/// white noise, with the noise's covariance.
+#[derive(Debug, Clone)]
+pub struct VelocitySim {
+    trajectory: CarTrajectory,
+    config: VelocityConfig,
+    start_ns: u64,
+    index: u64,
+    rng: ChaCha8Rng,
+}
+
+impl VelocitySim {
+    /// Velocities on `trajectory`, the first at `start_ns` (trajectory time 0).
+    pub fn new(trajectory: CarTrajectory, config: VelocityConfig, start_ns: u64, seed: u64) -> Self {
+        // Its own stream: adding the sensor leaves every other sample unchanged.
+        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7665_6c00);
+        Self { trajectory, config, start_ns, index: 0, rng }
+    }
+}
+
+impl Iterator for VelocitySim {
+    type Item = Arrival;
+
+    fn next(&mut self) -> Option<Arrival> {
+        let c = &self.config;
+        let offset_ns = to_ns(self.index as f64 / c.rate_hz);
+        let delay = self.rng.random_range(c.delay_min_ns..=c.delay_max_ns.max(c.delay_min_ns));
+        let noise = gaussian3(&mut self.rng);
+        let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
+        let std = Vector3::new(c.noise_std_mps, c.noise_std_mps, c.vertical_noise_std_mps);
+        let vel = truth.vel_mps + noise.component_mul(&std);
+        let var = std.component_mul(&std);
+        let t_ns = self.start_ns + offset_ns;
+        let cov = [var.x, 0.0, 0.0, 0.0, var.y, 0.0, 0.0, 0.0, var.z];
+        let sample = VelocitySample::new(t_ns, c.sensor, self.index, vel.into(), cov);
+        self.index += 1;
+        Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Velocity(sample), outlier: false })
+    }
+}
+
+impl AidingSim for VelocityConfig {
+    fn kind(&self) -> SampleKind {
+        SampleKind::Velocity
+    }
+
+    fn sensor(&self) -> u32 {
+        self.sensor
+    }
+
+    fn arrivals(&self, trajectory: &CarTrajectory, start_ns: u64, seed: u64) -> Box<dyn Iterator<Item = Arrival> + Send> {
+        Box::new(VelocitySim::new(trajectory.clone(), self.clone(), start_ns, seed))
+    }
+}
