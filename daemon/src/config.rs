@@ -10,10 +10,12 @@
 use std::path::Path;
 
 use fusion_shared::SampleKind;
+use fusion_shared::geodesy::Datum;
 use serde::Deserialize;
 
 use crate::filter::ChiSquareGate;
 use crate::health::{HealthConfig, MAX_NIS_WINDOW};
+use crate::measurement::Needed;
 use crate::model::ins::InsParams;
 use crate::model::linear::LinearParams;
 use crate::validate::Limits;
@@ -49,7 +51,7 @@ probability = 0.999
 [health]
 # A stream is stale (health "degraded") after this long without a sample, per
 # sample kind: <kind>_timeout_ns. The health stays "initialising" until samples
-# of {required} were processed; the other kinds are optional.
+# of {required} were processed.
 {timeouts}# NIS test over the last nis_window measurements of each sensor: degraded when
 # their sum leaves the two-sided chi-square band at nis_probability.
 nis_window = 20
@@ -63,6 +65,13 @@ max_sensors = 8
 # IMU samples beyond the sensor's range are rejected: |accel| (m/s^2), |gyro| (rad/s).
 accel_range_mps2 = 160.0     # 16 g
 gyro_range_radps = 35.0      # 2000 deg/s
+
+# The world frame is east-north-up about a datum: the first geodetic fix
+# (latitude, longitude, height above the WGS-84 ellipsoid), or a fixed one:
+#   [datum]
+#   latitude_deg = 48.137
+#   longitude_deg = 11.575
+#   height_m = 519.0
 
 # For the error-state INS (real IMU: body specific force and angular rate), use
 #   [model]
@@ -86,18 +95,19 @@ gyro_range_radps = 35.0      # 2000 deg/s
 /// The default configuration with comments, as printed by `fusiond print-config`:
 /// what an empty file means. A test checks it against the `Default` impls.
 pub fn default_config_text() -> String {
-    let names = |required: bool| -> Vec<&str> {
-        let kinds = SampleKind::ALL.iter().filter(|&&k| !required || crate::measurement::required(k));
+    let names = |group: Option<Needed>| -> Vec<&str> {
+        let kinds = SampleKind::ALL.iter().filter(|&&k| group.is_none() || crate::measurement::needed(k) == group);
         kinds.map(|k| k.name()).collect()
     };
+    let needed = [Needed::Propagation, Needed::Position].map(|g| names(Some(g)).join(" or "));
     let timeouts: String = SampleKind::ALL
         .iter()
         .map(|&k| format!("{}_timeout_ns = {}\n", k.name(), grouped(crate::measurement::default_timeout_ns(k))))
         .collect();
     DEFAULT_CONFIG_TEMPLATE
-        .replace("{required}", &names(true).join(" and "))
+        .replace("{required}", &needed.join(", and of "))
         .replace("{timeouts}", &timeouts)
-        .replace("{kinds}", &names(false).join(", "))
+        .replace("{kinds}", &names(None).join(", "))
 }
 
 /// `n` with its digits in groups of three (`1_000_000`), as TOML allows.
@@ -105,7 +115,7 @@ fn grouped(n: u64) -> String {
     let digits = n.to_string();
     let mut out = String::new();
     for (i, c) in digits.chars().enumerate() {
-        if i > 0 && (digits.len() - i) % 3 == 0 {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
             out.push('_');
         }
         out.push(c);
@@ -238,6 +248,15 @@ impl ValidationConfig {
     }
 }
 
+/// `[datum]`: the origin of the world frame.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawDatum {
+    latitude_deg: f64,
+    longitude_deg: f64,
+    height_m: f64,
+}
+
 /// `[gating]`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -264,6 +283,7 @@ struct RawConfig {
     health: RawHealth,
     #[serde(default)]
     validation: ValidationConfig,
+    datum: Option<RawDatum>,
     /// Moved to `[model.alignment]`; named only to say so.
     alignment: Option<toml::Value>,
     /// Moved to `[model.constraints]`; named only to say so.
@@ -283,6 +303,8 @@ pub struct Config {
     pub health: HealthConfig,
     /// Input validation.
     pub validation: ValidationConfig,
+    /// The origin of the world frame (`[datum]`); `None`: the first geodetic fix.
+    pub datum: Option<Datum>,
 }
 
 impl Default for Config {
@@ -294,6 +316,7 @@ impl Default for Config {
             gating: Some(ChiSquareGate::new(0.999).expect("0.999 is a probability")),
             health: HealthConfig::default(),
             validation: ValidationConfig::default(),
+            datum: None,
         }
     }
 }
@@ -343,7 +366,13 @@ impl Config {
         if !(1..=256).contains(&v.max_sensors) {
             return Err(invalid("validation.max_sensors", format!("must be in 1..=256, got {}", v.max_sensors)));
         }
-        let config = Self { model: raw.model, filter: raw.filter, gating, health, validation: raw.validation };
+        let datum = match raw.datum {
+            None => None,
+            Some(d) => Some(
+                Datum::new(d.latitude_deg, d.longitude_deg, d.height_m).map_err(|e| invalid("datum", e.to_string()))?,
+            ),
+        };
+        let config = Self { model: raw.model, filter: raw.filter, gating, health, validation: raw.validation, datum };
         crate::model::check(&config)?;
         Ok(config)
     }

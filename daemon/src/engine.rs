@@ -255,6 +255,7 @@ impl<M: Model> Engine<M> {
             index -= 1;
         }
 
+        crate::measurement::admit(sample, self.model.frames());
         let sensor = &mut self.sensors[slot];
         sensor.seen.mark(key.seq);
         sensor.last_t_ns = Some(sensor.last_t_ns.map_or(key.t_ns, |t| t.max(key.t_ns)));

@@ -2,7 +2,8 @@
 //!
 //! - A stream is stale when no sample of a sensor of that kind has arrived for
 //!   longer than its kind's timeout (daemon clock). The health is "initialising"
-//!   until every kind the measurement modules mark required was processed.
+//!   until a sample of each group the measurement modules name was processed
+//!   ([`measurement::Needed`]: the IMU, and a position or geodetic fix).
 //! - The NIS of the last `N` measurements of a sensor is persistently out of
 //!   bounds when the sum over the `k` fused ones leaves the two-sided χ²_{mk}
 //!   band at the configured probability, `m` the kind's innovation dimension (the
@@ -147,7 +148,11 @@ impl HealthMonitor {
         if self.last_loss_ns.is_some_and(|t| now_ns.saturating_sub(t) < LOSS_HOLD_NS) {
             reasons |= health::SAMPLES_LOST;
         }
-        let waiting = SampleKind::ALL.iter().any(|&k| measurement::required(k) && !seen[k.index()]);
+        // Each group that some kind belongs to needs a processed sample of one of its kinds.
+        let waiting = SampleKind::ALL
+            .iter()
+            .filter_map(|&k| measurement::needed(k))
+            .any(|group| !SampleKind::ALL.iter().any(|&k| measurement::needed(k) == Some(group) && seen[k.index()]));
         let state = if !initialised || waiting {
             health::INITIALISING
         } else if reasons != 0 {

@@ -5,6 +5,7 @@
 //! - [`reorder`]: processing-order key, late-sample placement, duplicate window.
 //! - [`measurement`]: one module per sensor kind: validation, order, health, fusion.
 //! - [`validate`]: rejection reasons and limits of the input checks.
+//! - [`frames`]: the datum of the world frame (configured or the first geodetic fix).
 //! - [`engine`]: reorder + model + filter + bounded history, deterministic, IPC-free.
 //! - [`snapshot`]: fills a `StateSnapshot` from the engine.
 //! - [`health`]: health of the live estimate (stale streams, NIS out of bounds, losses).
@@ -18,6 +19,7 @@
 pub mod config;
 pub mod engine;
 pub mod filter;
+pub mod frames;
 pub mod health;
 pub mod ipc;
 pub mod live;

@@ -50,6 +50,10 @@ fn counters(s: &SensorSlot) -> SensorCounters {
 /// fresh shared-memory chunk, gives the same as refilling one snapshot.
 pub fn fill<M: Model>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Option<Input<'_>>, health: (u32, u32)) {
     snap.model = M::CODE;
+    if let Some(d) = engine.model().frames().datum() {
+        (snap.datum_lat_deg, snap.datum_lon_deg, snap.datum_height_m) = (d.latitude_deg, d.longitude_deg, d.height_m);
+        snap.datum_set = 1;
+    }
     if let Some(latest) = engine.latest() {
         let key = latest.key;
         snap.t_ns = key.t_ns;

@@ -4,6 +4,7 @@
 //!   kind ([`ImuSample`], [`PositionSample`], [`VelocitySample`], …); [`SampleKind`] lists
 //!   the kinds, [`for_each_sample_kind!`] is the list they come from.
 //! - [`snapshot`]: [`StateSnapshot`], what fusiond publishes.
+//! - [`geodesy`]: WGS-84 geodetic coordinates ↔ the local ENU frame of a datum.
 //! - [`service`]: service names under a namespace, QoS, and how every side opens them.
 //! - `jsonl` (feature `json`): the JSON-lines sample format of replay files.
 //! - [`transport`]: [`transport::Ipc`], the iceoryx2 service type of every port
@@ -13,6 +14,7 @@
 //! Every type here is `#[repr(C)]` with fixed-width fields only, units in the field
 //! names, SI units, world frame ENU and body frame forward-left-up (REP-103).
 
+pub mod geodesy;
 #[cfg(feature = "json")]
 pub mod jsonl;
 pub mod sample;

@@ -84,6 +84,8 @@ macro_rules! for_each_sample_kind {
             Position = 2, "position", position, PositionSample;
             /// [`VelocitySample`](crate::sample::VelocitySample): a 3-D velocity in the world frame (GNSS Doppler).
             Velocity = 3, "velocity", velocity, VelocitySample;
+            /// [`GeodeticSample`](crate::sample::GeodeticSample): a GNSS fix in WGS-84 latitude, longitude, height.
+            Geodetic = 4, "geodetic", geodetic, GeodeticSample;
         }
     };
 }

@@ -8,6 +8,7 @@
 use iceoryx2::prelude::ZeroCopySend;
 
 use crate::SampleKind;
+use crate::geodesy::Datum;
 
 /// Largest state vector a snapshot carries.
 pub const MAX_STATE: usize = 16;
@@ -208,7 +209,7 @@ impl SensorCounters {
 
 /// The fusion state after one processed sample.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("fusion.StateSnapshot.v2")]
+#[type_name("fusion.StateSnapshot.v3")]
 #[repr(C)]
 pub struct StateSnapshot {
     /// Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
@@ -270,6 +271,19 @@ pub struct StateSnapshot {
     pub replayed: u64,
     /// Samples of sensors beyond the sensor table, rejected.
     pub unknown_sensor: u64,
+
+    /// The datum of the world frame (ENU about it): latitude, degrees (WGS-84).
+    /// Valid when `datum_set` is 1 (see [`StateSnapshot::datum`]).
+    pub datum_lat_deg: f64,
+    /// The datum's longitude, degrees.
+    pub datum_lon_deg: f64,
+    /// The datum's height above the WGS-84 ellipsoid, m.
+    pub datum_height_m: f64,
+    /// 1 when the world frame has a datum (configured, or the first geodetic
+    /// fix), 0 before.
+    pub datum_set: u32,
+    /// Zero.
+    pub _reserved: u32,
 }
 
 impl Default for StateSnapshot {
@@ -302,6 +316,11 @@ impl Default for StateSnapshot {
             rewinds: 0,
             replayed: 0,
             unknown_sensor: 0,
+            datum_lat_deg: 0.0,
+            datum_lon_deg: 0.0,
+            datum_height_m: 0.0,
+            datum_set: 0,
+            _reserved: 0,
         }
     }
 }
@@ -339,6 +358,23 @@ impl StateSnapshot {
         }
     }
 
+    /// The datum of the world frame, if it has one.
+    pub fn datum(&self) -> Option<Datum> {
+        (self.datum_set == 1).then_some(Datum {
+            latitude_deg: self.datum_lat_deg,
+            longitude_deg: self.datum_lon_deg,
+            height_m: self.datum_height_m,
+        })
+    }
+
+    /// The estimated position (`x[0..3]`, m ENU, in every model) as WGS-84
+    /// latitude and longitude (degrees) and height above the ellipsoid (m), when
+    /// the world frame has a datum.
+    pub fn position_geodetic(&self) -> Option<(f64, f64, f64)> {
+        let p = self.state().get(..3)?;
+        Some(self.datum()?.to_geodetic([p[0], p[1], p[2]]))
+    }
+
     /// The names of the health reason bits that are set.
     pub fn health_reason_names(&self) -> impl Iterator<Item = &'static str> + use<> {
         health::reason_names(self.health_reasons)
@@ -350,6 +386,7 @@ const _: () = {
     assert!(core::mem::size_of::<SensorCounters>() == 112);
     assert!(core::mem::align_of::<StateSnapshot>() == 8);
     assert!(
-        core::mem::size_of::<StateSnapshot>() == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 112 * MAX_SENSORS + 24
+        core::mem::size_of::<StateSnapshot>()
+            == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 112 * MAX_SENSORS + 24 + 32
     );
 };

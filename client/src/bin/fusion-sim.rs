@@ -1,7 +1,8 @@
 //! `fusion-sim`: simulated IMU and position sensors on one ground-truth trajectory.
 //!
 //! - `fusion-sim run`: publish live to a running fusiond, paced by the clock:
-//!   every sensor (IMU, position, and velocity with `--velocity-rate`), or the IMU
+//!   every sensor (IMU, position, velocity with `--velocity-rate`, geodetic GNSS
+//!   with `--geodetic-rate`), or the IMU
 //!   or the GNSS receiver alone (`--imu-only`, `--position-only`) so they can run
 //!   as separate processes on the same trajectory and start time; or a file
 //!   (`--input`), as fast as the daemon takes it or paced by its timestamps.
@@ -20,9 +21,10 @@ use std::time::Duration;
 
 use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
 use fusion_client::sim::{
-    AidingSim, Arrival, CarTrajectory, ImuOutput, ImuSim, Scenario, ScenarioConfig, VelocityConfig,
+    AidingSim, Arrival, CarTrajectory, GeodeticConfig, ImuOutput, ImuSim, Scenario, ScenarioConfig, VelocityConfig,
 };
 use fusion_client::{Client, SampleKind, SensorPublishers, now_ns};
+use fusion_shared::geodesy::Datum;
 use fusion_shared::jsonl::{format_sample, parse_sample};
 
 #[derive(Parser)]
@@ -122,6 +124,16 @@ struct SimArgs {
     /// Horizontal velocity noise, m/s (vertical: 2×).
     #[arg(long, default_value_t = 0.05)]
     velocity_noise: f64,
+    /// Geodetic GNSS (latitude, longitude, height) rate, Hz; 0: no such receiver.
+    #[arg(long, default_value_t = 0.0)]
+    geodetic_rate: f64,
+    /// Horizontal noise of the geodetic fixes, m (vertical: 1.6×).
+    #[arg(long, default_value_t = 0.5)]
+    geodetic_noise: f64,
+    /// Where trajectory position 0 is: latitude (deg), longitude (deg), height
+    /// above the WGS-84 ellipsoid (m) (default: Munich, 48.1316,11.5494,519).
+    #[arg(long, value_delimiter = ',', num_args = 3)]
+    datum: Option<Vec<f64>>,
     /// Probability of a lost fix.
     #[arg(long, default_value_t = 0.0)]
     dropouts: f64,
@@ -144,7 +156,7 @@ enum ImuKind {
 }
 
 impl SimArgs {
-    fn scenario(&self) -> ScenarioConfig {
+    fn scenario(&self) -> anyhow::Result<ScenarioConfig> {
         let mut c = ScenarioConfig {
             seed: self.seed,
             duration_s: self.duration,
@@ -180,7 +192,21 @@ impl SimArgs {
                 ..Default::default()
             }));
         }
-        c
+        if self.geodetic_rate > 0.0 {
+            let mut g = GeodeticConfig {
+                rate_hz: self.geodetic_rate,
+                noise_std_m: self.geodetic_noise,
+                vertical_noise_std_m: 1.6 * self.geodetic_noise,
+                delay_min_ns: c.position.delay_min_ns,
+                delay_max_ns: c.position.delay_max_ns,
+                ..Default::default()
+            };
+            if let Some(d) = &self.datum {
+                g.datum = Datum::new(d[0], d[1], d[2]).context("--datum")?;
+            }
+            c.aiding.push(Arc::new(g));
+        }
+        Ok(c)
     }
 }
 
@@ -196,7 +222,7 @@ fn main() -> anyhow::Result<()> {
                 return publish_file(&client, &path, realtime, &stop);
             }
             let start = start_at_ns.unwrap_or_else(|| now_ns() + 100_000_000);
-            let config = sim.scenario();
+            let config = sim.scenario()?;
             let trajectory = CarTrajectory::new(config.seed);
             let end_ns = start + (config.duration_s * 1e9) as u64;
             let imu_sim = (!position_only)
@@ -224,7 +250,7 @@ fn main() -> anyhow::Result<()> {
             Ok(())
         }
         Command::Record { output, truth, sim } => {
-            let scenario = Scenario::generate(&sim.scenario());
+            let scenario = Scenario::generate(&sim.scenario()?);
             let mut out = BufWriter::new(std::fs::File::create(&output).with_context(|| output.display().to_string())?);
             for a in &scenario.arrivals {
                 writeln!(out, "{}", format_sample(&a.sample))?;

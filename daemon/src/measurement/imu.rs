@@ -8,7 +8,7 @@
 use fusion_shared::ImuSample;
 use nalgebra::Vector3;
 
-use super::{Fuse, Limits, Measurement, Rejection, finite, nonholonomic};
+use super::{Fuse, Limits, Measurement, Needed, Rejection, finite, nonholonomic};
 use crate::model::StepOutcome;
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
@@ -17,7 +17,7 @@ impl Measurement for ImuSample {
     const RANK: u8 = 0;
     const TIMEOUT_NS: u64 = 100_000_000;
     const INNOVATION_DIM: usize = 0;
-    const REQUIRED: bool = true;
+    const NEEDED: Option<Needed> = Some(Needed::Propagation);
 
     fn validate(&self, limits: &Limits) -> Result<(), Rejection> {
         finite(&self.accel_mps2)?;

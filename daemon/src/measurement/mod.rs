@@ -20,8 +20,19 @@ pub mod nonholonomic;
 use fusion_shared::{Sample, SampleKind, WireSample};
 use nalgebra::Matrix3;
 
+use crate::frames::Frames;
 use crate::model::{Model, StepOutcome};
 pub use crate::validate::{Limits, Rejection};
+
+/// What the health waits for before it leaves "initialising": a sample of at
+/// least one kind of each group.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Needed {
+    /// A stream that drives the propagation (the IMU).
+    Propagation,
+    /// An absolute position (a fix in the world frame, or a geodetic one).
+    Position,
+}
 
 /// What the daemon knows of one sample kind, beside its fusion ([`Fuse`]).
 pub trait Measurement: WireSample {
@@ -34,11 +45,15 @@ pub trait Measurement: WireSample {
     /// Innovation dimension (the χ² degrees of freedom of one NIS), 0 for a kind
     /// that is not a measurement update (the IMU drives the propagation).
     const INNOVATION_DIM: usize;
-    /// Whether the health stays "initialising" until a sample of this kind was processed.
-    const REQUIRED: bool;
+    /// The group of kinds of which the health waits for one ([`Needed`]), if any.
+    const NEEDED: Option<Needed>;
 
     /// Checks the payload; the header is the engine's business.
     fn validate(&self, limits: &Limits) -> Result<(), Rejection>;
+
+    /// A valid sample about to be processed may set what the frames still lack
+    /// (a geodetic fix: the datum). Nothing by default.
+    fn admit(&self, _frames: &Frames) {}
 }
 
 /// How model `M` fuses a sample of this kind. The state has already been
@@ -98,10 +113,18 @@ macro_rules! registry {
             }
         }
 
-        /// Whether the health waits for a kind ([`Measurement::REQUIRED`]).
-        pub const fn required(kind: SampleKind) -> bool {
+        /// The group the health waits for a kind of ([`Measurement::NEEDED`]).
+        pub const fn needed(kind: SampleKind) -> Option<Needed> {
             match kind {
-                $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::REQUIRED,)*
+                $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::NEEDED,)*
+            }
+        }
+
+        /// Lets a valid sample about to be processed set what the frames lack
+        /// ([`Measurement::admit`]).
+        pub fn admit(sample: &Sample, frames: &Frames) {
+            match sample {
+                $(Sample::$variant(s) => s.admit(frames),)*
             }
         }
 

@@ -12,7 +12,7 @@
 use fusion_shared::PositionSample;
 use nalgebra::{Matrix3, SVector, Vector3};
 
-use super::{Fuse, Limits, Measurement, Rejection, covariance3, finite};
+use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite};
 use crate::model::StepOutcome;
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
@@ -21,7 +21,7 @@ impl Measurement for PositionSample {
     const RANK: u8 = 1;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const INNOVATION_DIM: usize = 3;
-    const REQUIRED: bool = true;
+    const NEEDED: Option<Needed> = Some(Needed::Position);
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
         finite(&self.pos_m)?;

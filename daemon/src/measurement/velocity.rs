@@ -15,7 +15,7 @@
 use fusion_shared::VelocitySample;
 use nalgebra::{Matrix3, SVector, Vector3};
 
-use super::{Fuse, Limits, Measurement, Rejection, covariance3, finite};
+use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite};
 use crate::model::StepOutcome;
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
@@ -24,7 +24,7 @@ impl Measurement for VelocitySample {
     const RANK: u8 = 2;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const INNOVATION_DIM: usize = 3;
-    const REQUIRED: bool = false;
+    const NEEDED: Option<Needed> = None;
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
         finite(&self.vel_mps)?;

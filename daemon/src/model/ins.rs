@@ -70,6 +70,7 @@ use crate::config::{Config, ConfigError, ModelConfig, invalid, positive};
 use crate::filter::{
     ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, rts_smooth,
 };
+use crate::frames::Frames;
 pub use crate::measurement::nonholonomic::Nonholonomic;
 use crate::reorder::Sample;
 
@@ -137,6 +138,7 @@ pub struct InsModel {
     gate: Option<ChiSquareGate>,
     alignment_samples: u32,
     nonholonomic: Option<Nonholonomic>,
+    frames: Frames,
 }
 
 /// The smoother's record of one `ins` step (see [`InsModel::step_recorded`](Model::step_recorded)).
@@ -253,7 +255,13 @@ impl InsModel {
         for v in &mut x0[6..10] {
             *v /= norm;
         }
-        Ok(Self { noise, gravity, x0, initial, gate, alignment_samples, nonholonomic: None })
+        Ok(Self { noise, gravity, x0, initial, gate, alignment_samples, nonholonomic: None, frames: Frames::default() })
+    }
+
+    /// The same model with these frames (a configured datum).
+    pub fn with_frames(mut self, frames: Frames) -> Self {
+        self.frames = frames;
+        self
     }
 
     /// The same model with the land-vehicle motion constraint applied.
@@ -293,7 +301,7 @@ impl InsModel {
         }
         let alignment = p.alignment.map_or(0, |a| a.static_samples);
         Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)
-            .map(|m| m.with_nonholonomic(p.constraints))
+            .map(|m| m.with_nonholonomic(p.constraints).with_frames(Frames::new(config.datum)))
             .map_err(|e| invalid("filter.initial_state", e.to_string()))
     }
 
@@ -438,6 +446,10 @@ impl Model for InsModel {
 
     fn initial_state(&self) -> InsState {
         InsState::new(self.x0, self.initial)
+    }
+
+    fn frames(&self) -> &Frames {
+        &self.frames
     }
 
     fn step(&self, s: &mut InsState, sample: &Sample) -> StepOutcome {

@@ -30,6 +30,7 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use super::{Model, StepOutcome, advance_time};
 use crate::config::{Config, ConfigError, ModelConfig, invalid, positive};
 use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, rts_smooth};
+use crate::frames::Frames;
 use crate::reorder::Sample;
 
 /// State dimension.
@@ -55,6 +56,7 @@ pub struct LinearModel {
     sigma_a: f64,
     initial: KalmanFilter<f64, N>,
     gate: Option<ChiSquareGate>,
+    frames: Frames,
 }
 
 /// Filter state of the `linear` model at one point of the stream.
@@ -83,7 +85,13 @@ impl LinearModel {
     ) -> Result<Self, crate::filter::FilterError> {
         let initial =
             KalmanFilter::new(SVector::from(x0), SMatrix::from_diagonal(&SVector::<f64, N>::from(p0_diagonal)))?;
-        Ok(Self { sigma_a, initial, gate })
+        Ok(Self { sigma_a, initial, gate, frames: Frames::default() })
+    }
+
+    /// The same model with these frames (a configured datum).
+    pub fn with_frames(mut self, frames: Frames) -> Self {
+        self.frames = frames;
+        self
     }
 
     /// The model of a config with `kind = "linear"`.
@@ -94,6 +102,7 @@ impl LinearModel {
         let sigma_a = positive("model.accel_noise_std", params.accel_noise_std)?;
         let (x0, p0) = super::initial_values::<N, N>(config)?;
         Self::new(sigma_a, x0, p0, config.gating.clone())
+            .map(|m| m.with_frames(Frames::new(config.datum)))
             .map_err(|e| invalid("filter.initial_covariance_diagonal", e.to_string()))
     }
 
@@ -200,6 +209,10 @@ impl Model for LinearModel {
 
     fn initial_state(&self) -> LinearState {
         LinearState { kf: self.initial, t_ns: None, accel: Vector3::zeros() }
+    }
+
+    fn frames(&self) -> &Frames {
+        &self.frames
     }
 
     fn step(&self, s: &mut LinearState, sample: &Sample) -> StepOutcome {

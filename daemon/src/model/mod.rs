@@ -139,6 +139,9 @@ pub trait Model {
     /// The state before the first sample.
     fn initial_state(&self) -> Self::State;
 
+    /// The frames its measurements may be given in (the datum of geodetic fixes).
+    fn frames(&self) -> &crate::frames::Frames;
+
     /// Processes one sample: propagate to its time, then fuse it through its kind's
     /// module ([`crate::measurement::fuse`]).
     fn step(&self, state: &mut Self::State, sample: &Sample) -> StepOutcome;

@@ -1,0 +1,153 @@
+//! The geodetic GNSS fix: WGS-84 latitude, longitude and height, turned into the
+//! world frame about the datum ([`crate::frames`]) exactly (geodetic → ECEF → ENU,
+//! [`fusion_shared::geodesy`]), then fused as a position: `z = p + v`,
+//! `v ~ N(0, R)`, R the sample's ENU covariance.
+//!
+//! The covariance is given in the ENU frame at the fix, whose axes differ from the
+//! datum's by the angle between the two verticals (about 1 mrad per 6.4 km): at the
+//! few-kilometre ranges of a local frame the rotation changes R by less than its
+//! own uncertainty, so R is used as given.
+//!
+//! - `linear`: `H = [I 0]`, Joseph-form update.
+//! - `ins`: `H` selects δp, `h(x) = p`; injected and reset as a position fix.
+//!
+//! The first valid fix sets the datum when none is configured.
+//!
+//! Validation: latitude in [−90°, 90°], longitude in [−180°, 180°], height within
+//! [−1 km, 18 km] of the ellipsoid, all finite; covariance symmetric positive
+//! definite. Required by the health as a position source (this or `position`).
+
+#![allow(non_snake_case)]
+
+use fusion_shared::GeodeticSample;
+use fusion_shared::geodesy::{self, Datum, InvalidGeodetic};
+use nalgebra::{Matrix3, SVector, Vector3};
+
+use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3};
+use crate::frames::Frames;
+use crate::model::ins::{InsModel, InsState};
+use crate::model::linear::{LinearModel, LinearState};
+use crate::model::{Model, StepOutcome};
+
+impl Measurement for GeodeticSample {
+    const RANK: u8 = 1;
+    const TIMEOUT_NS: u64 = 1_000_000_000;
+    const INNOVATION_DIM: usize = 3;
+    const NEEDED: Option<Needed> = Some(Needed::Position);
+
+    fn validate(&self, _: &Limits) -> Result<(), Rejection> {
+        geodesy::check(self.lat_deg, self.lon_deg, self.height_m).map_err(|e| match e {
+            InvalidGeodetic::NonFinite => Rejection::NonFinite,
+            InvalidGeodetic::Latitude | InvalidGeodetic::Longitude | InvalidGeodetic::Height => Rejection::OutOfRange,
+        })?;
+        covariance3(&self.cov_enu_m2)
+    }
+
+    fn admit(&self, frames: &Frames) {
+        // Checked by `validate`: a valid fix is a valid datum.
+        if let Ok(d) = Datum::new(self.lat_deg, self.lon_deg, self.height_m) {
+            frames.datum_or_set(d);
+        }
+    }
+}
+
+/// The fix in the world frame (m, ENU about the datum) and its covariance;
+/// `None` before any datum (never, once the engine admitted the fix).
+fn local(fix: &GeodeticSample, frames: &Frames) -> Option<(Vector3<f64>, Matrix3<f64>)> {
+    let enu = frames.datum()?.to_enu(fix.lat_deg, fix.lon_deg, fix.height_m);
+    Some((Vector3::from(enu), Matrix3::from_row_slice(&fix.cov_enu_m2)))
+}
+
+impl Fuse<LinearModel> for GeodeticSample {
+    fn fuse(&self, model: &LinearModel, s: &mut LinearState) -> (StepOutcome, ()) {
+        let Some((z, R)) = local(self, model.frames()) else { return (StepOutcome::Refused, ()) };
+        (model.update_block(s, &z, 0, &R), ())
+    }
+}
+
+impl Fuse<InsModel> for GeodeticSample {
+    fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, 15>>) {
+        let Some((z, R)) = local(self, model.frames()) else { return (StepOutcome::Refused, None) };
+        let predicted = s.p();
+        model.update_block(s, &z, &predicted, 0, &R)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use fusion_shared::PositionSample;
+
+    use super::*;
+
+    const COV: [f64; 9] = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64];
+
+    #[test]
+    fn every_bad_value_has_its_reason() {
+        let limits = Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 };
+        let fix = |lat, lon, h, cov| GeodeticSample::new(0, 0, 0, lat, lon, h, cov).validate(&limits);
+        assert_eq!(fix(48.1, 11.6, 520.0, COV), Ok(()));
+        assert_eq!(fix(90.01, 11.6, 520.0, COV), Err(Rejection::OutOfRange));
+        assert_eq!(fix(-95.0, 11.6, 520.0, COV), Err(Rejection::OutOfRange));
+        assert_eq!(fix(48.1, 180.5, 520.0, COV), Err(Rejection::OutOfRange));
+        assert_eq!(fix(48.1, -181.0, 520.0, COV), Err(Rejection::OutOfRange));
+        assert_eq!(fix(48.1, 11.6, 1e8, COV), Err(Rejection::OutOfRange));
+        assert_eq!(fix(f64::NAN, 11.6, 520.0, COV), Err(Rejection::NonFinite));
+        let mut indefinite = COV;
+        indefinite[1] = 1.0;
+        indefinite[3] = 1.0;
+        assert_eq!(fix(48.1, 11.6, 520.0, indefinite), Err(Rejection::CovarianceNotPositiveDefinite));
+    }
+
+    /// With the datum at the fix, a geodetic fix is the position fix at the origin;
+    /// elsewhere it is the position fix at its exact ENU coordinates: both give the
+    /// same estimate to rounding.
+    #[test]
+    fn a_geodetic_fix_is_fused_as_the_position_fix_at_its_enu_coordinates() {
+        let m = LinearModel::new(0.5, [0.0; 6], [100.0; 6], None).unwrap();
+        let datum = Datum::new(48.137, 11.575, 519.0).unwrap();
+        let (lat, lon, h) = datum.to_geodetic([120.0, -40.0, 3.0]);
+        let fix = GeodeticSample::new(5, 0, 0, lat, lon, h, COV);
+        // The first fix sets the datum when none is configured.
+        assert!(m.frames().datum().is_none());
+        fix.admit(m.frames());
+        assert_eq!(m.frames().datum(), Some(&Datum::new(lat, lon, h).unwrap()));
+
+        let configured = LinearModel::new(0.5, [0.0; 6], [100.0; 6], None).unwrap().with_frames(Frames::new(Some(datum)));
+        fix.admit(configured.frames());
+        assert_eq!(configured.frames().datum(), Some(&datum), "a configured datum stays");
+        let mut s = configured.initial_state();
+        let (out, ()) = fix.fuse(&configured, &mut s);
+        let mut reference = configured.initial_state();
+        let pos = PositionSample::new(5, 0, 0, datum.to_enu(lat, lon, h), COV);
+        let (ref_out, ()) = pos.fuse(&configured, &mut reference);
+        assert!(matches!(out, StepOutcome::Fused { .. }) && matches!(ref_out, StepOutcome::Fused { .. }));
+        let (x, xr) = (s.filter().x(), reference.filter().x());
+        assert!((x - xr).amax() < 1e-9, "{x} {xr}");
+        assert!((x[0] - 120.0 * 100.0 / 100.25).abs() < 1e-6, "{}", x[0]);
+    }
+
+    /// Without a datum (a fix the engine never admitted) the update is refused,
+    /// never fused in a wrong frame.
+    #[test]
+    fn without_a_datum_nothing_is_fused() {
+        let m = InsModel::new(
+            crate::model::ins::ImuNoise {
+                accelerometer_noise_density: 0.02,
+                gyroscope_noise_density: 0.001,
+                accelerometer_random_walk: 0.001,
+                gyroscope_random_walk: 1e-5,
+            },
+            9.80665,
+            [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [1.0; 15],
+            None,
+            0,
+        )
+        .unwrap();
+        let mut s = m.initial_state();
+        let before = s;
+        let (out, injected) = GeodeticSample::new(5, 0, 0, 48.0, 11.0, 500.0, COV).fuse(&m, &mut s);
+        assert_eq!((out, injected), (StepOutcome::Refused, None));
+        assert_eq!(s, before);
+    }
+}
