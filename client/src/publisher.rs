@@ -196,11 +196,6 @@ impl SensorPublishers {
         Ok(())
     }
 
-    /// Whether a publisher of `kind` is open.
-    pub fn has(&self, kind: SampleKind) -> bool {
-        self.by_kind[kind.index()].is_some()
-    }
-
     /// Publishes `sample` as given (see [`SamplePublisher::publish_sample`]) on
     /// the publisher of its kind. `Ok(None)`: there is none for that kind.
     pub fn publish(&mut self, sample: Sample) -> Result<Option<usize>, ClientError> {

@@ -21,7 +21,7 @@ use std::time::Duration;
 
 use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
 use fusion_client::sim::{
-    AidingSim, Arrival, CarTrajectory, GeodeticConfig, ImuOutput, ImuSim, Scenario, ScenarioConfig, VelocityConfig,
+    Arrival, CarTrajectory, GeodeticConfig, ImuOutput, ImuSim, PositionConfig, Scenario, ScenarioConfig, VelocityConfig,
 };
 use fusion_client::{Client, SampleKind, SensorPublishers, now_ns};
 use fusion_shared::geodesy::Datum;
@@ -193,13 +193,14 @@ impl SimArgs {
             }));
         }
         if self.geodetic_rate > 0.0 {
-            let mut g = GeodeticConfig {
+            let mut g = GeodeticConfig::default();
+            g.fix = PositionConfig {
                 rate_hz: self.geodetic_rate,
                 noise_std_m: self.geodetic_noise,
                 vertical_noise_std_m: 1.6 * self.geodetic_noise,
                 delay_min_ns: c.position.delay_min_ns,
                 delay_max_ns: c.position.delay_max_ns,
-                ..Default::default()
+                ..g.fix
             };
             if let Some(d) = &self.datum {
                 g.datum = Datum::new(d[0], d[1], d[2]).context("--datum")?;
@@ -233,8 +234,7 @@ fn main() -> anyhow::Result<()> {
                 publishers.open(&client, SampleKind::Imu, config.imu.sensor)?;
             }
             if !imu_only {
-                let position: &dyn AidingSim = &config.position;
-                for sim in std::iter::once(position).chain(config.aiding.iter().map(|a| &**a)) {
+                for sim in config.aiding_sims() {
                     delayed.push(sim.arrivals(&trajectory, start, config.seed));
                     publishers.open(&client, sim.kind(), sim.sensor())?;
                 }

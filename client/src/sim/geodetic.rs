@@ -1,68 +1,51 @@
-//! A simulated GNSS receiver reporting WGS-84 latitude, longitude and height:
-//! the truth (ENU about a datum, by default in Munich) plus white noise, turned
-//! into geodetic coordinates exactly, with its ENU covariance, arriving after
-//! random delays.
+//! A simulated GNSS receiver reporting WGS-84 latitude, longitude and height: the
+//! simulated position fixes ([`PositionSim`]: noise, delays, dropouts, outliers)
+//! about a datum on the Earth (by default in Munich), turned into geodetic
+//! coordinates exactly, with the same ENU covariance.
 
 use fusion_shared::geodesy::Datum;
 use fusion_shared::{GeodeticSample, Sample, SampleKind};
-use nalgebra::Vector3;
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
 use super::AidingSim;
-use super::scenario::{Arrival, gaussian3, to_ns};
+use super::position::{PositionConfig, PositionSim};
+use super::scenario::Arrival;
 use super::trajectory::CarTrajectory;
 
 /// Geodetic GNSS simulation settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GeodeticConfig {
-    /// Fix rate, Hz.
-    pub rate_hz: f64,
     /// Where trajectory position 0 is on the Earth.
     pub datum: Datum,
-    /// Standard deviation of the horizontal noise, m (reported in the covariance).
-    pub noise_std_m: f64,
-    /// Standard deviation of the vertical noise, m.
-    pub vertical_noise_std_m: f64,
-    /// Delay from time of validity to publication: uniform in [min, max], ns.
-    pub delay_min_ns: u64,
-    /// See `delay_min_ns`.
-    pub delay_max_ns: u64,
-    /// Sensor id.
-    pub sensor: u32,
+    /// The fixes as in the local frame: rate, noise, delays, dropouts, outliers,
+    /// sensor id.
+    pub fix: PositionConfig,
 }
 
 impl Default for GeodeticConfig {
     fn default() -> Self {
         Self {
-            rate_hz: 10.0,
             // Theresienwiese, Munich, 519 m above the ellipsoid.
             datum: Datum { latitude_deg: 48.1316, longitude_deg: 11.5494, height_m: 519.0 },
-            noise_std_m: 0.5,
-            vertical_noise_std_m: 0.8,
-            delay_min_ns: 20_000_000,
-            delay_max_ns: 120_000_000,
-            sensor: 3,
+            fix: PositionConfig { sensor: 3, ..Default::default() },
         }
     }
 }
 
-/// Simulated geodetic fixes (an endless iterator).
+/// Seed salt: the geodetic receiver draws its own noise, not a position
+/// sensor's of the same run.
+const SEED_SALT: u64 = 0x6765_6f00;
+
+/// Simulated geodetic fixes (an endless iterator; dropped fixes are skipped).
 #[derive(Debug, Clone)]
 pub struct GeodeticSim {
-    trajectory: CarTrajectory,
-    config: GeodeticConfig,
-    start_ns: u64,
-    index: u64,
-    rng: ChaCha8Rng,
+    fixes: PositionSim,
+    datum: Datum,
 }
 
 impl GeodeticSim {
     /// Fixes on `trajectory`, the first at `start_ns` (trajectory time 0).
     pub fn new(trajectory: CarTrajectory, config: GeodeticConfig, start_ns: u64, seed: u64) -> Self {
-        // Its own stream: adding the sensor leaves every other sample unchanged.
-        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6765_6f00);
-        Self { trajectory, config, start_ns, index: 0, rng }
+        Self { fixes: PositionSim::new(trajectory, config.fix, start_ns, seed ^ SEED_SALT), datum: config.datum }
     }
 }
 
@@ -70,20 +53,12 @@ impl Iterator for GeodeticSim {
     type Item = Arrival;
 
     fn next(&mut self) -> Option<Arrival> {
-        let c = &self.config;
-        let offset_ns = to_ns(self.index as f64 / c.rate_hz);
-        let delay = self.rng.random_range(c.delay_min_ns..=c.delay_max_ns.max(c.delay_min_ns));
-        let noise = gaussian3(&mut self.rng);
-        let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
-        let std = Vector3::new(c.noise_std_m, c.noise_std_m, c.vertical_noise_std_m);
-        let enu = truth.pos_m + noise.component_mul(&std);
-        let (lat, lon, h) = c.datum.to_geodetic(enu.into());
-        let var = std.component_mul(&std);
-        let t_ns = self.start_ns + offset_ns;
-        let cov = [var.x, 0.0, 0.0, 0.0, var.y, 0.0, 0.0, 0.0, var.z];
-        let sample = GeodeticSample::new(t_ns, c.sensor, self.index, lat, lon, h, cov);
-        self.index += 1;
-        Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Geodetic(sample), outlier: false })
+        let a = self.fixes.next()?;
+        let Sample::Position(p) = a.sample else { return None };
+        let h = p.header;
+        let (lat, lon, height) = self.datum.to_geodetic(p.pos_m);
+        let sample = GeodeticSample::new(h.t_ns, h.sensor, h.seq, lat, lon, height, p.cov_m2);
+        Some(Arrival { sample: Sample::Geodetic(sample), ..a })
     }
 }
 
@@ -93,23 +68,31 @@ impl AidingSim for GeodeticConfig {
     }
 
     fn sensor(&self) -> u32 {
-        self.sensor
+        self.fix.sensor
     }
 
-    fn arrivals(&self, trajectory: &CarTrajectory, start_ns: u64, seed: u64) -> Box<dyn Iterator<Item = Arrival> + Send> {
+    fn arrivals(
+        &self,
+        trajectory: &CarTrajectory,
+        start_ns: u64,
+        seed: u64,
+    ) -> Box<dyn Iterator<Item = Arrival> + Send> {
         Box::new(GeodeticSim::new(trajectory.clone(), self.clone(), start_ns, seed))
     }
 }
 
 #[cfg(test)]
 mod tests {
+    use nalgebra::Vector3;
+
     use super::*;
 
     /// Without noise, every fix is the truth: turned back into ENU about the
     /// datum it is the trajectory's position to a millimetre.
     #[test]
     fn noiseless_fixes_are_the_truth_in_geodetic_coordinates() {
-        let c = GeodeticConfig { noise_std_m: 0.0, vertical_noise_std_m: 0.0, ..Default::default() };
+        let fix = PositionConfig { noise_std_m: 0.0, vertical_noise_std_m: 0.0, ..Default::default() };
+        let c = GeodeticConfig { fix, ..Default::default() };
         let traj = CarTrajectory::new(4);
         for a in GeodeticSim::new(traj.clone(), c.clone(), 0, 1).take(200) {
             let Sample::Geodetic(g) = a.sample else { panic!("{a:?}") };
@@ -117,5 +100,16 @@ mod tests {
             let truth = traj.at(g.header.t_ns as f64 * 1e-9).pos_m;
             assert!((enu - truth).amax() < 1e-3, "{enu} {truth}");
         }
+    }
+
+    /// The receiver's noise is its own, not that of a position sensor of the same seed.
+    #[test]
+    fn its_noise_is_not_the_position_sensors() {
+        let traj = CarTrajectory::new(4);
+        let c = GeodeticConfig::default();
+        let geo = GeodeticSim::new(traj.clone(), c.clone(), 0, 1).next().unwrap();
+        let pos = PositionSim::new(traj, c.fix.clone(), 0, 1).next().unwrap();
+        let (Sample::Geodetic(g), Sample::Position(p)) = (geo.sample, pos.sample) else { panic!() };
+        assert_ne!(c.datum.to_enu(g.lat_deg, g.lon_deg, g.height_m)[0], p.pos_m[0]);
     }
 }

@@ -15,7 +15,7 @@ use rand_distr::{Distribution, StandardNormal};
 
 use super::AidingSim;
 use super::imu::{ImuConfig, ImuOutput, ImuSim};
-use super::position::{PositionConfig, PositionSim};
+use super::position::PositionConfig;
 use super::trajectory::{CarTrajectory, TruthState};
 
 /// A sample with the time it reaches the daemon.
@@ -83,6 +83,14 @@ impl Default for ScenarioConfig {
     }
 }
 
+impl ScenarioConfig {
+    /// Every sensor besides the IMU: the position sensor, then `aiding`.
+    pub fn aiding_sims(&self) -> impl Iterator<Item = &dyn AidingSim> {
+        let position: &dyn AidingSim = &self.position;
+        std::iter::once(position).chain(self.aiding.iter().map(|a| &**a))
+    }
+}
+
 impl Scenario {
     /// Simulates a drive.
     pub fn generate(config: &ScenarioConfig) -> Self {
@@ -90,12 +98,10 @@ impl Scenario {
         let end_ns = config.start_ns + to_ns(config.duration_s);
         let imu = ImuSim::new(trajectory.clone(), config.imu.clone(), config.imu_output, config.start_ns, config.seed)
             .take_while(|a| a.sample.t_ns() <= end_ns);
-        let pos = PositionSim::new(trajectory.clone(), config.position.clone(), config.start_ns, config.seed)
-            .take_while(|a| a.sample.t_ns() <= end_ns);
-        let aiding = config.aiding.iter().flat_map(|sim| {
+        let aiding = config.aiding_sims().flat_map(|sim| {
             sim.arrivals(&trajectory, config.start_ns, config.seed).take_while(|a| a.sample.t_ns() <= end_ns)
         });
-        let mut arrivals: Vec<Arrival> = imu.chain(pos).chain(aiding).collect();
+        let mut arrivals: Vec<Arrival> = imu.chain(aiding).collect();
         arrivals.sort_by_key(|a| (a.arrival_ns, a.sample.t_ns()));
         Self { trajectory, start_ns: config.start_ns, arrivals }
     }

@@ -19,9 +19,9 @@
 
 #![allow(non_snake_case)]
 
-use fusion_shared::GeodeticSample;
 use fusion_shared::geodesy::{self, Datum, InvalidGeodetic};
-use nalgebra::{Matrix3, SVector, Vector3};
+use fusion_shared::{GeodeticSample, PositionSample};
+use nalgebra::SVector;
 
 use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3};
 use crate::frames::Frames;
@@ -51,32 +51,37 @@ impl Measurement for GeodeticSample {
     }
 }
 
-/// The fix in the world frame (m, ENU about the datum) and its covariance;
-/// `None` before any datum (never, once the engine admitted the fix).
-fn local(fix: &GeodeticSample, frames: &Frames) -> Option<(Vector3<f64>, Matrix3<f64>)> {
+/// The fix as the position fix at its world-frame coordinates (m, ENU about the
+/// datum), with the same header and covariance; `None` before any datum (never,
+/// once the engine admitted the fix).
+fn as_position(fix: &GeodeticSample, frames: &Frames) -> Option<PositionSample> {
     let enu = frames.datum()?.to_enu(fix.lat_deg, fix.lon_deg, fix.height_m);
-    Some((Vector3::from(enu), Matrix3::from_row_slice(&fix.cov_enu_m2)))
+    let h = fix.header;
+    Some(PositionSample::new(h.t_ns, h.sensor, h.seq, enu, fix.cov_enu_m2))
 }
 
+/// Fused as the position fix ([`super::position`]).
 impl Fuse<LinearModel> for GeodeticSample {
     fn fuse(&self, model: &LinearModel, s: &mut LinearState) -> (StepOutcome, ()) {
-        let Some((z, R)) = local(self, model.frames()) else { return (StepOutcome::Refused, ()) };
-        (model.update_block(s, &z, 0, &R), ())
+        match as_position(self, model.frames()) {
+            Some(p) => p.fuse(model, s),
+            None => (StepOutcome::Refused, ()),
+        }
     }
 }
 
+/// Fused as the position fix ([`super::position`]).
 impl Fuse<InsModel> for GeodeticSample {
     fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, 15>>) {
-        let Some((z, R)) = local(self, model.frames()) else { return (StepOutcome::Refused, None) };
-        let predicted = s.p();
-        model.update_block(s, &z, &predicted, 0, &R)
+        match as_position(self, model.frames()) {
+            Some(p) => p.fuse(model, s),
+            None => (StepOutcome::Refused, None),
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use fusion_shared::PositionSample;
-
     use super::*;
 
     const COV: [f64; 9] = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64];
