@@ -14,6 +14,7 @@ use fusion_shared::geodesy::Datum;
 use serde::Deserialize;
 
 use crate::filter::ChiSquareGate;
+use crate::frames::{ImuConfig, SensorConfig};
 use crate::health::{HealthConfig, MAX_NIS_WINDOW};
 use crate::measurement::Needed;
 use crate::model::ins::InsParams;
@@ -72,6 +73,31 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   latitude_deg = 48.137
 #   longitude_deg = 11.575
 #   height_m = 519.0
+
+# Where each sensor sits on the vehicle (body frame forward-left-up, origin at
+# the IMU) and how its axes point; one [[sensor]] per device. Sensors without an
+# entry are at the origin with the body's axes.
+#   [[sensor]]
+#   name = "gnss"
+#   id = 0
+#   kinds = ["geodetic", "velocity"]
+#   lever_arm_m = [1.2, 0.0, 1.4]          # antenna from the IMU, m, body frame
+#   [[sensor]]
+#   name = "imu-left"
+#   id = 0
+#   kinds = ["imu"]
+#   axes = "frd"                           # "flu" (default) or "frd" (PX4, ArduPilot)
+#   rotation_rpy_deg = [0.0, 0.0, 90.0]    # body <- sensor: Rz(yaw) Ry(pitch) Rx(roll)
+#   [[sensor]]
+#   name = "wheels"
+#   id = 0
+#   kinds = ["odometry"]
+#   lever_arm_m = [-1.3, 0.0, -0.3]        # middle of the rear axle
+# Several IMUs: "average" the samples of each instant (IMUs on one clock), or
+# "failover" (different clocks or rates): the first listed alive IMU is used.
+[imu]
+combine = "average"
+failover_after_ns = 20_000_000
 
 # For the error-state INS (real IMU: body specific force and angular rate), use
 #   [model]
@@ -284,6 +310,10 @@ struct RawConfig {
     #[serde(default)]
     validation: ValidationConfig,
     datum: Option<RawDatum>,
+    #[serde(default)]
+    sensor: Vec<SensorConfig>,
+    #[serde(default)]
+    imu: ImuConfig,
     /// Moved to `[model.alignment]`; named only to say so.
     alignment: Option<toml::Value>,
     /// Moved to `[model.constraints]`; named only to say so.
@@ -305,6 +335,10 @@ pub struct Config {
     pub validation: ValidationConfig,
     /// The origin of the world frame (`[datum]`); `None`: the first geodetic fix.
     pub datum: Option<Datum>,
+    /// Per-sensor mounts (`[[sensor]]`).
+    pub sensors: Vec<SensorConfig>,
+    /// How several IMUs are combined (`[imu]`).
+    pub imu: ImuConfig,
 }
 
 impl Default for Config {
@@ -317,6 +351,8 @@ impl Default for Config {
             health: HealthConfig::default(),
             validation: ValidationConfig::default(),
             datum: None,
+            sensors: Vec::new(),
+            imu: ImuConfig::default(),
         }
     }
 }
@@ -372,7 +408,16 @@ impl Config {
                 Datum::new(d.latitude_deg, d.longitude_deg, d.height_m).map_err(|e| invalid("datum", e.to_string()))?,
             ),
         };
-        let config = Self { model: raw.model, filter: raw.filter, gating, health, validation: raw.validation, datum };
+        let config = Self {
+            model: raw.model,
+            filter: raw.filter,
+            gating,
+            health,
+            validation: raw.validation,
+            datum,
+            sensors: raw.sensor,
+            imu: raw.imu,
+        };
         crate::model::check(&config)?;
         Ok(config)
     }

@@ -1,30 +1,259 @@
 //! The frames samples are given in besides the world frame: the datum of
-//! geodetic fixes.
+//! geodetic fixes, and each sensor's mounting on the vehicle (`[[sensor]]`).
 //!
 //! The world frame is east-north-up about a datum. The datum is configured
 //! (`[datum]`), or else it is the first valid geodetic fix the engine processes,
 //! and once set it never changes for the rest of the run: every estimate and
 //! snapshot is in the same frame, and `fusiond replay` of the same arrival order
 //! picks the same datum as the live daemon did.
+//!
+//! The body frame is forward-left-up (REP-103) with its origin at the IMU: the
+//! state's position and velocity are the IMU's. A sensor's mount gives
+//!
+//! - the rotation of its axes into the body frame, `C_bs` (body ← sensor): its
+//!   axis convention first (FRD, as PX4 and ArduPilot publish: `diag(1, −1, −1)`
+//!   into FLU), then a roll-pitch-yaw rotation `Rz(yaw) Ry(pitch) Rx(roll)` of
+//!   those FLU sensor axes into the body axes; so `v_body = C_bs v_sensor`;
+//! - its lever arm `l`: the position of its reference point (a GNSS antenna's
+//!   phase centre, the odometry's axle point) in the body frame, m.
+//!
+//! A sensor without a `[[sensor]]` entry has the identity mount. Several IMUs sit
+//! at the body origin (on one board); each may be rotated ([`ImuSet`]).
 
 use std::cell::OnceCell;
 
+use fusion_shared::SampleKind;
 use fusion_shared::geodesy::Datum;
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use serde::Deserialize;
 
-/// The datum of the world frame, set once.
+use crate::config::{ConfigError, invalid};
+
+/// Most IMUs combined ([`ImuSet`]).
+pub const MAX_IMUS: usize = 8;
+
+/// Longest lever arm accepted, m (a vehicle, not a survey baseline).
+pub const MAX_LEVER_ARM_M: f64 = 100.0;
+
+/// An axis convention of a sensor's own frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Axes {
+    /// Forward-left-up (REP-103), the body frame's.
+    #[default]
+    Flu,
+    /// Forward-right-down (PX4, ArduPilot, aerospace).
+    Frd,
+}
+
+/// One `[[sensor]]` entry as configured.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorConfig {
+    /// A name for logs and status ("gnss", "imu-left").
+    pub name: String,
+    /// Its sensor id ([`fusion_shared::SampleHeader::sensor`]).
+    pub id: u32,
+    /// The kinds of sample it publishes under that id (a GNSS receiver:
+    /// `["geodetic", "velocity"]`).
+    pub kinds: Vec<String>,
+    /// Its axis convention (IMU only).
+    #[serde(default)]
+    pub axes: Axes,
+    /// Rotation of its (FLU) axes into the body frame: roll, pitch, yaw in
+    /// degrees, applied as `Rz(yaw) Ry(pitch) Rx(roll)` (IMU only).
+    #[serde(default)]
+    pub rotation_rpy_deg: [f64; 3],
+    /// Position of its reference point in the body frame, m (not for an IMU: the
+    /// IMU is the body origin).
+    #[serde(default)]
+    pub lever_arm_m: [f64; 3],
+}
+
+/// How samples of several IMUs are combined (`[imu] combine`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Combine {
+    /// IMUs sampling at the same instants: the samples of one instant are
+    /// averaged (after rotation into the body frame); an IMU that is missing at
+    /// an instant is left out of that instant's mean.
+    #[default]
+    Average,
+    /// IMUs on different clocks or rates: the first listed that is alive is
+    /// used, the others stand by; after `failover_after_ns` without a sample of
+    /// the one in use, the next alive one takes over.
+    Failover,
+}
+
+/// `[imu]`: how several IMUs are combined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ImuConfig {
+    /// Average or fail over.
+    pub combine: Combine,
+    /// Failover: the IMU in use is dead after this long without a sample
+    /// (timestamps, so replay decides as live did), ns.
+    pub failover_after_ns: u64,
+}
+
+impl Default for ImuConfig {
+    fn default() -> Self {
+        Self { combine: Combine::Average, failover_after_ns: 20_000_000 }
+    }
+}
+
+/// Where a sensor sits and how its axes point (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mount {
+    /// `C_bs`: body ← sensor.
+    pub rotation: Matrix3<f64>,
+    /// Lever arm in the body frame, m.
+    pub lever_arm: Vector3<f64>,
+    /// `rotation` is the identity (the sensor's values are used as they are).
+    pub unrotated: bool,
+    /// `lever_arm` is zero.
+    pub at_origin: bool,
+}
+
+impl Mount {
+    /// A sensor at the body origin with the body's axes.
+    pub const IDENTITY: Mount = Mount {
+        rotation: Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+        lever_arm: Vector3::new(0.0, 0.0, 0.0),
+        unrotated: true,
+        at_origin: true,
+    };
+
+    /// The mount of `axes`, then a roll-pitch-yaw rotation (rad), at `lever_arm` (m).
+    pub fn new(axes: Axes, rpy_rad: [f64; 3], lever_arm: [f64; 3]) -> Self {
+        let flip = match axes {
+            Axes::Flu => Matrix3::identity(),
+            Axes::Frd => Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, -1.0)),
+        };
+        let [roll, pitch, yaw] = rpy_rad;
+        let rotation = UnitQuaternion::from_euler_angles(roll, pitch, yaw).to_rotation_matrix().into_inner() * flip;
+        let lever_arm = Vector3::from(lever_arm);
+        Self {
+            rotation,
+            lever_arm,
+            unrotated: rotation == Matrix3::identity(),
+            at_origin: lever_arm == Vector3::zeros(),
+        }
+    }
+}
+
+/// The configured IMUs, in priority order, and how they are combined.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ImuSet {
+    /// Configured IMU sensor ids; empty: any id, all treated as one IMU.
+    ids: Vec<u32>,
+    /// Their names.
+    names: Vec<String>,
+    /// How they are combined.
+    pub config: ImuConfig,
+}
+
+impl ImuSet {
+    /// The index of IMU `sensor` among the configured ones (0 for any id when none
+    /// is configured); `None`: an IMU that is not configured.
+    pub fn index(&self, sensor: u32) -> Option<usize> {
+        if self.ids.is_empty() { Some(0) } else { self.ids.iter().position(|&id| id == sensor) }
+    }
+
+    /// Number of configured IMUs (0: none configured, any id is accepted).
+    pub fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// No IMU configured.
+    pub fn is_empty(&self) -> bool {
+        self.ids.is_empty()
+    }
+
+    /// The name of the IMU with sensor id `sensor`, if configured.
+    pub fn name(&self, sensor: u32) -> Option<&str> {
+        self.ids.iter().position(|&id| id == sensor).map(|i| self.names[i].as_str())
+    }
+}
+
+/// The datum of the world frame (set once) and the sensors' mounts.
 #[derive(Debug, Clone, Default)]
 pub struct Frames {
     datum: OnceCell<Datum>,
+    mounts: Vec<(SampleKind, u32, Mount)>,
+    names: Vec<(SampleKind, u32, String)>,
+    imus: ImuSet,
 }
 
 impl Frames {
-    /// Frames with the configured datum, or none yet (the first geodetic fix's).
+    /// Frames with the configured datum, or none yet (the first geodetic fix's),
+    /// and no mounts.
     pub fn new(datum: Option<Datum>) -> Self {
         let cell = OnceCell::new();
         if let Some(d) = datum {
             let _ = cell.set(d);
         }
-        Self { datum: cell }
+        Self { datum: cell, ..Self::default() }
+    }
+
+    /// Frames with the configured datum, sensors and IMU combination, checked:
+    /// known kinds, no (kind, id) twice, finite angles and lever arms, a rotation
+    /// or axis convention only for an IMU, no lever arm for an IMU, at most
+    /// [`MAX_IMUS`] IMUs.
+    pub fn from_config(datum: Option<Datum>, sensors: &[SensorConfig], imu: ImuConfig) -> Result<Self, ConfigError> {
+        let mut frames = Self::new(datum);
+        frames.imus.config = imu;
+        if imu.failover_after_ns == 0 {
+            return Err(invalid("imu.failover_after_ns", "must be > 0"));
+        }
+        for (i, s) in sensors.iter().enumerate() {
+            let key = |field: &str| format!("sensor[{i}] ({:?}).{field}", s.name);
+            if s.kinds.is_empty() {
+                return Err(invalid(key("kinds"), "names no kind"));
+            }
+            if !s.rotation_rpy_deg.iter().all(|a| a.is_finite() && a.abs() <= 360.0) {
+                return Err(invalid(key("rotation_rpy_deg"), "angles must be finite, within ±360°"));
+            }
+            let arm = Vector3::from(s.lever_arm_m);
+            if !(arm.iter().all(|v| v.is_finite()) && arm.norm() <= MAX_LEVER_ARM_M) {
+                return Err(invalid(
+                    key("lever_arm_m"),
+                    format!("must be finite and at most {MAX_LEVER_ARM_M} m long"),
+                ));
+            }
+            for name in &s.kinds {
+                let kind = SampleKind::from_name(name).ok_or_else(|| {
+                    let known: Vec<&str> = SampleKind::ALL.iter().map(|k| k.name()).collect();
+                    invalid(key("kinds"), format!("unknown kind {name:?}; known: {}", known.join(", ")))
+                })?;
+                if frames.mounts.iter().any(|&(k, id, _)| k == kind && id == s.id) {
+                    return Err(invalid(key("id"), format!("{name} sensor {} is configured twice", s.id)));
+                }
+                let rotated = s.axes != Axes::Flu || s.rotation_rpy_deg != [0.0; 3];
+                if kind == SampleKind::Imu {
+                    if arm != Vector3::zeros() {
+                        return Err(invalid(
+                            key("lever_arm_m"),
+                            "an IMU is the body origin: give the other sensors' lever arms from it",
+                        ));
+                    }
+                    if frames.imus.ids.len() == MAX_IMUS {
+                        return Err(invalid(key("id"), format!("at most {MAX_IMUS} IMUs")));
+                    }
+                    frames.imus.ids.push(s.id);
+                    frames.imus.names.push(s.name.clone());
+                } else if rotated {
+                    return Err(invalid(
+                        key("rotation_rpy_deg"),
+                        format!("a rotation or axis convention applies to an imu only, not to {name}"),
+                    ));
+                }
+                let rpy = s.rotation_rpy_deg.map(f64::to_radians);
+                frames.mounts.push((kind, s.id, Mount::new(s.axes, rpy, s.lever_arm_m)));
+                frames.names.push((kind, s.id, s.name.clone()));
+            }
+        }
+        Ok(frames)
     }
 
     /// The datum, once there is one.
@@ -35,5 +264,94 @@ impl Frames {
     /// The datum, set to `first` if there was none.
     pub fn datum_or_set(&self, first: Datum) -> &Datum {
         self.datum.get_or_init(|| first)
+    }
+
+    /// The mount of sensor `sensor` of `kind` ([`Mount::IDENTITY`] if not configured).
+    #[inline]
+    pub fn mount(&self, kind: SampleKind, sensor: u32) -> &Mount {
+        self.mounts.iter().find(|(k, id, _)| *k == kind && *id == sensor).map_or(&Mount::IDENTITY, |(_, _, m)| m)
+    }
+
+    /// Every configured mount: kind, sensor id, mount.
+    pub fn mounts(&self) -> impl Iterator<Item = &(SampleKind, u32, Mount)> {
+        self.mounts.iter()
+    }
+
+    /// The configured name of sensor `sensor` of `kind`.
+    pub fn name(&self, kind: SampleKind, sensor: u32) -> Option<&str> {
+        self.names.iter().find(|(k, id, _)| *k == kind && *id == sensor).map(|(_, _, n)| n.as_str())
+    }
+
+    /// The IMUs and how they are combined.
+    pub fn imus(&self) -> &ImuSet {
+        &self.imus
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sensor(name: &str, id: u32, kinds: &[&str]) -> SensorConfig {
+        SensorConfig {
+            name: name.into(),
+            id,
+            kinds: kinds.iter().map(|k| k.to_string()).collect(),
+            axes: Axes::Flu,
+            rotation_rpy_deg: [0.0; 3],
+            lever_arm_m: [0.0; 3],
+        }
+    }
+
+    /// An FRD IMU turned 90° to the left: its x axis is the body's y axis, its y
+    /// axis (right) the body's x axis, its z axis (down) the body's −z.
+    #[test]
+    fn frd_then_yaw_maps_sensor_axes_into_the_body() {
+        let m = Mount::new(Axes::Frd, [0.0, 0.0, 90f64.to_radians()], [0.0; 3]);
+        let body = |v: [f64; 3]| m.rotation * Vector3::from(v);
+        assert!((body([1.0, 0.0, 0.0]) - Vector3::new(0.0, 1.0, 0.0)).amax() < 1e-15);
+        assert!((body([0.0, 1.0, 0.0]) - Vector3::new(1.0, 0.0, 0.0)).amax() < 1e-15);
+        assert!((body([0.0, 0.0, 1.0]) - Vector3::new(0.0, 0.0, -1.0)).amax() < 1e-15);
+        assert!(!m.unrotated && m.at_origin);
+        assert!(Mount::new(Axes::Flu, [0.0; 3], [0.0; 3]).unrotated);
+        // Roll 90°: the sensor's y axis is the body's z axis.
+        let r = Mount::new(Axes::Flu, [90f64.to_radians(), 0.0, 0.0], [0.0; 3]);
+        assert!((r.rotation * Vector3::y() - Vector3::z()).amax() < 1e-15);
+    }
+
+    #[test]
+    fn mounts_are_found_by_kind_and_id_and_checked() {
+        let mut gnss = sensor("gnss", 3, &["geodetic", "velocity"]);
+        gnss.lever_arm_m = [1.2, 0.0, 1.0];
+        let mut imu = sensor("imu-b", 1, &["imu"]);
+        imu.axes = Axes::Frd;
+        let f =
+            Frames::from_config(None, &[gnss.clone(), sensor("imu-a", 0, &["imu"]), imu.clone()], ImuConfig::default())
+                .unwrap();
+        assert_eq!(f.mount(SampleKind::Velocity, 3).lever_arm, Vector3::new(1.2, 0.0, 1.0));
+        assert_eq!(f.mount(SampleKind::Geodetic, 3).lever_arm, Vector3::new(1.2, 0.0, 1.0));
+        assert_eq!(f.mount(SampleKind::Geodetic, 4), &Mount::IDENTITY);
+        assert_eq!((f.imus().index(0), f.imus().index(1), f.imus().index(7)), (Some(0), Some(1), None));
+        assert_eq!(f.imus().name(1), Some("imu-b"));
+        assert_eq!(f.name(SampleKind::Velocity, 3), Some("gnss"));
+        assert_eq!(Frames::new(None).imus().index(42), Some(0), "no IMU configured: any id is the IMU");
+
+        let err = |sensors: &[SensorConfig]| {
+            Frames::from_config(None, sensors, ImuConfig::default()).unwrap_err().to_string()
+        };
+        assert!(err(&[gnss.clone(), gnss.clone()]).contains("configured twice"));
+        assert!(err(&[sensor("x", 0, &["lidar"])]).contains("unknown kind \"lidar\""));
+        assert!(err(&[sensor("x", 0, &[])]).contains("names no kind"));
+        let mut rotated_gnss = gnss.clone();
+        rotated_gnss.rotation_rpy_deg = [0.0, 0.0, 10.0];
+        assert!(err(&[rotated_gnss]).contains("imu only"));
+        let mut imu_arm = imu.clone();
+        imu_arm.lever_arm_m = [0.1, 0.0, 0.0];
+        assert!(err(&[imu_arm]).contains("body origin"));
+        let mut far = gnss.clone();
+        far.lever_arm_m = [f64::NAN, 0.0, 0.0];
+        assert!(err(&[far]).contains("lever_arm_m"));
+        let many: Vec<SensorConfig> = (0..=MAX_IMUS as u32).map(|i| sensor("i", i, &["imu"])).collect();
+        assert!(err(&many).contains("at most"));
     }
 }

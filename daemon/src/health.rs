@@ -66,6 +66,28 @@ impl Default for HealthConfig {
     }
 }
 
+/// The health at one evaluation: what a snapshot carries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HealthNow {
+    /// [`health::INITIALISING`], [`health::OK`] or [`health::DEGRADED`].
+    pub state: u32,
+    /// Reason bits ([`health`]).
+    pub reasons: u32,
+    /// Bit `i`: sensor `i` of the engine's sensor table (and of the snapshot's
+    /// `sensors`) is stale, so a user sees which of several IMUs is gone.
+    pub stale_sensors: u32,
+}
+
+impl HealthNow {
+    /// Before anything was evaluated.
+    pub const INITIALISING: HealthNow = HealthNow { state: health::INITIALISING, reasons: 0, stale_sensors: 0 };
+
+    /// State and reasons.
+    pub fn pair(&self) -> (u32, u32) {
+        (self.state, self.reasons)
+    }
+}
+
 /// NIS of a fused fix, or `None` for a gated one.
 #[derive(Debug, Clone, Copy)]
 struct NisWindow {
@@ -121,15 +143,17 @@ impl HealthMonitor {
         w.len = (w.len + 1).min(self.config.nis_window);
     }
 
-    /// Health state and reason bits at `now_ns` for the engine's sensors.
-    /// `initialised` is the model's own readiness (e.g. alignment done).
-    pub fn evaluate(&mut self, sensors: &[SensorSlot], now_ns: u64, initialised: bool) -> (u32, u32) {
+    /// Health state, reason bits and stale sensors at `now_ns` for the engine's
+    /// sensors. `initialised` is the model's own readiness (e.g. alignment done).
+    pub fn evaluate(&mut self, sensors: &[SensorSlot], now_ns: u64, initialised: bool) -> HealthNow {
         let mut reasons = 0;
+        let mut stale_sensors = 0;
         let mut seen = [false; KINDS];
         for (i, s) in sensors.iter().enumerate().take(MAX_SENSORS) {
             seen[s.kind.index()] |= s.stats.processed > 0;
             if s.last_arrival_ns.is_some_and(|t| now_ns.saturating_sub(t) > self.config.timeout_ns(s.kind)) {
                 reasons |= health::stale(s.kind);
+                stale_sensors |= 1 << i;
             }
             if s.stats.lost > self.lost_seen[i] {
                 self.last_loss_ns = Some(now_ns);
@@ -160,7 +184,7 @@ impl HealthMonitor {
         } else {
             health::OK
         };
-        (state, reasons)
+        HealthNow { state, reasons, stale_sensors }
     }
 }
 
@@ -194,19 +218,22 @@ mod tests {
             ..Default::default()
         });
         e.insert(&imu, Some(1_000), &mut sink);
-        assert_eq!(h.evaluate(e.sensors(), 1_000, true).0, health::INITIALISING);
+        assert_eq!(h.evaluate(e.sensors(), 1_000, true).state, health::INITIALISING);
         let pos = Sample::Position(PositionSample {
             header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Position, 11, 1, 0),
             cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
             ..Default::default()
         });
         e.insert(&pos, Some(2_000), &mut sink);
-        assert_eq!(h.evaluate(e.sensors(), 2_000, true), (health::OK, 0));
-        assert_eq!(h.evaluate(e.sensors(), 2_000, false).0, health::INITIALISING);
+        assert_eq!(h.evaluate(e.sensors(), 2_000, true).pair(), (health::OK, 0));
+        assert_eq!(h.evaluate(e.sensors(), 2_000, false).state, health::INITIALISING);
         // 150 ms later: the IMU (100 ms timeout) is stale, the position (1 s) is not.
-        assert_eq!(h.evaluate(e.sensors(), 150_002_000, true), (health::DEGRADED, health::IMU_STALE));
-        let (_, r) = h.evaluate(e.sensors(), 1_100_000_000, true);
-        assert_eq!(r, health::IMU_STALE | health::POSITION_STALE);
+        assert_eq!(
+            h.evaluate(e.sensors(), 150_002_000, true),
+            HealthNow { state: health::DEGRADED, reasons: health::IMU_STALE, stale_sensors: 0b01 }
+        );
+        let now = h.evaluate(e.sensors(), 1_100_000_000, true);
+        assert_eq!((now.reasons, now.stale_sensors), (health::IMU_STALE | health::POSITION_STALE, 0b11));
     }
 
     fn fix_engine() -> Engine<LinearModel> {
@@ -238,15 +265,15 @@ mod tests {
         for _ in 0..10 {
             h.record(1, &StepOutcome::Fused { nis: 9.0 });
         }
-        assert_eq!(h.evaluate(e.sensors(), 0, true), (health::DEGRADED, health::NIS_OUT_OF_BOUNDS));
+        assert_eq!(h.evaluate(e.sensors(), 0, true).pair(), (health::DEGRADED, health::NIS_OUT_OF_BOUNDS));
         for _ in 0..10 {
             h.record(1, &StepOutcome::Fused { nis: 3.0 });
         }
-        assert_eq!(h.evaluate(e.sensors(), 0, true), (health::OK, 0));
+        assert_eq!(h.evaluate(e.sensors(), 0, true).pair(), (health::OK, 0));
         for _ in 0..10 {
             h.record(1, &StepOutcome::Fused { nis: 0.05 });
         }
-        assert_eq!(h.evaluate(e.sensors(), 0, true).1, health::NIS_OUT_OF_BOUNDS, "far too pessimistic");
+        assert_eq!(h.evaluate(e.sensors(), 0, true).reasons, health::NIS_OUT_OF_BOUNDS, "far too pessimistic");
         // IMU steps carry no NIS and change nothing.
         h.record(0, &StepOutcome::Propagated);
     }
@@ -259,11 +286,11 @@ mod tests {
             let o = if i == 4 { StepOutcome::Gated { nis: 3000.0 } } else { StepOutcome::Fused { nis: 3.0 } };
             h.record(1, &o);
         }
-        assert_eq!(h.evaluate(e.sensors(), 0, true), (health::OK, 0));
+        assert_eq!(h.evaluate(e.sensors(), 0, true).pair(), (health::OK, 0));
         for _ in 0..6 {
             h.record(1, &StepOutcome::Gated { nis: 50.0 });
         }
-        assert_eq!(h.evaluate(e.sensors(), 0, true).1, health::NIS_OUT_OF_BOUNDS, "most fixes gated");
+        assert_eq!(h.evaluate(e.sensors(), 0, true).reasons, health::NIS_OUT_OF_BOUNDS, "most fixes gated");
     }
 
     #[test]
@@ -287,7 +314,7 @@ mod tests {
             Some(0),
             &mut sink,
         );
-        assert_eq!(h.evaluate(e.sensors(), 10, true).1, health::SAMPLES_LOST);
-        assert_eq!(h.evaluate(e.sensors(), 10 + LOSS_HOLD_NS, true).1, 0);
+        assert_eq!(h.evaluate(e.sensors(), 10, true).reasons, health::SAMPLES_LOST);
+        assert_eq!(h.evaluate(e.sensors(), 10 + LOSS_HOLD_NS, true).reasons, 0);
     }
 }

@@ -22,12 +22,11 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use fusion_shared::snapshot::health;
 use fusion_shared::{Counters, Sample, SampleKind, StateSnapshot, now_ns};
 use hdrhistogram::Histogram;
 
 use crate::engine::{Engine, Insert};
-use crate::health::{HealthConfig, HealthMonitor};
+use crate::health::{HealthConfig, HealthMonitor, HealthNow};
 use crate::model::Model;
 use crate::snapshot::{self, Input};
 use crate::summary::Summary;
@@ -86,8 +85,8 @@ pub struct RunReport {
 pub struct LiveCore<M: Model> {
     engine: Engine<M>,
     health: HealthMonitor,
-    health_now: (u32, u32),
-    published_health: (u32, u32),
+    health_now: HealthNow,
+    published_health: HealthNow,
     latency: Histogram<u64>,
     report: RunReport,
     summary_ns: u64,
@@ -99,7 +98,7 @@ pub struct LiveCore<M: Model> {
 impl<M: Model> LiveCore<M> {
     /// A core around `engine`, with a summary every `summary_interval` from `now_ns`.
     pub fn new(engine: Engine<M>, health: HealthConfig, summary_interval: Duration, now_ns: u64) -> Self {
-        let initialising = (health::INITIALISING, 0);
+        let initialising = HealthNow::INITIALISING;
         Self {
             engine,
             health: HealthMonitor::new(health),
@@ -125,8 +124,8 @@ impl<M: Model> LiveCore<M> {
         self.report
     }
 
-    /// Health state and reasons as last evaluated.
-    pub fn health(&self) -> (u32, u32) {
+    /// Health state, reasons and stale sensors as last evaluated.
+    pub fn health(&self) -> HealthNow {
         self.health_now
     }
 
@@ -239,7 +238,7 @@ impl<M: Model> LiveCore<M> {
             kinds: interval,
             snapshots: self.report.snapshots - snapshots,
             latency_ns,
-            health: self.health_now,
+            health: self.health_now.pair(),
         };
         self.latency.reset();
         self.last_summary = (now, kinds, self.report.snapshots);
@@ -301,6 +300,7 @@ pub fn run<M: Model>(
 mod tests {
     use std::collections::VecDeque;
 
+    use fusion_shared::snapshot::health;
     use fusion_shared::{ImuSample, PositionSample, VelocitySample};
 
     use super::*;
@@ -420,7 +420,7 @@ mod tests {
         let t0 = now_ns();
         core.handle(ImuSample::new(t0, 0, 0, [0.0; 3], [0.0; 3]).into(), &mut sink);
         core.handle(PositionSample::new(t0, 1, 0, [0.0; 3], COV).into(), &mut sink);
-        assert_eq!(core.health(), (health::OK, 0));
+        assert_eq!(core.health().pair(), (health::OK, 0));
         // 150 ms later the IMU (100 ms timeout) is stale: a health-only snapshot.
         assert!(core.housekeeping(t0 + 150_000_000, &mut none(), &mut sink).is_none());
         let last = sink.sent.last().unwrap();

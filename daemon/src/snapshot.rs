@@ -4,6 +4,7 @@ use fusion_shared::snapshot::{MAX_COV, MAX_SENSORS, MAX_STATE, outcome};
 use fusion_shared::{Sample, SensorCounters, StateSnapshot};
 
 use crate::engine::{Engine, SensorSlot};
+use crate::health::HealthNow;
 use crate::model::{Model, StepOutcome};
 use crate::reorder::key_of;
 
@@ -48,7 +49,7 @@ fn counters(s: &SensorSlot) -> SensorCounters {
 /// the sensors seen (which only grow), and the estimate fields before the first
 /// processed sample. So filling a default snapshot, as the live loop does in a
 /// fresh shared-memory chunk, gives the same as refilling one snapshot.
-pub fn fill<M: Model>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Option<Input<'_>>, health: (u32, u32)) {
+pub fn fill<M: Model>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Option<Input<'_>>, health: HealthNow) {
     snap.model = M::CODE;
     if let Some(d) = engine.model().frames().datum() {
         (snap.datum_lat_deg, snap.datum_lon_deg, snap.datum_height_m) = (d.latitude_deg, d.longitude_deg, d.height_m);
@@ -93,7 +94,7 @@ pub fn fill<M: Model>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Optio
             snap.input_replayed = 0;
         }
     }
-    (snap.health, snap.health_reasons) = health;
+    (snap.health, snap.health_reasons, snap.stale_sensors) = (health.state, health.reasons, health.stale_sensors);
     let sensors = engine.sensors();
     let count = sensors.len().min(MAX_SENSORS);
     for (dst, src) in snap.sensors.iter_mut().zip(&sensors[..count]) {
@@ -150,7 +151,12 @@ mod tests {
         });
         e.insert(&pos, Some(180), &mut sink);
         let mut snap = StateSnapshot::default();
-        fill(&mut snap, &e, Some(Input { sample: &pos, received_ns: 180, replayed: 1 }), (health::OK, 0));
+        fill(
+            &mut snap,
+            &e,
+            Some(Input { sample: &pos, received_ns: 180, replayed: 1 }),
+            HealthNow { state: health::OK, reasons: 0, stale_sensors: 0 },
+        );
         // The estimate is after the newest sample (the IMU at 100), the input was the late fix at 90.
         assert_eq!((snap.t_ns, snap.sample_seq, snap.sample_kind, snap.outcome), (100, 3, 1, outcome::PROPAGATED));
         assert_eq!((snap.input_t_ns, snap.input_sent_ns, snap.input_received_ns), (90, 160, 180));
@@ -166,7 +172,7 @@ mod tests {
             (2, 2, 1, 1, 1, 180)
         );
         assert_eq!(snap.rewinds, 1);
-        fill(&mut snap, &e, None, (health::DEGRADED, health::IMU_STALE));
+        fill(&mut snap, &e, None, HealthNow { state: health::DEGRADED, reasons: health::IMU_STALE, stale_sensors: 1 });
         assert_eq!((snap.input_kind, snap.input_t_ns, snap.health), (INPUT_NONE, 0, health::DEGRADED));
     }
 
@@ -213,7 +219,7 @@ mod tests {
                     panic!("sample {k} not processed");
                 };
                 let input = Some(Input { sample, received_ns: t + 1, replayed });
-                let health = (health::OK, k as u32);
+                let health = HealthNow { state: health::OK, reasons: k as u32, stale_sensors: k as u32 };
                 let mut fresh = StateSnapshot::default();
                 fill(&mut kept, &e, input, health);
                 fill(&mut fresh, &e, input, health);
@@ -222,8 +228,8 @@ mod tests {
             }
             if k % 50 == 49 {
                 let mut fresh = StateSnapshot::default();
-                fill(&mut kept, &e, None, (health::DEGRADED, 0));
-                fill(&mut fresh, &e, None, (health::DEGRADED, 0));
+                fill(&mut kept, &e, None, HealthNow { state: health::DEGRADED, reasons: 0, stale_sensors: 0 });
+                fill(&mut fresh, &e, None, HealthNow { state: health::DEGRADED, reasons: 0, stale_sensors: 0 });
                 assert_eq!(format!("{fresh:?}"), format!("{kept:?}"), "health-only snapshot {k}");
             }
         }

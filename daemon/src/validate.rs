@@ -18,9 +18,12 @@ pub enum Rejection {
     FutureTimestamp,
     /// More distinct sensor ids of this kind than `validation.max_sensors`.
     TooManySensors,
-    /// An IMU value beyond the sensor's range (`validation.accel_range_mps2`,
-    /// `validation.gyro_range_radps`): a corrupted sample.
+    /// A value beyond what the sensor can report: an IMU value beyond its range
+    /// (`validation.accel_range_mps2`, `validation.gyro_range_radps`), a latitude
+    /// beyond ±90°, a speed or an angle no vehicle has: a corrupted sample.
     OutOfRange,
+    /// A variance that is not > 0 (or is absurdly large).
+    VarianceNotPositive,
     /// The header's kind code is not the kind of the payload (of the service the
     /// sample came on): a publisher writing another wire layout, or garbage.
     WrongKind,
@@ -36,6 +39,7 @@ impl Rejection {
             Rejection::FutureTimestamp => "timestamp in the future",
             Rejection::TooManySensors => "too many sensors",
             Rejection::OutOfRange => "beyond the sensor range",
+            Rejection::VarianceNotPositive => "variance not positive",
             Rejection::WrongKind => "header kind does not match the payload",
         }
     }

@@ -106,7 +106,7 @@ fn a_configured_datum_is_kept_and_reported_in_snapshots() {
     }
     assert_eq!(e.model().frames().datum(), Some(&datum));
     let mut snap = fusion_shared::StateSnapshot::default();
-    fusion_daemon::snapshot::fill(&mut snap, &e, None, (0, 0));
+    fusion_daemon::snapshot::fill(&mut snap, &e, None, fusion_daemon::health::HealthNow::INITIALISING);
     assert_eq!(snap.datum(), Some(datum));
     // The estimate, back in geodetic coordinates, is near the last fix.
     let (lat, lon, _) = snap.position_geodetic().unwrap();

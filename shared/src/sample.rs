@@ -86,6 +86,10 @@ macro_rules! for_each_sample_kind {
             Velocity = 3, "velocity", velocity, VelocitySample;
             /// [`GeodeticSample`](crate::sample::GeodeticSample): a GNSS fix in WGS-84 latitude, longitude, height.
             Geodetic = 4, "geodetic", geodetic, GeodeticSample;
+            /// [`OdometrySample`](crate::sample::OdometrySample): the forward speed from wheel odometry.
+            Odometry = 5, "odometry", odometry, OdometrySample;
+            /// [`HeadingSample`](crate::sample::HeadingSample): the yaw angle (dual-antenna GNSS, compass).
+            Heading = 6, "heading", heading, HeadingSample;
         }
     };
 }

@@ -209,7 +209,7 @@ impl SensorCounters {
 
 /// The fusion state after one processed sample.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("fusion.StateSnapshot.v3")]
+#[type_name("fusion.StateSnapshot.v4")]
 #[repr(C)]
 pub struct StateSnapshot {
     /// Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
@@ -282,8 +282,9 @@ pub struct StateSnapshot {
     /// 1 when the world frame has a datum (configured, or the first geodetic
     /// fix), 0 before.
     pub datum_set: u32,
-    /// Zero.
-    pub _reserved: u32,
+    /// Bit `i`: `sensors[i]` is stale (no sample for longer than its kind's
+    /// timeout): which of several IMUs, say, is gone.
+    pub stale_sensors: u32,
 }
 
 impl Default for StateSnapshot {
@@ -320,12 +321,18 @@ impl Default for StateSnapshot {
             datum_lon_deg: 0.0,
             datum_height_m: 0.0,
             datum_set: 0,
-            _reserved: 0,
+            stale_sensors: 0,
         }
     }
 }
 
 impl StateSnapshot {
+    /// The sensors that are stale ([`StateSnapshot::stale_sensors`]).
+    pub fn stale_sensor_counters(&self) -> impl Iterator<Item = &SensorCounters> {
+        let stale = self.stale_sensors;
+        self.sensor_counters().iter().enumerate().filter(move |(i, _)| *i < 32 && stale & (1 << i) != 0).map(|(_, c)| c)
+    }
+
     /// The state vector in use.
     pub fn state(&self) -> &[f64] {
         &self.x[..(self.state_len as usize).min(MAX_STATE)]

@@ -76,6 +76,9 @@ fn to_json(s: &StateSnapshot) -> serde_json::Value {
         },
         "health": health::name(s.health),
         "health_reasons": s.health_reason_names().collect::<Vec<_>>(),
+        "stale_sensors": s.stale_sensor_counters().map(|c| json!({"kind": kind_name(c.kind), "sensor": c.sensor}))
+            .collect::<Vec<_>>(),
+        "datum": s.datum().map(|d| json!({"lat_deg": d.latitude_deg, "lon_deg": d.longitude_deg, "height_m": d.height_m})),
         "counters": counters,
         "rewinds": s.rewinds,
     })
@@ -134,7 +137,11 @@ fn main() -> anyhow::Result<()> {
 fn describe(s: &StateSnapshot) -> String {
     let mut o = String::new();
     let age_ms = now_ns().saturating_sub(s.publish_ns) as f64 * 1e-6;
-    let reasons: Vec<_> = s.health_reason_names().collect();
+    let mut reasons: Vec<String> = s.health_reason_names().map(String::from).collect();
+    let stale: Vec<String> = s.stale_sensor_counters().map(|c| format!("{} {}", kind_name(c.kind), c.sensor)).collect();
+    if !stale.is_empty() {
+        reasons.push(format!("stale: {}", stale.join(", ")));
+    }
     o += &format!(
         "model {}, snapshot {} published {age_ms:.1} ms ago, estimate at t = {:.6} s\n",
         model::name(s.model),

@@ -3,7 +3,7 @@
 //! random walks (Kalibr's model), at a fixed rate with optional timestamp jitter.
 
 use fusion_shared::{ImuSample, Sample};
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -35,6 +35,9 @@ pub struct ImuConfig {
     pub accel_random_walk: f64,
     /// Gyroscope bias random walk σ_gw, rad/s²/√Hz (Kalibr).
     pub gyro_random_walk: f64,
+    /// How the IMU is mounted: `C_bs`, body ← sensor (its axis convention and
+    /// rotation); the IMU reports `C_bsᵀ` times the body-frame values.
+    pub rotation: Matrix3<f64>,
 }
 
 impl ImuConfig {
@@ -67,6 +70,7 @@ impl Default for ImuConfig {
             gyro_bias_std: 0.0,
             accel_random_walk: 0.0,
             gyro_random_walk: 0.0,
+            rotation: Matrix3::identity(),
         }
     }
 }
@@ -100,9 +104,11 @@ pub struct ImuSim {
 impl ImuSim {
     /// An IMU on `trajectory` whose first sample is at `start_ns` (trajectory time 0).
     pub fn new(trajectory: CarTrajectory, config: ImuConfig, output: ImuOutput, start_ns: u64, seed: u64) -> Self {
-        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x696d_7500);
+        // Each IMU (by sensor id) draws its own noise and biases.
+        let own = u64::from(config.sensor) << 40;
+        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x696d_7500 ^ own);
         // Biases draw from their own stream, so enabling them leaves the white noise unchanged.
-        let mut bias_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6269_6173);
+        let mut bias_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6269_6173 ^ own);
         let accel_bias = gaussian3(&mut bias_rng) * config.accel_bias_std;
         let gyro_bias = gaussian3(&mut bias_rng) * config.gyro_bias_std;
         Self { trajectory, config, output, start_ns, index: 0, rng, bias_rng, accel_bias, gyro_bias, last_t_s: 0.0 }
@@ -137,6 +143,13 @@ impl Iterator for ImuSim {
             ImuOutput::BodySpecificForce => truth.specific_force_mps2(self.config.gravity_mps2) + self.accel_bias,
         } + gaussian3(&mut self.rng) * self.config.accel_noise_std;
         let gyro = truth.omega_body_radps + self.gyro_bias + gaussian3(&mut self.rng) * self.config.gyro_noise_std;
+        let (accel, gyro) = match self.output {
+            ImuOutput::BodySpecificForce if self.config.rotation != Matrix3::identity() => {
+                let to_sensor = self.config.rotation.transpose();
+                (to_sensor * accel, to_sensor * gyro)
+            }
+            _ => (accel, gyro),
+        };
         let sample = ImuSample::new(t_ns, self.config.sensor, self.index, accel.into(), gyro.into());
         self.index += 1;
         Some(Arrival { arrival_ns: t_ns + self.config.delay_ns, sample: Sample::Imu(sample), outlier: false })

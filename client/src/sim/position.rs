@@ -1,5 +1,6 @@
 //! Simulated position fixes (GNSS): the truth plus white noise with its covariance,
-//! arriving after random delays, with optional dropouts and gross outliers.
+//! arriving after random delays, with optional dropouts and gross outliers, of a
+//! point at a lever arm from the IMU (the antenna).
 
 use fusion_shared::{PositionSample, Sample, SampleKind};
 use nalgebra::Vector3;
@@ -31,6 +32,9 @@ pub struct PositionConfig {
     pub outlier_m: f64,
     /// Sensor id.
     pub sensor: u32,
+    /// Position of the antenna in the body frame, m: the fixes are of the point
+    /// `p + R l`.
+    pub lever_arm_m: [f64; 3],
 }
 
 impl Default for PositionConfig {
@@ -45,6 +49,7 @@ impl Default for PositionConfig {
             outlier_probability: 0.0,
             outlier_m: 30.0,
             sensor: 1,
+            lever_arm_m: [0.0; 3],
         }
     }
 }
@@ -88,7 +93,7 @@ impl Iterator for PositionSim {
             }
             let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
             let std = Vector3::new(c.noise_std_m, c.noise_std_m, c.vertical_noise_std_m);
-            let mut pos = truth.pos_m + noise.component_mul(&std);
+            let mut pos = truth.antenna_position(&Vector3::from(c.lever_arm_m)) + noise.component_mul(&std);
             if outlier {
                 pos += direction * c.outlier_m;
             }

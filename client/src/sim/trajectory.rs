@@ -41,6 +41,27 @@ impl TruthState {
     pub fn specific_force_mps2(&self, gravity_mps2: f64) -> Vector3<f64> {
         self.attitude.inverse_transform_vector(&(self.acc_mps2 + Vector3::new(0.0, 0.0, gravity_mps2)))
     }
+
+    /// World position of the point at lever arm `l` (body frame, m): `p + R l`.
+    pub fn antenna_position(&self, l: &Vector3<f64>) -> Vector3<f64> {
+        self.pos_m + self.attitude * l
+    }
+
+    /// World velocity of the point at lever arm `l`: `v + R (ω × l)`.
+    pub fn antenna_velocity(&self, l: &Vector3<f64>) -> Vector3<f64> {
+        self.vel_mps + self.attitude * self.omega_body_radps.cross(l)
+    }
+
+    /// Body-frame velocity of the point at lever arm `l`: `Rᵀ v + ω × l`.
+    pub fn body_velocity(&self, l: &Vector3<f64>) -> Vector3<f64> {
+        self.attitude.inverse_transform_vector(&self.vel_mps) + self.omega_body_radps.cross(l)
+    }
+
+    /// Yaw of the body's forward axis from east, counter-clockwise, rad in (−π, π].
+    pub fn yaw_rad(&self) -> f64 {
+        let x = self.attitude * Vector3::x();
+        x.y.atan2(x.x)
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,5 +1,5 @@
-//! Simulated velocities (GNSS Doppler): the true world-frame velocity plus white
-//! noise with its covariance, arriving after random delays.
+//! Simulated velocities (GNSS Doppler): the true world-frame velocity of the
+//! antenna plus white noise with its covariance, arriving after random delays.
 
 use fusion_shared::{Sample, SampleKind, VelocitySample};
 use nalgebra::Vector3;
@@ -25,6 +25,9 @@ pub struct VelocityConfig {
     pub delay_max_ns: u64,
     /// Sensor id.
     pub sensor: u32,
+    /// Position of the antenna in the body frame, m: the velocities are of the
+    /// point `p + R l`, `v + R (ω × l)`.
+    pub lever_arm_m: [f64; 3],
 }
 
 impl Default for VelocityConfig {
@@ -36,6 +39,7 @@ impl Default for VelocityConfig {
             delay_min_ns: 20_000_000,
             delay_max_ns: 120_000_000,
             sensor: 2,
+            lever_arm_m: [0.0; 3],
         }
     }
 }
@@ -70,7 +74,7 @@ impl Iterator for VelocitySim {
         let noise = gaussian3(&mut self.rng);
         let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
         let std = Vector3::new(c.noise_std_mps, c.noise_std_mps, c.vertical_noise_std_mps);
-        let vel = truth.vel_mps + noise.component_mul(&std);
+        let vel = truth.antenna_velocity(&Vector3::from(c.lever_arm_m)) + noise.component_mul(&std);
         let var = std.component_mul(&std);
         let t_ns = self.start_ns + offset_ns;
         let cov = [var.x, 0.0, 0.0, 0.0, var.y, 0.0, 0.0, 0.0, var.z];

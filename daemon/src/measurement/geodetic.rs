@@ -9,7 +9,8 @@
 //! own uncertainty, so R is used as given.
 //!
 //! - `linear`: `H = [I 0]`, Joseph-form update.
-//! - `ins`: `H` selects δp, `h(x) = p`; injected and reset as a position fix.
+//! - `ins`: `H` selects δp, `h(x) = p`; injected and reset as a position fix;
+//!   with the antenna's lever arm `l`, `h(x) = p + R l` ([`super::lever_arm`]).
 //!
 //! The first valid fix sets the datum when none is configured.
 //!
@@ -20,10 +21,10 @@
 #![allow(non_snake_case)]
 
 use fusion_shared::geodesy::{self, Datum, InvalidGeodetic};
-use fusion_shared::{GeodeticSample, PositionSample};
-use nalgebra::SVector;
+use fusion_shared::{GeodeticSample, PositionSample, SampleKind};
+use nalgebra::{Matrix3, SVector, Vector3};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3};
+use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, lever_arm};
 use crate::frames::Frames;
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
@@ -70,13 +71,14 @@ impl Fuse<LinearModel> for GeodeticSample {
     }
 }
 
-/// Fused as the position fix ([`super::position`]).
+/// Fused as the position fix ([`super::position`]), of the point at the
+/// sensor's lever arm ([`super::lever_arm`]).
 impl Fuse<InsModel> for GeodeticSample {
     fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, 15>>) {
-        match as_position(self, model.frames()) {
-            Some(p) => p.fuse(model, s),
-            None => (StepOutcome::Refused, None),
-        }
+        let Some(p) = as_position(self, model.frames()) else { return (StepOutcome::Refused, None) };
+        let mount = model.frames().mount(SampleKind::Geodetic, self.header.sensor);
+        let R = Matrix3::from_row_slice(&p.cov_m2);
+        lever_arm::fuse_position(model, s, mount, &Vector3::from(p.pos_m), &R)
     }
 }
 

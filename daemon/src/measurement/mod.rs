@@ -15,6 +15,7 @@
 //! pseudo-measurement: the land-vehicle motion constraint, fused by the `ins` model
 //! after IMU samples.
 
+pub mod lever_arm;
 pub mod nonholonomic;
 
 use fusion_shared::{Sample, SampleKind, WireSample};

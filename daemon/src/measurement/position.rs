@@ -3,17 +3,18 @@
 //! - `linear`: `H = [I 0]` (the position states are selected), Joseph-form update.
 //! - `ins`: `H` selects δp; the error state is zero before the update, so
 //!   `h(x) = p` (nominal); the correction is injected into the nominal state and
-//!   the error reset (Solà 2017, §7.2–7.3).
+//!   the error reset (Solà 2017, §7.2–7.3). A sensor with a lever arm (a GNSS
+//!   antenna off the IMU) measures `p + R l` ([`super::lever_arm`]).
 //!
 //! Validation: finite, covariance symmetric positive definite.
 
 #![allow(non_snake_case)]
 
-use fusion_shared::PositionSample;
+use fusion_shared::{PositionSample, SampleKind};
 use nalgebra::{Matrix3, SVector, Vector3};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite};
-use crate::model::StepOutcome;
+use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite, lever_arm};
+use crate::model::{Model, StepOutcome};
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
 
@@ -41,8 +42,8 @@ impl Fuse<InsModel> for PositionSample {
     fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, 15>>) {
         let z = Vector3::from(self.pos_m);
         let R = Matrix3::from_row_slice(&self.cov_m2);
-        let predicted = s.p();
-        model.update_block(s, &z, &predicted, 0, &R)
+        let mount = model.frames().mount(SampleKind::Position, self.header.sensor);
+        lever_arm::fuse_position(model, s, mount, &z, &R)
     }
 }
 

@@ -6,17 +6,19 @@
 //!   update); the correction is injected and the error reset, as for a fix.
 //!   Through the cross-covariances the velocity also corrects attitude and
 //!   accelerometer bias (Groves 2013, §14.2.7, loosely coupled velocity update).
+//!   A sensor with a lever arm (a GNSS antenna off the IMU) measures
+//!   `v + R (ω × l)` ([`super::lever_arm`]).
 //!
 //! Validation: finite, covariance symmetric positive definite. Not required by
 //! the health (a vehicle may have no such sensor); stale after 1 s once seen.
 
 #![allow(non_snake_case)]
 
-use fusion_shared::VelocitySample;
+use fusion_shared::{SampleKind, VelocitySample};
 use nalgebra::{Matrix3, SVector, Vector3};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite};
-use crate::model::StepOutcome;
+use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite, lever_arm};
+use crate::model::{Model, StepOutcome};
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
 
@@ -44,8 +46,8 @@ impl Fuse<InsModel> for VelocitySample {
     fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, 15>>) {
         let z = Vector3::from(self.vel_mps);
         let R = Matrix3::from_row_slice(&self.cov_m2ps2);
-        let predicted = s.v();
-        model.update_block(s, &z, &predicted, 3, &R)
+        let mount = model.frames().mount(SampleKind::Velocity, self.header.sensor);
+        lever_arm::fuse_velocity(model, s, mount, &z, &R)
     }
 }
 

@@ -68,9 +68,11 @@ use error_state::{ProcessNoise, Transition, inject};
 use super::{Model, StepOutcome, advance_time};
 use crate::config::{Config, ConfigError, ModelConfig, invalid, positive};
 use crate::filter::{
-    ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, rts_smooth,
+    ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, UpdateOptions,
+    rts_smooth,
 };
 use crate::frames::Frames;
+use crate::measurement::imu::{Held, HeldImu};
 pub use crate::measurement::nonholonomic::Nonholonomic;
 use crate::reorder::Sample;
 
@@ -158,8 +160,8 @@ pub struct InsState {
     /// Error-state filter (its mean is zero between updates).
     pub(crate) kf: KalmanFilter<f64, N>,
     t_ns: Option<u64>,
-    /// Held IMU sample (specific force, rate), if any arrived.
-    held: Option<(Vector3<f64>, Vector3<f64>)>,
+    /// Held IMU values (specific force, rate; body frame), combined over the IMUs.
+    pub(crate) imu: HeldImu,
     /// Static alignment: samples summed so far and their sums.
     aligned: u32,
     sum_f: Vector3<f64>,
@@ -177,7 +179,7 @@ impl InsState {
             nominal,
             kf,
             t_ns: None,
-            held: None,
+            imu: HeldImu::EMPTY,
             aligned: 0,
             sum_f: Vector3::zeros(),
             sum_w: Vector3::zeros(),
@@ -212,7 +214,14 @@ impl InsState {
         &self.kf
     }
 
-    fn set(&mut self, p: Vector3<f64>, v: Vector3<f64>, q: UnitQuaternion<f64>, b_a: Vector3<f64>, b_g: Vector3<f64>) {
+    pub(crate) fn set(
+        &mut self,
+        p: Vector3<f64>,
+        v: Vector3<f64>,
+        q: UnitQuaternion<f64>,
+        b_a: Vector3<f64>,
+        b_g: Vector3<f64>,
+    ) {
         let n = &mut self.nominal;
         n[0..3].copy_from_slice(p.as_slice());
         n[3..6].copy_from_slice(v.as_slice());
@@ -300,8 +309,9 @@ impl InsModel {
             ));
         }
         let alignment = p.alignment.map_or(0, |a| a.static_samples);
+        let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
         Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)
-            .map(|m| m.with_nonholonomic(p.constraints).with_frames(Frames::new(config.datum)))
+            .map(|m| m.with_nonholonomic(p.constraints).with_frames(frames))
             .map_err(|e| invalid("filter.initial_state", e.to_string()))
     }
 
@@ -309,15 +319,21 @@ impl InsModel {
         Vector3::new(0.0, 0.0, -self.gravity)
     }
 
-    /// The discrete process noise over `dt`.
-    fn process_noise(&self, dt: f64) -> ProcessNoise {
+    /// The discrete process noise over `dt`, with the IMU's white noise held as
+    /// the mean of `imus` IMUs (density `σ/√imus`).
+    fn process_noise(&self, dt: f64, imus: u32) -> ProcessNoise {
         let n = &self.noise;
-        let qa = n.accelerometer_noise_density.powi(2);
+        let mut qa = n.accelerometer_noise_density.powi(2);
+        let mut qg = n.gyroscope_noise_density.powi(2);
+        if imus > 1 {
+            qa /= f64::from(imus);
+            qg /= f64::from(imus);
+        }
         ProcessNoise {
             pp: qa * dt * dt * dt / 3.0,
             pv: qa * dt * dt / 2.0,
             vv: qa * dt,
-            theta: n.gyroscope_noise_density.powi(2) * dt,
+            theta: qg * dt,
             ba: n.accelerometer_random_walk.powi(2) * dt,
             bg: n.gyroscope_random_walk.powi(2) * dt,
         }
@@ -326,9 +342,10 @@ impl InsModel {
     /// Propagates nominal state and error covariance over `dt` with the held IMU
     /// values; the transition used (if the filter accepted it) goes to `log`.
     fn propagate(&self, s: &mut InsState, dt: f64, log: Option<&mut StepLog<f64, N>>) {
-        let Q = self.process_noise(dt);
-        let moving = s.held.filter(|_| s.ready);
-        let Some((f_m, w_m)) = moving else {
+        let held = s.imu.mean();
+        let Q = self.process_noise(dt, held.map_or(1, |(_, _, n)| n));
+        let moving = held.filter(|_| s.ready);
+        let Some((f_m, w_m, _)) = moving else {
             // Nothing to integrate yet: hold the nominal state, grow the covariance.
             if s.kf.predict_structured(|_, P| Q.add_to(P)).is_ok()
                 && let Some(log) = log
@@ -373,10 +390,25 @@ impl InsModel {
         crate::measurement::fuse(sample, self, s)
     }
 
-    /// Holds an IMU sample's specific force `f` and rate `w` for the next
-    /// propagations, summing them during the static alignment (aligning at its end).
-    pub(crate) fn hold_imu(&self, s: &mut InsState, f: Vector3<f64>, w: Vector3<f64>) {
-        s.held = Some((f, w));
+    /// Holds IMU `sensor`'s specific force `f` and rate `w` (body frame) at `t_ns`
+    /// for the next propagations, combined with the other IMUs' as configured
+    /// ([`HeldImu`]), summing them during the static alignment (aligning at its
+    /// end). When another IMU takes over (failover), the bias variances grow back
+    /// to at least their initial values: the new IMU's biases are its own.
+    pub(crate) fn hold_imu(&self, s: &mut InsState, sensor: u32, t_ns: u64, f: Vector3<f64>, w: Vector3<f64>) -> Held {
+        let held = s.imu.hold(self.frames.imus(), sensor, t_ns, f, w);
+        match held {
+            Held::Held => {}
+            Held::TookOver => {
+                let P0 = *self.initial.P();
+                s.kf.reset_error(|P| {
+                    for i in 9..15 {
+                        P[(i, i)] = P[(i, i)].max(P0[(i, i)]);
+                    }
+                });
+            }
+            Held::Standby | Held::Unknown => return held,
+        }
         if s.aligned < self.alignment_samples {
             s.sum_f += f;
             s.sum_w += w;
@@ -386,6 +418,34 @@ impl InsModel {
             }
         }
         s.ready = s.aligned >= self.alignment_samples;
+        held
+    }
+
+    /// The body angular rate `ω = ω_m − b_g` of the held IMU values (zero before
+    /// any), rad/s.
+    pub(crate) fn body_rate(s: &InsState) -> Vector3<f64> {
+        s.imu.mean().map_or_else(Vector3::zeros, |(_, w, _)| w - s.b_g())
+    }
+
+    /// Fuses a measurement with residual `y = z − h(x)` (given, so a caller can
+    /// wrap angles) and Jacobian `H` with respect to the error state: Joseph
+    /// form, gated as configured; a fused correction is injected into the
+    /// nominal state and the error reset, and returned.
+    pub(crate) fn update_residual<const M: usize>(
+        &self,
+        s: &mut InsState,
+        y: &SVector<f64, M>,
+        H: &SMatrix<f64, M, N>,
+        R: &SMatrix<f64, M, M>,
+    ) -> (StepOutcome, Option<SVector<f64, N>>) {
+        let options = UpdateOptions { gate: self.gate.as_ref(), fault_detector: None };
+        match s.kf.update_nonlinear(y, &SVector::zeros(), H, R, options) {
+            Ok(d) if d.decision == UpdateDecision::Accepted => {
+                (StepOutcome::Fused { nis: d.nis }, Some(inject_and_reset(s)))
+            }
+            Ok(d) => (StepOutcome::Gated { nis: d.nis }, None),
+            Err(_) => (StepOutcome::Refused, None),
+        }
     }
 
     /// The motion constraint, if configured.
@@ -515,3 +575,58 @@ impl Model for InsModel {
 
 #[cfg(test)]
 mod tests;
+
+/// Helpers for the tests of the measurement modules: a moving state and
+/// numerical Jacobians with respect to the error state.
+#[cfg(test)]
+pub(crate) mod tests_support {
+    use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
+
+    use super::{ImuNoise, InsModel, InsState, N, error_state::inject};
+    use crate::frames::Frames;
+    use crate::model::Model;
+
+    /// An `ins` model with usual MEMS noise, no gate.
+    pub fn model() -> InsModel {
+        let noise = ImuNoise {
+            accelerometer_noise_density: 0.02,
+            gyroscope_noise_density: 0.001,
+            accelerometer_random_walk: 0.001,
+            gyroscope_random_walk: 1e-5,
+        };
+        let mut x0 = [0.0; 16];
+        x0[6] = 1.0;
+        InsModel::new(noise, 9.80665, x0, [1.0; N], None, 0).unwrap()
+    }
+
+    /// A state driving at 12 m/s, tilted and turning at 0.4 rad/s, with biases.
+    pub fn moving_state() -> InsState {
+        let m = model();
+        let mut s = m.initial_state();
+        let q = UnitQuaternion::from_euler_angles(0.05, -0.08, 2.3);
+        let v = q * Vector3::new(12.0, 0.2, 0.0);
+        s.set(Vector3::new(5.0, -3.0, 1.0), v, q, Vector3::new(0.02, -0.01, 0.03), Vector3::new(0.002, -0.001, 0.003));
+        let frames = Frames::default();
+        s.imu.hold(frames.imus(), 0, 0, Vector3::new(0.3, 4.8, 9.8), Vector3::new(0.01, -0.02, 0.4));
+        s.ready = true;
+        s
+    }
+
+    /// `∂h/∂δx` by central differences of `h` at the state with `±ε eⱼ` injected.
+    pub fn numeric_jacobian<const M: usize>(
+        s: &InsState,
+        h: impl Fn(&InsState) -> SVector<f64, M>,
+    ) -> SMatrix<f64, M, N> {
+        let eps = 1e-6;
+        let mut J = SMatrix::<f64, M, N>::zeros();
+        for j in 0..N {
+            let mut dx = SVector::<f64, N>::zeros();
+            dx[j] = eps;
+            let (mut plus, mut minus) = (*s, *s);
+            inject(&mut plus, &dx);
+            inject(&mut minus, &(-dx));
+            J.set_column(j, &((h(&plus) - h(&minus)) / (2.0 * eps)));
+        }
+        J
+    }
+}

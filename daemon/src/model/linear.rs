@@ -13,7 +13,7 @@
 //!              F = [[I, dt I], [0, I]],  G = [[½dt² I], [dt I]]
 //!              x ← F x + G a             (a: held acceleration, 0 before the first IMU sample)
 //!              P ← F P Fᵀ + G (σₐ² I₃) Gᵀ,  t_f ← t
-//! IMU:       a ← accel
+//! IMU:       a ← accel   (the mean of an instant's samples with several IMUs)
 //! position:  z = pos, H = [I 0], R = cov; Joseph-form update, gated if configured
 //! velocity:  z = vel, H = [0 I], R = cov; likewise
 //! ```
@@ -25,12 +25,14 @@
 
 #![allow(non_snake_case)]
 
+use fusion_shared::SampleKind;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use super::{Model, StepOutcome, advance_time};
 use crate::config::{Config, ConfigError, ModelConfig, invalid, positive};
 use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, rts_smooth};
 use crate::frames::Frames;
+use crate::measurement::imu::HeldImu;
 use crate::reorder::Sample;
 
 /// State dimension.
@@ -64,8 +66,9 @@ pub struct LinearModel {
 pub struct LinearState {
     kf: KalmanFilter<f64, N>,
     t_ns: Option<u64>,
-    /// Held IMU acceleration (the input of the next propagations).
-    pub(crate) accel: Vector3<f64>,
+    /// Held IMU acceleration (the input of the next propagations), combined
+    /// over the IMUs.
+    pub(crate) imu: HeldImu,
 }
 
 impl LinearState {
@@ -101,8 +104,29 @@ impl LinearModel {
         };
         let sigma_a = positive("model.accel_noise_std", params.accel_noise_std)?;
         let (x0, p0) = super::initial_values::<N, N>(config)?;
+        let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
+        for &(kind, id, mount) in frames.mounts() {
+            let name = frames.name(kind, id).unwrap_or_default();
+            if !matches!(kind, SampleKind::Imu | SampleKind::Position | SampleKind::Velocity | SampleKind::Geodetic) {
+                return Err(invalid(
+                    "sensor",
+                    format!(
+                        "{name:?}: the linear model cannot fuse {} (it has no attitude); use kind = \"ins\"",
+                        kind.name()
+                    ),
+                ));
+            }
+            if !(mount.unrotated && mount.at_origin) {
+                return Err(invalid(
+                    "sensor",
+                    format!(
+                        "{name:?}: the linear model has no attitude, so no rotation or lever arm; use kind = \"ins\""
+                    ),
+                ));
+            }
+        }
         Self::new(sigma_a, x0, p0, config.gating.clone())
-            .map(|m| m.with_frames(Frames::new(config.datum)))
+            .map(|m| m.with_frames(frames))
             .map_err(|e| invalid("filter.initial_covariance_diagonal", e.to_string()))
     }
 
@@ -129,7 +153,7 @@ impl LinearModel {
         let t = sample.t_ns();
         if let Some(dt) = advance_time(&mut s.t_ns, t) {
             let (F, Q) = self.transition_and_noise(dt);
-            let a = s.accel;
+            let a = s.imu.mean().map_or_else(Vector3::zeros, |(a, _, _)| a);
             // A non-finite result is refused by the filter and leaves x, P as they
             // were; the filter time still moves on so later samples stay in order.
             if s.kf.predict_structured(|x, P| propagate(x, P, &a, &Q, dt)).is_ok()
@@ -208,7 +232,7 @@ impl Model for LinearModel {
     const CODE: u32 = fusion_shared::snapshot::model::LINEAR;
 
     fn initial_state(&self) -> LinearState {
-        LinearState { kf: self.initial, t_ns: None, accel: Vector3::zeros() }
+        LinearState { kf: self.initial, t_ns: None, imu: HeldImu::EMPTY }
     }
 
     fn frames(&self) -> &Frames {

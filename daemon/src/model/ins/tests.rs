@@ -42,7 +42,8 @@ fn imu(t_ns: u64, seq: u64, f: Vector3<f64>, w: Vector3<f64>) -> Sample {
 fn structured_fpft_equals_the_dense_product() {
     let m = InsModel::new(noise(), G, x0(), p0(), None, 0).unwrap();
     let mut s = m.initial_state();
-    s.held = Some((Vector3::new(0.3, -0.2, 9.7), Vector3::new(0.1, 0.05, -0.3)));
+    let set = crate::frames::Frames::default();
+    s.imu.hold(set.imus(), 0, 0, Vector3::new(0.3, -0.2, 9.7), Vector3::new(0.1, 0.05, -0.3));
     s.ready = true;
     let q = UnitQuaternion::from_euler_angles(0.1, -0.2, 0.7);
     s.set(Vector3::zeros(), Vector3::new(3.0, 1.0, 0.0), q, Vector3::new(0.01, 0.0, 0.0), Vector3::zeros());
@@ -54,7 +55,7 @@ fn structured_fpft_equals_the_dense_product() {
     let F = log.finish(&s.kf).F;
     // A moving step: the attitude and bias couplings are really there.
     assert!(F.fixed_view::<3, 3>(3, 6).amax() > 1e-3 && F.fixed_view::<3, 3>(6, 12).amax() > 1e-3);
-    let dense = F * P * F.transpose() + m.process_noise(0.005).dense();
+    let dense = F * P * F.transpose() + m.process_noise(0.005, 1).dense();
     assert!((s.kf.P() - dense).amax() < 1e-12 * dense.amax(), "{}", (s.kf.P() - dense).amax());
     assert_eq!(*s.kf.P(), s.kf.P().transpose(), "exactly symmetric");
 }

@@ -1,0 +1,98 @@
+//! Simulated wheel odometry: the true forward speed of the body at the
+//! odometry's reference point (the rear axle), with a wheel-radius scale error
+//! and white noise, arriving after a short delay.
+
+use fusion_shared::{OdometrySample, Sample, SampleKind};
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use super::AidingSim;
+use super::scenario::{Arrival, to_ns};
+use super::trajectory::CarTrajectory;
+
+/// Wheel odometry simulation settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OdometryConfig {
+    /// Rate, Hz.
+    pub rate_hz: f64,
+    /// Standard deviation of the white noise, m/s (the reported variance is
+    /// `noise_std_mps²`).
+    pub noise_std_mps: f64,
+    /// Relative scale error (wheel radius, tyre wear): the reported speed is
+    /// `(1 + scale_error)` times the true one. Not reported in the variance.
+    pub scale_error: f64,
+    /// Position of the reference point in the body frame, m.
+    pub lever_arm_m: [f64; 3],
+    /// Delay from time of validity to publication: uniform in [min, max], ns.
+    pub delay_min_ns: u64,
+    /// See `delay_min_ns`.
+    pub delay_max_ns: u64,
+    /// Sensor id.
+    pub sensor: u32,
+}
+
+impl Default for OdometryConfig {
+    fn default() -> Self {
+        Self {
+            rate_hz: 50.0,
+            noise_std_mps: 0.05,
+            scale_error: 0.002,
+            lever_arm_m: [-1.3, 0.0, -0.3],
+            delay_min_ns: 2_000_000,
+            delay_max_ns: 10_000_000,
+            sensor: 0,
+        }
+    }
+}
+
+/// Simulated odometry (an endless iterator).
+#[derive(Debug, Clone)]
+pub struct OdometrySim {
+    trajectory: CarTrajectory,
+    config: OdometryConfig,
+    start_ns: u64,
+    index: u64,
+    rng: ChaCha8Rng,
+}
+
+impl OdometrySim {
+    /// Speeds on `trajectory`, the first at `start_ns` (trajectory time 0).
+    pub fn new(trajectory: CarTrajectory, config: OdometryConfig, start_ns: u64, seed: u64) -> Self {
+        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6f64_6f00 ^ (u64::from(config.sensor) << 40));
+        Self { trajectory, config, start_ns, index: 0, rng }
+    }
+}
+
+impl Iterator for OdometrySim {
+    type Item = Arrival;
+
+    fn next(&mut self) -> Option<Arrival> {
+        let c = &self.config;
+        let offset_ns = to_ns(self.index as f64 / c.rate_hz);
+        let delay = self.rng.random_range(c.delay_min_ns..=c.delay_max_ns.max(c.delay_min_ns));
+        let noise: f64 = StandardNormal.sample(&mut self.rng);
+        let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
+        let speed = truth.body_velocity(&Vector3::from(c.lever_arm_m)).x * (1.0 + c.scale_error);
+        let t_ns = self.start_ns + offset_ns;
+        let sample =
+            OdometrySample::new(t_ns, c.sensor, self.index, speed + noise * c.noise_std_mps, c.noise_std_mps.powi(2));
+        self.index += 1;
+        Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Odometry(sample), outlier: false })
+    }
+}
+
+impl AidingSim for OdometryConfig {
+    fn kind(&self) -> SampleKind {
+        SampleKind::Odometry
+    }
+
+    fn sensor(&self) -> u32 {
+        self.sensor
+    }
+
+    fn arrivals(&self, trajectory: &CarTrajectory, start_ns: u64, seed: u64) -> Box<dyn Iterator<Item = Arrival> + Send> {
+        Box::new(OdometrySim::new(trajectory.clone(), self.clone(), start_ns, seed))
+    }
+}

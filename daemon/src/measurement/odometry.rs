@@ -1,0 +1,139 @@
+//! Wheel odometry: the forward speed of the body at the sensor's reference point.
+//!
+//! With `l` the point's lever arm (the middle of the axle), `R` the attitude and
+//! `ω = ω_m − b_g` the body rate, the point's body-frame velocity is
+//! `v_b = Rᵀ v + ω × l`, and the sample measures its forward component:
+//!
+//! ```text
+//! z = e₁ᵀ (Rᵀ v + ω × l) + n,   n ~ N(0, σ²)
+//! H = [ 0   e₁ᵀRᵀ   e₁ᵀ [Rᵀ v]×   0   e₁ᵀ [l]× ]
+//! ```
+//!
+//! (local attitude error: `R_trueᵀ ≈ (I − [δθ]×) Rᵀ`, so `δ(Rᵀ v) = Rᵀ δv + [Rᵀ v]× δθ`;
+//! `ω_true = ω − δb_g`, so `δ(ω × l) = [l]× δb_g`; Groves 2013, §16.2.1 and
+//! eq. 14.121 for the lever arm.) Through the attitude it observes heading and
+//! pitch together with the velocity; the sideways and vertical components are the
+//! motion constraint's ([`super::nonholonomic`]).
+//!
+//! - `ins`: the update above, Joseph form, gated, injected and reset.
+//! - `linear`: refused (no attitude to turn a body speed into the world frame);
+//!   a config naming an odometry sensor is refused at start-up.
+//!
+//! Validation: finite; |speed| ≤ [`MAX_SPEED_MPS`]; variance > 0 and ≤
+//! [`MAX_SPEED_MPS`]². Not required by the health; stale after 1 s once seen.
+
+#![allow(non_snake_case)]
+
+use fusion_shared::{OdometrySample, SampleKind};
+use nalgebra::{Matrix1, SMatrix, SVector, Vector1, Vector3};
+
+use super::{Fuse, Limits, Measurement, Needed, Rejection, finite};
+use crate::model::ins::{InsModel, InsState, N};
+use crate::model::linear::{LinearModel, LinearState};
+use crate::model::{Model, StepOutcome};
+
+/// The fastest speed accepted, m/s (540 km/h).
+pub const MAX_SPEED_MPS: f64 = 150.0;
+
+impl Measurement for OdometrySample {
+    const RANK: u8 = 2;
+    const TIMEOUT_NS: u64 = 1_000_000_000;
+    const INNOVATION_DIM: usize = 1;
+    const NEEDED: Option<Needed> = None;
+
+    fn validate(&self, _: &Limits) -> Result<(), Rejection> {
+        finite(&[self.speed_mps, self.var_m2ps2])?;
+        if self.speed_mps.abs() > MAX_SPEED_MPS {
+            return Err(Rejection::OutOfRange);
+        }
+        if !(self.var_m2ps2 > 0.0 && self.var_m2ps2 <= MAX_SPEED_MPS * MAX_SPEED_MPS) {
+            return Err(Rejection::VarianceNotPositive);
+        }
+        Ok(())
+    }
+}
+
+/// `h` and `H` of the forward speed of the point at lever arm `l`.
+pub fn forward_speed(s: &InsState, l: &Vector3<f64>) -> (f64, SMatrix<f64, 1, N>) {
+    let R = s.q().to_rotation_matrix().into_inner();
+    let v_b = R.transpose() * s.v();
+    let w = InsModel::body_rate(s);
+    let vx = v_b.cross_matrix();
+    let lx = l.cross_matrix();
+    let mut H = SMatrix::<f64, 1, N>::zeros();
+    for k in 0..3 {
+        H[(0, 3 + k)] = R[(k, 0)]; // (Rᵀ)[0][k]
+        H[(0, 6 + k)] = vx[(0, k)];
+        H[(0, 12 + k)] = lx[(0, k)];
+    }
+    (v_b.x + w.cross(l).x, H)
+}
+
+impl Fuse<LinearModel> for OdometrySample {
+    fn fuse(&self, _: &LinearModel, _: &mut LinearState) -> (StepOutcome, ()) {
+        (StepOutcome::Refused, ())
+    }
+}
+
+impl Fuse<InsModel> for OdometrySample {
+    fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, N>>) {
+        let mount = model.frames().mount(SampleKind::Odometry, self.header.sensor);
+        let (h, H) = forward_speed(s, &mount.lever_arm);
+        model.update_residual(s, &Vector1::new(self.speed_mps - h), &H, &Matrix1::new(self.var_m2ps2))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ins::tests_support::{model, moving_state, numeric_jacobian};
+
+    #[test]
+    fn every_bad_value_has_its_reason() {
+        let limits = Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 };
+        let odo = |speed, var| OdometrySample::new(0, 0, 0, speed, var).validate(&limits);
+        assert_eq!(odo(12.0, 0.01), Ok(()));
+        assert_eq!(odo(-3.0, 0.01), Ok(()), "reversing");
+        assert_eq!(odo(f64::NAN, 0.01), Err(Rejection::NonFinite));
+        assert_eq!(odo(12.0, f64::INFINITY), Err(Rejection::NonFinite));
+        assert_eq!(odo(12.0, -0.01), Err(Rejection::VarianceNotPositive));
+        assert_eq!(odo(12.0, 0.0), Err(Rejection::VarianceNotPositive));
+        assert_eq!(odo(1e6, 0.01), Err(Rejection::OutOfRange));
+    }
+
+    #[test]
+    fn jacobian_matches_numerical_differentiation() {
+        let s = moving_state();
+        let l = Vector3::new(-1.3, 0.4, -0.3);
+        let (h, H) = forward_speed(&s, &l);
+        let numeric = numeric_jacobian(&s, |x| Vector1::new(forward_speed(x, &l).0));
+        assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+        // The 0.4 rad/s turn seen 0.4 m to the left slows the point by 0.16 m/s.
+        assert!((h - (12.0 - 0.4 * 0.4)).abs() < 0.02, "{h}");
+        assert!(H.fixed_view::<1, 3>(0, 6).amax() > 0.1, "the attitude enters");
+    }
+
+    /// The measured speed moves the velocity along the body's forward axis only.
+    #[test]
+    fn a_faster_speed_speeds_the_estimate_up_along_the_body_axis() {
+        let m = model();
+        let mut s = moving_state();
+        let v = s.v();
+        let forward = s.q() * Vector3::x();
+        let (h, _) = forward_speed(&s, &Vector3::zeros());
+        let odo = OdometrySample::new(0, 0, 0, h + 1.0, 1e-4);
+        let (out, _) = odo.fuse(&m, &mut s);
+        assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
+        let dv = s.v() - v;
+        assert!(dv.dot(&forward) > 0.3, "{dv}");
+    }
+
+    #[test]
+    fn the_linear_model_refuses_it() {
+        let linear = LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap();
+        let mut s = linear.initial_state();
+        let before = *s.filter();
+        assert_eq!(OdometrySample::new(0, 0, 0, 1.0, 1.0).fuse(&linear, &mut s).0, StepOutcome::Refused);
+        assert_eq!(*s.filter(), before);
+    }
+}

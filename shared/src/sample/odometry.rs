@@ -1,0 +1,51 @@
+//! Wheel odometry: the vehicle's forward speed.
+
+use iceoryx2::prelude::ZeroCopySend;
+
+use super::{SampleHeader, SampleKind};
+
+/// The forward speed of the vehicle at the odometry's reference point (for
+/// example the middle of the rear axle, whose position in the body frame is the
+/// sensor's configured lever arm), along the body's forward axis, as wheel
+/// encoders or a CAN speed signal give it, with its variance. A signed speed:
+/// negative when reversing. The sideways and vertical body velocity are not
+/// measured (the `ins` model's motion constraint covers them).
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[cfg_attr(feature = "json", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "json", serde(from = "OdometryLine", into = "OdometryLine"))]
+#[type_name("fusion.OdometrySample.v2")]
+#[repr(C)]
+pub struct OdometrySample {
+    /// Time, sensor, sequence number, kind [`SampleKind::Odometry`].
+    pub header: SampleHeader,
+    /// Forward speed, m/s, body frame (negative: reversing).
+    pub speed_mps: f64,
+    /// Variance of `speed_mps`, m²/s²; must be > 0.
+    pub var_m2ps2: f64,
+}
+
+impl OdometrySample {
+    /// A speed of sensor `sensor` with sequence number `seq` at `t_ns`.
+    pub const fn new(t_ns: u64, sensor: u32, seq: u64, speed_mps: f64, var_m2ps2: f64) -> Self {
+        Self { header: SampleHeader::new(SampleKind::Odometry, t_ns, sensor, seq), speed_mps, var_m2ps2 }
+    }
+}
+
+impl Default for OdometrySample {
+    fn default() -> Self {
+        Self::new(0, 0, 0, 0.0, 0.0)
+    }
+}
+
+#[cfg(feature = "json")]
+super::json_form!(OdometrySample, OdometryLine {
+    /// m/s, forward.
+    speed: f64 => speed_mps,
+    /// m²/s².
+    var: f64 => var_m2ps2,
+});
+
+const _: () = {
+    assert!(core::mem::size_of::<OdometrySample>() == 48);
+    assert!(core::mem::align_of::<OdometrySample>() == 8);
+};
