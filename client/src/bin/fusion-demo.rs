@@ -34,13 +34,83 @@ struct Args {
     model: String,
 }
 
-const INS_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\n\
-    gyroscope_noise_density = 0.001\naccelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\n\
-    [filter]\n# at the origin, moving ~10 m/s east-ish, heading unknown (1 rad), biases unknown\n\
-    initial_state = [0, 0, 0, 10, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0]\n\
-    initial_covariance_diagonal = [1, 1, 1, 100, 100, 4, 0.01, 0.01, 1, 0.0025, 0.0025, 0.0025, 1e-6, 1e-6, 1e-6]\n\
-    history_ns = 1_000_000_000\n\n[gating]\nprobability = 0.999\n\n\
-    [model.constraints]\n# a car: no sideways or vertical body velocity, up to 0.1 m/s\nnonholonomic_std_mps = 0.1\n";
+/// The `ins` demo: a car with a GNSS receiver (latitude/longitude/height and
+/// Doppler velocity of an antenna 1.5 m from the IMUs), two IMUs on one clock
+/// mounted differently (one publishing forward-right-down axes), and wheel odometry.
+const INS_CONFIG: &str = r#"[model]
+kind = "ins"
+accelerometer_noise_density = 0.02
+gyroscope_noise_density = 0.001
+accelerometer_random_walk = 0.001
+gyroscope_random_walk = 1.0e-5
+
+[filter]
+# at the origin, moving ~10 m/s east-ish, heading unknown (1 rad), biases unknown
+initial_state = [0, 0, 0, 10, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0]
+initial_covariance_diagonal = [1, 1, 1, 100, 100, 4, 0.01, 0.01, 1, 0.0025, 0.0025, 0.0025, 1e-6, 1e-6, 1e-6]
+history_ns = 1_000_000_000
+
+[gating]
+probability = 0.999
+
+[model.constraints]
+# a car: no sideways or vertical body velocity, up to 0.1 m/s
+nonholonomic_std_mps = 0.1
+
+[datum]
+# where the drive starts: Theresienwiese, Munich
+latitude_deg = 48.1316
+longitude_deg = 11.5494
+height_m = 519.0
+
+[[sensor]]
+name = "gnss"
+id = 3
+kinds = ["geodetic", "velocity"]
+lever_arm_m = [1.0, 0.5, 1.0]
+
+[[sensor]]
+name = "imu-a"
+id = 0
+kinds = ["imu"]
+axes = "frd"
+rotation_rpy_deg = [3.0, -2.0, 90.0]
+
+[[sensor]]
+name = "imu-b"
+id = 1
+kinds = ["imu"]
+rotation_rpy_deg = [-1.5, 2.5, -90.0]
+
+[[sensor]]
+name = "wheels"
+id = 0
+kinds = ["odometry"]
+lever_arm_m = [-1.3, 0.0, -0.3]
+
+[imu]
+combine = "average"
+"#;
+
+/// The mounts of the demo's IMUs, as `fusion-sim --imu-mount` takes them (the
+/// same as `INS_CONFIG`'s).
+const INS_IMU_MOUNTS: [&str; 4] = ["--imu-mount", "frd:3,-2,90", "--imu-mount", "flu:-1.5,2.5,-90"];
+
+/// The demo's GNSS receiver and odometry, as `fusion-sim` takes them.
+const INS_AIDING: [&str; 12] = [
+    "--position-rate",
+    "0",
+    "--geodetic-rate",
+    "10",
+    "--velocity-rate",
+    "10",
+    "--lever-arm",
+    "1.0,0.5,1.0",
+    "--odometry-rate",
+    "50",
+    "--odometry-lever-arm",
+    "-1.3,0,-0.3",
+];
 
 const CONFIG: &str = "[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n\n[filter]\n\
     initial_state = [0, 0, 0, 0, 0, 0]\n# the car is already moving: sigma_v 15 m/s\n\
@@ -145,23 +215,43 @@ fn main() -> anyhow::Result<()> {
     };
     println!("  fusiond started (log: {})", log.display());
 
-    // Both sensor processes drive the same trajectory from the same start time.
+    // Every sensor process drives the same trajectory from the same start time.
     let start_ns = now_ns() + 300_000_000;
-    let sim = |role: &str| -> anyhow::Result<Child> {
+    let ins = args.model == "ins";
+    let sim = |role: &[&str]| -> anyhow::Result<Child> {
+        let imu = role[0] == "--imu-only";
         Ok(Command::new(bin("fusion-sim")?)
-            .args(["run", role, "--namespace", &namespace, "--outliers", "0.03"])
+            .args(["run", "--namespace", &namespace, "--outliers", "0.03"])
+            .args(role)
             .args(["--seed", &args.seed.to_string(), "--duration", &args.duration.to_string()])
             .args(["--start-at-ns", &start_ns.to_string()])
-            .args(if role == "--imu-only" { imu_args } else { &["--velocity-rate", "10"] })
+            .args(if imu { imu_args } else { &[] })
+            .args(if ins { &INS_IMU_MOUNTS[..] } else { &[] })
+            .args(match (imu, ins) {
+                (true, _) => &[][..],
+                (false, true) => &INS_AIDING[..],
+                (false, false) => &["--velocity-rate", "10"][..],
+            })
             .stderr(Stdio::null())
             .spawn()?)
     };
-    children.0.push(("fusion-sim --imu-only", sim("--imu-only")?));
-    children.0.push(("fusion-sim --position-only", sim("--position-only")?));
-    println!(
-        "  fusion-sim --imu-only and fusion-sim --position-only (a GNSS receiver: 10 Hz positions with 3 % outliers \
-         and 10 Hz Doppler velocities, 20-120 ms late) started\n"
-    );
+    if ins {
+        children.0.push(("fusion-sim --imu-only --imu-ids 0", sim(&["--imu-only", "--imu-ids", "0"])?));
+        children.0.push(("fusion-sim --imu-only --imu-ids 1", sim(&["--imu-only", "--imu-ids", "1"])?));
+        children.0.push(("fusion-sim --position-only", sim(&["--position-only"])?));
+        println!(
+            "  fusion-sim: two IMU processes (200 Hz each, one clock, differently mounted, one in FRD axes) and a \
+             GNSS receiver\n  (10 Hz latitude/longitude/height with 3 % outliers and 10 Hz Doppler velocity of an \
+             antenna 1.5 m from the IMUs,\n  20-120 ms late) with wheel odometry (50 Hz, 0.2 % scale error) started\n"
+        );
+    } else {
+        children.0.push(("fusion-sim --imu-only", sim(&["--imu-only"])?));
+        children.0.push(("fusion-sim --position-only", sim(&["--position-only"])?));
+        println!(
+            "  fusion-sim --imu-only and fusion-sim --position-only (a GNSS receiver: 10 Hz positions with 3 % outliers \
+             and 10 Hz Doppler velocities, 20-120 ms late) started\n"
+        );
+    }
 
     let truth = CarTrajectory::new(args.seed);
     let mut latency = Histogram::<u64>::new_with_bounds(1, 10_000_000_000, 3)?;
@@ -198,7 +288,8 @@ fn main() -> anyhow::Result<()> {
         if Instant::now() >= next_status {
             next_status = Instant::now() + Duration::from_millis(250);
             let c = s.sensor_counters();
-            let pos = c.iter().find(|c| c.kind == fusion_shared::SampleKind::Position as u32);
+            let fixes = [fusion_shared::SampleKind::Position as u32, fusion_shared::SampleKind::Geodetic as u32];
+            let pos = c.iter().find(|c| fixes.contains(&c.kind));
             print!(
                 "\r  t {t:5.1} s  pos ({:7.2},{:7.2},{:6.2}) m  err {:5.2} m  {:<12}  fixes {:3} fused {:2} gated  latency p50 {:5.0} us ",
                 x[0],

@@ -1,11 +1,13 @@
 //! `fusion-sim`: simulated IMU and position sensors on one ground-truth trajectory.
 //!
 //! - `fusion-sim run`: publish live to a running fusiond, paced by the clock:
-//!   every sensor (IMU, position, velocity with `--velocity-rate`, geodetic GNSS
-//!   with `--geodetic-rate`), or the IMU
-//!   or the GNSS receiver alone (`--imu-only`, `--position-only`) so they can run
-//!   as separate processes on the same trajectory and start time; or a file
-//!   (`--input`), as fast as the daemon takes it or paced by its timestamps.
+//!   every sensor (IMUs, one per `--imu-mount`; position; velocity with
+//!   `--velocity-rate`, geodetic GNSS with `--geodetic-rate`, wheel odometry with
+//!   `--odometry-rate`, heading with `--heading-rate`), or the IMUs (`--imu-only`,
+//!   some of them with `--imu-ids`) or the other sensors alone (`--position-only`)
+//!   so they can run as separate processes on the same trajectory and start
+//!   time; or a file (`--input`), as fast as the daemon takes it or paced by its
+//!   timestamps.
 //! - `fusion-sim record`: write a drive as replay input (JSON lines, arrival
 //!   order) and its truth (JSON lines, one per sample, timestamp order).
 
@@ -21,11 +23,13 @@ use std::time::Duration;
 
 use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
 use fusion_client::sim::{
-    Arrival, CarTrajectory, GeodeticConfig, ImuOutput, ImuSim, PositionConfig, Scenario, ScenarioConfig, VelocityConfig,
+    Arrival, CarTrajectory, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, ImuSim, OdometryConfig,
+    PositionConfig, Scenario, ScenarioConfig, VelocityConfig,
 };
 use fusion_client::{Client, SampleKind, SensorPublishers, now_ns};
 use fusion_shared::geodesy::Datum;
 use fusion_shared::jsonl::{format_sample, parse_sample};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 #[derive(Parser)]
 #[command(name = "fusion-sim", version, about = "Simulated IMU and position sensors for fusiond")]
@@ -41,10 +45,13 @@ enum Command {
         /// Namespace of the services.
         #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
         namespace: String,
-        /// Publish only the IMU.
+        /// Publish only the IMUs.
         #[arg(long, conflicts_with = "position_only")]
         imu_only: bool,
-        /// Publish only the aiding sensors: position fixes (and velocities with --velocity-rate).
+        /// Publish only the IMUs with these sensor ids (default: all).
+        #[arg(long, value_delimiter = ',')]
+        imu_ids: Option<Vec<u32>>,
+        /// Publish only the sensors besides the IMUs (positions, velocities, geodetic fixes, odometry, heading).
         #[arg(long)]
         position_only: bool,
         /// Publish this file (replay input format) instead of simulating.
@@ -65,7 +72,7 @@ enum Command {
         /// Samples (replay input format).
         #[arg(long)]
         output: PathBuf,
-        /// Truth at every sample time: {"t_ns", "pos", "vel", "acc"} per line.
+        /// Truth at every sample time: {"t_ns", "pos", "vel", "acc", "q_wxyz", "yaw"} per line.
         #[arg(long)]
         truth: Option<PathBuf>,
         #[command(flatten)]
@@ -85,6 +92,11 @@ struct SimArgs {
     /// IMU rate, Hz.
     #[arg(long, default_value_t = 400.0)]
     imu_rate: f64,
+    /// One IMU per mount (sensor ids 0, 1, …): its axes and its rotation into
+    /// the body frame, `AXES:ROLL,PITCH,YAW` (degrees, body ← IMU, as in the
+    /// config's `[[sensor]]`), e.g. `frd:3,-2,90`. Default: one IMU, `flu:0,0,0`.
+    #[arg(long)]
+    imu_mount: Vec<String>,
     /// IMU timestamp jitter, ± µs.
     #[arg(long, default_value_t = 0)]
     imu_jitter_us: u64,
@@ -130,9 +142,31 @@ struct SimArgs {
     /// Horizontal noise of the geodetic fixes, m (vertical: 1.6×).
     #[arg(long, default_value_t = 0.5)]
     geodetic_noise: f64,
+    /// The GNSS antenna's lever arm (position, velocity, geodetic fixes): x,y,z
+    /// in the body frame, m.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    lever_arm: Option<Vec<f64>>,
+    /// Wheel odometry rate, Hz; 0: none.
+    #[arg(long, default_value_t = 0.0)]
+    odometry_rate: f64,
+    /// Odometry speed noise, m/s.
+    #[arg(long, default_value_t = 0.05)]
+    odometry_noise: f64,
+    /// Odometry relative scale error (e.g. 0.002: 0.2 % fast).
+    #[arg(long, default_value_t = 0.002, allow_hyphen_values = true)]
+    odometry_scale_error: f64,
+    /// Odometry reference point (rear axle) in the body frame: x,y,z, m.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    odometry_lever_arm: Option<Vec<f64>>,
+    /// Heading (dual-antenna GNSS) rate, Hz; 0: none.
+    #[arg(long, default_value_t = 0.0)]
+    heading_rate: f64,
+    /// Heading noise, degrees.
+    #[arg(long, default_value_t = 0.5)]
+    heading_noise_deg: f64,
     /// Where trajectory position 0 is: latitude (deg), longitude (deg), height
     /// above the WGS-84 ellipsoid (m) (default: Munich, 48.1316,11.5494,519).
-    #[arg(long, value_delimiter = ',', num_args = 3)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     datum: Option<Vec<f64>>,
     /// Probability of a lost fix.
     #[arg(long, default_value_t = 0.0)]
@@ -182,13 +216,46 @@ impl SimArgs {
         c.position.delay_max_ns = self.position_delay_max_ms * 1_000_000;
         c.position.dropout_probability = self.dropouts;
         c.position.outlier_probability = self.outliers;
+        let arm = triple("--lever-arm", self.lever_arm.as_deref())?.unwrap_or([0.0; 3]);
+        let odometry_arm = triple("--odometry-lever-arm", self.odometry_lever_arm.as_deref())?;
+        c.position.lever_arm_m = arm;
+        let mounts = if self.imu_mount.is_empty() { vec!["flu:0,0,0".to_string()] } else { self.imu_mount.clone() };
+        for (i, mount) in mounts.iter().enumerate() {
+            let imu = ImuConfig { sensor: i as u32, rotation: parse_mount(mount)?, ..c.imu.clone() };
+            if i == 0 {
+                c.imu = imu;
+            } else {
+                c.extra_imus.push(imu);
+            }
+        }
+        // One GNSS receiver: its velocities carry the id of its geodetic fixes.
+        let gnss_id = GeodeticConfig::default().fix.sensor;
         if self.velocity_rate > 0.0 {
+            let defaults = VelocityConfig::default();
             c.aiding.push(Arc::new(VelocityConfig {
                 rate_hz: self.velocity_rate,
                 noise_std_mps: self.velocity_noise,
                 vertical_noise_std_mps: 2.0 * self.velocity_noise,
                 delay_min_ns: c.position.delay_min_ns,
                 delay_max_ns: c.position.delay_max_ns,
+                sensor: if self.geodetic_rate > 0.0 { gnss_id } else { defaults.sensor },
+                lever_arm_m: arm,
+            }));
+        }
+        if self.odometry_rate > 0.0 {
+            let defaults = OdometryConfig::default();
+            c.aiding.push(Arc::new(OdometryConfig {
+                rate_hz: self.odometry_rate,
+                noise_std_mps: self.odometry_noise,
+                scale_error: self.odometry_scale_error,
+                lever_arm_m: odometry_arm.unwrap_or(defaults.lever_arm_m),
+                ..defaults
+            }));
+        }
+        if self.heading_rate > 0.0 {
+            c.aiding.push(Arc::new(HeadingConfig {
+                rate_hz: self.heading_rate,
+                noise_std_rad: self.heading_noise_deg.to_radians(),
                 ..Default::default()
             }));
         }
@@ -200,10 +267,13 @@ impl SimArgs {
                 vertical_noise_std_m: 1.6 * self.geodetic_noise,
                 delay_min_ns: c.position.delay_min_ns,
                 delay_max_ns: c.position.delay_max_ns,
+                dropout_probability: self.dropouts,
+                outlier_probability: self.outliers,
+                lever_arm_m: arm,
                 ..g.fix
             };
-            if let Some(d) = &self.datum {
-                g.datum = Datum::new(d[0], d[1], d[2]).context("--datum")?;
+            if let Some([lat, lon, h]) = triple("--datum", self.datum.as_deref())? {
+                g.datum = Datum::new(lat, lon, h).context("--datum")?;
             }
             c.aiding.push(Arc::new(g));
         }
@@ -211,9 +281,34 @@ impl SimArgs {
     }
 }
 
+/// Three comma-separated numbers of option `name`, if given.
+fn triple(name: &str, values: Option<&[f64]>) -> anyhow::Result<Option<[f64; 3]>> {
+    values
+        .map(|v| {
+            <[f64; 3]>::try_from(v).map_err(|_| anyhow::anyhow!("{name}: expected three numbers X,Y,Z, got {v:?}"))
+        })
+        .transpose()
+}
+
+/// An IMU mount, `AXES:ROLL,PITCH,YAW` (degrees), as the rotation body ← IMU.
+fn parse_mount(text: &str) -> anyhow::Result<Matrix3<f64>> {
+    let bad = || anyhow::anyhow!("--imu-mount {text:?}: expected AXES:ROLL,PITCH,YAW, e.g. frd:3,-2,90");
+    let (axes, angles) = text.split_once(':').ok_or_else(bad)?;
+    let flip = match axes {
+        "flu" => Vector3::new(1.0, 1.0, 1.0),
+        "frd" => Vector3::new(1.0, -1.0, -1.0),
+        _ => return Err(bad()),
+    };
+    let rpy: Vec<f64> =
+        angles.split(',').map(|a| a.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| bad())?;
+    let [roll, pitch, yaw] = <[f64; 3]>::try_from(rpy).map_err(|_| bad())?.map(f64::to_radians);
+    Ok(UnitQuaternion::from_euler_angles(roll, pitch, yaw).to_rotation_matrix().into_inner()
+        * Matrix3::from_diagonal(&flip))
+}
+
 fn main() -> anyhow::Result<()> {
     match Cli::parse().command {
-        Command::Run { namespace, imu_only, position_only, input, realtime, start_at_ns, sim } => {
+        Command::Run { namespace, imu_only, imu_ids, position_only, input, realtime, start_at_ns, sim } => {
             let stop = Arc::new(AtomicBool::new(false));
             for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
                 signal_hook::flag::register(signal, Arc::clone(&stop))?;
@@ -226,12 +321,23 @@ fn main() -> anyhow::Result<()> {
             let config = sim.scenario()?;
             let trajectory = CarTrajectory::new(config.seed);
             let end_ns = start + (config.duration_s * 1e9) as u64;
-            let imu_sim = (!position_only)
-                .then(|| ImuSim::new(trajectory.clone(), config.imu.clone(), config.imu_output, start, config.seed));
-            let mut delayed: Vec<Box<dyn Iterator<Item = Arrival> + Send>> = Vec::new();
             let mut publishers = SensorPublishers::default();
-            if imu_sim.is_some() {
-                publishers.open(&client, SampleKind::Imu, config.imu.sensor)?;
+            let mut imus = Vec::new();
+            for imu in
+                config.imus().filter(|i| !position_only && imu_ids.as_ref().is_none_or(|ids| ids.contains(&i.sensor)))
+            {
+                publishers.open(&client, SampleKind::Imu, imu.sensor)?;
+                imus.push(ImuSim::new(trajectory.clone(), imu.clone(), config.imu_output, start, config.seed));
+            }
+            if imu_ids.is_some() && imus.is_empty() {
+                anyhow::bail!("--imu-ids names no simulated IMU (ids 0..{})", config.imus().count());
+            }
+            // The first IMU paces the run; the others (same instants) merge in by arrival.
+            let mut imus = imus.into_iter();
+            let imu_sim = imus.next();
+            let mut delayed: Vec<Box<dyn Iterator<Item = Arrival> + Send>> = Vec::new();
+            for imu in imus {
+                delayed.push(Box::new(imu));
             }
             if !imu_only {
                 for sim in config.aiding_sims() {
@@ -264,8 +370,11 @@ fn main() -> anyhow::Result<()> {
                 for t in times {
                     let s = scenario.truth_at(t);
                     let v = |x: nalgebra::Vector3<f64>| [x.x, x.y, x.z];
-                    let line =
-                        serde_json::json!({"t_ns": t, "pos": v(s.pos_m), "vel": v(s.vel_mps), "acc": v(s.acc_mps2)});
+                    let q = s.attitude.quaternion().coords;
+                    let line = serde_json::json!({
+                        "t_ns": t, "pos": v(s.pos_m), "vel": v(s.vel_mps), "acc": v(s.acc_mps2),
+                        "q_wxyz": [q[3], q[0], q[1], q[2]], "yaw": s.yaw_rad(),
+                    });
                     writeln!(out, "{line}")?;
                 }
                 out.flush()?;

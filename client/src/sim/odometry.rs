@@ -74,10 +74,12 @@ impl Iterator for OdometrySim {
         let delay = self.rng.random_range(c.delay_min_ns..=c.delay_max_ns.max(c.delay_min_ns));
         let noise: f64 = StandardNormal.sample(&mut self.rng);
         let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
-        let speed = truth.body_velocity(&Vector3::from(c.lever_arm_m)).x * (1.0 + c.scale_error);
+        let true_speed = truth.body_velocity(&Vector3::from(c.lever_arm_m)).x;
+        let speed = true_speed * (1.0 + c.scale_error) + noise * c.noise_std_mps;
+        // What a calibrated odometry reports: its noise and its scale uncertainty.
+        let var = c.noise_std_mps.powi(2) + (c.scale_error * true_speed).powi(2);
         let t_ns = self.start_ns + offset_ns;
-        let sample =
-            OdometrySample::new(t_ns, c.sensor, self.index, speed + noise * c.noise_std_mps, c.noise_std_mps.powi(2));
+        let sample = OdometrySample::new(t_ns, c.sensor, self.index, speed, var);
         self.index += 1;
         Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Odometry(sample), outlier: false })
     }

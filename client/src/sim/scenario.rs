@@ -61,6 +61,8 @@ pub struct ScenarioConfig {
     pub start_ns: u64,
     /// IMU settings.
     pub imu: ImuConfig,
+    /// Further IMUs (each with its own sensor id, mounting, noise and biases).
+    pub extra_imus: Vec<ImuConfig>,
     /// What the IMU measures.
     pub imu_output: ImuOutput,
     /// Position settings.
@@ -76,6 +78,7 @@ impl Default for ScenarioConfig {
             duration_s: 20.0,
             start_ns: 1_000_000_000,
             imu: ImuConfig::default(),
+            extra_imus: Vec::new(),
             imu_output: ImuOutput::WorldAcceleration,
             position: PositionConfig::default(),
             aiding: Vec::new(),
@@ -84,10 +87,17 @@ impl Default for ScenarioConfig {
 }
 
 impl ScenarioConfig {
-    /// Every sensor besides the IMU: the position sensor, then `aiding`.
+    /// Every sensor besides the IMUs: the position sensor (unless its rate is
+    /// 0), then `aiding`.
     pub fn aiding_sims(&self) -> impl Iterator<Item = &dyn AidingSim> {
         let position: &dyn AidingSim = &self.position;
-        std::iter::once(position).chain(self.aiding.iter().map(|a| &**a))
+        let position = (self.position.rate_hz > 0.0).then_some(position);
+        position.into_iter().chain(self.aiding.iter().map(|a| &**a))
+    }
+
+    /// Every IMU: `imu`, then `extra_imus`.
+    pub fn imus(&self) -> impl Iterator<Item = &ImuConfig> {
+        std::iter::once(&self.imu).chain(&self.extra_imus)
     }
 }
 
@@ -96,8 +106,10 @@ impl Scenario {
     pub fn generate(config: &ScenarioConfig) -> Self {
         let trajectory = CarTrajectory::new(config.seed);
         let end_ns = config.start_ns + to_ns(config.duration_s);
-        let imu = ImuSim::new(trajectory.clone(), config.imu.clone(), config.imu_output, config.start_ns, config.seed)
-            .take_while(|a| a.sample.t_ns() <= end_ns);
+        let imu = config.imus().flat_map(|imu| {
+            ImuSim::new(trajectory.clone(), imu.clone(), config.imu_output, config.start_ns, config.seed)
+                .take_while(|a| a.sample.t_ns() <= end_ns)
+        });
         let aiding = config.aiding_sims().flat_map(|sim| {
             sim.arrivals(&trajectory, config.start_ns, config.seed).take_while(|a| a.sample.t_ns() <= end_ns)
         });

@@ -39,6 +39,9 @@ pub struct HeldImu {
     active: u8,
     /// Bit `i`: IMU `i` sent a sample; `last_t_ns[i]`: the time of its latest.
     seen: u8,
+    /// Average: the IMUs in the sums, and those of the instant before.
+    mask: u8,
+    prev_mask: u8,
     last_t_ns: [u64; MAX_IMUS],
 }
 
@@ -47,8 +50,11 @@ pub struct HeldImu {
 pub enum Held {
     /// Held (alone, or into the mean of its instant).
     Held,
-    /// Held, and it is now the IMU in use: the one before went quiet (failover).
-    TookOver,
+    /// Held, and the IMUs in use changed: the one before went quiet and this one
+    /// took over (failover), or the set of IMUs in the mean of the last instant
+    /// differs from the one before (average). Either way the biases now held
+    /// are partly another IMU's.
+    Switched,
     /// Not held: another IMU is in use (failover).
     Standby,
     /// Not held: an IMU id that is not configured.
@@ -64,6 +70,8 @@ impl HeldImu {
         t_ns: 0,
         active: 0,
         seen: 0,
+        mask: 0,
+        prev_mask: 0,
         last_t_ns: [0; MAX_IMUS],
     };
 
@@ -94,16 +102,25 @@ impl HeldImu {
                     self.sum_f += f;
                     self.sum_w += w;
                     self.count += 1;
+                    self.mask |= 1 << i;
                     self.note(i, t_ns);
                     return Held::Held;
                 }
-                Held::Held
+                // A new instant: the one just finished is complete.
+                let changed = self.prev_mask != 0 && self.mask != self.prev_mask;
+                (self.prev_mask, self.mask) = (self.mask, 1 << i);
+                if changed { Held::Switched } else { Held::Held }
             }
             Combine::Failover if i == self.active() => Held::Held,
-            Combine::Failover if self.count == 0 || !alive(self, self.active()) => {
-                let first = self.count == 0;
+            // The first sample, or one of a higher-priority IMU at the very instant
+            // of the first: the start does not depend on which process came first.
+            Combine::Failover if self.count == 0 || (self.seen.count_ones() == 1 && t_ns == self.t_ns && i < self.active()) => {
                 self.active = i as u8;
-                if first { Held::Held } else { Held::TookOver }
+                Held::Held
+            }
+            Combine::Failover if !alive(self, self.active()) => {
+                self.active = i as u8;
+                Held::Switched
             }
             Combine::Failover => {
                 self.note(i, t_ns);
@@ -163,7 +180,7 @@ impl Fuse<InsModel> for ImuSample {
     fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<nalgebra::SVector<f64, 15>>) {
         let (f, w) = body_values(self, model);
         match model.hold_imu(s, self.header.sensor, self.header.t_ns, f, w) {
-            Held::Held | Held::TookOver => {}
+            Held::Held | Held::Switched => {}
             Held::Standby => return (StepOutcome::Propagated, None),
             Held::Unknown => return (StepOutcome::Refused, None),
         }
@@ -224,7 +241,10 @@ mod tests {
         assert_eq!(h.mean(), Some((v(1.5), v(15.0), 2)));
         assert_eq!(h.hold(imus, 9, 110, v(3.0), v(30.0)), Held::Held);
         assert_eq!(h.mean(), Some((v(3.0), v(30.0), 1)), "IMU 4 missing at 110");
-        assert_eq!(h.hold(imus, 5, 110, v(9.0), v(9.0)), Held::Unknown);
+        // Seen at the start of the next instant: 110 had another set than 100.
+        assert_eq!(h.hold(imus, 9, 120, v(3.0), v(30.0)), Held::Switched);
+        assert_eq!(h.hold(imus, 9, 130, v(3.0), v(30.0)), Held::Held);
+        assert_eq!(h.hold(imus, 5, 130, v(9.0), v(9.0)), Held::Unknown);
         assert_eq!(h.mean(), Some((v(3.0), v(30.0), 1)));
     }
 
@@ -241,9 +261,17 @@ mod tests {
         assert_eq!(h.hold(imus, 9, 105, v(2.0), v(2.0)), Held::Standby);
         assert_eq!(h.hold(imus, 9, 120, v(2.0), v(2.0)), Held::Standby, "20 ns of silence is not yet dead");
         assert_eq!(h.mean().unwrap().0, v(1.0));
-        assert_eq!(h.hold(imus, 9, 121, v(3.0), v(3.0)), Held::TookOver);
+        assert_eq!(h.hold(imus, 9, 121, v(3.0), v(3.0)), Held::Switched);
         assert_eq!((h.mean().unwrap().0, h.active()), (v(3.0), 1));
         assert_eq!(h.hold(imus, 4, 125, v(1.0), v(1.0)), Held::Standby, "no fail-back while the other is alive");
         assert_eq!(h.hold(imus, 9, 130, v(4.0), v(4.0)), Held::Held);
+
+        // At the start, the first-listed IMU wins an instant both sample at,
+        // whichever arrives first.
+        let mut h = HeldImu::EMPTY;
+        assert_eq!(h.hold(imus, 9, 100, v(2.0), v(2.0)), Held::Held);
+        assert_eq!(h.hold(imus, 4, 100, v(1.0), v(1.0)), Held::Held);
+        assert_eq!((h.active(), h.mean().unwrap().0), (0, v(1.0)));
+        assert_eq!(h.hold(imus, 9, 105, v(2.0), v(2.0)), Held::Standby);
     }
 }

@@ -15,7 +15,11 @@
 //! pitch together with the velocity; the sideways and vertical components are the
 //! motion constraint's ([`super::nonholonomic`]).
 //!
-//! - `ins`: the update above, Joseph form, gated, injected and reset.
+//! - `ins`: the update above, Joseph form, gated, injected and reset; refused
+//!   until the attitude is known to [`nonholonomic::MAX_ATTITUDE_SD`] (as the
+//!   motion constraint: with the heading still unknown the speed's attitude
+//!   columns are linearised about a wrong body axis and would make the filter
+//!   sure of a wrong heading).
 //! - `linear`: refused (no attitude to turn a body speed into the world frame);
 //!   a config naming an odometry sensor is refused at start-up.
 //!
@@ -27,7 +31,7 @@
 use fusion_shared::{OdometrySample, SampleKind};
 use nalgebra::{Matrix1, SMatrix, SVector, Vector1, Vector3};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, finite};
+use super::{Fuse, Limits, Measurement, Needed, Rejection, finite, nonholonomic};
 use crate::model::ins::{InsModel, InsState, N};
 use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
@@ -77,6 +81,10 @@ impl Fuse<LinearModel> for OdometrySample {
 
 impl Fuse<InsModel> for OdometrySample {
     fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, N>>) {
+        let P = s.filter().P();
+        if (6..9).any(|i| P[(i, i)] > nonholonomic::MAX_ATTITUDE_SD * nonholonomic::MAX_ATTITUDE_SD) {
+            return (StepOutcome::Refused, None);
+        }
         let mount = model.frames().mount(SampleKind::Odometry, self.header.sensor);
         let (h, H) = forward_speed(s, &mount.lever_arm);
         model.update_residual(s, &Vector1::new(self.speed_mps - h), &H, &Matrix1::new(self.var_m2ps2))
@@ -122,6 +130,16 @@ mod tests {
         let forward = s.q() * Vector3::x();
         let (h, _) = forward_speed(&s, &Vector3::zeros());
         let odo = OdometrySample::new(0, 0, 0, h + 1.0, 1e-4);
+        // With the attitude unknown (1 rad) it waits, changing nothing.
+        let before = s;
+        assert_eq!(odo.fuse(&m, &mut s).0, StepOutcome::Refused);
+        assert_eq!(InsModel::x_of(&s), InsModel::x_of(&before));
+        assert_eq!(s.filter().P(), before.filter().P());
+        let mut P = *s.filter().P();
+        for i in 6..9 {
+            P[(i, i)] = 1e-4;
+        }
+        s.kf.set_state(SVector::zeros(), P).unwrap();
         let (out, _) = odo.fuse(&m, &mut s);
         assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
         let dv = s.v() - v;

@@ -393,13 +393,15 @@ impl InsModel {
     /// Holds IMU `sensor`'s specific force `f` and rate `w` (body frame) at `t_ns`
     /// for the next propagations, combined with the other IMUs' as configured
     /// ([`HeldImu`]), summing them during the static alignment (aligning at its
-    /// end). When another IMU takes over (failover), the bias variances grow back
-    /// to at least their initial values: the new IMU's biases are its own.
+    /// end). When the IMUs in use change ([`Held::Switched`]: a failover, or an
+    /// IMU dropping out of or back into the mean), the bias variances grow back
+    /// to at least their initial values: the biases held now are partly another
+    /// IMU's.
     pub(crate) fn hold_imu(&self, s: &mut InsState, sensor: u32, t_ns: u64, f: Vector3<f64>, w: Vector3<f64>) -> Held {
         let held = s.imu.hold(self.frames.imus(), sensor, t_ns, f, w);
         match held {
             Held::Held => {}
-            Held::TookOver => {
+            Held::Switched => {
                 let P0 = *self.initial.P();
                 s.kf.reset_error(|P| {
                     for i in 9..15 {
