@@ -17,7 +17,8 @@ use anyhow::Context;
 use fusion_benches::alloc::{Counting, Scenario, Window, steady_state};
 use fusion_benches::latency::{
     ChildGuard, EndToEnd, INS_CONFIG, LINEAR_CONFIG, LateCost, Mode, Pinger, Prober, PublisherPlan, Trial,
-    fan_out_reader, histogram, late_data, ping, pong, publisher, start_daemon, throughput,
+    VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST, fan_out_reader, histogram, late_data, ping, pong, publisher, start_daemon,
+    throughput,
 };
 use fusion_client::{Client, ImuSample, StateSnapshot};
 use fusion_daemon::ipc::WaitMode;
@@ -46,8 +47,14 @@ fn imu_value(model: &str) -> ([f64; 3], [f64; 3]) {
     if model == "ins" { ([0.0, 0.0, 9.80665], [0.0; 3]) } else { ([0.0; 3], [0.0; 3]) }
 }
 
+/// The config of a row set: `linear`, `ins`, or `vehicle` (`ins` with two IMUs,
+/// geodetic GNSS with a lever arm and odometry).
 fn config_of(model: &str) -> &'static str {
-    if model == "ins" { INS_CONFIG } else { LINEAR_CONFIG }
+    match model {
+        "ins" => INS_CONFIG,
+        "vehicle" => VEHICLE_CONFIG,
+        _ => LINEAR_CONFIG,
+    }
 }
 
 /// A running daemon and a connected client, torn down (process and its files)
@@ -205,14 +212,17 @@ fn main() -> anyhow::Result<()> {
     // 2. End to end, publisher and reader in one process, in blocks that take
     //    turns with blocks of raw ping-pong (the other side paused); then the
     //    fan-out case with the publisher in a process of its own.
-    for model in ["linear", "ins"] {
+    for model in ["linear", "ins", "vehicle"] {
         for mode in [Mode::Spin, Mode::Event] {
             let namespace = format!("fusion-bench-{pid}-{model}-{}", mode.name());
             let rig = start_rig(&fusiond, &namespace, model, mode)?;
             let base = format!("{namespace}-raw");
             let pong = spawn_pong(&base, mode, false)?;
             let mut pinger = Pinger::<ImuSample>::connect(&base, mode)?;
-            let mut prober = Prober::new(&rig.client, mode, imu_value(model))?;
+            let mut prober = match model {
+                "vehicle" => Prober::vehicle(&rig.client, mode)?,
+                _ => Prober::new(&rig.client, mode, imu_value(model))?,
+            };
             let (mut e2e, mut raw_rtt, mut block_ratios) = (EndToEnd::new(), histogram(), Vec::new());
             for _ in 0..blocks {
                 rig.daemon.pause()?;
@@ -239,6 +249,9 @@ fn main() -> anyhow::Result<()> {
                 raw_rtt: Some(raw_rtt),
                 block_ratios,
             });
+            if model == "vehicle" {
+                continue; // the fan-out rows are of one IMU
+            }
             let warmup = count / 10;
             let plan = PublisherPlan { rate_hz: imu_hz, count: count + warmup, sensor: 2, wake: mode == Mode::Event };
             let _publisher = spawn_publisher(&namespace, model, plan)?;
@@ -288,12 +301,14 @@ fn main() -> anyhow::Result<()> {
     // 6. Allocations of the daemon loop per processed sample, in this process.
     let mut alloc_rows = Vec::new();
     let (warm, measured) = if quick { (500, 1000) } else { (1000, 2000) };
-    for model in ["linear", "ins"] {
+    for model in ["linear", "ins", "vehicle"] {
         for (mode, wait) in [(Mode::Spin, WaitMode::Spin), (Mode::Event, WaitMode::Event)] {
             let namespace = format!("fusion-bench-{pid}-{model}-{}-alloc", mode.name());
-            let accel_mps2 = imu_value(model).0;
+            let vehicle = model == "vehicle";
+            let accel_mps2 = if vehicle { VEHICLE_IMUS_AT_REST[0] } else { imu_value(model).0 };
             let config = config_of(model);
-            let scenario = Scenario { namespace: &namespace, config, wait, accel_mps2, domain: None, warm, measured };
+            let scenario =
+                Scenario { namespace: &namespace, config, wait, accel_mps2, domain: None, warm, measured, vehicle };
             alloc_rows.push((model, mode, steady_state(&scenario)?));
         }
     }

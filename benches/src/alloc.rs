@@ -130,6 +130,10 @@ pub struct Scenario<'a> {
     pub warm: u64,
     /// IMU samples in the window.
     pub measured: u64,
+    /// Also a second IMU (sensor 1, at rest along +z) at every instant, a
+    /// geodetic fix (sensor 3) with every 10th and odometry (sensor 0) with every
+    /// 20th: the sensor set of `VEHICLE_CONFIG`.
+    pub vehicle: bool,
 }
 
 /// Runs the daemon loop on a counted thread, feeds `warm` then `measured` IMU
@@ -163,7 +167,8 @@ pub fn steady_state(s: &Scenario<'_>) -> anyhow::Result<Window> {
         .map(|&(size, n)| (size, n - before.iter().find(|b| b.0 == size).map_or(0, |b| b.1)))
         .filter(|&(_, n)| n > 0)
         .collect();
-    Ok(Window { sizes, samples: s.measured + 2 * (s.measured / 10), snapshots: window_snapshots })
+    let per_ten = if s.vehicle { 10 + 1 + 2 + 1 } else { 10 + 2 }; // per 10 instants
+    Ok(Window { sizes, samples: s.measured * per_ten / 10, snapshots: window_snapshots })
 }
 
 /// The client side of [`steady_state`]: counts before and after the window,
@@ -186,9 +191,16 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
     let mut imu_pub = client.imu_publisher(0)?;
     let mut pos_pub = client.position_publisher(1)?;
     let mut vel_pub = client.publisher::<fusion_client::VelocitySample>(2)?;
+    let mut imu_b = client.imu_publisher(1)?;
+    let mut geo_pub = client.publisher::<fusion_shared::GeodeticSample>(3)?;
+    let mut odo_pub = client.publisher::<fusion_shared::OdometrySample>(0)?;
     imu_pub.set_wake(true);
     pos_pub.set_wake(true);
     vel_pub.set_wake(true);
+    imu_b.set_wake(true);
+    geo_pub.set_wake(true);
+    odo_pub.set_wake(true);
+    let mut extra = 0u64;
     std::thread::sleep(Duration::from_millis(100));
 
     // Sample time starts 10 s in the past, so no timestamp is ever in the future.
@@ -204,6 +216,30 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
         let t = t0 + k * 1_000_000;
         imu_pub.publish_sample(ImuSample::new(t, 0, k, s.accel_mps2, [0.0; 3]))?;
         last_seq = await_snapshot(&mut reader, SampleKind::Imu as u32, k)?;
+        if s.vehicle {
+            imu_b.publish_sample(ImuSample::new(t, 1, k, [0.0, 0.0, 9.80665], [0.0; 3]))?;
+            last_seq = await_snapshot(&mut reader, SampleKind::Imu as u32, k)?;
+            extra += 1;
+            if k % 10 == 3 {
+                let cov = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64];
+                geo_pub.publish_sample(fusion_shared::GeodeticSample::new(
+                    t,
+                    3,
+                    k / 10,
+                    48.1316,
+                    11.5494,
+                    519.0,
+                    cov,
+                ))?;
+                last_seq = await_snapshot(&mut reader, SampleKind::Geodetic as u32, k / 10)?;
+                extra += 1;
+            }
+            if k % 20 == 7 {
+                odo_pub.publish_sample(fusion_shared::OdometrySample::new(t, 0, k / 20, 0.0, 0.01))?;
+                last_seq = await_snapshot(&mut reader, SampleKind::Odometry as u32, k / 20)?;
+                extra += 1;
+            }
+        }
         if k % 10 == 5 {
             let late = if fixes % 50 == 49 { 100_000_000 } else { 0 };
             let fix =
@@ -222,7 +258,7 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
             std::thread::sleep(Duration::from_millis(12));
         }
     }
-    Ok((before, sizes(), last_seq - first_seq, s.warm + s.measured + 2 * fixes))
+    Ok((before, sizes(), last_seq - first_seq, s.warm + s.measured + 2 * fixes + extra))
 }
 
 /// Waits for the snapshot of the sample of kind code `kind` with sequence number `seq`;

@@ -21,6 +21,24 @@ pub const INS_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_densi
     initial_covariance_diagonal = [1,1,1, 1,1,1, 0.01,0.01,0.01, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n\
     [gating]\nprobability = 0.999\n";
 
+/// The `ins` config of the vehicle rows: [`INS_CONFIG`] with a datum, two IMUs
+/// averaged (one in FRD axes turned 90° in yaw), a GNSS antenna 1.5 m from them
+/// and wheel odometry on the rear axle.
+pub const VEHICLE_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+    accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n\
+    initial_state = [0,0,0, 0,0,0, 1,0,0,0, 0,0,0, 0,0,0]\n\
+    initial_covariance_diagonal = [1,1,1, 1,1,1, 0.01,0.01,0.01, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n\
+    [gating]\nprobability = 0.999\n\
+    [datum]\nlatitude_deg = 48.1316\nlongitude_deg = 11.5494\nheight_m = 519.0\n\
+    [[sensor]]\nname = \"imu-a\"\nid = 0\nkinds = [\"imu\"]\naxes = \"frd\"\nrotation_rpy_deg = [0, 0, 90]\n\
+    [[sensor]]\nname = \"imu-b\"\nid = 1\nkinds = [\"imu\"]\n\
+    [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [1.0, 0.5, 1.0]\n\
+    [[sensor]]\nname = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\nlever_arm_m = [-1.3, 0.0, -0.3]\n";
+
+/// What the two IMUs of [`VEHICLE_CONFIG`] read at rest, level: IMU 0 (FRD, turned
+/// 90°) sees gravity along its −z, IMU 1 along its +z.
+pub const VEHICLE_IMUS_AT_REST: [[f64; 3]; 2] = [[0.0, 0.0, -9.80665], [0.0, 0.0, 9.80665]];
+
 pub use pingpong::{Payload, Pinger, ping, pong};
 
 /// How both sides wait.
@@ -179,14 +197,25 @@ impl Default for EndToEnd {
 
 /// A client of fusiond that publishes IMU samples (plus a position fix every
 /// 100th) and waits for the snapshot that names each; it can run in several
-/// blocks, its sequence numbers going on from one to the next.
+/// blocks, its sequence numbers going on from one to the next. With
+/// [`Prober::vehicle`], the sensor set of [`VEHICLE_CONFIG`] instead: two IMUs at
+/// the same instants, a geodetic fix every 100th instant (10 Hz at 1 kHz) and an
+/// odometry speed every 20th (50 Hz); both IMU samples of an instant are timed.
 pub struct Prober {
     imu: fusion_client::ImuPublisher,
     pos: fusion_client::PositionPublisher,
+    vehicle: Option<VehiclePublishers>,
     state: fusion_client::StateSubscriber,
     mode: Mode,
     imu_value: ([f64; 3], [f64; 3]),
     seq: u64,
+}
+
+/// The further publishers of the vehicle rows.
+struct VehiclePublishers {
+    imu_b: fusion_client::ImuPublisher,
+    geodetic: fusion_client::SamplePublisher<fusion_shared::GeodeticSample>,
+    odometry: fusion_client::SamplePublisher<fusion_shared::OdometrySample>,
 }
 
 impl Prober {
@@ -198,7 +227,22 @@ impl Prober {
         imu.set_wake(mode == Mode::Event);
         pos.set_wake(mode == Mode::Event);
         let state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER)?;
-        Ok(Self { imu, pos, state, mode, imu_value, seq: 0 })
+        Ok(Self { imu, pos, vehicle: None, state, mode, imu_value, seq: 0 })
+    }
+
+    /// The vehicle prober (see the type's docs; the daemon runs [`VEHICLE_CONFIG`]).
+    pub fn vehicle(client: &Client, mode: Mode) -> anyhow::Result<Self> {
+        let mut p = Self::new(client, mode, (VEHICLE_IMUS_AT_REST[0], [0.0; 3]))?;
+        let mut v = VehiclePublishers {
+            imu_b: client.imu_publisher(1)?,
+            geodetic: client.publisher(3)?,
+            odometry: client.publisher(0)?,
+        };
+        v.imu_b.set_wake(mode == Mode::Event);
+        v.geodetic.set_wake(mode == Mode::Event);
+        v.odometry.set_wake(mode == Mode::Event);
+        p.vehicle = Some(v);
+        Ok(p)
     }
 
     /// `count` IMU samples at `rate_hz`; all but the first `warmup` are recorded.
@@ -209,10 +253,31 @@ impl Prober {
             self.seq += 1;
             pacer.wait();
             let t = now_ns();
-            if seq % 100 == 50 {
-                self.pos.publish(t, [0.0; 3], [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64])?;
+            let cov = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64];
+            match &mut self.vehicle {
+                None if seq % 100 == 50 => {
+                    self.pos.publish(t, [0.0; 3], cov)?;
+                }
+                None => {}
+                Some(v) => {
+                    if seq % 100 == 50 {
+                        let fix = fusion_shared::GeodeticSample::new(t, 3, seq / 100, 48.1316, 11.5494, 519.0, cov);
+                        v.geodetic.publish_next(fix)?;
+                    }
+                    if seq % 20 == 10 {
+                        v.odometry.publish_next(fusion_shared::OdometrySample::new(t, 0, seq / 20, 0.0, 0.01))?;
+                    }
+                }
             }
             self.imu.publish(t, self.imu_value.0, self.imu_value.1)?;
+            // The last IMU sample of the instant; each one's snapshot is timed.
+            let last_sensor = match &mut self.vehicle {
+                Some(v) => {
+                    v.imu_b.publish(t, VEHICLE_IMUS_AT_REST[1], [0.0; 3])?;
+                    1
+                }
+                None => 0,
+            };
             let deadline = Instant::now() + Duration::from_secs(2);
             loop {
                 let snap = next_snapshot(&mut self.state, self.mode, deadline, seq)?;
@@ -220,6 +285,7 @@ impl Prober {
                     && s.input_kind == SampleKind::Imu as u32
                     && s.input_seq == seq
                 {
+                    let last = s.input_sensor == last_sensor;
                     let received = now_ns();
                     if k >= warmup {
                         out.latency.record(received.saturating_sub(s.input_sent_ns))?;
@@ -227,7 +293,9 @@ impl Prober {
                         out.daemon.record(s.publish_ns.saturating_sub(s.input_received_ns))?;
                         out.from_daemon.record(received.saturating_sub(s.publish_ns))?;
                     }
-                    break;
+                    if last {
+                        break;
+                    }
                 }
             }
         }

@@ -12,7 +12,7 @@
 use std::sync::Once;
 
 use fusion_benches::alloc::{Counting, Scenario, Window, count_this_thread, sizes, steady_state};
-use fusion_benches::latency::{INS_CONFIG, LINEAR_CONFIG};
+use fusion_benches::latency::{INS_CONFIG, LINEAR_CONFIG, VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST};
 use fusion_daemon::ipc::WaitMode;
 use fusion_shared::service;
 
@@ -48,6 +48,7 @@ fn the_daemon_loop_allocates_nothing_per_sample() {
         domain: Some(&domain),
         warm: 2500,
         measured: 2500,
+        vehicle: false,
     };
     // The counter sees a counted thread's allocation (then it is left out of the
     // windows below, which count differences).
@@ -63,8 +64,17 @@ fn the_daemon_loop_allocates_nothing_per_sample() {
     check(&spin, "linear, spin");
     let event = steady_state(&scenario("alloc-event", INS_CONFIG, WaitMode::Event, [0.0, 0.0, 9.80665])).unwrap();
     check(&event, "ins, event");
+    // Two IMUs averaged, geodetic fixes with a lever arm, odometry.
+    let vehicle = Scenario {
+        vehicle: true,
+        ..scenario("alloc-vehicle", VEHICLE_CONFIG, WaitMode::Spin, VEHICLE_IMUS_AT_REST[0])
+    };
+    let vehicle = steady_state(&vehicle).unwrap();
+    check(&vehicle, "vehicle, spin");
+    assert!(vehicle.snapshots >= 2500 * 2, "{} snapshots", vehicle.snapshots);
     eprintln!(
-        "allocations in the loop: linear spin {:?} over {} snapshots; ins event {:?} over {} snapshots",
-        spin.sizes, spin.snapshots, event.sizes, event.snapshots
+        "allocations in the loop: linear spin {:?} over {} snapshots; ins event {:?} over {} snapshots; \
+         vehicle spin {:?} over {} snapshots",
+        spin.sizes, spin.snapshots, event.sizes, event.snapshots, vehicle.sizes, vehicle.snapshots
     );
 }

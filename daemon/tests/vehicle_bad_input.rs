@@ -1,0 +1,104 @@
+//! Bad input of the vehicle sensor kinds through the `ins` engine: impossible
+//! odometry, headings and fixes, mixed into a drive, are rejected with their
+//! reason and counted, and the estimate after the drive is bit for bit the one of
+//! the same drive without them. A linear model refuses odometry and heading at
+//! start-up with a clear error.
+
+use std::sync::Arc;
+
+use fusion_client::sim::{GeodeticConfig, HeadingConfig, ImuOutput, OdometryConfig, Scenario, ScenarioConfig};
+use fusion_daemon::config::Config;
+use fusion_daemon::engine::{Engine, EngineConfig, Insert};
+use fusion_daemon::model::Model;
+use fusion_daemon::model::ins::InsModel;
+use fusion_daemon::validate::Rejection;
+use fusion_shared::{GeodeticSample, HeadingSample, ImuSample, OdometrySample, Sample, SampleKind};
+
+const INS: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+    accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\
+    [filter]\ninitial_state = [0, 0, 0, 10, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0]\n\
+    initial_covariance_diagonal = [1, 1, 1, 100, 100, 4, 0.01, 0.01, 1, 0.0025, 0.0025, 0.0025, 1e-6, 1e-6, 1e-6]\n\
+    [gating]\nprobability = 0.999\n\
+    [[sensor]]\nname = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\nlever_arm_m = [-1.3, 0.0, -0.3]\n";
+
+fn engine() -> Engine<InsModel> {
+    let config = Config::parse(INS).unwrap();
+    Engine::new(InsModel::from_config(&config).unwrap(), EngineConfig::from_config(&config))
+}
+
+/// The bad samples at time `t`, each with its reason.
+fn bad(t: u64, seq: u64) -> Vec<(Sample, Rejection)> {
+    let cov = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64];
+    let mut not_spd = cov;
+    (not_spd[1], not_spd[3]) = (1.0, 1.0);
+    let geodetic = |lat, lon, cov| Sample::Geodetic(GeodeticSample::new(t, 3, seq, lat, lon, 520.0, cov));
+    let odometry = |speed, var| Sample::Odometry(OdometrySample::new(t, 0, seq, speed, var));
+    let heading = |yaw, var| Sample::Heading(HeadingSample::new(t, 0, seq, yaw, var));
+    vec![
+        (geodetic(91.0, 11.5, cov), Rejection::OutOfRange),
+        (geodetic(-90.5, 11.5, cov), Rejection::OutOfRange),
+        (geodetic(48.1, 180.01, cov), Rejection::OutOfRange),
+        (geodetic(48.1, -200.0, cov), Rejection::OutOfRange),
+        (geodetic(f64::NAN, 11.5, cov), Rejection::NonFinite),
+        (geodetic(48.1, 11.5, not_spd), Rejection::CovarianceNotPositiveDefinite),
+        (odometry(10.0, -0.01), Rejection::VarianceNotPositive),
+        (odometry(f64::NAN, 0.01), Rejection::NonFinite),
+        (odometry(1e5, 0.01), Rejection::OutOfRange),
+        (heading(1e9, 1e-4), Rejection::OutOfRange),
+        (heading(f64::INFINITY, 1e-4), Rejection::NonFinite),
+        (heading(0.3, 0.0), Rejection::VarianceNotPositive),
+        (Sample::Imu(ImuSample::new(t, 0, seq, [f64::NAN, 0.0, 9.8], [0.0; 3])), Rejection::NonFinite),
+    ]
+}
+
+#[test]
+fn impossible_vehicle_samples_are_rejected_counted_and_change_nothing() {
+    let mut c =
+        ScenarioConfig { seed: 9, duration_s: 10.0, imu_output: ImuOutput::BodySpecificForce, ..Default::default() };
+    c.imu.rate_hz = 200.0;
+    c.position.rate_hz = 0.0;
+    c.aiding.push(Arc::new(GeodeticConfig::default()));
+    c.aiding.push(Arc::new(OdometryConfig::default()));
+    c.aiding.push(Arc::new(HeadingConfig::default()));
+    let samples: Vec<Sample> = Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect();
+    let (mut clean, mut dirty) = (engine(), engine());
+    let mut expected = [0u64; SampleKind::COUNT];
+    for (i, s) in samples.iter().enumerate() {
+        clean.insert(s, None, &mut |_| {});
+        dirty.insert(s, None, &mut |_| {});
+        // Every 200th sample, the whole set of bad ones at its time (their own
+        // sequence numbers, so none is taken for a duplicate).
+        if i % 200 == 100 {
+            for (b, why) in bad(s.t_ns(), 1_000_000 + i as u64) {
+                assert_eq!(dirty.insert(&b, None, &mut |_| {}), Insert::Rejected(why), "{b:?}");
+                expected[b.kind().index()] += 1;
+            }
+        }
+    }
+    assert!(expected.iter().sum::<u64>() > 100);
+    let (a, b) = (clean.latest().unwrap(), dirty.latest().unwrap());
+    assert_eq!(a.state, b.state, "the estimate is untouched");
+    assert_eq!(clean.model().frames().datum(), dirty.model().frames().datum());
+    for &k in SampleKind::ALL {
+        assert_eq!(dirty.totals(Some(k)).invalid, expected[k.index()], "{}", k.name());
+        assert_eq!(clean.totals(Some(k)).invalid, 0);
+    }
+    // The good samples of the new kinds were fused.
+    assert!(clean.totals(Some(SampleKind::Odometry)).fused > 300);
+    assert!(clean.totals(Some(SampleKind::Heading)).fused > 30);
+}
+
+#[test]
+fn the_linear_model_refuses_odometry_heading_and_mounts_at_start_up() {
+    let linear = "[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n[filter]\ninitial_state = [0,0,0,0,0,0]\n\
+        initial_covariance_diagonal = [1,1,1,1,1,1]\n";
+    let err = |sensor: &str| Config::parse(&format!("{linear}[[sensor]]\n{sensor}")).unwrap_err().to_string();
+    assert!(err("name = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\n").contains("cannot fuse odometry"));
+    assert!(err("name = \"compass\"\nid = 0\nkinds = [\"heading\"]\n").contains("cannot fuse heading"));
+    assert!(
+        err("name = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [1, 0, 1]\n")
+            .contains("no rotation or lever arm")
+    );
+    assert!(err("name = \"imu\"\nid = 0\nkinds = [\"imu\"]\naxes = \"frd\"\n").contains("no rotation or lever arm"));
+    Config::parse(&format!("{linear}[[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\n")).unwrap();
+}
