@@ -95,7 +95,7 @@ impl HeldImu {
     /// `set` combines them.
     pub fn hold(&mut self, set: &ImuSet, sensor: u32, t_ns: u64, f: Vector3<f64>, w: Vector3<f64>) -> Held {
         let Some(i) = set.index(sensor) else { return Held::Unknown };
-        let alive = |h: &HeldImu, k: usize| h.seen & (1 << k) != 0 && t_ns <= h.last_t_ns[k] + set.config.failover_after_ns;
+        let alive = |h: &HeldImu, k: usize| h.seen & (1 << k) != 0 && t_ns <= h.last_t_ns[k].saturating_add(set.config.failover_after_ns);
         let outcome = match set.config.combine {
             Combine::Average => {
                 if self.count > 0 && self.t_ns == t_ns {
@@ -167,8 +167,10 @@ impl Measurement for ImuSample {
 impl Fuse<LinearModel> for ImuSample {
     fn fuse(&self, model: &LinearModel, s: &mut LinearState) -> (StepOutcome, ()) {
         let (f, w) = (Vector3::from(self.accel_mps2), Vector3::from(self.gyro_radps));
-        s.imu.hold(model.frames().imus(), self.header.sensor, self.header.t_ns, f, w);
-        (StepOutcome::Propagated, ())
+        match s.imu.hold(model.frames().imus(), self.header.sensor, self.header.t_ns, f, w) {
+            Held::Unknown => (StepOutcome::Refused, ()),
+            _ => (StepOutcome::Propagated, ()),
+        }
     }
 }
 
