@@ -147,8 +147,6 @@ impl Mount {
 pub struct ImuSet {
     /// Configured IMU sensor ids; empty: any id, all treated as one IMU.
     ids: Vec<u32>,
-    /// Their names.
-    names: Vec<String>,
     /// How they are combined.
     pub config: ImuConfig,
 }
@@ -169,19 +167,26 @@ impl ImuSet {
     pub fn is_empty(&self) -> bool {
         self.ids.is_empty()
     }
+}
 
-    /// The name of the IMU with sensor id `sensor`, if configured.
-    pub fn name(&self, sensor: u32) -> Option<&str> {
-        self.ids.iter().position(|&id| id == sensor).map(|i| self.names[i].as_str())
-    }
+/// A configured sensor stream: its kind and id, its name, its mount.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MountedSensor {
+    /// Kind of its samples.
+    pub kind: SampleKind,
+    /// Its sensor id.
+    pub id: u32,
+    /// Its configured name.
+    pub name: String,
+    /// Where it sits.
+    pub mount: Mount,
 }
 
 /// The datum of the world frame (set once) and the sensors' mounts.
 #[derive(Debug, Clone, Default)]
 pub struct Frames {
     datum: OnceCell<Datum>,
-    mounts: Vec<(SampleKind, u32, Mount)>,
-    names: Vec<(SampleKind, u32, String)>,
+    sensors: Vec<MountedSensor>,
     imus: ImuSet,
 }
 
@@ -226,7 +231,7 @@ impl Frames {
                     let known: Vec<&str> = SampleKind::ALL.iter().map(|k| k.name()).collect();
                     invalid(key("kinds"), format!("unknown kind {name:?}; known: {}", known.join(", ")))
                 })?;
-                if frames.mounts.iter().any(|&(k, id, _)| k == kind && id == s.id) {
+                if frames.sensors.iter().any(|m| m.kind == kind && m.id == s.id) {
                     return Err(invalid(key("id"), format!("{name} sensor {} is configured twice", s.id)));
                 }
                 let rotated = s.axes != Axes::Flu || s.rotation_rpy_deg != [0.0; 3];
@@ -241,7 +246,6 @@ impl Frames {
                         return Err(invalid(key("id"), format!("at most {MAX_IMUS} IMUs")));
                     }
                     frames.imus.ids.push(s.id);
-                    frames.imus.names.push(s.name.clone());
                 } else if rotated {
                     return Err(invalid(
                         key("rotation_rpy_deg"),
@@ -249,8 +253,8 @@ impl Frames {
                     ));
                 }
                 let rpy = s.rotation_rpy_deg.map(f64::to_radians);
-                frames.mounts.push((kind, s.id, Mount::new(s.axes, rpy, s.lever_arm_m)));
-                frames.names.push((kind, s.id, s.name.clone()));
+                let mount = Mount::new(s.axes, rpy, s.lever_arm_m);
+                frames.sensors.push(MountedSensor { kind, id: s.id, name: s.name.clone(), mount });
             }
         }
         Ok(frames)
@@ -269,17 +273,12 @@ impl Frames {
     /// The mount of sensor `sensor` of `kind` ([`Mount::IDENTITY`] if not configured).
     #[inline]
     pub fn mount(&self, kind: SampleKind, sensor: u32) -> &Mount {
-        self.mounts.iter().find(|(k, id, _)| *k == kind && *id == sensor).map_or(&Mount::IDENTITY, |(_, _, m)| m)
+        self.sensors.iter().find(|m| m.kind == kind && m.id == sensor).map_or(&Mount::IDENTITY, |m| &m.mount)
     }
 
-    /// Every configured mount: kind, sensor id, mount.
-    pub fn mounts(&self) -> impl Iterator<Item = &(SampleKind, u32, Mount)> {
-        self.mounts.iter()
-    }
-
-    /// The configured name of sensor `sensor` of `kind`.
-    pub fn name(&self, kind: SampleKind, sensor: u32) -> Option<&str> {
-        self.names.iter().find(|(k, id, _)| *k == kind && *id == sensor).map(|(_, _, n)| n.as_str())
+    /// Every configured sensor stream with its mount.
+    pub fn sensors(&self) -> &[MountedSensor] {
+        &self.sensors
     }
 
     /// The IMUs and how they are combined.
@@ -332,8 +331,8 @@ mod tests {
         assert_eq!(f.mount(SampleKind::Geodetic, 3).lever_arm, Vector3::new(1.2, 0.0, 1.0));
         assert_eq!(f.mount(SampleKind::Geodetic, 4), &Mount::IDENTITY);
         assert_eq!((f.imus().index(0), f.imus().index(1), f.imus().index(7)), (Some(0), Some(1), None));
-        assert_eq!(f.imus().name(1), Some("imu-b"));
-        assert_eq!(f.name(SampleKind::Velocity, 3), Some("gnss"));
+        let named = |kind, id| f.sensors().iter().find(|m| m.kind == kind && m.id == id).map(|m| m.name.as_str());
+        assert_eq!((named(SampleKind::Imu, 1), named(SampleKind::Velocity, 3)), (Some("imu-b"), Some("gnss")));
         assert_eq!(Frames::new(None).imus().index(42), Some(0), "no IMU configured: any id is the IMU");
 
         let err = |sensors: &[SensorConfig]| {

@@ -12,15 +12,15 @@
 //! The short version runs in `cargo test`; the full one (50 runs of 60 s):
 //! `cargo test --release -p fusion-daemon --test ins_consistency -- --ignored --nocapture`.
 
+mod common;
+
 use fusion_client::sim::{ImuConfig, ImuOutput, Scenario, ScenarioConfig};
 use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig, Entry};
 use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::InsModel;
 use fusion_shared::Sample;
-use nalgebra::{Cholesky, Matrix6, UnitQuaternion, Vector3, Vector6};
-use rand::SeedableRng;
-use rand_distr::{Distribution, StandardNormal};
+use nalgebra::UnitQuaternion;
 
 const ACCEL_DENSITY: f64 = 0.02;
 const GYRO_DENSITY: f64 = 0.001;
@@ -68,24 +68,11 @@ fn run(seed: u64, seconds: f64, position_std: f64, constraint: bool, stats: &mut
     c.position.vertical_noise_std_m = position_std;
     let scenario = Scenario::generate(&c);
 
-    // Start state: the truth at the first sample plus a draw from the prior.
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xfeed);
-    let mut draw = |s: f64| Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut rng)) * s;
-    let t0 = scenario.arrivals.iter().map(|a| a.sample.t_ns()).min().unwrap();
-    let truth0 = scenario.truth_at(t0);
-    let p = truth0.pos_m + draw(SIGMA0[0]);
-    let v = truth0.vel_mps + draw(SIGMA0[1]);
-    let q = truth0.attitude * UnitQuaternion::from_scaled_axis(draw(SIGMA0[2]));
-    let qc = q.quaternion().coords;
-    let fmt = |v: &[f64]| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(", ");
-    let x0 = [p.x, p.y, p.z, v.x, v.y, v.z, qc[3], qc[0], qc[1], qc[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-    let p0: Vec<f64> = SIGMA0.iter().flat_map(|s| [s * s; 3]).collect();
+    let (t0, filter) = common::ins_start_from_prior(&scenario, seed, SIGMA0);
     let config = Config::parse(&format!(
         "[model]\nkind = \"ins\"\naccelerometer_noise_density = {ACCEL_DENSITY}\ngyroscope_noise_density = {GYRO_DENSITY}\n\
-         accelerometer_random_walk = {ACCEL_RW}\ngyroscope_random_walk = {GYRO_RW}\n[filter]\ninitial_state = [{}]\n\
-         initial_covariance_diagonal = [{}]\n[gating]\nprobability = 0.9999\n{}",
-        fmt(&x0),
-        fmt(&p0),
+         accelerometer_random_walk = {ACCEL_RW}\ngyroscope_random_walk = {GYRO_RW}\n[filter]\n{filter}\
+         [gating]\nprobability = 0.9999\n{}",
         if constraint { "[model.constraints]\nnonholonomic_std_mps = 0.1\n" } else { "" }
     ))
     .unwrap();
@@ -93,16 +80,7 @@ fn run(seed: u64, seconds: f64, position_std: f64, constraint: bool, stats: &mut
     let mut finals = Vec::new();
     let add = |stats: &mut Stats, t: u64, x: &[f64], cov: &[f64]| {
         let truth = scenario.truth_at(t);
-        let err = Vector6::new(
-            x[0] - truth.pos_m.x,
-            x[1] - truth.pos_m.y,
-            x[2] - truth.pos_m.z,
-            x[3] - truth.vel_mps.x,
-            x[4] - truth.vel_mps.y,
-            x[5] - truth.vel_mps.z,
-        );
-        let p6 = Matrix6::from_fn(|r, c| cov[r * 15 + c]);
-        let nees = err.dot(&Cholesky::new(p6).expect("P is positive definite").solve(&err));
+        let (err, nees) = common::pv_error_and_nees(x, cov, &truth);
         let q_est = UnitQuaternion::new_normalize(nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]));
         stats.steps += 1;
         stats.nees_sum += nees;

@@ -22,6 +22,8 @@
 //! The short version runs in `cargo test`; the full one (50 runs of 60 s each):
 //! `cargo test --release -p fusion-daemon --test vehicle_consistency -- --ignored --nocapture`.
 
+mod common;
+
 use std::sync::Arc;
 
 use fusion_client::sim::{
@@ -33,9 +35,7 @@ use fusion_daemon::engine::{Engine, EngineConfig, Entry};
 use fusion_daemon::model::ins::InsModel;
 use fusion_shared::Sample;
 use fusion_shared::geodesy::Datum;
-use nalgebra::{Cholesky, Matrix3, Matrix6, UnitQuaternion, Vector3, Vector6};
-use rand::SeedableRng;
-use rand_distr::{Distribution, StandardNormal};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 const ACCEL_DENSITY: f64 = 0.02;
 const GYRO_DENSITY: f64 = 0.001;
@@ -162,18 +162,8 @@ fn run(seed: u64, seconds: f64, setup: Setup, stats: &mut Stats) {
     // No local position sensor: the fixes are geodetic.
     scenario.arrivals.retain(|a| !matches!(a.sample, Sample::Position(_)));
 
-    // Start state: the truth at the first sample plus a draw from the prior.
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xfeed);
-    let mut draw = |s: f64| Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut rng)) * s;
-    let t0 = scenario.arrivals.iter().map(|a| a.sample.t_ns()).min().unwrap();
-    let truth0 = scenario.truth_at(t0);
-    let p = truth0.pos_m + draw(SIGMA0[0]);
-    let v = truth0.vel_mps + draw(SIGMA0[1]);
-    let q = truth0.attitude * UnitQuaternion::from_scaled_axis(draw(SIGMA0[2]));
-    let qc = q.quaternion().coords;
-    let fmt = |v: &[f64]| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(", ");
-    let x0 = [p.x, p.y, p.z, v.x, v.y, v.z, qc[3], qc[0], qc[1], qc[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-    let p0: Vec<f64> = SIGMA0.iter().flat_map(|s| [s * s; 3]).collect();
+    let (t0, filter) = common::ins_start_from_prior(&scenario, seed, SIGMA0);
+    let fmt = common::toml_list;
     let arm = if setup.lever_arm_configured { LEVER_ARM } else { [0.0; 3] };
     let mut sensors = format!(
         "[[sensor]]\nname = \"gnss\"\nid = {gnss}\nkinds = [\"geodetic\", \"velocity\"]\nlever_arm_m = [{}]\n\
@@ -186,11 +176,8 @@ fn run(seed: u64, seconds: f64, setup: Setup, stats: &mut Stats) {
     }
     let config = Config::parse(&format!(
         "[model]\nkind = \"ins\"\naccelerometer_noise_density = {ACCEL_DENSITY}\ngyroscope_noise_density = {GYRO_DENSITY}\n\
-         accelerometer_random_walk = {ACCEL_RW}\ngyroscope_random_walk = {GYRO_RW}\n[filter]\ninitial_state = [{}]\n\
-         initial_covariance_diagonal = [{}]\n[gating]\nprobability = 0.9999\n\
-         [datum]\nlatitude_deg = {}\nlongitude_deg = {}\nheight_m = {}\n{sensors}",
-        fmt(&x0),
-        fmt(&p0),
+         accelerometer_random_walk = {ACCEL_RW}\ngyroscope_random_walk = {GYRO_RW}\n[filter]\n{filter}\
+         [gating]\nprobability = 0.9999\n[datum]\nlatitude_deg = {}\nlongitude_deg = {}\nheight_m = {}\n{sensors}",
         DATUM.latitude_deg,
         DATUM.longitude_deg,
         DATUM.height_m,
@@ -203,16 +190,7 @@ fn run(seed: u64, seconds: f64, setup: Setup, stats: &mut Stats) {
         }
         let (x, cov) = (InsModel::x_of(&e.state), InsModel::covariance_of(&e.state));
         let truth = scenario.truth_at(e.key.t_ns);
-        let err = Vector6::new(
-            x[0] - truth.pos_m.x,
-            x[1] - truth.pos_m.y,
-            x[2] - truth.pos_m.z,
-            x[3] - truth.vel_mps.x,
-            x[4] - truth.vel_mps.y,
-            x[5] - truth.vel_mps.z,
-        );
-        let p6 = Matrix6::from_fn(|r, c| cov[r * 15 + c]);
-        let nees = err.dot(&Cholesky::new(p6).expect("P is positive definite").solve(&err));
+        let (err, nees) = common::pv_error_and_nees(x, cov, &truth);
         let q_est = UnitQuaternion::new_normalize(nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]));
         let yaw = |q: &UnitQuaternion<f64>| {
             let f = q * Vector3::x();

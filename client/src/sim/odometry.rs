@@ -4,12 +4,12 @@
 
 use fusion_shared::{OdometrySample, Sample, SampleKind};
 use nalgebra::Vector3;
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
 use super::AidingSim;
-use super::scenario::{Arrival, to_ns};
+use super::scenario::{Arrival, schedule};
 use super::trajectory::CarTrajectory;
 
 /// Wheel odometry simulation settings.
@@ -70,8 +70,7 @@ impl Iterator for OdometrySim {
 
     fn next(&mut self) -> Option<Arrival> {
         let c = &self.config;
-        let offset_ns = to_ns(self.index as f64 / c.rate_hz);
-        let delay = self.rng.random_range(c.delay_min_ns..=c.delay_max_ns.max(c.delay_min_ns));
+        let (offset_ns, delay) = schedule(&mut self.rng, self.index, c.rate_hz, c.delay_min_ns, c.delay_max_ns);
         let noise: f64 = StandardNormal.sample(&mut self.rng);
         let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
         let true_speed = truth.body_velocity(&Vector3::from(c.lever_arm_m)).x;

@@ -10,6 +10,7 @@ use std::sync::Arc;
 
 use fusion_shared::Sample;
 use nalgebra::Vector3;
+use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
@@ -32,6 +33,20 @@ pub struct Arrival {
 /// A standard normal 3-vector.
 pub(crate) fn gaussian3(rng: &mut ChaCha8Rng) -> Vector3<f64> {
     Vector3::new(StandardNormal.sample(rng), StandardNormal.sample(rng), StandardNormal.sample(rng))
+}
+
+/// When the `index`th sample of a sensor at `rate_hz` is valid (ns after the
+/// start) and how long after that it is published (uniform in [min, max] ns,
+/// drawn from `rng`).
+pub(crate) fn schedule(
+    rng: &mut ChaCha8Rng,
+    index: u64,
+    rate_hz: f64,
+    delay_min_ns: u64,
+    delay_max_ns: u64,
+) -> (u64, u64) {
+    let offset_ns = to_ns(index as f64 / rate_hz);
+    (offset_ns, rng.random_range(delay_min_ns..=delay_max_ns.max(delay_min_ns)))
 }
 
 /// Seconds to ns, rounded.

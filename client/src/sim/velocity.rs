@@ -3,10 +3,10 @@
 
 use fusion_shared::{Sample, SampleKind, VelocitySample};
 use nalgebra::Vector3;
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use super::scenario::{Arrival, gaussian3, to_ns};
+use super::scenario::{Arrival, gaussian3, schedule};
 use super::trajectory::CarTrajectory;
 use super::AidingSim;
 
@@ -69,8 +69,7 @@ impl Iterator for VelocitySim {
 
     fn next(&mut self) -> Option<Arrival> {
         let c = &self.config;
-        let offset_ns = to_ns(self.index as f64 / c.rate_hz);
-        let delay = self.rng.random_range(c.delay_min_ns..=c.delay_max_ns.max(c.delay_min_ns));
+        let (offset_ns, delay) = schedule(&mut self.rng, self.index, c.rate_hz, c.delay_min_ns, c.delay_max_ns);
         let noise = gaussian3(&mut self.rng);
         let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
         let std = Vector3::new(c.noise_std_mps, c.noise_std_mps, c.vertical_noise_std_mps);

@@ -95,7 +95,12 @@ impl HeldImu {
     /// `set` combines them.
     pub fn hold(&mut self, set: &ImuSet, sensor: u32, t_ns: u64, f: Vector3<f64>, w: Vector3<f64>) -> Held {
         let Some(i) = set.index(sensor) else { return Held::Unknown };
-        let alive = |h: &HeldImu, k: usize| h.seen & (1 << k) != 0 && t_ns <= h.last_t_ns[k].saturating_add(set.config.failover_after_ns);
+        let after_ns = set.config.failover_after_ns;
+        // Failover: the first sample, or one of a higher-priority IMU at the very
+        // instant of the first, so the start does not depend on which process came
+        // first.
+        let starting =
+            self.count == 0 || (self.seen.count_ones() == 1 && t_ns == self.t_ns && i < self.active());
         let outcome = match set.config.combine {
             Combine::Average => {
                 if self.count > 0 && self.t_ns == t_ns {
@@ -112,13 +117,11 @@ impl HeldImu {
                 if changed { Held::Switched } else { Held::Held }
             }
             Combine::Failover if i == self.active() => Held::Held,
-            // The first sample, or one of a higher-priority IMU at the very instant
-            // of the first: the start does not depend on which process came first.
-            Combine::Failover if self.count == 0 || (self.seen.count_ones() == 1 && t_ns == self.t_ns && i < self.active()) => {
+            Combine::Failover if starting => {
                 self.active = i as u8;
                 Held::Held
             }
-            Combine::Failover if !alive(self, self.active()) => {
+            Combine::Failover if !self.alive(self.active(), t_ns, after_ns) => {
                 self.active = i as u8;
                 Held::Switched
             }
@@ -130,6 +133,11 @@ impl HeldImu {
         self.note(i, t_ns);
         (self.sum_f, self.sum_w, self.count, self.t_ns) = (f, w, 1, t_ns);
         outcome
+    }
+
+    /// IMU `k` sent a sample no longer than `after_ns` before `t_ns`.
+    fn alive(&self, k: usize, t_ns: u64, after_ns: u64) -> bool {
+        self.seen & (1 << k) != 0 && t_ns <= self.last_t_ns[k].saturating_add(after_ns)
     }
 
     fn note(&mut self, i: usize, t_ns: u64) {

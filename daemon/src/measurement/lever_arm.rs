@@ -29,6 +29,9 @@ use crate::frames::Mount;
 use crate::model::StepOutcome;
 use crate::model::ins::{InsModel, InsState, N};
 
+/// `h` and `H` of a 3-vector measured at a lever arm ([`position`], [`velocity`]).
+type AtArm = fn(&InsState, &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, N>);
+
 /// `h` and `H` of the position of the point at lever arm `l`.
 pub fn position(s: &InsState, l: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, N>) {
     let R = s.q().to_rotation_matrix().into_inner();
@@ -58,12 +61,7 @@ pub fn fuse_position(
     z: &Vector3<f64>,
     R: &Matrix3<f64>,
 ) -> (StepOutcome, Option<SVector<f64, N>>) {
-    if mount.at_origin {
-        let predicted = s.p();
-        return model.update_block(s, z, &predicted, 0, R);
-    }
-    let (h, H) = position(s, &mount.lever_arm);
-    model.update_residual(s, &(z - h), &H, R)
+    fuse_at(model, s, mount, z, R, 0, position)
 }
 
 /// Fuses a velocity `z` (covariance `R`) of the point of `mount`; at the origin,
@@ -75,11 +73,26 @@ pub fn fuse_velocity(
     z: &Vector3<f64>,
     R: &Matrix3<f64>,
 ) -> (StepOutcome, Option<SVector<f64, N>>) {
+    fuse_at(model, s, mount, z, R, 3, velocity)
+}
+
+/// A measurement of the nominal block at `offset` (position 0, velocity 3) of the
+/// point of `mount`: at the origin the block itself, selected (the lean update);
+/// elsewhere `h` and `H` of `at_arm` about the lever arm.
+fn fuse_at(
+    model: &InsModel,
+    s: &mut InsState,
+    mount: &Mount,
+    z: &Vector3<f64>,
+    R: &Matrix3<f64>,
+    offset: usize,
+    at_arm: AtArm,
+) -> (StepOutcome, Option<SVector<f64, N>>) {
     if mount.at_origin {
-        let predicted = s.v();
-        return model.update_block(s, z, &predicted, 3, R);
+        let predicted = Vector3::from_column_slice(&InsModel::x_of(s)[offset..offset + 3]);
+        return model.update_block(s, z, &predicted, offset, R);
     }
-    let (h, H) = velocity(s, &mount.lever_arm);
+    let (h, H) = at_arm(s, &mount.lever_arm);
     model.update_residual(s, &(z - h), &H, R)
 }
 

@@ -20,7 +20,6 @@
 
 use nalgebra::{Matrix2, SMatrix, SVector, Vector2};
 
-use crate::filter::{UpdateDecision, UpdateOptions};
 use crate::model::ins::{InsModel, InsState, N};
 
 /// Innovation dimension: lateral and vertical body velocity.
@@ -54,6 +53,13 @@ impl Nonholonomic {
     }
 }
 
+/// Whether every axis of the attitude is known to [`MAX_ATTITUDE_SD`]: before,
+/// a measurement through the attitude is linearised about a wrong body frame.
+pub fn attitude_known(s: &InsState) -> bool {
+    let P = s.filter().P();
+    (6..9).all(|i| P[(i, i)] <= MAX_ATTITUDE_SD * MAX_ATTITUDE_SD)
+}
+
 /// Fuses `[v_b,y, v_b,z] = 0` into `s` and injects the correction, which it
 /// returns. Below the minimum speed, with the attitude not yet known, or when
 /// the gate refuses it, nothing changes.
@@ -66,8 +72,7 @@ pub fn fuse(c: &Nonholonomic, model: &InsModel, s: &mut InsState) -> Option<SVec
     // The constraint is linear in δθ only for small attitude errors: with the
     // heading still unknown (e.g. at start, before fixes have shown the track)
     // it would pull the estimate the wrong way.
-    let P = s.filter().P();
-    if (6..9).any(|i| P[(i, i)] > MAX_ATTITUDE_SD * MAX_ATTITUDE_SD) {
+    if !attitude_known(s) {
         return None;
     }
     let mut H = SMatrix::<f64, INNOVATION_DIM, N>::zeros();
@@ -80,9 +85,5 @@ pub fn fuse(c: &Nonholonomic, model: &InsModel, s: &mut InsState) -> Option<SVec
     }
     let predicted = Vector2::new(v_b.y, v_b.z);
     let Rn = Matrix2::identity() * (c.std_mps * c.std_mps);
-    let options = UpdateOptions { gate: model.gate(), fault_detector: None };
-    match s.kf.update_nonlinear(&Vector2::zeros(), &predicted, &H, &Rn, options) {
-        Ok(d) if d.decision == UpdateDecision::Accepted => Some(crate::model::ins::inject_and_reset(s)),
-        _ => None,
-    }
+    model.update_residual(s, &(-predicted), &H, &Rn).1
 }

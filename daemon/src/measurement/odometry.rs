@@ -81,8 +81,7 @@ impl Fuse<LinearModel> for OdometrySample {
 
 impl Fuse<InsModel> for OdometrySample {
     fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, N>>) {
-        let P = s.filter().P();
-        if (6..9).any(|i| P[(i, i)] > nonholonomic::MAX_ATTITUDE_SD * nonholonomic::MAX_ATTITUDE_SD) {
+        if !nonholonomic::attitude_known(s) {
             return (StepOutcome::Refused, None);
         }
         let mount = model.frames().mount(SampleKind::Odometry, self.header.sensor);

@@ -31,7 +31,7 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use super::{Model, StepOutcome, advance_time};
 use crate::config::{Config, ConfigError, ModelConfig, invalid, positive};
 use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, rts_smooth};
-use crate::frames::Frames;
+use crate::frames::{Frames, MountedSensor};
 use crate::measurement::imu::HeldImu;
 use crate::reorder::Sample;
 
@@ -105,8 +105,7 @@ impl LinearModel {
         let sigma_a = positive("model.accel_noise_std", params.accel_noise_std)?;
         let (x0, p0) = super::initial_values::<N, N>(config)?;
         let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
-        for &(kind, id, mount) in frames.mounts() {
-            let name = frames.name(kind, id).unwrap_or_default();
+        for MountedSensor { kind, name, mount, .. } in frames.sensors() {
             if !matches!(kind, SampleKind::Imu | SampleKind::Position | SampleKind::Velocity | SampleKind::Geodetic) {
                 return Err(invalid(
                     "sensor",

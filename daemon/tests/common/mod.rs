@@ -60,3 +60,51 @@ pub fn acceptance_scenario(seed: u64, outlier_probability: f64) -> Scenario {
 }
 
 pub mod live;
+
+/// Numbers as a TOML array's contents (`1e0, -2.5e-1`), exactly.
+pub fn toml_list(v: &[f64]) -> String {
+    v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(", ")
+}
+
+/// The start of an `ins` Monte-Carlo run: the first sample time `t0`, and the
+/// `[filter]` lines of a start state drawn from the prior about the truth at
+/// `t0` (standard deviations `sigma0` of δp, δv, δθ, δb_a, δb_g; biases 0) with
+/// that prior as its covariance. The draw comes from its own stream of `seed`.
+pub fn ins_start_from_prior(scenario: &Scenario, seed: u64, sigma0: [f64; 5]) -> (u64, String) {
+    use nalgebra::{UnitQuaternion, Vector3};
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xfeed);
+    let mut draw = |s: f64| Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut rng)) * s;
+    let t0 = scenario.arrivals.iter().map(|a| a.sample.t_ns()).min().unwrap();
+    let truth0 = scenario.truth_at(t0);
+    let p = truth0.pos_m + draw(sigma0[0]);
+    let v = truth0.vel_mps + draw(sigma0[1]);
+    let q = truth0.attitude * UnitQuaternion::from_scaled_axis(draw(sigma0[2]));
+    let qc = q.quaternion().coords;
+    let x0 = [p.x, p.y, p.z, v.x, v.y, v.z, qc[3], qc[0], qc[1], qc[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let p0: Vec<f64> = sigma0.iter().flat_map(|s| [s * s; 3]).collect();
+    let filter = format!("initial_state = [{}]\ninitial_covariance_diagonal = [{}]\n", toml_list(&x0), toml_list(&p0));
+    (t0, filter)
+}
+
+/// Position-and-velocity error of an `ins` estimate `x` (nominal state) against
+/// the truth, and its NEES under the 15×15 row-major covariance `cov`.
+pub fn pv_error_and_nees(
+    x: &[f64],
+    cov: &[f64],
+    truth: &fusion_client::sim::TruthState,
+) -> (nalgebra::Vector6<f64>, f64) {
+    let err = nalgebra::Vector6::new(
+        x[0] - truth.pos_m.x,
+        x[1] - truth.pos_m.y,
+        x[2] - truth.pos_m.z,
+        x[3] - truth.vel_mps.x,
+        x[4] - truth.vel_mps.y,
+        x[5] - truth.vel_mps.z,
+    );
+    let p6 = nalgebra::Matrix6::from_fn(|r, c| cov[r * 15 + c]);
+    let nees = err.dot(&nalgebra::Cholesky::new(p6).expect("P is positive definite").solve(&err));
+    (err, nees)
+}

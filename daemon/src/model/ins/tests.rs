@@ -221,3 +221,60 @@ fn static_alignment_levels_the_attitude_and_finds_the_gyro_bias() {
     assert!((s.b_g() - b_g).norm() < 1e-15);
     assert_eq!(s.p(), Vector3::zeros(), "held still while aligning");
 }
+
+/// The mean of n IMUs has 1/n of one IMU's white-noise power; the bias random
+/// walks stay as configured.
+#[test]
+fn averaged_imus_scale_the_white_noise_not_the_bias_walks() {
+    let m = InsModel::new(noise(), G, x0(), p0(), None, 0).unwrap();
+    let (one, two) = (m.process_noise(0.01, 1), m.process_noise(0.01, 2));
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-15 * b.abs();
+    assert!(close(two.vv, one.vv / 2.0) && close(two.pv, one.pv / 2.0) && close(two.pp, one.pp / 2.0));
+    assert!(close(two.theta, one.theta / 2.0));
+    assert_eq!((two.ba, two.bg), (one.ba, one.bg));
+    assert_eq!(m.process_noise(0.01, 0).vv, one.vv, "nothing held: one IMU's noise");
+}
+
+/// When the IMUs in use change (failover, or the set in the mean), the bias
+/// variances grow back to their initial values; nothing else in P moves.
+#[test]
+fn when_the_imus_in_use_change_the_bias_variances_grow_back() {
+    use crate::frames::{Axes, Combine, ImuConfig, SensorConfig};
+    let imu = |id| SensorConfig {
+        name: format!("imu-{id}"),
+        id,
+        kinds: vec!["imu".into()],
+        axes: Axes::Flu,
+        rotation_rpy_deg: [0.0; 3],
+        lever_arm_m: [0.0; 3],
+    };
+    let f = Vector3::new(0.0, 0.0, G);
+    for combine in [Combine::Failover, Combine::Average] {
+        let config = ImuConfig { combine, failover_after_ns: 20 };
+        let frames = crate::frames::Frames::from_config(None, &[imu(0), imu(1)], config).unwrap();
+        let m = InsModel::new(noise(), G, x0(), p0(), None, 0).unwrap().with_frames(frames);
+        let mut s = m.initial_state();
+        assert_eq!(m.hold_imu(&mut s, 0, 0, f, Vector3::zeros()), Held::Held);
+        if combine == Combine::Average {
+            assert_eq!(m.hold_imu(&mut s, 1, 0, f, Vector3::zeros()), Held::Held);
+            assert_eq!(m.hold_imu(&mut s, 0, 10, f, Vector3::zeros()), Held::Held);
+        }
+        let mut shrunk = *s.kf.P();
+        for i in 9..15 {
+            shrunk[(i, i)] = 1e-9;
+        }
+        shrunk[(0, 9)] = 1e-6;
+        shrunk[(9, 0)] = 1e-6;
+        s.kf.set_state(SVector::zeros(), shrunk).unwrap();
+        let switch = match combine {
+            Combine::Failover => m.hold_imu(&mut s, 1, 100, f, Vector3::zeros()),
+            Combine::Average => m.hold_imu(&mut s, 0, 20, f, Vector3::zeros()),
+        };
+        assert_eq!(switch, Held::Switched, "{combine:?}");
+        let P = s.kf.P();
+        for i in 9..15 {
+            assert_eq!(P[(i, i)], p0()[i], "{combine:?} {i}");
+        }
+        assert_eq!((P[(0, 0)], P[(0, 9)]), (shrunk[(0, 0)], 1e-6), "{combine:?}");
+    }
+}
