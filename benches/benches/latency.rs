@@ -72,8 +72,16 @@ impl Drop for Rig {
 }
 
 fn start_rig(fusiond: &std::path::Path, namespace: &str, model: &str, mode: Mode) -> anyhow::Result<Rig> {
+    start_rig_with(fusiond, namespace, config_of(model), mode)
+}
+
+/// The throughput rows measure what the daemon can take: without the per-sensor
+/// rate limit, which would drop (cheaply) most of a 100 kHz sensor's samples.
+const UNLIMITED_RATE: &str = "[validation]\nmax_rate_hz = 1.0e9\nmax_burst = 1_000_000\n";
+
+fn start_rig_with(fusiond: &std::path::Path, namespace: &str, config: &str, mode: Mode) -> anyhow::Result<Rig> {
     let dir = std::env::temp_dir();
-    let daemon = start_daemon(fusiond, &dir, config_of(model), namespace, mode)?;
+    let daemon = start_daemon(fusiond, &dir, config, namespace, mode)?;
     let config_path = dir.join(format!("{namespace}.toml"));
     let client = Client::connect(namespace)?;
     let started = Instant::now();
@@ -282,7 +290,8 @@ fn main() -> anyhow::Result<()> {
         drop(rig);
 
         let namespace = format!("fusion-bench-{pid}-{model}-throughput");
-        let rig = start_rig(&fusiond, &namespace, model, Mode::Spin)?;
+        let config = format!("{}{UNLIMITED_RATE}", config_of(model));
+        let rig = start_rig_with(&fusiond, &namespace, &config, Mode::Spin)?;
         let mut best = None;
         for (i, &rate) in rates.iter().enumerate() {
             // Half a second per rate: 50 to 500 thousand samples.

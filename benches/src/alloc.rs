@@ -203,8 +203,9 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
     let mut extra = 0u64;
     std::thread::sleep(Duration::from_millis(100));
 
-    // Sample time starts 10 s in the past, so no timestamp is ever in the future.
-    let t0 = now_ns() - 10_000_000_000;
+    // Sample time starts 1 s in the past and is held back to the clock, so no
+    // timestamp is ever in the future (nor older than `validation.max_past_ns`).
+    let t0 = now_ns() - 1_000_000_000;
     let mut fixes = 0u64;
     let mut before = Vec::new();
     let (mut first_seq, mut last_seq) = (0, 0);
@@ -214,6 +215,9 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
             first_seq = last_seq;
         }
         let t = t0 + k * 1_000_000;
+        while now_ns() < t {
+            std::thread::sleep(Duration::from_micros(200));
+        }
         imu_pub.publish_sample(ImuSample::new(t, 0, k, s.accel_mps2, [0.0; 3]))?;
         last_seq = await_snapshot(&mut reader, SampleKind::Imu as u32, k)?;
         if s.vehicle {

@@ -11,6 +11,7 @@ use std::path::Path;
 
 use fusion_shared::SampleKind;
 use fusion_shared::geodesy::Datum;
+use fusion_shared::snapshot::MAX_SENSORS;
 use serde::Deserialize;
 
 use crate::filter::ChiSquareGate;
@@ -59,10 +60,21 @@ nis_window = 20
 nis_probability = 0.999
 
 [validation]
-# Live samples stamped more than this far ahead of the daemon's clock are rejected.
+# Live samples stamped more than this far ahead of, or behind, the daemon's
+# clock (CLOCK_MONOTONIC) are rejected: an unset or foreign sensor clock.
 max_future_ns = 50_000_000
-# Distinct sensor ids per kind ({kinds}) the daemon tracks.
+max_past_ns = 5_000_000_000
+# Replay has no clock: a sample more than this far ahead of every sample before
+# it is refused (unless 100 such samples in a row show a real gap).
+max_jump_ns = 600_000_000_000
+# Distinct sensor ids per kind ({kinds}) the daemon tracks; at most 16 sensors
+# in all (the rows of a snapshot). Further ids are refused and counted.
 max_sensors = 8
+# Per sensor: samples beyond this rate (measured on their timestamps, with
+# bursts of up to max_burst) are dropped and counted, so that a flooding
+# sensor cannot crowd out the others.
+max_rate_hz = 10_000.0
+max_burst = 100
 # IMU samples beyond the sensor's range are rejected: |accel| (m/s^2), |gyro| (rad/s).
 accel_range_mps2 = 160.0     # 16 g
 gyro_range_radps = 35.0      # 2000 deg/s
@@ -253,8 +265,17 @@ impl Default for FilterConfig {
 pub struct ValidationConfig {
     /// Largest accepted lead of a sample timestamp over the daemon's clock, ns.
     pub max_future_ns: u64,
-    /// Distinct sensor ids tracked per kind.
+    /// Largest accepted lag of a sample timestamp behind the daemon's clock, ns.
+    pub max_past_ns: u64,
+    /// Replay: largest accepted lead of a sample timestamp over the newest one
+    /// processed, ns.
+    pub max_jump_ns: u64,
+    /// Distinct sensor ids tracked per kind (at most [`MAX_SENSORS`] in all).
     pub max_sensors: usize,
+    /// Largest sustained sample rate of one sensor, Hz (on sample timestamps).
+    pub max_rate_hz: f64,
+    /// Samples one sensor may send at once beyond `max_rate_hz`.
+    pub max_burst: u32,
     /// Largest accepted magnitude of an IMU's acceleration or specific force, m/s².
     pub accel_range_mps2: f64,
     /// Largest accepted magnitude of an IMU's angular rate, rad/s.
@@ -263,7 +284,16 @@ pub struct ValidationConfig {
 
 impl Default for ValidationConfig {
     fn default() -> Self {
-        Self { max_future_ns: 50_000_000, max_sensors: 8, accel_range_mps2: 160.0, gyro_range_radps: 35.0 }
+        Self {
+            max_future_ns: 50_000_000,
+            max_past_ns: 5_000_000_000,
+            max_jump_ns: 600_000_000_000,
+            max_sensors: 8,
+            max_rate_hz: 10_000.0,
+            max_burst: 100,
+            accel_range_mps2: 160.0,
+            gyro_range_radps: 35.0,
+        }
     }
 }
 
@@ -399,8 +429,18 @@ impl Config {
         let v = &raw.validation;
         positive("validation.accel_range_mps2", v.accel_range_mps2)?;
         positive("validation.gyro_range_radps", v.gyro_range_radps)?;
-        if !(1..=256).contains(&v.max_sensors) {
-            return Err(invalid("validation.max_sensors", format!("must be in 1..=256, got {}", v.max_sensors)));
+        positive("validation.max_rate_hz", v.max_rate_hz)?;
+        if !(1..=MAX_SENSORS).contains(&v.max_sensors) {
+            return Err(invalid(
+                "validation.max_sensors",
+                format!("must be in 1..={MAX_SENSORS} (the sensor rows of a snapshot), got {}", v.max_sensors),
+            ));
+        }
+        if v.max_burst == 0 {
+            return Err(invalid("validation.max_burst", "must be at least 1"));
+        }
+        if v.max_past_ns == 0 {
+            return Err(invalid("validation.max_past_ns", "must be > 0"));
         }
         let datum = match raw.datum {
             None => None,
@@ -497,6 +537,10 @@ mod tests {
         assert!(err(&format!("{MIN}[gating]\nprobability = 1.5\n")).contains("gating.probability"));
         assert!(err(&format!("{MIN}history_ns = 0\n")).contains("filter.history_ns"));
         assert!(err(&format!("{MIN}[validation]\nmax_sensors = 0\n")).contains("validation.max_sensors"));
+        // More sensors than a snapshot has rows for would be tracked but not shown.
+        assert!(err(&format!("{MIN}[validation]\nmax_sensors = 17\n")).contains("rows of a snapshot"));
+        assert!(err(&format!("{MIN}[validation]\nmax_rate_hz = 0.0\n")).contains("validation.max_rate_hz"));
+        assert!(err(&format!("{MIN}[validation]\nmax_burst = 0\n")).contains("validation.max_burst"));
         assert!(err(&format!("{MIN}[health]\nnis_window = 0\n")).contains("health.nis_window"));
         assert!(err(&format!("{MIN}[health]\nimu_timeout = 5\n")).contains("health.imu_timeout"));
         assert!(err(&format!("{MIN}[health]\nlidar_timeout_ns = 5\n")).contains("velocity_timeout_ns"));

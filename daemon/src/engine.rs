@@ -12,6 +12,7 @@
 //! stream. All buffers are allocated at construction; nothing allocates per sample.
 
 use fusion_shared::SampleKind;
+use fusion_shared::snapshot::MAX_SENSORS;
 
 mod history;
 mod stats;
@@ -34,8 +35,35 @@ pub struct EngineConfig {
     pub max_sensors: usize,
     /// Largest accepted lead of a timestamp over `now` (when `now` is given).
     pub max_future_ns: u64,
+    /// Largest accepted lag of a timestamp behind `now` (when `now` is given).
+    pub max_past_ns: u64,
+    /// Without `now` (replay): largest accepted lead of a timestamp over the
+    /// newest processed one (see [`JUMP_CONFIRMATION`]).
+    pub max_jump_ns: u64,
+    /// Largest sustained rate of one sensor, Hz, on sample timestamps.
+    pub max_rate_hz: f64,
+    /// Samples one sensor may send at once beyond `max_rate_hz`.
+    pub max_burst: u32,
     /// Value limits of the payload checks.
     pub limits: Limits,
+}
+
+impl Default for EngineConfig {
+    /// The limits of the default config.
+    fn default() -> Self {
+        let (filter, validation) = (crate::config::FilterConfig::default(), crate::config::ValidationConfig::default());
+        Self {
+            history_ns: filter.history_ns,
+            history_capacity: filter.history_capacity,
+            max_sensors: validation.max_sensors,
+            max_future_ns: validation.max_future_ns,
+            max_past_ns: validation.max_past_ns,
+            max_jump_ns: validation.max_jump_ns,
+            max_rate_hz: validation.max_rate_hz,
+            max_burst: validation.max_burst,
+            limits: validation.limits(),
+        }
+    }
 }
 
 impl EngineConfig {
@@ -46,6 +74,10 @@ impl EngineConfig {
             history_capacity: c.filter.history_capacity,
             max_sensors: c.validation.max_sensors,
             max_future_ns: c.validation.max_future_ns,
+            max_past_ns: c.validation.max_past_ns,
+            max_jump_ns: c.validation.max_jump_ns,
+            max_rate_hz: c.validation.max_rate_hz,
+            max_burst: c.validation.max_burst,
             limits: c.validation.limits(),
         }
     }
@@ -67,6 +99,8 @@ pub enum Insert {
     Duplicate,
     /// Older than the history can restore.
     TooLate,
+    /// The sensor sends faster than `max_rate_hz` allows: dropped.
+    RateLimited,
 }
 
 /// One sensor's identity, counters and duplicate window.
@@ -86,6 +120,49 @@ pub struct SensorSlot {
     pub last_arrival_ns: Option<u64>,
     highest_seq: Option<u64>,
     seen: SeqWindow,
+    /// Token bucket of the rate limit: tokens left, and the timestamp they were
+    /// counted at.
+    tokens: f64,
+    tokens_t_ns: Option<u64>,
+}
+
+impl SensorSlot {
+    /// Whether the sensor's sequence started again with `key`: a sequence number
+    /// at or below the highest seen, on a sample newer than any seen. A duplicate
+    /// or a late sample is never newer; a restarted driver counts from 0 again
+    /// while its clock goes on.
+    fn restarted(&self, key: &SampleKey) -> bool {
+        self.highest_seq.is_some_and(|h| key.seq <= h) && self.last_t_ns.is_some_and(|t| key.t_ns > t)
+    }
+
+    /// Counts the gap a newly arrived sequence number opens (or fills: a number
+    /// below the highest takes one back).
+    fn track_seq(&mut self, seq: u64) {
+        match self.highest_seq {
+            Some(h) if seq > h => {
+                self.stats.lost = self.stats.lost.saturating_add(seq - h - 1);
+                self.highest_seq = Some(seq);
+            }
+            Some(_) => self.stats.lost = self.stats.lost.saturating_sub(1),
+            None => self.highest_seq = Some(seq),
+        }
+    }
+
+    /// Takes a token of the rate limit for a sample stamped `t_ns`; false when
+    /// none is left. Tokens accrue at `rate_hz` on the sample timestamps (a late
+    /// sample adds none) up to `burst`: deterministic, so replay decides as live did.
+    fn take_token(&mut self, t_ns: u64, rate_hz: f64, burst: u32) -> bool {
+        let burst = f64::from(burst);
+        let accrued = self.tokens_t_ns.map_or(burst, |t0| t_ns.saturating_sub(t0) as f64 * rate_hz / 1e9);
+        self.tokens = (self.tokens + accrued).min(burst);
+        self.tokens_t_ns = Some(self.tokens_t_ns.map_or(t_ns, |t0| t0.max(t_ns)));
+        if self.tokens >= 1.0 {
+            self.tokens -= 1.0;
+            true
+        } else {
+            false
+        }
+    }
 }
 
 /// A processed sample and the filter state after it.
@@ -111,9 +188,16 @@ pub struct Engine<M: Model> {
     /// has left the history (then it is that entry's, [`History::base`]).
     initial: M::State,
     newest_t: Option<u64>,
+    /// Samples refused in a row as a time jump (see [`JUMP_CONFIRMATION`]).
+    jumps_in_a_row: u32,
     sensors: Vec<SensorSlot>,
     stats: EngineStats,
 }
+
+/// Without a clock, this many samples in a row ahead of the newest processed
+/// time by more than `max_jump_ns` are refused; the next one is taken as a real
+/// gap in the recording, and time moves on.
+pub const JUMP_CONFIRMATION: u32 = 100;
 
 impl<M: Model> Engine<M> {
     /// An engine running `model` within `config`'s limits.
@@ -136,7 +220,8 @@ impl<M: Model> Engine<M> {
             history,
             initial,
             newest_t: None,
-            sensors: Vec::with_capacity(SampleKind::COUNT * config.max_sensors),
+            jumps_in_a_row: 0,
+            sensors: Vec::with_capacity(MAX_SENSORS),
             stats: EngineStats::default(),
         }
     }
@@ -185,6 +270,42 @@ impl<M: Model> Engine<M> {
         on_final: &mut impl FnMut(&Entry<M::State>),
     ) -> Insert {
         let key = key_of(sample);
+        // Validation comes before anything a sample can change: an invalid sample
+        // takes no sensor row and moves no sequence tracking.
+        let valid = crate::measurement::validate(sample, &self.config.limits).and_then(|()| match now_ns {
+            Some(now) if key.t_ns > now.saturating_add(self.config.max_future_ns) => Err(Rejection::FutureTimestamp),
+            Some(now) if key.t_ns < now.saturating_sub(self.config.max_past_ns) => Err(Rejection::PastTimestamp),
+            Some(_) => Ok(()),
+            // Without a clock (replay), a sample far ahead of everything processed
+            // is refused, or it would make every later sample too late. Only a
+            // run of such samples moves time on (a real gap in a recording).
+            None => match self.newest_t {
+                Some(newest) if key.t_ns > newest.saturating_add(self.config.max_jump_ns) => {
+                    self.jumps_in_a_row += 1;
+                    if self.jumps_in_a_row > JUMP_CONFIRMATION { Ok(()) } else { Err(Rejection::TimeJump) }
+                }
+                _ => Ok(()),
+            },
+        });
+        if valid.is_ok() {
+            self.jumps_in_a_row = 0;
+        }
+        if let Err(r) = valid {
+            match self.slot_of(key.kind, key.sensor) {
+                Some(slot) => {
+                    let sensor = &mut self.sensors[slot];
+                    sensor.stats.received += 1;
+                    sensor.stats.invalid += 1;
+                    // It arrived, so its sequence number is no gap; but only a
+                    // number just after the highest seen is trusted from it.
+                    if sensor.highest_seq.is_some_and(|h| key.seq > h && key.seq - h <= SeqWindow::SPAN) {
+                        sensor.track_seq(key.seq);
+                    }
+                }
+                None => self.stats.unknown_sensor += 1,
+            }
+            return Insert::Rejected(r);
+        }
         let Some(slot) = self.slot(key.kind, key.sensor) else {
             self.stats.unknown_sensor += 1;
             return Insert::Rejected(Rejection::TooManySensors);
@@ -194,13 +315,19 @@ impl<M: Model> Engine<M> {
         if now_ns.is_some() {
             sensor.last_arrival_ns = now_ns;
         }
+        if sensor.restarted(&key) {
+            sensor.stats.restarts += 1;
+            sensor.seen = SeqWindow::default();
+            sensor.highest_seq = None;
+        }
+        // A sample no newer than the sensor's newest, with a sequence number
+        // older than the window or from before a restart, is a duplicate only if
+        // that very sample (same time and sequence number) is in the history.
+        let older = self.sensors[slot].last_t_ns.is_some_and(|t| key.t_ns <= t);
         let seen = match self.sensors[slot].seen.seen(key.seq) {
             Seen::Yes => true,
-            Seen::No => false,
-            Seen::Unknown => self
-                .history
-                .iter()
-                .any(|e| e.key.kind == key.kind && e.key.sensor == key.sensor && e.key.seq == key.seq),
+            Seen::No if !older => false,
+            Seen::No | Seen::Unknown => self.history.iter().any(|e| e.key == key),
         };
         if seen {
             self.sensors[slot].stats.duplicate += 1;
@@ -208,23 +335,11 @@ impl<M: Model> Engine<M> {
         }
 
         let sensor = &mut self.sensors[slot];
-        match sensor.highest_seq {
-            Some(h) if key.seq > h => {
-                sensor.stats.lost += key.seq - h - 1;
-                sensor.highest_seq = Some(key.seq);
-            }
-            Some(_) => sensor.stats.lost = sensor.stats.lost.saturating_sub(1),
-            None => sensor.highest_seq = Some(key.seq),
-        }
-        let stats = &mut sensor.stats;
-
-        let valid = crate::measurement::validate(sample, &self.config.limits).and_then(|()| match now_ns {
-            Some(now) if key.t_ns > now.saturating_add(self.config.max_future_ns) => Err(Rejection::FutureTimestamp),
-            _ => Ok(()),
-        });
-        if let Err(r) = valid {
-            stats.invalid += 1;
-            return Insert::Rejected(r);
+        sensor.track_seq(key.seq);
+        if !sensor.take_token(key.t_ns, self.config.max_rate_hz, self.config.max_burst) {
+            sensor.seen.mark(key.seq);
+            sensor.stats.rate_limited += 1;
+            return Insert::RateLimited;
         }
 
         let placement = place(
@@ -345,10 +460,10 @@ impl<M: Model> Engine<M> {
             return Some(i);
         }
         let of_kind = self.sensors.iter().filter(|s| s.kind == kind).count();
-        if of_kind >= self.config.max_sensors {
+        if of_kind >= self.config.max_sensors || self.sensors.len() >= MAX_SENSORS {
             return None;
         }
-        // Within the capacity reserved in `new` (kinds × max_sensors): no reallocation.
+        // Within the capacity reserved in `new`: no reallocation.
         self.sensors.push(SensorSlot {
             kind,
             sensor,
@@ -358,6 +473,8 @@ impl<M: Model> Engine<M> {
             last_arrival_ns: None,
             highest_seq: None,
             seen: SeqWindow::default(),
+            tokens: 0.0,
+            tokens_t_ns: None,
         });
         Some(self.sensors.len() - 1)
     }

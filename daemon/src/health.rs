@@ -203,7 +203,7 @@ mod tests {
                 history_capacity: 64,
                 max_sensors: 4,
                 max_future_ns: u64::MAX,
-                limits: crate::validate::Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 },
+                ..EngineConfig::default()
             },
         )
     }

@@ -12,6 +12,7 @@ use std::time::Duration;
 use fusion_shared::service::{self, InvalidNamespace, ServiceNames};
 use fusion_shared::transport::Ipc;
 use fusion_shared::{KindVisitor, Sample, SampleKind, StateSnapshot, WireSample};
+use iceoryx2::port::ReceiveError;
 use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::{Publisher, PublisherCreateError};
@@ -115,9 +116,20 @@ pub fn run(config: &Config, options: &RunOptions, shutdown: &AtomicBool) -> Resu
 }
 
 /// One sample subscriber and the sample it holds back for the merge.
+///
+/// Fair draining: iceoryx2's `receive` always serves the first publisher that
+/// has data, so a publisher that sends without pause would starve the ones that
+/// connected after it. The port therefore keeps every sample it took in a turn
+/// (up to [`service::MAX_BORROWED_PER_PUBLISHER`] per publisher, the limit set on
+/// the service), and `receive` passes over a publisher at that limit to the
+/// next: in each turn every publisher gets the same share. The samples are given
+/// back at the end of the turn.
 struct KindPort<T: WireSample> {
     subscriber: Subscriber<Ipc, T, ()>,
     service: publish_subscribe::PortFactory<Ipc, T, ()>,
+    /// Samples taken this turn, still borrowed (capacity for every publisher's
+    /// share: pushing never allocates).
+    held: Vec<iceoryx2::sample::Sample<Ipc, T, ()>>,
     pending: Option<T>,
     /// A publisher is connected or samples are waiting (as of the last
     /// [`Port::refresh`]). An empty poll costs about 65 ns, and each one more in a
@@ -135,14 +147,24 @@ trait Port {
     fn take(&mut self) -> Option<Sample>;
     /// Housekeeping: whether this kind has a publisher or waiting samples.
     fn refresh(&mut self);
+    /// Gives back the samples taken this turn.
+    fn release(&mut self);
 }
 
 impl<T: WireSample> Port for KindPort<T> {
     fn poll(&mut self, errors: &mut u64) -> Option<(u64, u8)> {
         if self.pending.is_none() && self.active {
             match self.subscriber.receive() {
-                // Copied out: the shared-memory slot is released at once.
-                Ok(sample) => self.pending = sample.map(|s| *s),
+                // Copied out, and held until the end of the turn (fair draining).
+                Ok(Some(sample)) => {
+                    self.pending = Some(*sample);
+                    if self.held.len() < self.held.capacity() {
+                        self.held.push(sample);
+                    }
+                }
+                Ok(None) => {}
+                // Every publisher with data has given its share of this turn.
+                Err(ReceiveError::ExceedsMaxBorrows) => {}
                 Err(e) => {
                     if *errors == 0 {
                         tracing::warn!("{} receive: {e:?} (further failures are only counted)", T::KIND.name());
@@ -161,6 +183,10 @@ impl<T: WireSample> Port for KindPort<T> {
     fn refresh(&mut self) {
         self.active =
             self.service.dynamic_config().number_of_publishers() > 0 || self.subscriber.has_samples().unwrap_or(true);
+    }
+
+    fn release(&mut self) {
+        self.held.clear();
     }
 }
 
@@ -196,7 +222,9 @@ impl IpcSource {
                 });
                 match port {
                     Ok((service, subscriber)) => {
-                        let mut port = KindPort::<T> { subscriber, service, pending: None, active: true };
+                        let held =
+                            Vec::with_capacity(service::MAX_SAMPLE_PUBLISHERS * service::MAX_BORROWED_PER_PUBLISHER);
+                        let mut port = KindPort::<T> { subscriber, service, held, pending: None, active: true };
                         port.refresh();
                         self.ports.push(Box::new(port));
                     }
@@ -239,6 +267,10 @@ impl SampleSource for IpcSource {
 
     fn refresh(&mut self) {
         self.ports.iter_mut().for_each(|p| p.refresh());
+    }
+
+    fn end_turn(&mut self) {
+        self.ports.iter_mut().for_each(|p| p.release());
     }
 
     fn wait(&mut self, timeout: Duration) {

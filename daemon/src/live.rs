@@ -57,6 +57,8 @@ pub trait SampleSource {
     fn wait(&mut self, timeout: Duration);
     /// Housekeeping (every [`HOUSEKEEPING_NS`]): look for new or gone senders.
     fn refresh(&mut self) {}
+    /// The end of a turn: give back what the turn held of the senders' buffers.
+    fn end_turn(&mut self) {}
 }
 
 /// Where snapshots go.
@@ -191,6 +193,7 @@ impl<M: Model> LiveCore<M> {
             self.published_health = self.health_now;
             sink.flush();
         }
+        source.end_turn();
         taken
     }
 

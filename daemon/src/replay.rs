@@ -68,8 +68,19 @@ impl std::fmt::Display for ReplaySummary {
         let c = &self.counts;
         writeln!(
             f,
-            "read {} lines: processed {}, fused {}, gated {}, refused {}, fused late {}, dropped too late {}, duplicates {}, invalid {}",
-            self.read, c.processed, c.fused, c.gated, c.refused, c.late, c.too_late, c.duplicate, c.invalid
+            "read {} lines: processed {}, fused {}, gated {}, refused {}, fused late {}, dropped too late {}, duplicates {}, \
+             invalid {}, rate-limited {}, sensor restarts {}",
+            self.read,
+            c.processed,
+            c.fused,
+            c.gated,
+            c.refused,
+            c.late,
+            c.too_late,
+            c.duplicate,
+            c.invalid,
+            c.rate_limited,
+            c.restarts
         )?;
         for (line, reason) in &self.invalid_lines {
             writeln!(f, "  line {line}: {reason}")?;
@@ -212,14 +223,21 @@ fn replay_model<M: Model>(
             summary.invalid_lines.push((line_no, reason));
         }
     };
-    for (i, line) in input.lines().enumerate() {
+    // Lines are read as bytes: a line that is not UTF-8 is one bad line, not
+    // the end of the run.
+    for (i, line) in input.split(b'\n').enumerate() {
         let line = line?;
         let line_no = i as u64 + 1;
-        if line.trim().is_empty() {
+        if line.trim_ascii().is_empty() {
             continue;
         }
         summary.read += 1;
-        let sample = match parse_line(&line) {
+        let Ok(line) = std::str::from_utf8(&line) else {
+            unreadable += 1;
+            invalid(&mut summary, line_no, "not UTF-8 text".to_string());
+            continue;
+        };
+        let sample = match parse_line(line) {
             Ok(s) => s,
             Err(reason) => {
                 unreadable += 1;

@@ -78,7 +78,7 @@ pub fn format(s: &Summary) -> String {
         None => "-".to_string(),
     };
     format!(
-        "{}: fused {}, gated {}, late {}, too late {}, duplicate {}, invalid {}, lost {}; \
+        "{}: fused {}, gated {}, late {}, too late {}, duplicate {}, invalid {}, lost {}, rate-limited {}, restarts {}; \
          {} snapshots; publish latency p50/p99/max {}; health {}{}",
         rates.join(", "),
         total.fused,
@@ -88,6 +88,8 @@ pub fn format(s: &Summary) -> String {
         total.duplicate,
         total.invalid,
         total.lost,
+        total.rate_limited,
+        total.restarts,
         s.snapshots,
         latency,
         health::name(s.health.0),

@@ -16,7 +16,14 @@ pub enum Rejection {
     CovarianceNotPositiveDefinite,
     /// The timestamp lies further in the future than `validation.max_future_ns`.
     FutureTimestamp,
-    /// More distinct sensor ids of this kind than `validation.max_sensors`.
+    /// The timestamp lies further in the past than `validation.max_past_ns`
+    /// (an unset or foreign clock).
+    PastTimestamp,
+    /// Without a clock (replay): the timestamp jumps further ahead of everything
+    /// processed than `validation.max_jump_ns`.
+    TimeJump,
+    /// More distinct sensor ids of this kind than `validation.max_sensors`, or
+    /// more sensors in all than a snapshot has rows for.
     TooManySensors,
     /// A value beyond what the sensor can report: an IMU value beyond its range
     /// (`validation.accel_range_mps2`, `validation.gyro_range_radps`), a latitude
@@ -37,6 +44,8 @@ impl Rejection {
             Rejection::CovarianceNotSymmetric => "covariance not symmetric",
             Rejection::CovarianceNotPositiveDefinite => "covariance not positive definite",
             Rejection::FutureTimestamp => "timestamp in the future",
+            Rejection::PastTimestamp => "timestamp too far in the past",
+            Rejection::TimeJump => "timestamp jumps too far ahead of the others",
             Rejection::TooManySensors => "too many sensors",
             Rejection::OutOfRange => "beyond the sensor range",
             Rejection::VarianceNotPositive => "variance not positive",

@@ -17,7 +17,7 @@ fn engine() -> Engine<LinearModel> {
             history_capacity: 1024,
             max_sensors: 4,
             max_future_ns: 0,
-            limits: fusion_daemon::validate::Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 },
+            ..EngineConfig::default()
         },
     )
 }

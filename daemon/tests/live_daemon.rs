@@ -160,7 +160,14 @@ fn bad_samples_are_rejected_counted_and_change_nothing() {
     let last = last.unwrap();
     assert_same_estimate(&last, lines.last().unwrap(), "final state with bad samples");
     let c = last.sensor_counters();
-    assert_eq!((c[0].counts.invalid, c[1].counts.invalid), bad_count, "{c:?}");
+    // The position sensor's first sample is a bad one: an invalid sample takes no
+    // sensor row, so it is counted against no sensor.
+    assert_eq!((c[0].counts.invalid, c[1].counts.invalid + 1), bad_count, "{c:?}");
+    assert_eq!(last.unknown_sensor, 1);
+    for row in c {
+        let n = row.counts;
+        assert_eq!(n.received, n.processed + n.invalid + n.duplicate + n.too_late + n.rate_limited, "{n:?}");
+    }
     assert_eq!((c[0].counts.lost, c[1].counts.lost), (0, 0), "a rejected sample arrived: it is not lost");
     assert!(daemon.terminate().success());
 }

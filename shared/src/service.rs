@@ -33,6 +33,10 @@ pub const MAX_NAMESPACE_LEN: usize = 64;
 pub const SAMPLE_BUFFER: usize = 4096;
 /// Most publishers per sample service (sensors, simulators, replays).
 pub const MAX_SAMPLE_PUBLISHERS: usize = 16;
+/// Samples a subscriber may hold of one publisher at once. The daemon holds what
+/// it took of each publisher in a turn, up to this many, so that `receive` moves
+/// on to the next publisher: every publisher gets its share of each turn.
+pub const MAX_BORROWED_PER_PUBLISHER: usize = 8;
 /// Most subscribers per sample service (the daemon, recorders).
 pub const MAX_SAMPLE_SUBSCRIBERS: usize = 4;
 /// Largest buffer a state reader may ask for: 0.5 s of snapshots at 1 kHz.
@@ -210,6 +214,7 @@ fn samples<T: std::fmt::Debug + ZeroCopySend>(
         .publish_subscribe::<T>()
         .enable_safe_overflow(true)
         .subscriber_max_buffer_size(SAMPLE_BUFFER)
+        .subscriber_max_borrowed_samples(MAX_BORROWED_PER_PUBLISHER)
         .history_size(0)
         .max_publishers(MAX_SAMPLE_PUBLISHERS)
         .max_subscribers(MAX_SAMPLE_SUBSCRIBERS)

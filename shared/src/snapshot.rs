@@ -106,7 +106,7 @@ pub mod outcome {
 /// `fused`, `gated` and `refused` describe the current estimates: a rewind that
 /// changes a decision moves the count.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ZeroCopySend)]
-#[type_name("fusion.Counters.v2")]
+#[type_name("fusion.Counters.v3")]
 #[repr(C)]
 pub struct Counters {
     /// Samples that arrived.
@@ -130,11 +130,17 @@ pub struct Counters {
     /// Samples that never arrived: gaps in the sequence numbers (a subscriber
     /// buffer overflow, or the sensor skipped them). A gap filled later is taken back.
     pub lost: u64,
+    /// Samples dropped because the sensor sent faster than `validation.max_rate_hz`
+    /// (measured on the sample timestamps).
+    pub rate_limited: u64,
+    /// Times the sensor's sequence started again (a restarted driver): a sequence
+    /// number at or below one seen, on a sample newer than any seen.
+    pub restarts: u64,
 }
 
 impl Counters {
     /// The counters as an array, in field order (for element-wise arithmetic).
-    const fn to_array(self) -> [u64; 10] {
+    const fn to_array(self) -> [u64; 12] {
         [
             self.received,
             self.processed,
@@ -146,10 +152,12 @@ impl Counters {
             self.duplicate,
             self.invalid,
             self.lost,
+            self.rate_limited,
+            self.restarts,
         ]
     }
 
-    const fn from_array(a: [u64; 10]) -> Self {
+    const fn from_array(a: [u64; 12]) -> Self {
         Self {
             received: a[0],
             processed: a[1],
@@ -161,6 +169,8 @@ impl Counters {
             duplicate: a[7],
             invalid: a[8],
             lost: a[9],
+            rate_limited: a[10],
+            restarts: a[11],
         }
     }
 
@@ -183,7 +193,7 @@ impl Counters {
 
 /// Counters of one sensor, as in the engine.
 #[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
-#[type_name("fusion.SensorCounters.v2")]
+#[type_name("fusion.SensorCounters.v3")]
 #[repr(C)]
 pub struct SensorCounters {
     /// [`SampleKind`] code.
@@ -209,7 +219,7 @@ impl SensorCounters {
 
 /// The fusion state after one processed sample.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("fusion.StateSnapshot.v4")]
+#[type_name("fusion.StateSnapshot.v5")]
 #[repr(C)]
 pub struct StateSnapshot {
     /// Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
@@ -269,7 +279,9 @@ pub struct StateSnapshot {
     pub rewinds: u64,
     /// Samples re-processed by rewinds since start.
     pub replayed: u64,
-    /// Samples of sensors beyond the sensor table, rejected.
+    /// Samples counted against no sensor row: the sensor table was full, or the
+    /// sample was invalid and came from a sensor not seen before (an invalid
+    /// sample never takes a row).
     pub unknown_sensor: u64,
 
     /// The datum of the world frame (ENU about it): latitude, degrees (WGS-84).
@@ -389,11 +401,11 @@ impl StateSnapshot {
 }
 
 const _: () = {
-    assert!(core::mem::size_of::<Counters>() == 80);
-    assert!(core::mem::size_of::<SensorCounters>() == 112);
+    assert!(core::mem::size_of::<Counters>() == 96);
+    assert!(core::mem::size_of::<SensorCounters>() == 128);
     assert!(core::mem::align_of::<StateSnapshot>() == 8);
     assert!(
         core::mem::size_of::<StateSnapshot>()
-            == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 112 * MAX_SENSORS + 24 + 32
+            == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 128 * MAX_SENSORS + 24 + 32
     );
 };

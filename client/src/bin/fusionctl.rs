@@ -62,6 +62,7 @@ fn to_json(s: &StateSnapshot) -> serde_json::Value {
                 "processed": c.counts.processed, "fused": c.counts.fused, "gated": c.counts.gated,
                 "refused": c.counts.refused, "late": c.counts.late, "too_late": c.counts.too_late,
                 "duplicate": c.counts.duplicate, "invalid": c.counts.invalid, "lost": c.counts.lost,
+                "rate_limited": c.counts.rate_limited, "restarts": c.counts.restarts,
                 "last_nis": finite(c.last_nis),
             })
         })
@@ -202,12 +203,23 @@ fn describe(s: &StateSnapshot) -> String {
         );
     }
     o += &format!(
-        "\n  {:<12} {:>9} {:>9} {:>7} {:>6} {:>8} {:>9} {:>7} {:>6} {:>9}\n",
-        "sensor", "received", "fused", "gated", "late", "too late", "duplicate", "invalid", "lost", "last NIS"
+        "\n  {:<12} {:>9} {:>9} {:>7} {:>6} {:>8} {:>9} {:>7} {:>6} {:>12} {:>8} {:>9}\n",
+        "sensor",
+        "received",
+        "fused",
+        "gated",
+        "late",
+        "too late",
+        "duplicate",
+        "invalid",
+        "lost",
+        "rate limited",
+        "restarts",
+        "last NIS"
     );
     for c in s.sensor_counters() {
         o += &format!(
-            "  {:<12} {:>9} {:>9} {:>7} {:>6} {:>8} {:>9} {:>7} {:>6} {:>9}\n",
+            "  {:<12} {:>9} {:>9} {:>7} {:>6} {:>8} {:>9} {:>7} {:>6} {:>12} {:>8} {:>9}\n",
             format!("{} {}", kind_name(c.kind), c.sensor),
             c.counts.received,
             c.counts.fused,
@@ -217,6 +229,8 @@ fn describe(s: &StateSnapshot) -> String {
             c.counts.duplicate,
             c.counts.invalid,
             c.counts.lost,
+            c.counts.rate_limited,
+            c.counts.restarts,
             finite(c.last_nis).map_or("-".into(), |v| format!("{v:.2}")),
         );
     }

@@ -7,7 +7,8 @@ pub type SensorStats = fusion_shared::Counters;
 /// Counters of the engine as a whole.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct EngineStats {
-    /// Samples rejected before a sensor slot could be found (table full).
+    /// Samples counted against no sensor slot: the table was full, or the sample
+    /// was invalid and from a sensor without a slot (it takes none).
     pub unknown_sensor: u64,
     /// Late insertions (rewinds).
     pub rewinds: u64,

@@ -11,7 +11,7 @@ fn cfg() -> EngineConfig {
         history_capacity: 4096,
         max_sensors: 4,
         max_future_ns: 50_000_000,
-        limits: Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 },
+        ..EngineConfig::default()
     }
 }
 
@@ -248,4 +248,159 @@ fn capacity_bounds_the_history() {
     // Older than everything retained, and the initial state is gone: too late.
     assert_eq!(e.insert(&pos(50, 0, 0.0), None, &mut sink), Insert::TooLate);
     assert_eq!(finals, 84);
+}
+
+/// The latest state's mean and covariance, for bit-for-bit comparisons.
+fn latest(e: &Engine<LinearModel>) -> (Vec<f64>, Vec<f64>) {
+    let s = &e.latest().unwrap().state;
+    (LinearModel::x(s).to_vec(), LinearModel::covariance(s).to_vec())
+}
+
+/// Every sample of every row is accounted for once.
+fn assert_accounted(e: &Engine<LinearModel>) {
+    for s in e.sensors() {
+        let n = s.stats;
+        assert_eq!(n.received, n.processed + n.invalid + n.duplicate + n.too_late + n.rate_limited, "{n:?}");
+    }
+}
+
+#[test]
+fn a_restarted_sensor_is_fused_after_its_restart() {
+    // The same stream, once with the IMU's sequence running on, once with the
+    // IMU restarting (sequence from 0 again) at 1 s and the fixes' at 1.2 s.
+    let steady = stream();
+    let restarted: Vec<Sample> = steady
+        .iter()
+        .map(|s| {
+            let mut s = *s;
+            let kind = s.kind();
+            let h = s.header_mut();
+            match kind {
+                fusion_shared::SampleKind::Imu if h.t_ns >= 1_000_000_000 => h.seq -= 200,
+                fusion_shared::SampleKind::Position if h.t_ns >= 1_200_000_000 => h.seq -= 12,
+                _ => {}
+            }
+            s
+        })
+        .collect();
+    let (mut a, mut b) = (engine(None), engine(None));
+    let now = Some(2_000_000_000);
+    for (x, y) in steady.iter().zip(&restarted) {
+        a.insert(x, now, &mut |_| {});
+        b.insert(y, now, &mut |_| {});
+    }
+    assert_eq!(latest(&a), latest(&b), "the restart changes nothing");
+    let (imu, fix) = (b.sensors()[0].stats, b.sensors()[1].stats);
+    assert_eq!((imu.restarts, fix.restarts), (1, 1));
+    assert_eq!((imu.processed, imu.duplicate, imu.lost), (400, 0, 0));
+    assert_eq!((fix.processed, fix.duplicate, fix.lost), (20, 0, 0));
+    // A true duplicate after the restart is still one.
+    assert_eq!(b.insert(&restarted[restarted.len() - 1], now, &mut |_| {}), Insert::Duplicate);
+    assert_accounted(&b);
+}
+
+#[test]
+fn invalid_samples_take_no_sensor_row_and_move_no_sequence() {
+    let mut e = engine(None);
+    let nan = |sensor: u32, seq: u64| {
+        let mut s = imu(1, seq);
+        if let Sample::Imu(x) = &mut s {
+            x.header.sensor = sensor;
+            x.accel_mps2[0] = f64::NAN;
+        }
+        s
+    };
+    for id in 1..=20 {
+        assert_eq!(e.insert(&nan(id, id as u64), None, &mut |_| {}), Insert::Rejected(Rejection::NonFinite));
+    }
+    assert_eq!((e.sensors().len(), e.stats().unknown_sensor), (0, 20));
+    for k in 0..10 {
+        assert!(matches!(e.insert(&imu(k, k), None, &mut |_| {}), Insert::Processed { .. }));
+    }
+    // A bad sample with an absurd sequence number of a known sensor moves nothing.
+    e.insert(&nan(0, u64::MAX), None, &mut |_| {});
+    e.insert(&imu(10, 10), None, &mut |_| {});
+    let s = e.sensors()[0].stats;
+    assert_eq!((s.processed, s.invalid, s.lost), (11, 1, 0));
+    assert_accounted(&e);
+}
+
+#[test]
+fn timestamps_far_behind_the_clock_are_refused() {
+    let mut e = engine(None);
+    let now = Some(100_000_000_000); // 100 s
+    assert_eq!(e.insert(&imu(0, 0), now, &mut |_| {}), Insert::Rejected(Rejection::PastTimestamp));
+    assert!(e.latest().is_none(), "nothing processed");
+    assert!(matches!(e.insert(&imu(96_000, 1), now, &mut |_| {}), Insert::Processed { .. }));
+    assert_eq!(e.insert(&imu(94_000, 2), now, &mut |_| {}), Insert::Rejected(Rejection::PastTimestamp));
+}
+
+#[test]
+fn no_more_sensors_are_tracked_than_a_snapshot_shows() {
+    let mut e = Engine::new(
+        LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap(),
+        EngineConfig { max_sensors: 12, ..cfg() },
+    );
+    for id in 0..12u32 {
+        let mut s = imu(1, 0);
+        s.header_mut().sensor = id;
+        e.insert(&s, None, &mut |_| {});
+    }
+    for id in 0..7u32 {
+        let mut s = pos(2, 0, 0.0);
+        s.header_mut().sensor = id;
+        e.insert(&s, None, &mut |_| {});
+    }
+    assert_eq!(e.sensors().len(), fusion_shared::snapshot::MAX_SENSORS);
+    assert_eq!(e.stats().unknown_sensor, 3);
+}
+
+#[test]
+fn a_flooding_sensor_is_rate_limited_and_the_others_are_not() {
+    let mut e = Engine::new(
+        LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap(),
+        EngineConfig { max_rate_hz: 2000.0, max_burst: 10, ..cfg() },
+    );
+    let mut clean = engine(None);
+    let mut flood_seq = 0;
+    for k in 0..200u64 {
+        // 50 samples per ms from sensor 7, all at the same instant.
+        for _ in 0..50 {
+            let mut s = imu(k, flood_seq);
+            s.header_mut().sensor = 7;
+            e.insert(&s, None, &mut |_| {});
+            flood_seq += 1;
+        }
+        let good = pos(k, k, 0.01 * k as f64);
+        assert!(matches!(e.insert(&good, None, &mut |_| {}), Insert::Processed { .. }));
+        clean.insert(&good, None, &mut |_| {});
+    }
+    let flood = e.sensors()[0].stats;
+    // The burst, then 2 per ms.
+    assert_eq!(flood.processed, 10 + 2 * 199);
+    assert_eq!(flood.rate_limited, 200 * 50 - flood.processed);
+    assert_eq!(e.sensors()[1].stats.rate_limited, 0);
+    assert_accounted(&e);
+}
+
+#[test]
+fn without_a_clock_a_time_jump_is_refused_until_a_run_confirms_it() {
+    let mut e = engine(None);
+    for k in 0..10 {
+        e.insert(&imu(k, k), None, &mut |_| {});
+    }
+    let mut far = imu(0, 10);
+    far.header_mut().t_ns = u64::MAX;
+    assert_eq!(e.insert(&far, None, &mut |_| {}), Insert::Rejected(Rejection::TimeJump));
+    // Later samples are fused as if it had not been there.
+    for k in 11..20 {
+        assert!(matches!(e.insert(&imu(k, k), None, &mut |_| {}), Insert::Processed { replayed: 0, .. }));
+    }
+    // A real gap in a recording: after a run of samples past the jump, time moves on.
+    let gap_ms = 3_600_000;
+    let outcomes: Vec<Insert> =
+        (0..=JUMP_CONFIRMATION as u64).map(|k| e.insert(&imu(gap_ms + k, 20 + k), None, &mut |_| {})).collect();
+    assert!(outcomes[..JUMP_CONFIRMATION as usize].iter().all(|o| *o == Insert::Rejected(Rejection::TimeJump)));
+    assert!(matches!(outcomes[JUMP_CONFIRMATION as usize], Insert::Processed { .. }));
+    assert_accounted(&e);
 }

@@ -99,6 +99,10 @@ pub fn workspace_bin(name: &str) -> PathBuf {
     path
 }
 
+/// The `[validation]` table for a daemon fed recorded or simulated time: any
+/// timestamp behind the clock is accepted.
+pub const RECORDED_TIME: &str = "[validation]\nmax_past_ns = 9_000_000_000_000_000_000\n";
+
 /// A running `fusiond run`.
 pub struct Daemon {
     child: Child,
@@ -112,9 +116,15 @@ impl Daemon {
     }
 
     /// `fusiond run` with `args` after the namespace and config.
+    ///
+    /// The tests publish simulated time, which starts near 0 and so lies far
+    /// behind the daemon's clock: unless `config` has a `[validation]` table of
+    /// its own, the past-timestamp check is opened up ([`RECORDED_TIME`]).
     pub fn start_with(domain: &TestDomain, config: &str, args: &[&str]) -> Self {
         let dir = tempfile::tempdir().unwrap();
         let config_path = dir.path().join("config.toml");
+        let config =
+            if config.contains("[validation]") { config.to_string() } else { format!("{config}\n{RECORDED_TIME}") };
         std::fs::write(&config_path, config).unwrap();
         let stderr = dir.path().join("stderr.log");
         let child = Command::new(env!("CARGO_BIN_EXE_fusiond"))
