@@ -26,6 +26,16 @@ pub enum ClientError {
     /// iceoryx2 could not create this process's node.
     #[error("iceoryx2 node: {0}")]
     Node(String),
+    /// Every reader slot of the state service is taken.
+    #[error(
+        "all {max} reader slots of {service} are taken: stop a reader, or raise `[ipc] max_readers` in fusiond's config"
+    )]
+    ReadersFull {
+        /// The service.
+        service: String,
+        /// The readers fusiond allows.
+        max: usize,
+    },
     /// iceoryx2 refused a port (e.g. more publishers than the service allows).
     #[error("iceoryx2 port on {service}: {detail}")]
     Port {

@@ -5,8 +5,9 @@ use std::time::{Duration, Instant};
 use fusion_shared::StateSnapshot;
 use fusion_shared::transport::Ipc;
 use iceoryx2::port::listener::{Listener, ListenerWaitError};
-use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::port::subscriber::{Subscriber, SubscriberCreateError};
 use iceoryx2::sample::Sample;
+use iceoryx2::service::port_factory::PortFactory as _;
 use iceoryx2::service::port_factory::event::PortFactory;
 
 use crate::ClientError;
@@ -47,7 +48,7 @@ pub struct StateSubscriber {
 impl StateSubscriber {
     pub(crate) fn new(client: &crate::Client, buffer: usize) -> Result<Self, ClientError> {
         let names = client.names();
-        let service = match fusion_shared::service::state_service(client.node(), names, false) {
+        let service = match fusion_shared::service::state_service(client.node(), names, None) {
             Ok(s) => s,
             Err(fusion_shared::service::ServiceError::DoesNotExist { .. }) => {
                 return Err(ClientError::DaemonNotRunning { namespace: names.namespace.clone() });
@@ -59,7 +60,13 @@ impl StateSubscriber {
             .subscriber_builder()
             .buffer_size(buffer.clamp(1, fusion_shared::service::STATE_BUFFER))
             .create()
-            .map_err(|e| port(format!("{e:?}")))?;
+            .map_err(|e| match e {
+                SubscriberCreateError::ExceedsMaxSupportedSubscribers => ClientError::ReadersFull {
+                    service: names.state.clone(),
+                    max: service.static_config().max_subscribers(),
+                },
+                e => port(format!("{e:?}")),
+            })?;
         let event = fusion_shared::service::event_service(client.node(), &names.state)?;
         Ok(Self { service: names.state.clone(), subscriber, event, listener: None, held: None })
     }

@@ -15,7 +15,7 @@ fn a_polling_reader_adds_no_listener_and_a_waiting_one_does() {
     let domain = format!("fc{}listen", std::process::id());
     let names = ServiceNames::new("readers").unwrap();
     let node = service::create_node("stand-in-daemon", &service::iceoryx_config(Some(&domain)).unwrap()).unwrap();
-    let _state = service::state_service(&node, &names, true).unwrap();
+    let _state = service::state_service(&node, &names, Some(service::MAX_STATE_SUBSCRIBERS)).unwrap();
     let event = service::event_service(&node, &names.state).unwrap();
     let listeners = || event.dynamic_config().number_of_listeners();
 

@@ -111,6 +111,11 @@ gyro_range_radps = 35.0      # 2000 deg/s
 combine = "average"
 failover_after_ns = 20_000_000
 
+# State readers at once (fusionctl, applications); one more is refused with an
+# error that names this key.
+[ipc]
+max_readers = 8
+
 # For the error-state INS (real IMU: body specific force and angular rate), use
 #   [model]
 #   kind = "ins"
@@ -344,6 +349,8 @@ struct RawConfig {
     sensor: Vec<SensorConfig>,
     #[serde(default)]
     imu: ImuConfig,
+    #[serde(default)]
+    ipc: IpcConfig,
     /// Moved to `[model.alignment]`; named only to say so.
     alignment: Option<toml::Value>,
     /// Moved to `[model.constraints]`; named only to say so.
@@ -369,6 +376,22 @@ pub struct Config {
     pub sensors: Vec<SensorConfig>,
     /// How several IMUs are combined (`[imu]`).
     pub imu: ImuConfig,
+    /// Shared-memory services (`[ipc]`).
+    pub ipc: IpcConfig,
+}
+
+/// Shared-memory service settings (`[ipc]`).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IpcConfig {
+    /// Most state readers at once; one more is refused with a clear error.
+    pub max_readers: usize,
+}
+
+impl Default for IpcConfig {
+    fn default() -> Self {
+        Self { max_readers: fusion_shared::service::MAX_STATE_SUBSCRIBERS }
+    }
 }
 
 impl Default for Config {
@@ -383,6 +406,7 @@ impl Default for Config {
             datum: None,
             sensors: Vec::new(),
             imu: ImuConfig::default(),
+            ipc: IpcConfig::default(),
         }
     }
 }
@@ -436,6 +460,9 @@ impl Config {
                 format!("must be in 1..={MAX_SENSORS} (the sensor rows of a snapshot), got {}", v.max_sensors),
             ));
         }
+        if !(1..=1024).contains(&raw.ipc.max_readers) {
+            return Err(invalid("ipc.max_readers", format!("must be in 1..=1024, got {}", raw.ipc.max_readers)));
+        }
         if v.max_burst == 0 {
             return Err(invalid("validation.max_burst", "must be at least 1"));
         }
@@ -457,6 +484,7 @@ impl Config {
             datum,
             sensors: raw.sensor,
             imu: raw.imu,
+            ipc: raw.ipc,
         };
         crate::model::check(&config)?;
         Ok(config)

@@ -301,8 +301,8 @@ pub struct IpcSink {
 }
 
 impl IpcSink {
-    fn open(node: &Node<Ipc>, names: &ServiceNames) -> Result<Self, RunError> {
-        let state = service::state_service(node, names, true)?;
+    fn open(node: &Node<Ipc>, names: &ServiceNames, max_readers: usize) -> Result<Self, RunError> {
+        let state = service::state_service(node, names, Some(max_readers))?;
         let state = match state.publisher_builder().create() {
             Ok(p) => p,
             // The state service allows one publisher: fusiond.
@@ -378,7 +378,7 @@ fn run_model<M: Model>(
     let node = service::create_node(&format!("fusiond.{}", names.namespace), &iceoryx)
         .map_err(|detail| RunError::Ipc { what: "node", detail })?;
     // The state publisher first: a second fusiond stops here.
-    let mut sink = IpcSink::open(&node, &names)?;
+    let mut sink = IpcSink::open(&node, &names, config.ipc.max_readers)?;
     let mut source = IpcSource::open(&node, &names)?;
     let summary = SummaryLogger::start().map_err(RunError::Thread)?;
     // After the summary thread started: it must not inherit the loop's CPU.

@@ -234,3 +234,18 @@ fn bad_lines_in_a_replay_are_counted_with_their_line_numbers_and_poison_nothing(
         assert!(stderr.contains("line 21") && stderr.contains("jumps"), "{stderr}");
     }
 }
+
+#[test]
+fn idle_readers_beyond_the_configured_slots_get_a_clear_error() {
+    let domain = TestDomain::new("readers");
+    let mut daemon = Daemon::start(&domain, &format!("{}\n[ipc]\nmax_readers = 2\n", config()), "event");
+    let client = domain.client();
+    let first = client.state_subscriber().unwrap();
+    let _second = client.state_subscriber().unwrap();
+    let err = client.state_subscriber().err().expect("a third reader is refused").to_string();
+    assert!(err.contains("all 2 reader slots") && err.contains("[ipc] max_readers"), "{err}");
+    // A slot given back can be taken again.
+    drop(first);
+    assert!(client.state_subscriber().is_ok());
+    assert!(daemon.terminate().success());
+}

@@ -39,7 +39,7 @@ fn sim_into_daemon_with_echo(
         .unwrap();
     // Start publishing only once echo has subscribed.
     let node = service::create_node("test-probe", &service::iceoryx_config(Some(&domain.domain)).unwrap()).unwrap();
-    let state = service::state_service(&node, &ServiceNames::new(&domain.namespace).unwrap(), false).unwrap();
+    let state = service::state_service(&node, &ServiceNames::new(&domain.namespace).unwrap(), None).unwrap();
     let deadline = Instant::now() + Duration::from_secs(10);
     while state.dynamic_config().number_of_subscribers() == 0 {
         assert!(Instant::now() < deadline, "fusionctl echo did not subscribe");

@@ -41,7 +41,7 @@ pub const MAX_BORROWED_PER_PUBLISHER: usize = 8;
 pub const MAX_SAMPLE_SUBSCRIBERS: usize = 4;
 /// Largest buffer a state reader may ask for: 0.5 s of snapshots at 1 kHz.
 pub const STATE_BUFFER: usize = 512;
-/// Most state readers at once.
+/// Most state readers at once, by default (`fusiond`'s `[ipc] max_readers`).
 pub const MAX_STATE_SUBSCRIBERS: usize = 8;
 /// Most processes attached to one service.
 pub const MAX_NODES: usize = 32;
@@ -231,12 +231,13 @@ pub fn sample_service<T: WireSample>(
     samples(node, &names.samples(T::KIND))
 }
 
-/// Opens `<ns>/state` (publish-subscribe, history 1); creates it too when
-/// `create` (the daemon), else it must exist (a reader).
+/// Opens `<ns>/state` (publish-subscribe, history 1); creates it too with room
+/// for `create = Some(max_readers)` readers (the daemon), else it must exist (a
+/// reader, which takes whatever number of readers the daemon allows).
 pub fn state_service(
     node: &Node<Ipc>,
     names: &ServiceNames,
-    create: bool,
+    create: Option<usize>,
 ) -> Result<publish_subscribe::PortFactory<Ipc, StateSnapshot, ()>, ServiceError> {
     let builder = node
         .service_builder(&service_name(&names.state)?)
@@ -245,12 +246,12 @@ pub fn state_service(
         .subscriber_max_buffer_size(STATE_BUFFER)
         .history_size(1)
         .max_publishers(1)
-        .max_subscribers(MAX_STATE_SUBSCRIBERS)
         .max_nodes(MAX_NODES);
-    if create {
-        builder.open_or_create().map_err(|e| classify_open_or_create(&names.state, &e))
-    } else {
-        builder.open().map_err(|e| classify_open(&names.state, &e))
+    match create {
+        Some(max_readers) => {
+            builder.max_subscribers(max_readers).open_or_create().map_err(|e| classify_open_or_create(&names.state, &e))
+        }
+        None => builder.open().map_err(|e| classify_open(&names.state, &e)),
     }
 }
 
