@@ -51,18 +51,7 @@ pub struct EngineConfig {
 impl Default for EngineConfig {
     /// The limits of the default config.
     fn default() -> Self {
-        let (filter, validation) = (crate::config::FilterConfig::default(), crate::config::ValidationConfig::default());
-        Self {
-            history_ns: filter.history_ns,
-            history_capacity: filter.history_capacity,
-            max_sensors: validation.max_sensors,
-            max_future_ns: validation.max_future_ns,
-            max_past_ns: validation.max_past_ns,
-            max_jump_ns: validation.max_jump_ns,
-            max_rate_hz: validation.max_rate_hz,
-            max_burst: validation.max_burst,
-            limits: validation.limits(),
-        }
+        Self::from_config(&crate::config::Config::default())
     }
 }
 
@@ -287,9 +276,6 @@ impl<M: Model> Engine<M> {
                 _ => Ok(()),
             },
         });
-        if valid.is_ok() {
-            self.jumps_in_a_row = 0;
-        }
         if let Err(r) = valid {
             match self.slot_of(key.kind, key.sensor) {
                 Some(slot) => {
@@ -306,6 +292,7 @@ impl<M: Model> Engine<M> {
             }
             return Insert::Rejected(r);
         }
+        self.jumps_in_a_row = 0;
         let Some(slot) = self.slot(key.kind, key.sensor) else {
             self.stats.unknown_sensor += 1;
             return Insert::Rejected(Rejection::TooManySensors);

@@ -9,27 +9,13 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use common::live::{Daemon, RECORDED_TIME, TestDomain, triggered_by, workspace_bin};
+use common::live::{Daemon, RECORDED_TIME, TestDomain, snapshot_of, workspace_bin};
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_shared::service::DOMAIN_ENV;
-use fusion_shared::{ImuSample, Sample, SampleKind, StateSnapshot, now_ns};
+use fusion_shared::{ImuSample, Sample, SampleKind, now_ns};
 
 fn config() -> String {
     common::linear_config(Some(0.999)).replace("[100, 100, 100, 10, 10, 10]", "[100, 100, 100, 225, 225, 225]")
-}
-
-/// The newest snapshot, once the daemon has published one for `sample`.
-fn snapshot_after(reader: &mut fusion_client::StateSubscriber, sample: &Sample) -> StateSnapshot {
-    let deadline = Instant::now() + Duration::from_secs(10);
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        assert!(!left.is_zero(), "no snapshot for {sample:?}");
-        if let Some(s) = reader.wait_next(left).unwrap()
-            && triggered_by(s, sample)
-        {
-            return *s;
-        }
-    }
 }
 
 fn write_jsonl(path: &std::path::Path, samples: &[Sample]) {
@@ -74,7 +60,7 @@ fn a_sensor_process_that_restarts_has_every_sample_fused_and_live_equals_replay(
     let mut reader = client.state_subscriber_with_buffer(512).unwrap();
     sim_input(&domain, &a);
     sim_input(&domain, &b);
-    let last = snapshot_after(&mut reader, samples.last().unwrap());
+    let last = snapshot_of(&mut reader, samples.last().unwrap());
     let (lines, _) = common::run_replay(dir.path(), &config(), &all, false);
     let expected = lines.last().unwrap();
     assert_eq!(last.state()[..6], expected.x[..], "live after the restart equals replay");
@@ -111,7 +97,7 @@ fn invalid_samples_from_many_ids_do_not_lock_out_the_real_imu() {
     for k in 0..50u64 {
         let s = ImuSample::new(2_000_000 + k * 5_000_000, 0, k, [0.1, 0.0, 0.0], [0.0; 3]);
         imu.publish_sample(s).unwrap();
-        last = Some(snapshot_after(&mut reader, &Sample::Imu(s)));
+        last = Some(snapshot_of(&mut reader, &Sample::Imu(s)));
     }
     let last = last.unwrap();
     let rows = last.sensor_counters();
@@ -136,7 +122,7 @@ fn a_first_sample_from_an_unset_clock_is_refused() {
     for k in 1..=20u64 {
         let s = ImuSample::new(now_ns(), 0, k, [0.1, 0.0, 0.0], [0.0; 3]);
         imu.publish_sample(s).unwrap();
-        last = Some(snapshot_after(&mut reader, &Sample::Imu(s)));
+        last = Some(snapshot_of(&mut reader, &Sample::Imu(s)));
     }
     let last = last.unwrap();
     // The refused sample came first: it takes no sensor row.

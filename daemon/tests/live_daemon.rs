@@ -4,7 +4,7 @@ mod common;
 
 use std::time::{Duration, Instant};
 
-use common::live::{Daemon, TestDomain, publish_in_lockstep, triggered_by, workspace_bin};
+use common::live::{Daemon, TestDomain, publish_in_lockstep, snapshot_of, workspace_bin};
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_shared::snapshot::health;
 use fusion_shared::{Sample, StateSnapshot};
@@ -146,13 +146,7 @@ fn bad_samples_are_rejected_counted_and_change_nothing() {
     for (s, good) in &mixed {
         publishers.publish(*s).unwrap();
         if *good {
-            loop {
-                let snap = reader.wait_next(Duration::from_secs(10)).unwrap().expect("snapshot");
-                if triggered_by(snap, s) {
-                    last = Some(*snap);
-                    break;
-                }
-            }
+            last = Some(snapshot_of(&mut reader, s));
         }
     }
     let clean: Vec<Sample> = mixed.iter().filter(|(_, g)| *g).map(|(s, _)| *s).collect();

@@ -218,17 +218,21 @@ pub fn publish_in_lockstep(client: &Client, reader: &mut StateSubscriber, sample
     let mut out = Vec::with_capacity(samples.len());
     for s in samples {
         publishers.publish(*s).unwrap().expect("a publisher of every kind");
-        let deadline = Instant::now() + Duration::from_secs(10);
-        loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            assert!(!left.is_zero(), "no snapshot for {s:?}");
-            if let Some(snap) = reader.wait_next(left).unwrap()
-                && triggered_by(snap, s)
-            {
-                out.push(*snap);
-                break;
-            }
-        }
+        out.push(snapshot_of(reader, s));
     }
     out
+}
+
+/// Waits (at most 10 s) for the snapshot that `sample` triggered, skipping others.
+pub fn snapshot_of(reader: &mut StateSubscriber, sample: &Sample) -> StateSnapshot {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        assert!(!left.is_zero(), "no snapshot for {sample:?}");
+        if let Some(snap) = reader.wait_next(left).unwrap()
+            && triggered_by(snap, sample)
+        {
+            return *snap;
+        }
+    }
 }

@@ -1,0 +1,90 @@
+//! The config parser's unit tests.
+
+use super::*;
+
+#[test]
+fn print_config_is_the_defaults() {
+    let text = default_config_text();
+    assert_eq!(Config::parse(&text).unwrap(), Config::default());
+    for &k in SampleKind::ALL {
+        assert!(text.contains(&format!("\n{}_timeout_ns = ", k.name())), "{text}");
+    }
+    assert!(!text.contains('{'), "every placeholder is filled: {text}");
+    assert!(text.contains("position_timeout_ns = 1_000_000_000\n"), "{text}");
+    assert_eq!(
+        (grouped(7), grouped(100), grouped(1000), grouped(100_000_000)),
+        ("7".into(), "100".into(), "1_000".into(), "100_000_000".into())
+    );
+}
+
+fn err(text: &str) -> String {
+    Config::parse(text).unwrap_err().to_string()
+}
+
+const MIN: &str = "[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n[filter]\ninitial_state = [0,0,0,0,0,0]\ninitial_covariance_diagonal = [1,1,1,1,1,1]\n";
+
+#[test]
+fn gating_is_off_without_its_table_and_defaults_apply() {
+    let c = Config::parse(MIN).unwrap();
+    assert!(c.gating.is_none());
+    assert_eq!(c.filter.history_capacity, 4096);
+    assert_eq!(c.validation, ValidationConfig::default());
+    assert_eq!(c.health, HealthConfig::default());
+}
+
+#[test]
+fn errors_name_the_key() {
+    assert!(err(&format!("{MIN}bogus = 1\n")).contains("bogus"));
+    assert!(err(&MIN.replace("accel_noise_std = 0.3", "accel_noise_sd = 0.3")).contains("accel_noise_sd"));
+    assert!(err(&MIN.replace("0.3", "-1")).contains("model.accel_noise_std"));
+    assert!(err(&MIN.replace("\"linear\"", "\"kalman\"")).contains("kalman"));
+    assert!(err(&MIN.replace("[0,0,0,0,0,0]", "[0,0,0]")).contains("filter.initial_state"));
+    assert!(err(&MIN.replace("[1,1,1,1,1,1]", "[1,1,1,1,1,0]")).contains("filter.initial_covariance_diagonal"));
+    assert!(err(&format!("{MIN}[gating]\nprobability = 1.5\n")).contains("gating.probability"));
+    assert!(err(&format!("{MIN}history_ns = 0\n")).contains("filter.history_ns"));
+    assert!(err(&format!("{MIN}[validation]\nmax_sensors = 0\n")).contains("validation.max_sensors"));
+    // More sensors than a snapshot has rows for would be tracked but not shown.
+    assert!(err(&format!("{MIN}[validation]\nmax_sensors = 17\n")).contains("rows of a snapshot"));
+    assert!(err(&format!("{MIN}[validation]\nmax_rate_hz = 0.0\n")).contains("validation.max_rate_hz"));
+    assert!(err(&format!("{MIN}[validation]\nmax_burst = 0\n")).contains("validation.max_burst"));
+    assert!(err(&format!("{MIN}[health]\nnis_window = 0\n")).contains("health.nis_window"));
+    assert!(err(&format!("{MIN}[health]\nimu_timeout = 5\n")).contains("health.imu_timeout"));
+    assert!(err(&format!("{MIN}[health]\nlidar_timeout_ns = 5\n")).contains("velocity_timeout_ns"));
+    assert!(err(&format!("{MIN}[health]\nvelocity_timeout_ns = 0\n")).contains("health.velocity_timeout_ns"));
+    assert!(err(&format!("{MIN}[alignment]\nstatic_samples = 5\n")).contains("[model.alignment]"));
+    assert!(err(&format!("{MIN}[model.alignment]\nstatic_samples = 5\n")).contains("alignment"));
+}
+
+#[test]
+fn health_timeouts_are_per_kind() {
+    let c = Config::parse(&format!("{MIN}[health]\nvelocity_timeout_ns = 7\n")).unwrap();
+    assert_eq!(c.health.timeout_ns(SampleKind::Velocity), 7);
+    assert_eq!(c.health.timeout_ns(SampleKind::Imu), 100_000_000);
+}
+
+const INS: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+    accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[model.alignment]\nstatic_samples = 400\n\
+    [filter]\ninitial_state = [0,0,0, 0,0,0, 1,0,0,0, 0,0,0, 0,0,0]\n\
+    initial_covariance_diagonal = [1,1,1, 1,1,1, 0.1,0.1,0.1, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n";
+
+#[test]
+fn ins_config_uses_kalibr_names() {
+    let c = Config::parse(INS).unwrap();
+    let ModelConfig::Ins(p) = &c.model else { panic!() };
+    assert_eq!((p.gyroscope_random_walk, p.gravity_mps2), (1e-5, 9.80665));
+    assert_eq!(p.alignment.map(|a| a.static_samples), Some(400));
+    assert!(err(&INS.replace("1,0,0,0, 0,0,0", "2,0,0,0, 0,0,0")).contains("quaternion"));
+    assert!(err(&INS.replace("gyroscope_random_walk = 1.0e-5\n", "")).contains("gyroscope_random_walk"));
+    assert!(err(&INS.replace("1e-6,1e-6,1e-6]", "1e-6,1e-6]")).contains("needs 15 values"));
+    assert_eq!(p.constraints, None, "the motion constraint is opt-in");
+    let with = |table: &str| Config::parse(&INS.replace("[filter]", &format!("[model.constraints]\n{table}[filter]")));
+    let ModelConfig::Ins(p) = with("nonholonomic_std_mps = 0.2\n").unwrap().model else { panic!() };
+    let nhc = p.constraints.unwrap();
+    assert_eq!((nhc.std_mps, nhc.interval_ns, nhc.min_speed_mps), (0.2, 50_000_000, 1.0));
+    let bad = |table: &str| with(table).unwrap_err().to_string();
+    assert!(bad("nonholonomic_std_mps = 0\n").contains("model.constraints.nonholonomic_std_mps"));
+    assert!(bad("nonholonomic_std_mps = 0.1\nnonholonomic_min_speed_mps = -1\n").contains("min_speed"));
+    assert!(err(&format!("{MIN}[constraints]\nnonholonomic_std_mps = 0.1\n")).contains("[model.constraints]"));
+    assert!(err(&INS.replace("kind = \"ins\"", "kind = \"ins\"\naccel_noise_std = 1")).contains("accel_noise_std"));
+    assert!(err("[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n").contains("filter"));
+}
