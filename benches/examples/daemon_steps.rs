@@ -62,6 +62,7 @@ fn handle<M: Model>(
         health.record(slot, &outcome);
     }
     let initialised = engine.latest().is_some_and(|e| M::initialised(&e.state));
-    let now = health.evaluate(engine.sensors(), received_ns, initialised);
+    let reinitialisations = engine.latest().map_or(0, |e| M::reinitialisations(&e.state));
+    let now = health.evaluate(engine.sensors(), received_ns, initialised, reinitialisations);
     snapshot::fill(snap, engine, Some(Input { sample, received_ns, replayed }), now);
 }

@@ -45,6 +45,18 @@ pub struct StateSubscriber {
     held: Option<Sample<Ipc, StateSnapshot, ()>>,
 }
 
+/// Tells fusiond that a reader was refused a slot, so it counts it
+/// ([`StateSnapshot::readers_refused`]): an event with
+/// [`READER_REFUSED_EVENT`](fusion_shared::service::READER_REFUSED_EVENT) on
+/// `<ns>/wake`. Best effort: the refusal itself is the error the caller gets.
+fn report_refused(client: &crate::Client) {
+    let Ok(wake) = fusion_shared::service::event_service(client.node(), &client.names().wake) else { return };
+    if let Ok(notifier) = wake.notifier_builder().create() {
+        let _ = notifier
+            .notify_with_custom_event_id(iceoryx2::prelude::EventId::new(fusion_shared::service::READER_REFUSED_EVENT));
+    }
+}
+
 impl StateSubscriber {
     pub(crate) fn new(client: &crate::Client, buffer: usize) -> Result<Self, ClientError> {
         let names = client.names();
@@ -61,10 +73,13 @@ impl StateSubscriber {
             .buffer_size(buffer.clamp(1, fusion_shared::service::STATE_BUFFER))
             .create()
             .map_err(|e| match e {
-                SubscriberCreateError::ExceedsMaxSupportedSubscribers => ClientError::ReadersFull {
-                    service: names.state.clone(),
-                    max: service.static_config().max_subscribers(),
-                },
+                SubscriberCreateError::ExceedsMaxSupportedSubscribers => {
+                    report_refused(client);
+                    ClientError::ReadersFull {
+                        service: names.state.clone(),
+                        max: service.static_config().max_subscribers(),
+                    }
+                }
                 e => port(format!("{e:?}")),
             })?;
         let event = fusion_shared::service::event_service(client.node(), &names.state)?;

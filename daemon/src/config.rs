@@ -18,6 +18,7 @@ use crate::filter::ChiSquareGate;
 use crate::frames::{ImuConfig, SensorConfig};
 use crate::health::{HealthConfig, MAX_NIS_WINDOW};
 use crate::measurement::Needed;
+use crate::measurement::lockout::LockoutConfig;
 use crate::model::ins::InsParams;
 use crate::model::linear::LinearParams;
 use crate::validate::Limits;
@@ -49,6 +50,11 @@ history_capacity = 4096
 # Chi-square gate on the NIS: the probability a consistent measurement passes.
 # Leave out the [gating] table to fuse every measurement.
 probability = 0.999
+# Lock-out recovery: when every position fix for lockout_ns (and at least
+# lockout_fixes of them) was gated, the filter re-initialises its position and
+# velocity from the fixes (health "degraded: re-initialised"). 0 turns it off.
+lockout_ns = 5_000_000_000
+lockout_fixes = 5
 
 [health]
 # A stream is stale (health "degraded") after this long without a sample, per
@@ -323,6 +329,8 @@ struct RawDatum {
 #[serde(deny_unknown_fields)]
 struct RawGating {
     probability: f64,
+    lockout_ns: Option<u64>,
+    lockout_fixes: Option<u32>,
 }
 
 /// `[health]`: the timeouts are keyed by kind name, so they are checked by hand.
@@ -366,6 +374,8 @@ pub struct Config {
     pub filter: FilterConfig,
     /// The gate, if gating is on.
     pub gating: Option<ChiSquareGate>,
+    /// Lock-out recovery, if gating is on and it is not turned off.
+    pub lockout: Option<LockoutConfig>,
     /// Health monitoring.
     pub health: HealthConfig,
     /// Input validation.
@@ -401,6 +411,7 @@ impl Default for Config {
             model: ModelConfig::default(),
             filter: FilterConfig::default(),
             gating: Some(ChiSquareGate::new(0.999).expect("0.999 is a probability")),
+            lockout: Some(LockoutConfig::default()),
             health: HealthConfig::default(),
             validation: ValidationConfig::default(),
             datum: None,
@@ -443,11 +454,12 @@ impl Config {
                 format!("must be in 2..=1048576, got {}", f.history_capacity),
             ));
         }
-        let gating = match raw.gating {
-            None => None,
-            Some(g) => {
-                Some(ChiSquareGate::new(g.probability).map_err(|e| invalid("gating.probability", e.to_string()))?)
-            }
+        let (gating, lockout) = match &raw.gating {
+            None => (None, None),
+            Some(g) => (
+                Some(ChiSquareGate::new(g.probability).map_err(|e| invalid("gating.probability", e.to_string()))?),
+                lockout_config(g)?,
+            ),
         };
         let health = health_config(raw.health)?;
         let v = &raw.validation;
@@ -479,6 +491,7 @@ impl Config {
             model: raw.model,
             filter: raw.filter,
             gating,
+            lockout,
             health,
             validation: raw.validation,
             datum,
@@ -489,6 +502,16 @@ impl Config {
         crate::model::check(&config)?;
         Ok(config)
     }
+}
+
+fn lockout_config(g: &RawGating) -> Result<Option<LockoutConfig>, ConfigError> {
+    let default = LockoutConfig::default();
+    let after_ns = g.lockout_ns.unwrap_or(default.after_ns);
+    let fixes = g.lockout_fixes.unwrap_or(default.fixes);
+    if fixes < 2 {
+        return Err(invalid("gating.lockout_fixes", format!("must be at least 2, got {fixes}")));
+    }
+    Ok((after_ns > 0).then_some(LockoutConfig { after_ns, fixes }))
 }
 
 fn health_config(raw: RawHealth) -> Result<HealthConfig, ConfigError> {

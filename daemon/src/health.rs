@@ -14,6 +14,8 @@
 //!   pessimistic. A gated outlier now and then is the gate doing its job and
 //!   leaves the sum alone.
 //! - Samples are lost when a sensor's sequence numbers had a gap recently.
+//! - The filter re-initialised itself from the fixes recently, after a lock-out
+//!   ([`crate::measurement::lockout`]).
 //!
 //! Pure and allocation-free after construction; the daemon evaluates it on every
 //! snapshot and on a timer while nothing arrives.
@@ -34,6 +36,9 @@ pub const MAX_NIS_WINDOW: usize = 256;
 
 /// How long a loss keeps the `samples lost` reason set, ns.
 pub const LOSS_HOLD_NS: u64 = 5_000_000_000;
+
+/// How long a re-initialisation keeps the `re-initialised from fixes` reason set, ns.
+pub const REINITIALISED_HOLD_NS: u64 = 10_000_000_000;
 
 /// Health settings (the `[health]` config table).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -106,6 +111,8 @@ pub struct HealthMonitor {
     windows: [NisWindow; MAX_SENSORS],
     lost_seen: [u64; MAX_SENSORS],
     last_loss_ns: Option<u64>,
+    reinitialisations_seen: u64,
+    last_reinitialisation_ns: Option<u64>,
 }
 
 impl HealthMonitor {
@@ -122,7 +129,15 @@ impl HealthMonitor {
             }
         }
         let empty = NisWindow { values: [None; MAX_NIS_WINDOW], next: 0, len: 0 };
-        Self { config, bands, windows: [empty; MAX_SENSORS], lost_seen: [0; MAX_SENSORS], last_loss_ns: None }
+        Self {
+            config,
+            bands,
+            windows: [empty; MAX_SENSORS],
+            lost_seen: [0; MAX_SENSORS],
+            last_loss_ns: None,
+            reinitialisations_seen: 0,
+            last_reinitialisation_ns: None,
+        }
     }
 
     /// The band for the NIS sum of `k` fused measurements of innovation dimension `m`.
@@ -144,8 +159,16 @@ impl HealthMonitor {
     }
 
     /// Health state, reason bits and stale sensors at `now_ns` for the engine's
-    /// sensors. `initialised` is the model's own readiness (e.g. alignment done).
-    pub fn evaluate(&mut self, sensors: &[SensorSlot], now_ns: u64, initialised: bool) -> HealthNow {
+    /// sensors. `initialised` is the model's own readiness (e.g. alignment done),
+    /// `reinitialisations` the model's count of re-initialisations
+    /// ([`crate::model::Model::reinitialisations`]).
+    pub fn evaluate(
+        &mut self,
+        sensors: &[SensorSlot],
+        now_ns: u64,
+        initialised: bool,
+        reinitialisations: u64,
+    ) -> HealthNow {
         let mut reasons = 0;
         let mut stale_sensors = 0;
         let mut seen = [false; KINDS];
@@ -171,6 +194,13 @@ impl HealthMonitor {
         }
         if self.last_loss_ns.is_some_and(|t| now_ns.saturating_sub(t) < LOSS_HOLD_NS) {
             reasons |= health::SAMPLES_LOST;
+        }
+        if reinitialisations > self.reinitialisations_seen {
+            self.last_reinitialisation_ns = Some(now_ns);
+        }
+        self.reinitialisations_seen = reinitialisations;
+        if self.last_reinitialisation_ns.is_some_and(|t| now_ns.saturating_sub(t) < REINITIALISED_HOLD_NS) {
+            reasons |= health::REINITIALISED;
         }
         // Each group that some kind belongs to needs a processed sample of one of its kinds.
         let waiting = SampleKind::ALL
@@ -218,21 +248,21 @@ mod tests {
             ..Default::default()
         });
         e.insert(&imu, Some(1_000), &mut sink);
-        assert_eq!(h.evaluate(e.sensors(), 1_000, true).state, health::INITIALISING);
+        assert_eq!(h.evaluate(e.sensors(), 1_000, true, 0).state, health::INITIALISING);
         let pos = Sample::Position(PositionSample {
             header: fusion_shared::SampleHeader::new(fusion_shared::SampleKind::Position, 11, 1, 0),
             cov_m2: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
             ..Default::default()
         });
         e.insert(&pos, Some(2_000), &mut sink);
-        assert_eq!(h.evaluate(e.sensors(), 2_000, true).pair(), (health::OK, 0));
-        assert_eq!(h.evaluate(e.sensors(), 2_000, false).state, health::INITIALISING);
+        assert_eq!(h.evaluate(e.sensors(), 2_000, true, 0).pair(), (health::OK, 0));
+        assert_eq!(h.evaluate(e.sensors(), 2_000, false, 0).state, health::INITIALISING);
         // 150 ms later: the IMU (100 ms timeout) is stale, the position (1 s) is not.
         assert_eq!(
-            h.evaluate(e.sensors(), 150_002_000, true),
+            h.evaluate(e.sensors(), 150_002_000, true, 0),
             HealthNow { state: health::DEGRADED, reasons: health::IMU_STALE, stale_sensors: 0b01 }
         );
-        let now = h.evaluate(e.sensors(), 1_100_000_000, true);
+        let now = h.evaluate(e.sensors(), 1_100_000_000, true, 0);
         assert_eq!((now.reasons, now.stale_sensors), (health::IMU_STALE | health::POSITION_STALE, 0b11));
     }
 
@@ -265,15 +295,15 @@ mod tests {
         for _ in 0..10 {
             h.record(1, &StepOutcome::Fused { nis: 9.0 });
         }
-        assert_eq!(h.evaluate(e.sensors(), 0, true).pair(), (health::DEGRADED, health::NIS_OUT_OF_BOUNDS));
+        assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::DEGRADED, health::NIS_OUT_OF_BOUNDS));
         for _ in 0..10 {
             h.record(1, &StepOutcome::Fused { nis: 3.0 });
         }
-        assert_eq!(h.evaluate(e.sensors(), 0, true).pair(), (health::OK, 0));
+        assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::OK, 0));
         for _ in 0..10 {
             h.record(1, &StepOutcome::Fused { nis: 0.05 });
         }
-        assert_eq!(h.evaluate(e.sensors(), 0, true).reasons, health::NIS_OUT_OF_BOUNDS, "far too pessimistic");
+        assert_eq!(h.evaluate(e.sensors(), 0, true, 0).reasons, health::NIS_OUT_OF_BOUNDS, "far too pessimistic");
         // IMU steps carry no NIS and change nothing.
         h.record(0, &StepOutcome::Propagated);
     }
@@ -286,11 +316,11 @@ mod tests {
             let o = if i == 4 { StepOutcome::Gated { nis: 3000.0 } } else { StepOutcome::Fused { nis: 3.0 } };
             h.record(1, &o);
         }
-        assert_eq!(h.evaluate(e.sensors(), 0, true).pair(), (health::OK, 0));
+        assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::OK, 0));
         for _ in 0..6 {
             h.record(1, &StepOutcome::Gated { nis: 50.0 });
         }
-        assert_eq!(h.evaluate(e.sensors(), 0, true).reasons, health::NIS_OUT_OF_BOUNDS, "most fixes gated");
+        assert_eq!(h.evaluate(e.sensors(), 0, true, 0).reasons, health::NIS_OUT_OF_BOUNDS, "most fixes gated");
     }
 
     #[test]
@@ -314,7 +344,7 @@ mod tests {
             Some(0),
             &mut sink,
         );
-        assert_eq!(h.evaluate(e.sensors(), 10, true).reasons, health::SAMPLES_LOST);
-        assert_eq!(h.evaluate(e.sensors(), 10 + LOSS_HOLD_NS, true).reasons, 0);
+        assert_eq!(h.evaluate(e.sensors(), 10, true, 0).reasons, health::SAMPLES_LOST);
+        assert_eq!(h.evaluate(e.sensors(), 10 + LOSS_HOLD_NS, true, 0).reasons, 0);
     }
 }

@@ -197,6 +197,8 @@ pub struct IpcSource {
     ports: Vec<Box<dyn Port>>,
     wake: Listener<Ipc>,
     receive_errors: u64,
+    /// Wake-ups with [`service::READER_REFUSED_EVENT`] seen.
+    readers_refused: u64,
 }
 
 impl IpcSource {
@@ -245,7 +247,7 @@ impl IpcSource {
         open.ports.rotate_left(1);
         let wake = service::event_service(node, &names.wake)?;
         let wake = wake.listener_builder().create().map_err(ipc("wake listener"))?;
-        Ok(Self { ports: open.ports, wake, receive_errors: 0 })
+        Ok(Self { ports: open.ports, wake, receive_errors: 0, readers_refused: 0 })
     }
 }
 
@@ -267,6 +269,14 @@ impl SampleSource for IpcSource {
 
     fn refresh(&mut self) {
         self.ports.iter_mut().for_each(|p| p.refresh());
+        // A daemon that spins never waits on the listener: collect here what
+        // the waits would have seen.
+        let refused = &mut self.readers_refused;
+        let _ = self.wake.try_wait(|a| count_refused(refused, a));
+    }
+
+    fn readers_refused(&self) -> u64 {
+        self.readers_refused
     }
 
     fn end_turn(&mut self) {
@@ -274,7 +284,8 @@ impl SampleSource for IpcSource {
     }
 
     fn wait(&mut self, timeout: Duration) {
-        match self.wake.timed_wait(|_| {}, timeout) {
+        let refused = &mut self.readers_refused;
+        match self.wake.timed_wait(|a| count_refused(refused, a), timeout) {
             // A signal interrupted the wait: the loop condition looks at it.
             Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
             Err(e) => {
@@ -282,6 +293,13 @@ impl SampleSource for IpcSource {
                 std::thread::sleep(timeout);
             }
         }
+    }
+}
+
+/// Counts the wake-ups from refused readers among `activation`.
+fn count_refused(count: &mut u64, activation: EventActivation) {
+    if activation.id.as_value() == service::READER_REFUSED_EVENT {
+        *count = count.saturating_add(activation.count);
     }
 }
 

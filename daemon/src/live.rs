@@ -59,6 +59,10 @@ pub trait SampleSource {
     fn refresh(&mut self) {}
     /// The end of a turn: give back what the turn held of the senders' buffers.
     fn end_turn(&mut self) {}
+    /// State readers that reported being refused a slot so far.
+    fn readers_refused(&self) -> u64 {
+        0
+    }
 }
 
 /// Where snapshots go.
@@ -95,6 +99,10 @@ pub struct LiveCore<M: Model> {
     next_housekeeping: u64,
     /// Start of the summary interval, and the counters and snapshot count then.
     last_summary: (u64, [Counters; SampleKind::COUNT], u64),
+    /// Refused readers, as last read from the source and as last published.
+    readers_refused: (u64, u64),
+    /// Re-initialisations of the filter already logged.
+    reinitialisations_logged: u64,
 }
 
 impl<M: Model> LiveCore<M> {
@@ -113,6 +121,8 @@ impl<M: Model> LiveCore<M> {
             summary_ns: summary_interval.as_nanos().clamp(1, u64::MAX as u128) as u64,
             next_housekeeping: now_ns,
             last_summary: (now_ns, [Counters::default(); SampleKind::COUNT], 0),
+            readers_refused: (0, 0),
+            reinitialisations_logged: 0,
         }
     }
 
@@ -135,6 +145,24 @@ impl<M: Model> LiveCore<M> {
         self.engine.latest().is_some_and(|e| M::initialised(&e.state))
     }
 
+    /// Re-evaluates the health at `now`, and logs a re-initialisation of the
+    /// filter the first time it is seen (a rare event, never per sample).
+    fn evaluate_health(&mut self, now: u64) {
+        let reinitialisations = self.engine.latest().map_or(0, |e| M::reinitialisations(&e.state));
+        if reinitialisations > self.reinitialisations_logged {
+            let t_ns = self.engine.latest().map_or(0, |e| e.key.t_ns);
+            tracing::warn!(
+                reinitialisations,
+                t_ns,
+                "filter re-initialised from the position fixes: every fix was gated for the lock-out time \
+                 ([gating] lockout_ns); position and velocity now come from the fixes"
+            );
+        }
+        self.reinitialisations_logged = reinitialisations;
+        let initialised = self.initialised();
+        self.health_now = self.health.evaluate(self.engine.sensors(), now, initialised, reinitialisations);
+    }
+
     /// Feeds one sample to the engine and publishes the resulting snapshot.
     pub fn handle(&mut self, sample: Sample, sink: &mut impl SnapshotSink) {
         self.report.received += 1;
@@ -146,8 +174,7 @@ impl<M: Model> LiveCore<M> {
         if let Some(slot) = self.engine.slot_of(sample.kind(), sample.sensor()) {
             self.health.record(slot, &outcome);
         }
-        let initialised = self.initialised();
-        self.health_now = self.health.evaluate(self.engine.sensors(), received_ns, initialised);
+        self.evaluate_health(received_ns);
         let input = Input { sample: &sample, received_ns, replayed };
         if let Some(published_ns) = self.publish(sink, Some(input))
             && replayed == 0
@@ -167,14 +194,17 @@ impl<M: Model> LiveCore<M> {
     fn publish(&mut self, sink: &mut impl SnapshotSink, input: Option<Input<'_>>) -> Option<u64> {
         let mut publish_ns = 0;
         let (engine, health, seq) = (&self.engine, self.health_now, self.report.snapshots);
+        let readers_refused = self.readers_refused.0;
         let sent = sink.publish(|snap| {
             snapshot::fill(snap, engine, input, health);
+            snap.readers_refused = readers_refused;
             snap.seq = seq;
             publish_ns = now_ns();
             snap.publish_ns = publish_ns;
         });
         sent.then(|| {
             self.report.snapshots += 1;
+            self.readers_refused.1 = readers_refused;
             publish_ns
         })
     }
@@ -210,13 +240,14 @@ impl<M: Model> LiveCore<M> {
             return None;
         }
         self.next_housekeeping = now + HOUSEKEEPING_NS;
-        let initialised = self.initialised();
-        self.health_now = self.health.evaluate(self.engine.sensors(), now, initialised);
-        if self.health_now != self.published_health
+        self.evaluate_health(now);
+        self.readers_refused.0 = source.readers_refused();
+        if (self.health_now != self.published_health || self.readers_refused.0 != self.readers_refused.1)
             && self.engine.latest().is_some()
             && self.publish(sink, None).is_some()
         {
-            // Nothing arrived but the health changed (a stream went stale): say so.
+            // Nothing arrived but the health changed (a stream went stale), or a
+            // reader was refused: say so.
             self.published_health = self.health_now;
             sink.flush();
         }

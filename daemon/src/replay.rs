@@ -61,6 +61,11 @@ pub struct ReplaySummary {
     pub counts: Counters,
     /// Line number (1-based) and reason of the first invalid lines.
     pub invalid_lines: Vec<(u64, String)>,
+    /// Times the filter re-initialised itself from the fixes after a lock-out
+    /// ([`crate::measurement::lockout`]), at the end of the run.
+    pub reinitialisations: u64,
+    /// Line numbers of the first fixes after which it did.
+    pub reinitialised_at: Vec<u64>,
 }
 
 impl std::fmt::Display for ReplaySummary {
@@ -87,6 +92,15 @@ impl std::fmt::Display for ReplaySummary {
         }
         if c.invalid > self.invalid_lines.len() as u64 {
             writeln!(f, "  … and {} more invalid lines", c.invalid - self.invalid_lines.len() as u64)?;
+        }
+        if self.reinitialisations > 0 {
+            let lines: Vec<String> = self.reinitialised_at.iter().map(u64::to_string).collect();
+            writeln!(
+                f,
+                "filter re-initialised from the fixes {} times after a lock-out (at line {})",
+                self.reinitialisations,
+                lines.join(", ")
+            )?;
         }
         Ok(())
     }
@@ -248,6 +262,11 @@ fn replay_model<M: Model>(
         if let Insert::Rejected(r) = engine.insert(&sample, None, &mut |e| sink.take(e)) {
             invalid(&mut summary, line_no, r.reason().to_string());
         }
+        let reinitialisations = engine.latest().map_or(0, |e| M::reinitialisations(&e.state));
+        if reinitialisations > summary.reinitialisations && summary.reinitialised_at.len() < INVALID_LINES_REPORTED {
+            summary.reinitialised_at.push(line_no);
+        }
+        summary.reinitialisations = reinitialisations;
         sink.check()?;
     }
     engine.flush(&mut |e| sink.take(e));
@@ -257,12 +276,22 @@ fn replay_model<M: Model>(
         let model = engine.model();
         let mut state = model.initial_state();
         let mut smoothed: Vec<M::Record> = Vec::with_capacity(finals.len());
-        for (_, outcome, sample) in &finals {
+        // A re-initialisation cuts the run: the estimate after it owes nothing
+        // to the one before, so each stretch between them is smoothed alone.
+        let mut stretches = vec![0];
+        for (i, (_, outcome, sample)) in finals.iter().enumerate() {
+            let before = M::reinitialisations(&state);
             let (again, record) = model.step_recorded(&mut state, sample);
             debug_assert_eq!(again, *outcome, "the re-run reproduces the engine");
             smoothed.push(record);
+            if M::reinitialisations(&state) > before {
+                stretches.push(i);
+            }
         }
-        M::smooth(&mut smoothed)?;
+        stretches.push(smoothed.len());
+        for pair in stretches.windows(2) {
+            M::smooth(&mut smoothed[pair[0]..pair[1]])?;
+        }
         for ((key, outcome, _), record) in finals.iter().zip(&smoothed) {
             let (x, p) = M::record_output(record);
             write_output(&mut sink.output, key, outcome, x, p)?;

@@ -72,6 +72,7 @@ pub fn fill<M: Model>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Optio
         let side = side.min(MAX_COV);
         snap.cov[..side * side].copy_from_slice(&p[..side * side]);
         snap.cov_dim = side as u32;
+        snap.reinitialisations = M::reinitialisations(&latest.state);
     }
     match input {
         Some(i) => {

@@ -222,16 +222,33 @@ fn bad_lines_in_a_replay_are_counted_with_their_line_numbers_and_poison_nothing(
 }
 
 #[test]
-fn idle_readers_beyond_the_configured_slots_get_a_clear_error() {
-    let domain = TestDomain::new("readers");
-    let mut daemon = Daemon::start(&domain, &format!("{}\n[ipc]\nmax_readers = 2\n", config()), "event");
-    let client = domain.client();
-    let first = client.state_subscriber().unwrap();
-    let _second = client.state_subscriber().unwrap();
-    let err = client.state_subscriber().err().expect("a third reader is refused").to_string();
-    assert!(err.contains("all 2 reader slots") && err.contains("[ipc] max_readers"), "{err}");
-    // A slot given back can be taken again.
-    drop(first);
-    assert!(client.state_subscriber().is_ok());
-    assert!(daemon.terminate().success());
+fn idle_readers_beyond_the_configured_slots_get_a_clear_error_and_are_counted() {
+    for wait in ["event", "spin"] {
+        let domain = TestDomain::new("readers");
+        let mut daemon = Daemon::start(&domain, &format!("{}\n[ipc]\nmax_readers = 2\n", config()), wait);
+        let client = domain.client();
+        let mut first = client.state_subscriber().unwrap();
+        let _second = client.state_subscriber().unwrap();
+        for _ in 0..3 {
+            let err = client.state_subscriber().err().expect("a third reader is refused").to_string();
+            assert!(err.contains("all 2 reader slots") && err.contains("[ipc] max_readers"), "{err}");
+        }
+        // The daemon counts them, and says so in a snapshot even with no input.
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let mut imu = client.imu_publisher(0).unwrap();
+        imu.set_wake(true);
+        let sample = ImuSample::new(1_000_000, 0, 0, [0.0; 3], [0.0; 3]);
+        imu.publish_sample(sample).unwrap();
+        let mut refused = 0;
+        while refused < 3 && Instant::now() < deadline {
+            if let Some(s) = first.wait_next(Duration::from_millis(100)).unwrap() {
+                refused = s.readers_refused;
+            }
+        }
+        assert_eq!(refused, 3, "--wait {wait}");
+        // A slot given back can be taken again.
+        drop(first);
+        assert!(client.state_subscriber().is_ok());
+        assert!(daemon.terminate().success());
+    }
 }

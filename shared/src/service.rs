@@ -47,6 +47,10 @@ pub const MAX_STATE_SUBSCRIBERS: usize = 8;
 pub const MAX_NODES: usize = 32;
 /// Most notifiers/listeners per event service.
 pub const MAX_EVENT_PORTS: usize = 32;
+/// Event id on `<ns>/wake` of a reader that was refused a reader slot (every
+/// slot taken): fusiond counts it (`StateSnapshot::readers_refused`). Sensors
+/// notify with the default id 0.
+pub const READER_REFUSED_EVENT: usize = 1;
 
 /// A namespace that cannot be used.
 #[derive(Debug, Clone, PartialEq, Eq)]

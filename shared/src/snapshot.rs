@@ -55,6 +55,10 @@ pub mod health {
     pub const NIS_OUT_OF_BOUNDS: u32 = 1 << 0;
     /// Reason bit: samples were lost (subscriber buffer overflow or sensor gaps).
     pub const SAMPLES_LOST: u32 = 1 << 1;
+    /// Reason bit: the filter re-initialised itself from the position fixes
+    /// recently, after they had all been gated for `[gating] lockout_ns`
+    /// ([`StateSnapshot::reinitialisations`](super::StateSnapshot::reinitialisations)).
+    pub const REINITIALISED: u32 = 1 << 2;
 
     /// Reason bit: no sample of `kind` for longer than its configured timeout
     /// (bit `8 + code`).
@@ -77,8 +81,11 @@ pub mod health {
     }
 
     /// The reason bits that are not about one kind, with their names.
-    pub const GENERAL_REASONS: [(u32, &str); 2] =
-        [(NIS_OUT_OF_BOUNDS, "nis out of bounds"), (SAMPLES_LOST, "samples lost")];
+    pub const GENERAL_REASONS: [(u32, &str); 3] = [
+        (NIS_OUT_OF_BOUNDS, "nis out of bounds"),
+        (SAMPLES_LOST, "samples lost"),
+        (REINITIALISED, "re-initialised from fixes"),
+    ];
 
     /// Every reason bit set in `reasons`, by name: the general ones, then the
     /// stale streams in kind order.
@@ -219,7 +226,7 @@ impl SensorCounters {
 
 /// The fusion state after one processed sample.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("fusion.StateSnapshot.v5")]
+#[type_name("fusion.StateSnapshot.v6")]
 #[repr(C)]
 pub struct StateSnapshot {
     /// Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
@@ -297,6 +304,12 @@ pub struct StateSnapshot {
     /// Bit `i`: `sensors[i]` is stale (no sample for longer than its kind's
     /// timeout): which of several IMUs, say, is gone.
     pub stale_sensors: u32,
+    /// Times the filter re-initialised itself from the position fixes after a
+    /// lock-out (every fix gated for `[gating] lockout_ns`).
+    pub reinitialisations: u64,
+    /// State readers refused because every reader slot (`[ipc] max_readers`)
+    /// was taken, as the refused readers reported it.
+    pub readers_refused: u64,
 }
 
 impl Default for StateSnapshot {
@@ -334,6 +347,8 @@ impl Default for StateSnapshot {
             datum_height_m: 0.0,
             datum_set: 0,
             stale_sensors: 0,
+            reinitialisations: 0,
+            readers_refused: 0,
         }
     }
 }
@@ -406,6 +421,6 @@ const _: () = {
     assert!(core::mem::align_of::<StateSnapshot>() == 8);
     assert!(
         core::mem::size_of::<StateSnapshot>()
-            == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 128 * MAX_SENSORS + 24 + 32
+            == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 128 * MAX_SENSORS + 24 + 32 + 16
     );
 };

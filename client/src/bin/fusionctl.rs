@@ -82,6 +82,9 @@ fn to_json(s: &StateSnapshot) -> serde_json::Value {
         "datum": s.datum().map(|d| json!({"lat_deg": d.latitude_deg, "lon_deg": d.longitude_deg, "height_m": d.height_m})),
         "counters": counters,
         "rewinds": s.rewinds,
+        "unknown_sensor": s.unknown_sensor,
+        "reinitialisations": s.reinitialisations,
+        "readers_refused": s.readers_refused,
     })
 }
 
@@ -234,5 +237,9 @@ fn describe(s: &StateSnapshot) -> String {
             finite(c.last_nis).map_or("-".into(), |v| format!("{v:.2}")),
         );
     }
+    o += &format!(
+        "\n  samples of no sensor row: {}; filter re-initialisations: {}; readers refused: {}\n",
+        s.unknown_sensor, s.reinitialisations, s.readers_refused
+    );
     o
 }

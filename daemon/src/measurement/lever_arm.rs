@@ -53,7 +53,9 @@ pub fn velocity(s: &InsState, l: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3
 }
 
 /// Fuses a position `z` (covariance `R`) of the point of `mount`; at the origin,
-/// the plain position update on δp.
+/// the plain position update on δp. After a lock-out the filter re-initialises
+/// from the fixes ([`super::lockout`]), taken to the body origin as `z − R l`
+/// with the attitude held.
 pub fn fuse_position(
     model: &InsModel,
     s: &mut InsState,
@@ -61,7 +63,12 @@ pub fn fuse_position(
     z: &Vector3<f64>,
     R: &Matrix3<f64>,
 ) -> (StepOutcome, Option<SVector<f64, N>>) {
-    fuse_at(model, s, mount, z, R, 0, position)
+    let (outcome, correction) = fuse_at(model, s, mount, z, R, 0, position);
+    if model.lockout().is_some() {
+        let origin = if mount.at_origin { *z } else { z - s.q().to_rotation_matrix() * mount.lever_arm };
+        model.observe_fix(s, &outcome, &origin, R);
+    }
+    (outcome, correction)
 }
 
 /// Fuses a velocity `z` (covariance `R`) of the point of `mount`; at the origin,

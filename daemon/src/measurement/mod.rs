@@ -16,6 +16,7 @@
 //! after IMU samples.
 
 pub mod lever_arm;
+pub mod lockout;
 pub mod nonholonomic;
 
 use fusion_shared::{Sample, SampleKind, WireSample};

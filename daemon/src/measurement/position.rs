@@ -1,6 +1,9 @@
 //! The position fix: `z = p + v`, `v ~ N(0, R)`, R the sample's covariance.
 //!
 //! - `linear`: `H = [I 0]` (the position states are selected), Joseph-form update.
+//!
+//! In both models a run of gated fixes long enough re-initialises the filter from
+//! the fixes ([`super::lockout`]).
 //! - `ins`: `H` selects δp; the error state is zero before the update, so
 //!   `h(x) = p` (nominal); the correction is injected into the nominal state and
 //!   the error reset (Solà 2017, §7.2–7.3). A sensor with a lever arm (a GNSS
@@ -34,7 +37,7 @@ impl Fuse<LinearModel> for PositionSample {
     fn fuse(&self, model: &LinearModel, s: &mut LinearState) -> (StepOutcome, ()) {
         let z = Vector3::from(self.pos_m);
         let R = Matrix3::from_row_slice(&self.cov_m2);
-        (model.update_block(s, &z, 0, &R), ())
+        (model.fuse_fix(s, &z, &R), ())
     }
 }
 

@@ -73,6 +73,7 @@ use crate::filter::{
 };
 use crate::frames::Frames;
 use crate::measurement::imu::{Held, HeldImu};
+use crate::measurement::lockout::{Lockout, LockoutConfig};
 pub use crate::measurement::nonholonomic::Nonholonomic;
 use crate::reorder::Sample;
 
@@ -138,6 +139,7 @@ pub struct InsModel {
     x0: [f64; NOMINAL],
     initial: KalmanFilter<f64, N>,
     gate: Option<ChiSquareGate>,
+    lockout: Option<LockoutConfig>,
     alignment_samples: u32,
     nonholonomic: Option<Nonholonomic>,
     frames: Frames,
@@ -170,6 +172,8 @@ pub struct InsState {
     pub(crate) ready: bool,
     /// Time of the last motion-constraint update.
     pub(crate) constrained_ns: Option<u64>,
+    /// The run of gated fixes ([`crate::measurement::lockout`]).
+    lockout: Lockout,
 }
 
 impl InsState {
@@ -185,6 +189,7 @@ impl InsState {
             sum_w: Vector3::zeros(),
             ready: false,
             constrained_ns: None,
+            lockout: Lockout::default(),
         }
     }
 
@@ -264,7 +269,58 @@ impl InsModel {
         for v in &mut x0[6..10] {
             *v /= norm;
         }
-        Ok(Self { noise, gravity, x0, initial, gate, alignment_samples, nonholonomic: None, frames: Frames::default() })
+        Ok(Self {
+            noise,
+            gravity,
+            x0,
+            initial,
+            gate,
+            lockout: None,
+            alignment_samples,
+            nonholonomic: None,
+            frames: Frames::default(),
+        })
+    }
+
+    /// The same model with lock-out recovery ([`crate::measurement::lockout`]).
+    pub fn with_lockout(mut self, lockout: Option<LockoutConfig>) -> Self {
+        self.lockout = lockout;
+        self
+    }
+
+    /// The IMU noise.
+    pub fn noise(&self) -> &ImuNoise {
+        &self.noise
+    }
+
+    /// Lock-out recovery, if configured.
+    pub fn lockout(&self) -> Option<&LockoutConfig> {
+        self.lockout.as_ref()
+    }
+
+    /// Takes the outcome of a position fix, `origin` being the fix taken to the
+    /// body origin, and re-initialises after a lock-out
+    /// ([`crate::measurement::lockout`]): nominal `p`, `v` from the fixes,
+    /// attitude and biases held; error covariance `P₀` with the position block
+    /// `P_pp`, the velocity block `P_vv + P₀,vv`, no cross-covariances.
+    pub(crate) fn observe_fix(&self, s: &mut InsState, outcome: &StepOutcome, origin: &Vector3<f64>, R: &Matrix3<f64>) {
+        let t = s.t_ns.unwrap_or(0);
+        let Some(r) = s.lockout.observe(self.lockout.as_ref(), outcome, t, origin, R) else { return };
+        let mut P = *self.initial.P();
+        for i in 0..3 {
+            for j in 0..N {
+                P[(i, j)] = 0.0;
+                P[(j, i)] = 0.0;
+                P[(i + 3, j)] = 0.0;
+                P[(j, i + 3)] = 0.0;
+            }
+        }
+        P.fixed_view_mut::<3, 3>(0, 0).copy_from(&r.P_p);
+        let P_v = r.P_v + self.initial.P().fixed_view::<3, 3>(3, 3);
+        P.fixed_view_mut::<3, 3>(3, 3).copy_from(&P_v);
+        let (q, b_a, b_g) = (s.q(), s.b_a(), s.b_g());
+        s.set(r.p, r.v, q, b_a, b_g);
+        s.kf.reset_error(|old| *old = P);
     }
 
     /// The same model with these frames (a configured datum).
@@ -311,7 +367,7 @@ impl InsModel {
         let alignment = p.alignment.map_or(0, |a| a.static_samples);
         let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
         Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)
-            .map(|m| m.with_nonholonomic(p.constraints).with_frames(frames))
+            .map(|m| m.with_nonholonomic(p.constraints).with_frames(frames).with_lockout(config.lockout))
             .map_err(|e| invalid("filter.initial_state", e.to_string()))
     }
 
@@ -538,6 +594,10 @@ impl Model for InsModel {
 
     fn initialised(s: &InsState) -> bool {
         s.ready
+    }
+
+    fn reinitialisations(s: &InsState) -> u64 {
+        s.lockout.count()
     }
 
     fn x(s: &InsState) -> &[f64] {

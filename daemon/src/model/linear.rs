@@ -33,6 +33,7 @@ use crate::config::{Config, ConfigError, ModelConfig, invalid, positive};
 use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, rts_smooth};
 use crate::frames::{Frames, MountedSensor};
 use crate::measurement::imu::HeldImu;
+use crate::measurement::lockout::{Lockout, LockoutConfig};
 use crate::reorder::Sample;
 
 /// State dimension.
@@ -58,6 +59,7 @@ pub struct LinearModel {
     sigma_a: f64,
     initial: KalmanFilter<f64, N>,
     gate: Option<ChiSquareGate>,
+    lockout: Option<LockoutConfig>,
     frames: Frames,
 }
 
@@ -69,6 +71,8 @@ pub struct LinearState {
     /// Held IMU acceleration (the input of the next propagations), combined
     /// over the IMUs.
     pub(crate) imu: HeldImu,
+    /// The run of gated fixes ([`crate::measurement::lockout`]).
+    lockout: Lockout,
 }
 
 impl LinearState {
@@ -88,7 +92,13 @@ impl LinearModel {
     ) -> Result<Self, crate::filter::FilterError> {
         let initial =
             KalmanFilter::new(SVector::from(x0), SMatrix::from_diagonal(&SVector::<f64, N>::from(p0_diagonal)))?;
-        Ok(Self { sigma_a, initial, gate, frames: Frames::default() })
+        Ok(Self { sigma_a, initial, gate, lockout: None, frames: Frames::default() })
+    }
+
+    /// The same model with lock-out recovery ([`crate::measurement::lockout`]).
+    pub fn with_lockout(mut self, lockout: Option<LockoutConfig>) -> Self {
+        self.lockout = lockout;
+        self
     }
 
     /// The same model with these frames (a configured datum).
@@ -125,7 +135,7 @@ impl LinearModel {
             }
         }
         Self::new(sigma_a, x0, p0, config.gating.clone())
-            .map(|m| m.with_frames(frames))
+            .map(|m| m.with_frames(frames).with_lockout(config.lockout))
             .map_err(|e| invalid("filter.initial_covariance_diagonal", e.to_string()))
     }
 
@@ -183,6 +193,27 @@ impl LinearModel {
         }
     }
 
+    /// Fuses a position fix `z` (covariance `R`) on the position states
+    /// ([`update_block`](Self::update_block)), re-initialising position and
+    /// velocity from the fixes after a lock-out ([`crate::measurement::lockout`]):
+    /// `x = [p, v]`, `P = blockdiag(P_pp, P_vv + P₀,vv)`.
+    pub(crate) fn fuse_fix(&self, s: &mut LinearState, z: &Vector3<f64>, R: &Matrix3<f64>) -> StepOutcome {
+        let outcome = self.update_block(s, z, 0, R);
+        let t = s.t_ns.unwrap_or(0);
+        if let Some(r) = s.lockout.observe(self.lockout.as_ref(), &outcome, t, z, R) {
+            let mut x = SVector::<f64, N>::zeros();
+            x.fixed_rows_mut::<3>(0).copy_from(&r.p);
+            x.fixed_rows_mut::<3>(3).copy_from(&r.v);
+            let P0 = self.initial.P();
+            let mut P = SMatrix::<f64, N, N>::zeros();
+            P.fixed_view_mut::<3, 3>(0, 0).copy_from(&r.P_p);
+            P.fixed_view_mut::<3, 3>(3, 3).copy_from(&(r.P_v + P0.fixed_view::<3, 3>(3, 3)));
+            // Finite by construction from validated fixes; a refusal keeps the estimate.
+            let _ = s.kf.set_state(x, P);
+        }
+        outcome
+    }
+
     /// `F` and `G` for a step of `dt` seconds.
     pub fn transition(dt: f64) -> (SMatrix<f64, N, N>, SMatrix<f64, N, 3>) {
         let mut F = SMatrix::<f64, N, N>::identity();
@@ -231,7 +262,7 @@ impl Model for LinearModel {
     const CODE: u32 = fusion_shared::snapshot::model::LINEAR;
 
     fn initial_state(&self) -> LinearState {
-        LinearState { kf: self.initial, t_ns: None, imu: HeldImu::EMPTY }
+        LinearState { kf: self.initial, t_ns: None, imu: HeldImu::EMPTY, lockout: Lockout::default() }
     }
 
     fn frames(&self) -> &Frames {
@@ -246,6 +277,10 @@ impl Model for LinearModel {
         let mut log = StepLog::begin(&s.kf);
         let outcome = self.step_logged(s, sample, Some(&mut log));
         (outcome, log.finish(&s.kf))
+    }
+
+    fn reinitialisations(s: &LinearState) -> u64 {
+        s.lockout.count()
     }
 
     fn time_ns(s: &LinearState) -> Option<u64> {

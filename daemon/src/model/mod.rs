@@ -146,6 +146,12 @@ pub trait Model {
     /// module ([`crate::measurement::fuse`]).
     fn step(&self, state: &mut Self::State, sample: &Sample) -> StepOutcome;
 
+    /// Times the filter re-initialised itself from the fixes after a lock-out
+    /// ([`crate::measurement::lockout`]) up to this state.
+    fn reinitialisations(_state: &Self::State) -> u64 {
+        0
+    }
+
     /// Filter time, ns, or `None` before the first sample.
     fn time_ns(state: &Self::State) -> Option<u64>;
 

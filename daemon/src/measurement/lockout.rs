@@ -1,0 +1,244 @@
+//! Lock-out recovery: a filter whose position fixes have all been gated for long
+//! enough re-initialises its position and velocity from the fixes.
+//!
+//! A gate protects the estimate from outliers, but a filter that is itself wrong
+//! (a first sample stamped with an uninitialised clock, a long dead-reckoning
+//! drift, a position jump it never saw) gates every fix from then on and never
+//! recovers. PX4 EKF2 resets position and velocity to GNSS when its fusion has
+//! been rejected for longer than a timeout (`EKF2_GPS_CHECK`, `reset_timeout_max`);
+//! this is the same rule on the fix stream, in sample time:
+//!
+//! - A run starts at the first gated fix; a fused fix ends it.
+//! - When the run holds at least `fixes` gated fixes and spans at least
+//!   `after_ns` (`[gating] lockout_fixes`, `lockout_ns`), the filter is
+//!   re-initialised from the last fix and the first fix of the run:
+//!
+//! ```text
+//! p = z_n                         P_pp = R_n
+//! v = (z_n − z_1) / Δt            P_vv = (R_1 + R_n) / Δt² + P₀,vv
+//! ```
+//!
+//! every other state keeps its value with its initial variance `P₀`, and all
+//! cross-covariances are zero. `Δt` is the time between the two fixes (at least
+//! `after_ns`); `P₀,vv` (the configured initial velocity variance) covers the
+//! acceleration over the run that the mean velocity does not. The fix positions
+//! are of the body origin (the `ins` model takes the lever arm off first).
+//!
+//! The run lives in the filter state, so a rewind replays it exactly and live
+//! equals replay. Each re-initialisation is counted in the state
+//! ([`Lockout::count`]); the health reports it and the daemon logs it.
+
+#![allow(non_snake_case)]
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::model::StepOutcome;
+
+/// When a run of gated fixes re-initialises the filter (`[gating] lockout_ns`
+/// and `lockout_fixes`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LockoutConfig {
+    /// Shortest span of the run, first to last gated fix, ns (> 0).
+    pub after_ns: u64,
+    /// Fewest gated fixes in the run (≥ 2).
+    pub fixes: u32,
+}
+
+impl Default for LockoutConfig {
+    /// 5 s and 5 fixes.
+    fn default() -> Self {
+        Self { after_ns: 5_000_000_000, fixes: 5 }
+    }
+}
+
+/// The run of gated fixes so far, and the re-initialisations made.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Lockout {
+    run: Option<Run>,
+    count: u64,
+}
+
+/// The first gated fix of a run, and how many followed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Run {
+    t_ns: u64,
+    z: Vector3<f64>,
+    R: Matrix3<f64>,
+    fixes: u32,
+}
+
+/// What a re-initialisation sets: position and velocity with their covariances.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reinit {
+    /// Position of the body origin, m.
+    pub p: Vector3<f64>,
+    /// Its covariance, m².
+    pub P_p: Matrix3<f64>,
+    /// Velocity, m/s.
+    pub v: Vector3<f64>,
+    /// Its covariance without the initial variance, m²/s² (the model adds `P₀,vv`).
+    pub P_v: Matrix3<f64>,
+}
+
+impl Lockout {
+    /// Re-initialisations so far.
+    pub fn count(&self) -> u64 {
+        self.count
+    }
+
+    /// Takes the outcome of a fix of the body origin at `z` (covariance `R`) at
+    /// `t_ns`; returns the re-initialisation when the run is long enough.
+    pub fn observe(
+        &mut self,
+        config: Option<&LockoutConfig>,
+        outcome: &StepOutcome,
+        t_ns: u64,
+        z: &Vector3<f64>,
+        R: &Matrix3<f64>,
+    ) -> Option<Reinit> {
+        let config = config?;
+        match outcome {
+            StepOutcome::Fused { .. } => {
+                self.run = None;
+                None
+            }
+            StepOutcome::Gated { .. } => {
+                let run = self.run.get_or_insert(Run { t_ns, z: *z, R: *R, fixes: 0 });
+                run.fixes += 1;
+                let span = t_ns.saturating_sub(run.t_ns);
+                if run.fixes < config.fixes || span < config.after_ns || span == 0 {
+                    return None;
+                }
+                let dt = span as f64 * 1e-9;
+                let reinit = Reinit { p: *z, P_p: *R, v: (z - run.z) / dt, P_v: (run.R + R) / (dt * dt) };
+                self.run = None;
+                self.count += 1;
+                Some(reinit)
+            }
+            // A refused update (S not positive definite) or a propagation says
+            // nothing about the estimate against the fixes.
+            StepOutcome::Refused | StepOutcome::Propagated => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GATED: StepOutcome = StepOutcome::Gated { nis: 1e6 };
+
+    #[test]
+    fn a_long_enough_run_of_gated_fixes_reinitialises_and_a_fused_fix_ends_the_run() {
+        let config = LockoutConfig { after_ns: 1_000_000_000, fixes: 3 };
+        let R = Matrix3::identity();
+        let mut l = Lockout::default();
+        let at = |t: u64| Vector3::new(10.0 * t as f64 * 1e-9, 0.0, 0.0);
+        // 3 fixes over 0.5 s: not long enough; a fused fix starts over.
+        for t in [0, 250_000_000, 500_000_000] {
+            assert_eq!(l.observe(Some(&config), &GATED, t, &at(t), &R), None);
+        }
+        assert_eq!(l.observe(Some(&config), &StepOutcome::Fused { nis: 1.0 }, 600_000_000, &at(600_000_000), &R), None);
+        // 2 fixes over 1 s: too few.
+        let t0 = 1_000_000_000;
+        assert_eq!(l.observe(Some(&config), &GATED, t0, &at(t0), &R), None);
+        assert_eq!(l.observe(Some(&config), &GATED, t0 + 1_000_000_000, &at(t0 + 1_000_000_000), &R), None);
+        let t = t0 + 2_000_000_000;
+        let reinit = l.observe(Some(&config), &GATED, t, &at(t), &R).expect("3 fixes over 2 s");
+        assert_eq!(reinit.p, at(t));
+        assert!((reinit.v - Vector3::new(10.0, 0.0, 0.0)).norm() < 1e-12);
+        assert!((reinit.P_v - Matrix3::identity() * 0.5).norm() < 1e-12);
+        assert_eq!(l.count(), 1);
+        // Without a config nothing happens.
+        let mut off = Lockout::default();
+        for t in 0..100u64 {
+            assert_eq!(off.observe(None, &GATED, t * 1_000_000_000, &at(t), &R), None);
+        }
+        assert_eq!(off.count(), 0);
+    }
+
+    use crate::engine::{Engine, EngineConfig, Entry, Insert};
+    use crate::filter::ChiSquareGate;
+    use crate::model::Model;
+    use crate::model::ins::{InsModel, tests_support};
+    use crate::model::linear::LinearModel;
+    use fusion_shared::{ImuSample, PositionSample, Sample};
+
+    /// A vehicle at rest: IMU at 200 Hz reading `f` (gravity for the `ins`
+    /// model, nothing for `linear`, whose input is the world acceleration), fixes at 10 Hz at the
+    /// origin for 10 s, then 1 km east for 10 s (carried away unseen, or a fix
+    /// source that jumped for good): every fix after the jump is gated.
+    fn jump_stream(f: [f64; 3]) -> Vec<Sample> {
+        let mut v = Vec::new();
+        for i in 0..4000u64 {
+            let t = i * 5_000_000;
+            v.push(Sample::Imu(ImuSample::new(t, 0, i, f, [0.0; 3])));
+            if i % 20 == 10 {
+                let x = if t < 10_000_000_000 { 0.0 } else { 1000.0 };
+                let cov = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.25];
+                v.push(Sample::Position(PositionSample::new(t, 1, i / 20, [x, 0.0, 0.0], cov)));
+            }
+        }
+        v
+    }
+
+    /// Runs the stream; returns the final x, the re-initialisations, and the
+    /// outcome of every fix after the jump.
+    fn run<M: Model>(model: M, f: [f64; 3]) -> (Vec<f64>, u64, Vec<bool>) {
+        let config = EngineConfig { max_future_ns: u64::MAX, ..EngineConfig::default() };
+        let mut engine = Engine::new(model, config);
+        let mut after = Vec::new();
+        for s in jump_stream(f) {
+            let out = engine.insert(&s, None, &mut |_: &Entry<_>| {});
+            if let (Sample::Position(_), Insert::Processed { outcome, .. }) = (&s, out)
+                && s.t_ns() >= 10_000_000_000
+            {
+                after.push(outcome.accepted() == Some(true));
+            }
+        }
+        let latest = engine.latest().unwrap();
+        (M::x(&latest.state).to_vec(), M::reinitialisations(&latest.state), after)
+    }
+
+    const G: [f64; 3] = [0.0, 0.0, 9.80665];
+
+    fn check(x: &[f64], reinitialisations: u64, after: &[bool]) {
+        assert_eq!(reinitialisations, 1);
+        // Gated for 5 s (51 fixes, the first at 10.05 s, the last at 15.05 s),
+        // then fused from the next one on.
+        let gated = after.iter().take_while(|f| !**f).count();
+        assert_eq!(gated, 51, "{after:?}");
+        assert!(after[gated..].iter().all(|f| *f), "{after:?}");
+        assert!((x[0] - 1000.0).abs() < 0.5 && x[1].abs() < 0.5 && x[3].abs() < 0.5, "{x:?}");
+    }
+
+    #[test]
+    fn a_linear_filter_locked_out_by_a_jump_recovers_from_the_fixes() {
+        let gate = ChiSquareGate::new(0.999).ok();
+        let p0 = [100.0, 100.0, 100.0, 10.0, 10.0, 10.0];
+        let model = || LinearModel::new(0.3, [0.0; 6], p0, gate.clone()).unwrap();
+        let (x, n, after) = run(model().with_lockout(Some(LockoutConfig::default())), [0.0; 3]);
+        check(&x, n, &after);
+        // Without it, the filter stays at the old place for good.
+        let (x, n, after) = run(model(), [0.0; 3]);
+        assert_eq!(n, 0);
+        assert!(after.iter().all(|f| !*f) && x[0].abs() < 1.0, "{x:?}");
+    }
+
+    #[test]
+    fn an_ins_locked_out_by_a_jump_recovers_from_the_fixes() {
+        let gated = |lockout| {
+            let mut x0 = [0.0; 16];
+            x0[6] = 1.0;
+            let mut p0 = [1.0; 15];
+            p0[6..9].copy_from_slice(&[1e-4; 3]);
+            let noise = *tests_support::model().noise();
+            InsModel::new(noise, 9.80665, x0, p0, ChiSquareGate::new(0.999).ok(), 0).unwrap().with_lockout(lockout)
+        };
+        let (x, n, after) = run(gated(Some(LockoutConfig::default())), G);
+        check(&x, n, &after);
+        let (x, n, after) = run(gated(None), G);
+        assert_eq!(n, 0);
+        assert!(after.iter().all(|f| !*f) && x[0].abs() < 1.0, "{x:?}");
+    }
+}
