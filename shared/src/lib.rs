@@ -9,6 +9,7 @@
 //! - `jsonl` (feature `json`): the JSON-lines sample format of replay files.
 //! - [`transport`]: [`transport::Ipc`], the iceoryx2 service type of every port
 //!   (iceoryx2's `ipc` with pooled per-loan state: no allocation per sample).
+//! - [`permissions`]: only this user may touch fusiond's shared memory.
 //! - [`time`]: [`now_ns`], the one clock of the system (CLOCK_MONOTONIC, ns).
 //!
 //! Every type here is `#[repr(C)]` with fixed-width fields only, units in the field
@@ -17,6 +18,7 @@
 pub mod geodesy;
 #[cfg(feature = "json")]
 pub mod jsonl;
+pub mod permissions;
 pub mod sample;
 pub mod service;
 pub mod snapshot;

@@ -130,14 +130,22 @@ pub fn domain_prefix(domain: &str) -> Option<String> {
 
 /// Creates a node named `name` for this process in `config`'s domain, with
 /// iceoryx2's own signal handling off (the binaries handle SIGINT/SIGTERM).
+///
+/// Only this user may touch the domain's files ([`crate::permissions`]): the
+/// iceoryx2 directory and the node-id counter must be this user's and closed
+/// to others, or this fails at once, saying which file and whose it is.
 pub fn create_node(name: &str, config: &Config) -> Result<Node<Ipc>, String> {
     let node_name: NodeName = name.try_into().map_err(|e| format!("node name {name:?}: {e:?}"))?;
+    crate::permissions::check_root_directory(config)?;
     NodeBuilder::new()
         .name(&node_name)
         .config(config)
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<Ipc>()
-        .map_err(|e| format!("cannot create iceoryx2 node: {e:?}"))
+        .map_err(|e| match crate::permissions::take_refusal() {
+            Some(reason) => format!("cannot create iceoryx2 node: {reason}"),
+            None => format!("cannot create iceoryx2 node: {e:?}"),
+        })
 }
 
 /// Why a service could not be opened.

@@ -10,9 +10,10 @@
 //! per-thread free list and gives it back there. After the first few samples a
 //! publisher allocates nothing.
 //!
-//! Every other part of [`Ipc`] (shared memory, connections, events, storage,
-//! naming) is `ipc::Service`'s, so the files and the shared-memory layout are
-//! the same: a process using plain `iceoryx2::prelude::ipc::Service` talks to
+//! The domain's node-id counter is kept by [`crate::permissions::OwnerOnly`],
+//! `ipc::Service`'s storage without the access for everyone. Every other part
+//! of [`Ipc`] (shared memory, connections, events, storage, naming) is
+//! `ipc::Service`'s, so the files and the shared-memory layout are the same: a process using plain `iceoryx2::prelude::ipc::Service` talks to
 //! fusiond's services unchanged (`daemon/tests/raw_iceoryx2.rs` checks it).
 
 use core::cell::Cell;
@@ -42,7 +43,7 @@ impl iceoryx2::service::Service for Ipc {
     type StaticStorage = static_storage::recommended::Ipc;
     type ConfigSerializer = serialize::recommended::Recommended;
     type PersistentDynamicStorage<T: fmt::Debug + Send + Sync + ZeroCopySend + 'static> =
-        dynamic_storage::recommended::PersistentIpc<T>;
+        crate::permissions::OwnerOnly<T>;
     type Bag = bag::recommended::Recommended;
     type DynamicStorage<T: fmt::Debug + Send + Sync + ZeroCopySend + 'static> = dynamic_storage::recommended::Ipc<T>;
     type ServiceNameHasher = hash::recommended::Recommended;
