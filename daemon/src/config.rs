@@ -52,7 +52,8 @@ history_capacity = 4096
 probability = 0.999
 # Lock-out recovery: when every position fix for lockout_ns (and at least
 # lockout_fixes of them) was gated, the filter re-initialises its position and
-# velocity from the fixes (health "degraded: re-initialised"). 0 turns it off.
+# velocity from the fixes (health "degraded: re-initialised from fixes"). 0 turns
+# it off.
 lockout_ns = 5_000_000_000
 lockout_fixes = 5
 

@@ -88,3 +88,15 @@ fn ins_config_uses_kalibr_names() {
     assert!(err(&INS.replace("kind = \"ins\"", "kind = \"ins\"\naccel_noise_std = 1")).contains("accel_noise_std"));
     assert!(err("[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n").contains("filter"));
 }
+
+#[test]
+fn lockout_recovery_is_on_with_the_gate_and_can_be_tuned_or_turned_off() {
+    use crate::measurement::lockout::LockoutConfig;
+    assert_eq!(Config::parse(MIN).unwrap().lockout, None, "no gate, nothing to be locked out by");
+    let gated = |extra: &str| Config::parse(&format!("{MIN}[gating]\nprobability = 0.99\n{extra}"));
+    assert_eq!(gated("").unwrap().lockout, Some(LockoutConfig::default()));
+    let tuned = gated("lockout_ns = 2_000_000_000\nlockout_fixes = 3\n").unwrap().lockout;
+    assert_eq!(tuned, Some(LockoutConfig { after_ns: 2_000_000_000, fixes: 3 }));
+    assert_eq!(gated("lockout_ns = 0\n").unwrap().lockout, None);
+    assert!(gated("lockout_fixes = 1\n").unwrap_err().to_string().contains("gating.lockout_fixes"));
+}

@@ -1,13 +1,13 @@
 //! The position fix: `z = p + v`, `v ~ N(0, R)`, R the sample's covariance.
 //!
 //! - `linear`: `H = [I 0]` (the position states are selected), Joseph-form update.
-//!
-//! In both models a run of gated fixes long enough re-initialises the filter from
-//! the fixes ([`super::lockout`]).
 //! - `ins`: `H` selects δp; the error state is zero before the update, so
 //!   `h(x) = p` (nominal); the correction is injected into the nominal state and
 //!   the error reset (Solà 2017, §7.2–7.3). A sensor with a lever arm (a GNSS
 //!   antenna off the IMU) measures `p + R l` ([`super::lever_arm`]).
+//!
+//! In both models a long enough run of gated fixes re-initialises the filter from
+//! the fixes ([`super::lockout`]).
 //!
 //! Validation: finite, covariance symmetric positive definite.
 
