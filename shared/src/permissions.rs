@@ -61,8 +61,10 @@ pub fn euid() -> u32 {
 }
 
 /// Checks a file or directory this user's fusion processes rely on: it must be
-/// this user's (not a link), and no one else may write to it. Returns why not.
-fn check_owned(path: &Path, what: &str) -> Result<(), String> {
+/// this user's (not a link), with none of the permission bits of `closed`
+/// (0o022: no one else may write; 0o077: no one else may read or write).
+/// Returns why not.
+fn check_owned(path: &Path, what: &str, closed: u32) -> Result<(), String> {
     let meta = std::fs::symlink_metadata(path).map_err(|e| format!("{what} {}: {e}", path.display()))?;
     let me = euid();
     if meta.file_type().is_symlink() {
@@ -77,9 +79,9 @@ fn check_owned(path: &Path, what: &str) -> Result<(), String> {
             meta.uid()
         ));
     }
-    if meta.mode() & 0o022 != 0 {
+    if meta.mode() & closed != 0 {
         return Err(format!(
-            "{what} {} may be written by other users (mode {:o}); make it writable by its owner only",
+            "{what} {} is open to other users (mode {:o}); close it to all but its owner",
             path.display(),
             meta.mode() & 0o7777
         ));
@@ -103,7 +105,7 @@ pub fn check_root_directory(config: &Config) -> Result<(), String> {
         Err(e) => return Err(format!("iceoryx2's directory {}: {e}", root.display())),
         Ok(_) => {}
     }
-    check_owned(&root, "iceoryx2's directory")
+    check_owned(&root, "iceoryx2's directory", 0o022)
 }
 
 /// iceoryx2's recommended persistent storage (POSIX shared memory), but only
@@ -134,18 +136,7 @@ impl<T: Send + Sync + Debug + ZeroCopySend + 'static> OwnerOnlyBuilder<'_, T> {
         if meta.uid() == euid() && !meta.file_type().is_symlink() && meta.mode() & 0o077 != 0 {
             let _ = std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o600));
         }
-        let owned = check_owned(&path, "iceoryx2's shared memory").and_then(|()| {
-            let meta = std::fs::symlink_metadata(&path).map_err(|e| e.to_string())?;
-            if meta.mode() & 0o077 != 0 {
-                return Err(format!(
-                    "iceoryx2's shared memory {} is open to other users (mode {:o}) and cannot be narrowed",
-                    path.display(),
-                    meta.mode() & 0o7777
-                ));
-            }
-            Ok(())
-        });
-        owned.map_err(|reason| {
+        check_owned(&path, "iceoryx2's shared memory", 0o077).map_err(|reason| {
             if let Ok(mut r) = REFUSED.lock() {
                 *r = Some(reason);
             }

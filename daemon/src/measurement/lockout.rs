@@ -30,7 +30,7 @@
 
 #![allow(non_snake_case)]
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, SMatrix, Vector3};
 
 use crate::model::StepOutcome;
 
@@ -78,6 +78,20 @@ pub struct Reinit {
     pub v: Vector3<f64>,
     /// Its covariance without the initial variance, m²/s² (the model adds `P₀,vv`).
     pub P_v: Matrix3<f64>,
+}
+
+impl Reinit {
+    /// The covariance after the re-initialisation, for a model whose
+    /// (error-)state starts with position (0..3) and velocity (3..6): `P₀` with
+    /// those rows and columns replaced by `blockdiag(P_pp, P_vv + P₀,vv)`.
+    pub fn covariance<const N: usize>(&self, P0: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
+        let mut P = *P0;
+        P.rows_mut(0, 6).fill(0.0);
+        P.columns_mut(0, 6).fill(0.0);
+        P.fixed_view_mut::<3, 3>(0, 0).copy_from(&self.P_p);
+        P.fixed_view_mut::<3, 3>(3, 3).copy_from(&(self.P_v + P0.fixed_view::<3, 3>(3, 3)));
+        P
+    }
 }
 
 impl Lockout {
@@ -232,8 +246,9 @@ mod tests {
             x0[6] = 1.0;
             let mut p0 = [1.0; 15];
             p0[6..9].copy_from_slice(&[1e-4; 3]);
-            let noise = *tests_support::model().noise();
-            InsModel::new(noise, 9.80665, x0, p0, ChiSquareGate::new(0.999).ok(), 0).unwrap().with_lockout(lockout)
+            InsModel::new(tests_support::NOISE, 9.80665, x0, p0, ChiSquareGate::new(0.999).ok(), 0)
+                .unwrap()
+                .with_lockout(lockout)
         };
         let (x, n, after) = run(gated(Some(LockoutConfig::default())), G);
         check(&x, n, &after);

@@ -61,6 +61,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 mod error_state;
+mod reinit;
 
 pub(crate) use error_state::inject_and_reset;
 use error_state::{ProcessNoise, Transition, inject};
@@ -280,47 +281,6 @@ impl InsModel {
             nonholonomic: None,
             frames: Frames::default(),
         })
-    }
-
-    /// The same model with lock-out recovery ([`crate::measurement::lockout`]).
-    pub fn with_lockout(mut self, lockout: Option<LockoutConfig>) -> Self {
-        self.lockout = lockout;
-        self
-    }
-
-    /// The IMU noise.
-    pub fn noise(&self) -> &ImuNoise {
-        &self.noise
-    }
-
-    /// Lock-out recovery, if configured.
-    pub fn lockout(&self) -> Option<&LockoutConfig> {
-        self.lockout.as_ref()
-    }
-
-    /// Takes the outcome of a position fix, `origin` being the fix taken to the
-    /// body origin, and re-initialises after a lock-out
-    /// ([`crate::measurement::lockout`]): nominal `p`, `v` from the fixes,
-    /// attitude and biases held; error covariance `P₀` with the position block
-    /// `P_pp`, the velocity block `P_vv + P₀,vv`, no cross-covariances.
-    pub(crate) fn observe_fix(&self, s: &mut InsState, outcome: &StepOutcome, origin: &Vector3<f64>, R: &Matrix3<f64>) {
-        let t = s.t_ns.unwrap_or(0);
-        let Some(r) = s.lockout.observe(self.lockout.as_ref(), outcome, t, origin, R) else { return };
-        let mut P = *self.initial.P();
-        for i in 0..3 {
-            for j in 0..N {
-                P[(i, j)] = 0.0;
-                P[(j, i)] = 0.0;
-                P[(i + 3, j)] = 0.0;
-                P[(j, i + 3)] = 0.0;
-            }
-        }
-        P.fixed_view_mut::<3, 3>(0, 0).copy_from(&r.P_p);
-        let P_v = r.P_v + self.initial.P().fixed_view::<3, 3>(3, 3);
-        P.fixed_view_mut::<3, 3>(3, 3).copy_from(&P_v);
-        let (q, b_a, b_g) = (s.q(), s.b_a(), s.b_g());
-        s.set(r.p, r.v, q, b_a, b_g);
-        s.kf.reset_error(|old| *old = P);
     }
 
     /// The same model with these frames (a configured datum).

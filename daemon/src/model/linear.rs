@@ -204,12 +204,8 @@ impl LinearModel {
             let mut x = SVector::<f64, N>::zeros();
             x.fixed_rows_mut::<3>(0).copy_from(&r.p);
             x.fixed_rows_mut::<3>(3).copy_from(&r.v);
-            let P0 = self.initial.P();
-            let mut P = SMatrix::<f64, N, N>::zeros();
-            P.fixed_view_mut::<3, 3>(0, 0).copy_from(&r.P_p);
-            P.fixed_view_mut::<3, 3>(3, 3).copy_from(&(r.P_v + P0.fixed_view::<3, 3>(3, 3)));
             // Finite by construction from validated fixes; a refusal keeps the estimate.
-            let _ = s.kf.set_state(x, P);
+            let _ = s.kf.set_state(x, r.covariance(self.initial.P()));
         }
         outcome
     }

@@ -9,17 +9,19 @@ use super::{ImuNoise, InsModel, InsState, N, error_state::inject};
 use crate::frames::Frames;
 use crate::model::Model;
 
-/// An `ins` model with usual MEMS noise, no gate.
+/// Usual MEMS IMU noise.
+pub const NOISE: ImuNoise = ImuNoise {
+    accelerometer_noise_density: 0.02,
+    gyroscope_noise_density: 0.001,
+    accelerometer_random_walk: 0.001,
+    gyroscope_random_walk: 1e-5,
+};
+
+/// An `ins` model with [`NOISE`], no gate.
 pub fn model() -> InsModel {
-    let noise = ImuNoise {
-        accelerometer_noise_density: 0.02,
-        gyroscope_noise_density: 0.001,
-        accelerometer_random_walk: 0.001,
-        gyroscope_random_walk: 1e-5,
-    };
     let mut x0 = [0.0; 16];
     x0[6] = 1.0;
-    InsModel::new(noise, 9.80665, x0, [1.0; N], None, 0).unwrap()
+    InsModel::new(NOISE, 9.80665, x0, [1.0; N], None, 0).unwrap()
 }
 
 /// A state driving at 12 m/s, tilted and turning at 0.4 rad/s, with biases.
