@@ -118,7 +118,7 @@ fn replay_throughput(c: &mut Criterion) {
     group.bench_function("fusiond replay, JSON lines in and out", |b| {
         b.iter(|| {
             let mut out = Vec::with_capacity(text.len() * 4);
-            replay(&config, text.as_bytes(), &mut out, false).unwrap();
+            replay(&config, text.as_bytes(), Some(&mut out), false).unwrap();
             black_box(out.len())
         })
     });

@@ -23,6 +23,7 @@ use fusion_benches::latency::{
 use fusion_client::{Client, ImuSample, StateSnapshot};
 use fusion_daemon::ipc::WaitMode;
 use hdrhistogram::Histogram;
+use iceoryx2::service::port_factory::PortFactory as _;
 
 /// Counts the allocations of the daemon loop run in this process (section 6).
 #[global_allocator]
@@ -113,6 +114,33 @@ fn spawn_publisher(namespace: &str, model: &str, plan: PublisherPlan) -> anyhow:
         .stdout(Stdio::null())
         .spawn()?;
     Ok(ChildGuard(child))
+}
+
+/// Starts `fusionctl record` on `namespace` into `mcap` and waits until it reads
+/// the snapshots; dropping the guard stops it (SIGTERM: a clean finish).
+fn start_recorder(
+    fusionctl: &std::path::Path,
+    namespace: &str,
+    mcap: &std::path::Path,
+    client: &Client,
+) -> anyhow::Result<ChildGuard> {
+    let child = Command::new(fusionctl)
+        .args(["record", "--no-compression", "--namespace", namespace, "--output"])
+        .arg(mcap)
+        .stderr(Stdio::null())
+        .spawn()?;
+    let recorder = ChildGuard(child);
+    let config = fusion_shared::service::iceoryx_config(None).map_err(anyhow::Error::msg)?;
+    let node = fusion_shared::service::create_node("bench-probe", &config).map_err(anyhow::Error::msg)?;
+    let state = fusion_shared::service::state_service(&node, client.names(), None)?;
+    let readers = || state.dynamic_config().number_of_subscribers();
+    let before = readers();
+    let started = Instant::now();
+    while readers() <= before {
+        anyhow::ensure!(started.elapsed() < Duration::from_secs(10), "fusionctl record did not subscribe");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    Ok(recorder)
 }
 
 fn main() -> anyhow::Result<()> {
@@ -322,7 +350,60 @@ fn main() -> anyhow::Result<()> {
         }
     }
 
+    // 7. A recorder attached (`fusionctl record`), spin mode: blocks without and
+    //    with one, taking turns; the recorder is started and stopped per block.
+    let fusionctl = match std::env::var("FUSION_BENCH_FUSIONCTL") {
+        Ok(path) => PathBuf::from(path),
+        Err(_) => {
+            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+            let status = Command::new(cargo)
+                .args(["build", "--quiet", "--release", "-p", "fusion-client", "--features", "cli", "--bin"])
+                .arg("fusionctl")
+                .current_dir(&root)
+                .status()?;
+            anyhow::ensure!(status.success(), "building fusionctl failed");
+            target.join("release").join("fusionctl")
+        }
+    };
+    let mut record_rows = Vec::new();
+    for model in ["linear", "ins"] {
+        let namespace = format!("fusion-bench-{pid}-{model}-record");
+        let rig = start_rig(&fusiond, &namespace, model, Mode::Spin)?;
+        let mut prober = Prober::new(&rig.client, Mode::Spin, imu_value(model))?;
+        let (mut alone, mut recorded, mut block_ratios) = (histogram(), histogram(), Vec::new());
+        let mcap = out_dir.join(format!("record-{model}.mcap"));
+        for _ in 0..blocks {
+            let mut without = EndToEnd::new();
+            prober.run(per_block + warm, warm, imu_hz, &mut without)?;
+            let recorder = start_recorder(&fusionctl, &namespace, &mcap, &rig.client)?;
+            let mut with = EndToEnd::new();
+            prober.run(per_block + warm, warm, imu_hz, &mut with)?;
+            drop(recorder);
+            block_ratios
+                .push(with.latency.value_at_quantile(0.5) as f64 / without.latency.value_at_quantile(0.5) as f64);
+            alone.add(&without.latency)?;
+            recorded.add(&with.latency)?;
+        }
+        let _ = std::fs::remove_file(&mcap);
+        record_rows.push((model, alone, recorded, block_ratios));
+    }
+
     print_report(&rows, &late_rows, &throughput_rows, &alloc_rows, quick, &out_dir)?;
+    println!("\n## End to end with a recorder attached (spin, {imu_hz} Hz, blocks taking turns)\n");
+    println!("| model | without p50 | with p50 | without p99 | with p99 | with/without p50 per block |");
+    println!("|---|---|---|---|---|---|");
+    for (model, alone, recorded, ratios) in &record_rows {
+        let us = |h: &Histogram<u64>, q: f64| h.value_at_quantile(q) as f64 / 1000.0;
+        let ratios: Vec<String> = ratios.iter().map(|r| format!("{r:.2}")).collect();
+        println!(
+            "| {model} | {:.2} µs | {:.2} µs | {:.2} µs | {:.2} µs | {} |",
+            us(alone, 0.5),
+            us(recorded, 0.5),
+            us(alone, 0.99),
+            us(recorded, 0.99),
+            ratios.join(" ")
+        );
+    }
     println!("whole run: {:.0} s", started.elapsed().as_secs_f64());
     Ok(())
 }

@@ -24,7 +24,7 @@ pub use fusion_shared;
 pub use fusion_shared::sample::*;
 pub use fusion_shared::{StateSnapshot, now_ns};
 pub use publisher::{ImuPublisher, PositionPublisher, SamplePublisher, SensorPublishers};
-pub use subscriber::StateSubscriber;
+pub use subscriber::{SampleSubscriber, StateSubscriber};
 
 use fusion_shared::service::{self, ServiceNames};
 use fusion_shared::transport::Ipc;
@@ -90,6 +90,12 @@ impl Client {
     /// A publisher of position fixes for sensor id `sensor`.
     pub fn position_publisher(&self, sensor: u32) -> Result<PositionPublisher, ClientError> {
         SamplePublisher::new(self, sensor)
+    }
+
+    /// A reader of every sample sent in the namespace, of every kind (what a
+    /// recorder needs). Works whether or not fusiond runs.
+    pub fn sample_subscriber(&self) -> Result<SampleSubscriber, ClientError> {
+        SampleSubscriber::new(self)
     }
 
     /// A state reader that keeps up to 64 unread snapshots. Fails with

@@ -165,3 +165,85 @@ impl StateSubscriber {
         }
     }
 }
+
+/// Reads the samples sent on every `<ns>/<kind>` service, as fusiond does (a
+/// recorder's view of the input): each kind's subscriber holds
+/// [`SAMPLE_BUFFER`](fusion_shared::service::SAMPLE_BUFFER) samples, so a reader
+/// that polls at least every second keeps up with a 1 kHz IMU. It takes one of
+/// the [`MAX_SAMPLE_SUBSCRIBERS`](fusion_shared::service::MAX_SAMPLE_SUBSCRIBERS)
+/// subscriber slots of each service.
+pub struct SampleSubscriber {
+    kinds: Vec<Box<dyn KindSubscriber>>,
+    next: usize,
+}
+
+/// One kind's subscriber, its wire type erased.
+trait KindSubscriber {
+    fn receive(&mut self) -> Result<Option<fusion_shared::Sample>, ClientError>;
+}
+
+struct Typed<T: fusion_shared::WireSample> {
+    service: String,
+    subscriber: Subscriber<Ipc, T, ()>,
+}
+
+impl<T: fusion_shared::WireSample> KindSubscriber for Typed<T> {
+    fn receive(&mut self) -> Result<Option<fusion_shared::Sample>, ClientError> {
+        match self.subscriber.receive() {
+            // Copied out at once: the slot goes back to the publisher.
+            Ok(Some(s)) => Ok(Some((*s).into_sample())),
+            Ok(None) => Ok(None),
+            Err(e) => Err(ClientError::Receive { service: self.service.clone(), detail: format!("{e:?}") }),
+        }
+    }
+}
+
+impl SampleSubscriber {
+    pub(crate) fn new(client: &crate::Client) -> Result<Self, ClientError> {
+        struct Open<'a> {
+            client: &'a crate::Client,
+            kinds: Vec<Box<dyn KindSubscriber>>,
+            error: Option<ClientError>,
+        }
+        impl fusion_shared::KindVisitor for Open<'_> {
+            fn visit<T: fusion_shared::WireSample>(&mut self) {
+                if self.error.is_some() {
+                    return;
+                }
+                let names = self.client.names();
+                let service = names.samples(T::KIND);
+                let opened = fusion_shared::service::sample_service::<T>(self.client.node(), names)
+                    .map_err(ClientError::from)
+                    .and_then(|s| {
+                        s.subscriber_builder()
+                            .buffer_size(fusion_shared::service::SAMPLE_BUFFER)
+                            .create()
+                            .map_err(|e| ClientError::Port { service: service.clone(), detail: format!("{e:?}") })
+                    });
+                match opened {
+                    Ok(subscriber) => self.kinds.push(Box::new(Typed::<T> { service, subscriber })),
+                    Err(e) => self.error = Some(e),
+                }
+            }
+        }
+        let mut open = Open { client, kinds: Vec::new(), error: None };
+        fusion_shared::SampleKind::visit_all(&mut open);
+        match open.error {
+            Some(e) => Err(e),
+            None => Ok(Self { kinds: open.kinds, next: 0 }),
+        }
+    }
+
+    /// The next waiting sample of any kind, or `None` when none waits. The
+    /// kinds take turns, so a flood of one kind does not hold up the others.
+    pub fn try_next(&mut self) -> Result<Option<fusion_shared::Sample>, ClientError> {
+        for _ in 0..self.kinds.len() {
+            let i = self.next;
+            self.next = (self.next + 1) % self.kinds.len();
+            if let Some(s) = self.kinds[i].receive()? {
+                return Ok(Some(s));
+            }
+        }
+        Ok(None)
+    }
+}

@@ -16,7 +16,7 @@ fn main() -> anyhow::Result<()> {
 
     let config = Config::load(&examples.join("linear.toml"))?;
     let input = BufReader::new(std::fs::File::open(examples.join("drive.jsonl"))?);
-    let summary = replay(&config, input, BufWriter::new(std::fs::File::create(&out_path)?), false)?;
+    let summary = replay(&config, input, Some(BufWriter::new(std::fs::File::create(&out_path)?)), false)?;
     print!("{summary}");
 
     let truth: Vec<serde_json::Value> = BufReader::new(std::fs::File::open(examples.join("drive.truth.jsonl"))?)

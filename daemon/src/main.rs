@@ -3,7 +3,7 @@
 //! Thin: parses arguments, sets up tracing, and calls into the library.
 
 use std::fs::File;
-use std::io::{BufReader, BufWriter, IsTerminal};
+use std::io::{BufReader, BufWriter, IsTerminal, Read, Seek};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -15,6 +15,7 @@ use clap::{Parser, Subcommand};
 use fusion_daemon::config::{Config, default_config_text};
 use fusion_daemon::ipc::{RunOptions, WaitMode};
 use fusion_daemon::replay;
+use fusion_daemon::replay::recording::Recording;
 
 #[derive(Parser)]
 #[command(name = "fusiond", version, about = "Low-latency Kalman-filter sensor fusion daemon")]
@@ -44,20 +45,26 @@ enum Command {
         #[arg(long)]
         cpu: Option<usize>,
     },
-    /// Replay recorded samples (JSON lines) through the engine and write the estimates.
+    /// Replay recorded samples (JSON lines, or an MCAP recording of `fusionctl
+    /// record`) through the engine and write the estimates.
     Replay {
         /// Configuration file (TOML); see `fusiond print-config`.
         #[arg(long)]
         config: PathBuf,
-        /// Samples, one JSON object per line, in arrival order.
+        /// Samples: one JSON object per line in arrival order, or an MCAP recording.
         #[arg(long)]
         input: PathBuf,
-        /// Estimates, one JSON object per processed sample, in processing order.
+        /// Estimates, one JSON object per processed sample, in processing order
+        /// (without it, only the summary).
         #[arg(long)]
-        output: PathBuf,
+        output: Option<PathBuf>,
         /// Output RTS-smoothed estimates instead of filtered ones.
         #[arg(long)]
         smooth: bool,
+        /// MCAP input: compare every processed sample with the recorded live
+        /// snapshot (x, P, NIS, counters) and fail if any differs.
+        #[arg(long)]
+        compare: bool,
     },
     /// Print the default configuration with comments.
     PrintConfig,
@@ -87,6 +94,28 @@ fn main() -> ExitCode {
     }
 }
 
+/// Samples between two updates of a replay's progress bar.
+const PROGRESS_STEP: u64 = 4096;
+
+/// A progress bar on stderr for a replay of `len` samples (or bytes), hidden
+/// when stderr is not a terminal (a log, a pipe) or the length is unknown.
+fn progress_bar(len: Option<u64>, bytes: bool) -> indicatif::ProgressBar {
+    match len {
+        Some(len) if std::io::stderr().is_terminal() => {
+            let counts = if bytes {
+                "{bytes}/{total_bytes}, {bytes_per_sec}"
+            } else {
+                "{human_pos}/{human_len} samples, {per_sec}"
+            };
+            let template = format!("replaying {{bar:40}} {{percent:>3}}% {counts}, {{eta}} left");
+            let style = indicatif::ProgressStyle::with_template(&template)
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar());
+            indicatif::ProgressBar::new(len).with_style(style)
+        }
+        _ => indicatif::ProgressBar::hidden(),
+    }
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Run { config, namespace, wait, summary_interval, cpu } => {
@@ -112,13 +141,41 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             print!("{}", default_config_text());
             Ok(())
         }
-        Command::Replay { config, input, output, smooth } => {
+        Command::Replay { config, input, output, smooth, compare } => {
             let config = Config::load(&config)?;
-            let reader =
-                BufReader::new(File::open(&input).with_context(|| format!("cannot open {}", input.display()))?);
-            let writer =
-                BufWriter::new(File::create(&output).with_context(|| format!("cannot create {}", output.display()))?);
-            let summary = replay::replay(&config, reader, writer, smooth)?;
+            let writer = output
+                .map(|o| File::create(&o).map(BufWriter::new).with_context(|| format!("cannot create {}", o.display())))
+                .transpose()?;
+            let mut file = File::open(&input).with_context(|| format!("cannot open {}", input.display()))?;
+            let mut magic = [0u8; 8];
+            let n = file.read(&mut magic).with_context(|| format!("cannot read {}", input.display()))?;
+            if Recording::is_mcap(&magic[..n]) {
+                let recording = Recording::open(&input).with_context(|| format!("cannot map {}", input.display()))?;
+                let bar = progress_bar(recording.sample_count(), false);
+                let mut since = 0u64;
+                let tick = || {
+                    since += 1;
+                    if since == PROGRESS_STEP {
+                        bar.inc(since);
+                        since = 0;
+                    }
+                };
+                let (summary, comparison) =
+                    replay::recording::replay_recording(&config, &recording, writer, smooth, compare, tick)?;
+                bar.finish_and_clear();
+                eprint!("{summary}");
+                if let Some(c) = comparison {
+                    eprint!("{c}");
+                    anyhow::ensure!(c.equal(), "the replay differs from the live run");
+                }
+                return Ok(());
+            }
+            anyhow::ensure!(!compare, "--compare needs an MCAP recording (fusionctl record)");
+            file.seek(std::io::SeekFrom::Start(0))?;
+            let bar = progress_bar(file.metadata().ok().map(|m| m.len()), true);
+            let summary = replay::replay(&config, BufReader::new(bar.wrap_read(file)), writer, smooth);
+            bar.finish_and_clear();
+            let summary = summary?;
             eprint!("{summary}");
             Ok(())
         }

@@ -19,6 +19,8 @@
 //! Without smoothing, memory is bounded by the history window. With smoothing the
 //! whole run is kept for the backward pass.
 
+pub mod recording;
+
 use std::io::{BufRead, Write};
 
 use fusion_shared::jsonl;
@@ -167,22 +169,80 @@ fn write_output(
     out.write_all(b"\n")
 }
 
-/// Replays `input` through the engine configured by `config`, writing estimates to
-/// `output`; with `smooth`, the estimates are RTS-smoothed over the whole run.
+/// Replays `input` (JSON lines) through the engine configured by `config`,
+/// writing estimates to `output` (if given); with `smooth`, the estimates are
+/// RTS-smoothed over the whole run.
 pub fn replay(
     config: &Config,
     input: impl BufRead,
-    output: impl Write,
+    output: Option<impl Write>,
     smooth: bool,
 ) -> Result<ReplaySummary, ReplayError> {
-    struct Replay<'a, R, W>(&'a Config, R, W, bool);
-    impl<R: BufRead, W: Write> WithModel for Replay<'_, R, W> {
+    replay_items(config, jsonl_items(input), output, smooth, &mut NoCheck)
+}
+
+/// One input of a replay: a sample (or why there is none) at a position of
+/// the input (a line number, a message number).
+#[derive(Debug, Clone, PartialEq)]
+pub struct InputItem {
+    /// Line or message number, from 1.
+    pub position: u64,
+    /// The daemon's clock when it received the sample live (a recording), or
+    /// `None` (a file without arrival times: time jumps are judged by the
+    /// samples alone).
+    pub received_ns: Option<u64>,
+    /// The sample, or why the input is not one.
+    pub sample: Result<Sample, String>,
+}
+
+/// The non-blank lines of a JSON-lines input as [`InputItem`]s. Lines are
+/// read as bytes: a line that is not UTF-8 is one bad line, not the end of the run.
+pub fn jsonl_items(input: impl BufRead) -> impl Iterator<Item = std::io::Result<InputItem>> {
+    input.split(b'\n').enumerate().filter_map(|(i, line)| {
+        let line = match line {
+            Ok(line) => line,
+            Err(e) => return Some(Err(e)),
+        };
+        if line.trim_ascii().is_empty() {
+            return None;
+        }
+        let sample = std::str::from_utf8(&line).map_err(|_| "not UTF-8 text".to_string()).and_then(parse_line);
+        Some(Ok(InputItem { position: i as u64 + 1, received_ns: None, sample }))
+    })
+}
+
+/// Looks at the engine after each sample a replay processed (a comparison
+/// with the live snapshots of a recording).
+pub trait ReplayCheck {
+    /// Called after `sample`, received at `received_ns`, was processed.
+    fn processed<M: Model>(&mut self, engine: &Engine<M>, sample: &Sample, received_ns: Option<u64>, replayed: usize);
+}
+
+/// No check.
+pub struct NoCheck;
+
+impl ReplayCheck for NoCheck {
+    fn processed<M: Model>(&mut self, _: &Engine<M>, _: &Sample, _: Option<u64>, _: usize) {}
+}
+
+/// Replays `items` through the engine configured by `config`, writing
+/// estimates to `output` (if given) and showing `check` each processed sample;
+/// with `smooth`, the estimates are RTS-smoothed over the whole run.
+pub fn replay_items(
+    config: &Config,
+    items: impl Iterator<Item = std::io::Result<InputItem>>,
+    output: Option<impl Write>,
+    smooth: bool,
+    check: &mut impl ReplayCheck,
+) -> Result<ReplaySummary, ReplayError> {
+    struct Replay<'a, I, W, C>(&'a Config, I, Option<W>, bool, &'a mut C);
+    impl<I: Iterator<Item = std::io::Result<InputItem>>, W: Write, C: ReplayCheck> WithModel for Replay<'_, I, W, C> {
         type Output = Result<ReplaySummary, ReplayError>;
         fn run<M: Model>(self, model: M) -> Self::Output {
-            replay_model(model, self.0, self.1, self.2, self.3)
+            replay_model(model, self.0, self.1, self.2, self.3, self.4)
         }
     }
-    with_model(config, Replay(config, input, output, smooth))?
+    with_model(config, Replay(config, items, output, smooth, check))?
 }
 
 /// Where final entries go: straight to the output, or kept for the smoother.
@@ -193,7 +253,7 @@ pub fn replay(
 /// state after the stream: every step is a pure function of the state before it
 /// and the sample, so the re-run reproduces the engine's states bit for bit.
 struct Sink<M: Model, W: Write> {
-    output: W,
+    output: Option<W>,
     finals: Option<Vec<(SampleKey, StepOutcome, Sample)>>,
     error: Option<std::io::Error>,
     _model: std::marker::PhantomData<M>,
@@ -204,8 +264,8 @@ impl<M: Model, W: Write> Sink<M, W> {
         match &mut self.finals {
             Some(finals) => finals.push((e.key, e.outcome, e.sample)),
             None if self.error.is_none() => {
-                if let Err(err) =
-                    write_output(&mut self.output, &e.key, &e.outcome, M::x(&e.state), M::covariance(&e.state))
+                if let Some(output) = &mut self.output
+                    && let Err(err) = write_output(output, &e.key, &e.outcome, M::x(&e.state), M::covariance(&e.state))
                 {
                     self.error = Some(err);
                 }
@@ -222,49 +282,43 @@ impl<M: Model, W: Write> Sink<M, W> {
 fn replay_model<M: Model>(
     model: M,
     config: &Config,
-    input: impl BufRead,
-    output: impl Write,
+    items: impl Iterator<Item = std::io::Result<InputItem>>,
+    output: Option<impl Write>,
     smooth: bool,
+    check: &mut impl ReplayCheck,
 ) -> Result<ReplaySummary, ReplayError> {
     let mut engine = Engine::new(model, EngineConfig::from_config(config));
     let mut summary = ReplaySummary::default();
+    // Smoothing needs every final sample; without an output there is nothing to smooth.
+    let smooth = smooth && output.is_some();
     let mut sink = Sink::<M, _> { output, finals: smooth.then(Vec::new), error: None, _model: Default::default() };
 
-    // Lines that never became a sample; the engine counts the rest.
+    // Inputs that never became a sample; the engine counts the rest.
     let mut unreadable = 0;
-    let invalid = |summary: &mut ReplaySummary, line_no: u64, reason: String| {
+    let invalid = |summary: &mut ReplaySummary, position: u64, reason: String| {
         if summary.invalid_lines.len() < INVALID_LINES_REPORTED {
-            summary.invalid_lines.push((line_no, reason));
+            summary.invalid_lines.push((position, reason));
         }
     };
-    // Lines are read as bytes: a line that is not UTF-8 is one bad line, not
-    // the end of the run.
-    for (i, line) in input.split(b'\n').enumerate() {
-        let line = line?;
-        let line_no = i as u64 + 1;
-        if line.trim_ascii().is_empty() {
-            continue;
-        }
+    for item in items {
+        let InputItem { position, received_ns, sample } = item?;
         summary.read += 1;
-        let Ok(line) = std::str::from_utf8(&line) else {
-            unreadable += 1;
-            invalid(&mut summary, line_no, "not UTF-8 text".to_string());
-            continue;
-        };
-        let sample = match parse_line(line) {
+        let sample = match sample {
             Ok(s) => s,
             Err(reason) => {
                 unreadable += 1;
-                invalid(&mut summary, line_no, reason);
+                invalid(&mut summary, position, reason);
                 continue;
             }
         };
-        if let Insert::Rejected(r) = engine.insert(&sample, None, &mut |e| sink.take(e)) {
-            invalid(&mut summary, line_no, r.reason().to_string());
+        match engine.insert(&sample, received_ns, &mut |e| sink.take(e)) {
+            Insert::Rejected(r) => invalid(&mut summary, position, r.reason().to_string()),
+            Insert::Processed { replayed, .. } => check.processed(&engine, &sample, received_ns, replayed),
+            _ => {}
         }
         let reinitialisations = engine.latest().map_or(0, |e| M::reinitialisations(&e.state));
         if reinitialisations > summary.reinitialisations && summary.reinitialised_at.len() < INVALID_LINES_REPORTED {
-            summary.reinitialised_at.push(line_no);
+            summary.reinitialised_at.push(position);
         }
         summary.reinitialisations = reinitialisations;
         sink.check()?;
@@ -292,12 +346,16 @@ fn replay_model<M: Model>(
         for pair in stretches.windows(2) {
             M::smooth(&mut smoothed[pair[0]..pair[1]])?;
         }
-        for ((key, outcome, _), record) in finals.iter().zip(&smoothed) {
-            let (x, p) = M::record_output(record);
-            write_output(&mut sink.output, key, outcome, x, p)?;
+        if let Some(output) = &mut sink.output {
+            for ((key, outcome, _), record) in finals.iter().zip(&smoothed) {
+                let (x, p) = M::record_output(record);
+                write_output(output, key, outcome, x, p)?;
+            }
         }
     }
-    sink.output.flush()?;
+    if let Some(output) = &mut sink.output {
+        output.flush()?;
+    }
 
     summary.counts = engine.totals(None);
     // A sample refused for a full sensor table has no sensor to be counted on.

@@ -118,8 +118,8 @@ proptest! {
         let mut input = lines.join("\n").into_bytes();
         input.push(b'\n');
         input.extend_from_slice(&raw);
-        let plain = replay(&config, &input[..], std::io::sink(), false);
-        let smoothed = replay(&config, &input[..], std::io::sink(), true);
+        let plain = replay(&config, &input[..], Some(std::io::sink()), false);
+        let smoothed = replay(&config, &input[..], Some(std::io::sink()), true);
         // `--smooth` never fails on input that plain replay accepts.
         prop_assert_eq!(plain.is_ok(), smoothed.is_ok(), "{:?} / {:?}", plain.err(), smoothed.err());
     }

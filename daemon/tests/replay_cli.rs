@@ -73,7 +73,7 @@ fn every_kind_of_bad_line_is_rejected_with_its_line_number_and_reason() {
 
     let config = Config::parse(&common::linear_config(None)).unwrap();
     let mut out = Vec::new();
-    let summary = replay(&config, input.as_bytes(), &mut out, false).unwrap();
+    let summary = replay(&config, input.as_bytes(), Some(&mut out), false).unwrap();
     assert_eq!((summary.read, summary.counts.processed, summary.counts.invalid), (16, 3, 13), "{summary}");
     // At most 10 are described one by one, with line numbers (1-based) and reasons.
     assert_eq!(summary.invalid_lines.len(), 10);
@@ -90,7 +90,7 @@ fn every_kind_of_bad_line_is_rejected_with_its_line_number_and_reason() {
         .map(|l| format!("{l}\n"))
         .collect();
     let mut clean = Vec::new();
-    replay(&config, good_only.as_bytes(), &mut clean, false).unwrap();
+    replay(&config, good_only.as_bytes(), Some(&mut clean), false).unwrap();
     assert_eq!(String::from_utf8(out).unwrap(), String::from_utf8(clean).unwrap());
 }
 
@@ -218,7 +218,8 @@ fn replay_streams_with_memory_bounded_by_the_history() {
     let config = Config::parse(&common::linear_config(None).replace("1_000_000_000", "100_000_000")).unwrap();
     let n = 200_000; // 200 s at 1 kHz
     let mut lag = Lag { written: 0, max_lag: 0 };
-    let summary = replay(&config, Generator { next: 0, end: n, buf: Vec::new(), pos: 0 }, &mut lag, false).unwrap();
+    let summary =
+        replay(&config, Generator { next: 0, end: n, buf: Vec::new(), pos: 0 }, Some(&mut lag), false).unwrap();
     assert_eq!((summary.counts.processed, lag.written), (n, n));
     // 100 ms window at 1 kHz: ~101 entries held back, never the whole input.
     assert!(lag.max_lag <= 105, "output lagged {} samples behind the input", lag.max_lag);

@@ -7,6 +7,8 @@
 //! - [`geodesy`]: WGS-84 geodetic coordinates ↔ the local ENU frame of a datum.
 //! - [`service`]: service names under a namespace, QoS, and how every side opens them.
 //! - `jsonl` (feature `json`): the JSON-lines sample format of replay files.
+//! - `recording` (feature `json`): the topics, messages and schemas of an MCAP
+//!   recording (`fusionctl record`, `fusiond replay --input RUN.mcap`).
 //! - [`transport`]: [`transport::Ipc`], the iceoryx2 service type of every port
 //!   (iceoryx2's `ipc` with pooled per-loan state: no allocation per sample).
 //! - [`permissions`]: only this user may touch fusiond's shared memory.
@@ -19,6 +21,8 @@ pub mod geodesy;
 #[cfg(feature = "json")]
 pub mod jsonl;
 pub mod permissions;
+#[cfg(feature = "json")]
+pub mod recording;
 pub mod sample;
 pub mod service;
 pub mod snapshot;

@@ -240,31 +240,62 @@ impl Sample {
     }
 }
 
-/// The JSON-lines form of a wire type: the header's `t_ns`, `sensor` and `seq`
-/// followed by the payload's fields (see [`crate::jsonl`]).
+/// The JSON form of a wire type: the header's `t_ns`, `sensor` and `seq`
+/// followed by the payload's fields (see [`crate::jsonl`]), and, only where
+/// they say something, the header's `sent_ns` (not 0: a live sample) and `kind`
+/// (not the payload's kind: a faulty sender, which the daemon refuses). With
+/// its JSON Schema, for recordings ([`crate::recording`]).
 #[cfg(feature = "json")]
 macro_rules! json_form {
     ($ty:ident, $line:ident { $($(#[$doc:meta])* $json:ident: $jty:ty => $field:ident),* $(,)? }) => {
-        #[derive(serde::Serialize, serde::Deserialize)]
+        #[derive(serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
         #[serde(deny_unknown_fields)]
         pub(crate) struct $line {
+            /// Time of validity, ns of CLOCK_MONOTONIC.
             t_ns: u64,
+            /// Sensor id.
             sensor: u32,
+            /// Sequence number.
             seq: u64,
-            $($json: $jty,)*
+            /// When the publisher sent it, ns of CLOCK_MONOTONIC (live samples only).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            sent_ns: Option<u64>,
+            /// The header's kind code, only when it is not this kind's.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            kind: Option<u32>,
+            $($(#[$doc])* $json: $jty,)*
         }
 
         impl From<$line> for $ty {
             fn from(l: $line) -> Self {
-                let header = $crate::sample::SampleHeader::new(
-                    <$ty as $crate::sample::WireSample>::KIND, l.t_ns, l.sensor, l.seq);
+                let kind = <$ty as $crate::sample::WireSample>::KIND;
+                let mut header = $crate::sample::SampleHeader::new(kind, l.t_ns, l.sensor, l.seq);
+                header.sent_ns = l.sent_ns.unwrap_or(0);
+                header.kind = l.kind.unwrap_or(kind as u32);
                 Self { header, $($field: l.$json,)* }
             }
         }
 
         impl From<$ty> for $line {
             fn from(s: $ty) -> Self {
-                Self { t_ns: s.header.t_ns, sensor: s.header.sensor, seq: s.header.seq, $($json: s.$field,)* }
+                let kind = <$ty as $crate::sample::WireSample>::KIND as u32;
+                Self {
+                    t_ns: s.header.t_ns,
+                    sensor: s.header.sensor,
+                    seq: s.header.seq,
+                    sent_ns: (s.header.sent_ns != 0).then_some(s.header.sent_ns),
+                    kind: (s.header.kind != kind).then_some(s.header.kind),
+                    $($json: s.$field,)*
+                }
+            }
+        }
+
+        impl schemars::JsonSchema for $ty {
+            fn schema_name() -> std::borrow::Cow<'static, str> {
+                stringify!($ty).into()
+            }
+            fn json_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
+                <$line as schemars::JsonSchema>::json_schema(generator)
             }
         }
     };

@@ -108,3 +108,27 @@ pub fn pv_error_and_nees(
     let nees = err.dot(&nalgebra::Cholesky::new(p6).expect("P is positive definite").solve(&err));
     (err, nees)
 }
+
+/// The Python package `mcap` of the tests, pinned.
+pub const PYTHON_MCAP: &str = "mcap==1.6.0";
+
+/// A Python interpreter with [`PYTHON_MCAP`] installed: a virtual environment
+/// in the workspace's `target/python-venv`, made (from PyPI) on first use.
+pub fn python_with_mcap() -> PathBuf {
+    let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/python-venv");
+    let python = venv.join("bin/python");
+    let installed = |python: &Path| {
+        Command::new(python).args(["-c", "import mcap.reader"]).output().is_ok_and(|o| o.status.success())
+    };
+    if !installed(&python) {
+        let made = Command::new("python3").arg("-m").arg("venv").arg(&venv).status().expect("python3 runs");
+        assert!(made.success(), "python3 -m venv {} failed", venv.display());
+        let pip = Command::new(&python)
+            .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check", PYTHON_MCAP])
+            .status()
+            .expect("pip runs");
+        assert!(pip.success(), "pip install {PYTHON_MCAP} failed");
+    }
+    assert!(installed(&python), "{PYTHON_MCAP} is not importable in {}", venv.display());
+    python
+}

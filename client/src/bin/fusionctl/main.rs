@@ -3,6 +3,9 @@
 //! - `fusionctl echo`: every snapshot as a JSON line in the replay output format,
 //!   plus the input, health and counters.
 //! - `fusionctl state`: the latest snapshot, for a person.
+//! - `fusionctl record`: every input sample and snapshot to an MCAP file.
+
+mod record;
 
 use std::io::Write;
 use std::sync::Arc;
@@ -11,8 +14,8 @@ use std::time::{Duration, Instant};
 
 use clap::{Parser, Subcommand};
 use fusion_client::{Client, StateSnapshot, now_ns};
+use fusion_shared::recording::SnapshotJson;
 use fusion_shared::snapshot::{health, model};
-use serde_json::json;
 
 #[derive(Parser)]
 #[command(name = "fusionctl", version, about = "Inspect a running fusiond")]
@@ -35,6 +38,22 @@ enum Command {
         #[arg(long)]
         idle_timeout: Option<f64>,
     },
+    /// Record every input sample and every snapshot to an MCAP file (Foxglove,
+    /// PlotJuggler, `fusiond replay --input RUN.mcap`), until Ctrl-C.
+    Record {
+        /// The MCAP file to write.
+        #[arg(long)]
+        output: std::path::PathBuf,
+        /// Namespace of the services.
+        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
+        namespace: String,
+        /// Stop after this many seconds.
+        #[arg(long)]
+        duration: Option<f64>,
+        /// Write uncompressed chunks (default: zstd).
+        #[arg(long)]
+        no_compression: bool,
+    },
     /// Print the latest snapshot for a person: state, standard deviations, health, counters, age.
     State {
         /// Namespace of the services.
@@ -49,43 +68,6 @@ fn kind_name(code: u32) -> &'static str {
 
 fn finite(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
-}
-
-/// One snapshot as a JSON object: the replay output fields first.
-fn to_json(s: &StateSnapshot) -> serde_json::Value {
-    let counters: Vec<_> = s
-        .sensor_counters()
-        .iter()
-        .map(|c| {
-            json!({
-                "kind": kind_name(c.kind), "sensor": c.sensor, "received": c.counts.received,
-                "processed": c.counts.processed, "fused": c.counts.fused, "gated": c.counts.gated,
-                "refused": c.counts.refused, "late": c.counts.late, "too_late": c.counts.too_late,
-                "duplicate": c.counts.duplicate, "invalid": c.counts.invalid, "lost": c.counts.lost,
-                "rate_limited": c.counts.rate_limited, "restarts": c.counts.restarts,
-                "last_nis": finite(c.last_nis),
-            })
-        })
-        .collect();
-    json!({
-        "t_ns": s.t_ns, "kind": kind_name(s.sample_kind), "sensor": s.sample_sensor, "seq": s.sample_seq,
-        "x": s.state(), "P": s.covariance(), "nis": finite(s.nis), "accepted": s.accepted(),
-        "snapshot_seq": s.seq, "publish_ns": s.publish_ns, "model": model::name(s.model),
-        "input": {
-            "t_ns": s.input_t_ns, "kind": kind_name(s.input_kind), "sensor": s.input_sensor, "seq": s.input_seq,
-            "sent_ns": s.input_sent_ns, "received_ns": s.input_received_ns, "replayed": s.input_replayed,
-        },
-        "health": health::name(s.health),
-        "health_reasons": s.health_reason_names().collect::<Vec<_>>(),
-        "stale_sensors": s.stale_sensor_counters().map(|c| json!({"kind": kind_name(c.kind), "sensor": c.sensor}))
-            .collect::<Vec<_>>(),
-        "datum": s.datum().map(|d| json!({"lat_deg": d.latitude_deg, "lon_deg": d.longitude_deg, "height_m": d.height_m})),
-        "counters": counters,
-        "rewinds": s.rewinds,
-        "unknown_sensor": s.unknown_sensor,
-        "reinitialisations": s.reinitialisations,
-        "readers_refused": s.readers_refused,
-    })
 }
 
 fn main() -> anyhow::Result<()> {
@@ -106,7 +88,7 @@ fn main() -> anyhow::Result<()> {
                 match state.wait_next(Duration::from_millis(100))? {
                     Some(s) => {
                         // A closed pipe (e.g. `| head`) ends the echo quietly.
-                        if writeln!(out, "{}", to_json(s)).is_err() {
+                        if serde_json::to_writer(&mut out, &SnapshotJson::from(s)).is_err() || writeln!(out).is_err() {
                             break;
                         }
                         printed += 1;
@@ -121,6 +103,28 @@ fn main() -> anyhow::Result<()> {
                 }
             }
             let _ = out.flush();
+            Ok(())
+        }
+        Command::Record { output, namespace, duration, no_compression } => {
+            let duration = duration
+                .map(Duration::try_from_secs_f64)
+                .transpose()
+                .map_err(|_| anyhow::anyhow!("--duration must be a positive number of seconds"))?;
+            let c = record::run(&namespace, &output, duration, !no_compression, &stop)?;
+            eprintln!(
+                "fusionctl: recorded {} samples ({} not processed by fusiond) and {} snapshots to {}",
+                c.samples,
+                c.unreported,
+                c.snapshots,
+                output.display()
+            );
+            if !c.complete() {
+                eprintln!(
+                    "fusionctl: the recording is incomplete: {} samples lost, {} snapshots lost, {} processed samples \
+                     missed; a replay will not equal the live run everywhere",
+                    c.samples_lost, c.snapshots_lost, c.missed
+                );
+            }
             Ok(())
         }
         Command::State { namespace } => {
