@@ -102,11 +102,8 @@ const PROGRESS_STEP: u64 = 4096;
 fn progress_bar(len: Option<u64>, bytes: bool) -> indicatif::ProgressBar {
     match len {
         Some(len) if std::io::stderr().is_terminal() => {
-            let counts = if bytes {
-                "{bytes}/{total_bytes}, {bytes_per_sec}"
-            } else {
-                "{human_pos}/{human_len} samples, {per_sec}"
-            };
+            let counts =
+                if bytes { "{bytes}/{total_bytes}, {bytes_per_sec}" } else { "{human_pos}/{human_len} samples" };
             let template = format!("replaying {{bar:40}} {{percent:>3}}% {counts}, {{eta}} left");
             let style = indicatif::ProgressStyle::with_template(&template)
                 .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar());

@@ -179,4 +179,25 @@ fn a_recorded_live_run_replays_bit_for_bit_and_a_changed_one_says_where() {
 
     check_with_the_mcap_crate(&mcap, &samples);
     check_with_python(&mcap, &samples);
+
+    // The report of the recording: the fixes as fusiond judged them, and the
+    // latency of the live run.
+    let report = dir.path().join("report");
+    let plot = Command::new(workspace_bin("fusionctl"))
+        .args(["plot", "--input"])
+        .arg(&mcap)
+        .arg("--output-dir")
+        .arg(&report)
+        .output()
+        .unwrap();
+    assert!(plot.status.success(), "{}", String::from_utf8_lossy(&plot.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(report.join("report.json")).unwrap()).unwrap();
+    let points = &json["points"];
+    let fixes = samples.iter().filter(|s| s.kind() == SampleKind::Position).count() as u64;
+    let plotted = points["trajectory.fixes"].as_u64().unwrap() + points["trajectory.gated"].as_u64().unwrap();
+    assert_eq!(plotted, fixes, "{points}");
+    assert_eq!(points["trajectory.gated"].as_u64(), Some(count("gated")), "{points}");
+    assert!(points["latency.samples"].as_u64().unwrap() > 0, "{points}");
+    assert!(report.join("latency.png").exists());
 }

@@ -198,6 +198,17 @@ fn main() -> anyhow::Result<()> {
 
     println!("fusiond demo: namespace {namespace}, model {}, --wait {}, {} s", args.model, args.wait, args.duration);
     let mut children = Children(Vec::new());
+    // The recorder first: it reads the sample services at once and the
+    // snapshots as soon as fusiond is up, so it misses nothing.
+    let recording = work.join("demo.mcap");
+    let mut recorder = Children(vec![(
+        "fusionctl record",
+        Command::new(bin("fusionctl")?)
+            .args(["record", "--namespace", &namespace, "--output"])
+            .arg(&recording)
+            .stderr(std::fs::File::create(work.join("record.log"))?)
+            .spawn()?,
+    )]);
     let daemon = Command::new(bin("fusiond")?)
         .args(["run", "--namespace", &namespace, "--wait", &args.wait, "--config"])
         .arg(&config)
@@ -254,6 +265,8 @@ fn main() -> anyhow::Result<()> {
     }
 
     let truth = CarTrajectory::new(args.seed);
+    let truth_path = work.join("demo.truth.jsonl");
+    let mut truth_file = std::io::BufWriter::new(std::fs::File::create(&truth_path)?);
     let mut latency = Histogram::<u64>::new_with_bounds(1, 10_000_000_000, 3)?;
     let (mut sum_sq, mut n_err) = (0.0, 0u64);
     let mut last = None;
@@ -271,7 +284,10 @@ fn main() -> anyhow::Result<()> {
         let x = s.state();
         let t = (s.t_ns as f64 - start_ns as f64) * 1e-9;
         let err = if t >= 0.0 && x.len() >= 3 {
-            let p = truth.at(t).pos_m;
+            let at = truth.at(t);
+            let p = at.pos_m;
+            let line = serde_json::json!({"t_ns": s.t_ns, "pos": [p.x, p.y, p.z], "vel": [at.vel_mps.x, at.vel_mps.y, at.vel_mps.z]});
+            writeln!(truth_file, "{line}")?;
             ((x[0] - p.x).powi(2) + (x[1] - p.y).powi(2) + (x[2] - p.z).powi(2)).sqrt()
         } else {
             f64::NAN
@@ -306,6 +322,9 @@ fn main() -> anyhow::Result<()> {
     }
     println!();
     children.stop();
+    // The recorder last: it has every snapshot once fusiond stopped.
+    recorder.stop();
+    truth_file.flush()?;
 
     let Some((s, err)) = last else { bail!("no snapshot received; see {}", log.display()) };
     let sd: Vec<f64> = s.std_devs().collect();
@@ -349,6 +368,24 @@ fn main() -> anyhow::Result<()> {
             println!("  health at the end of the drive: {}; after the sensors stopped: {}", describe(&d), describe(&s))
         }
         _ => println!("  health at the end of the drive: {}", describe(&s)),
+    }
+    let report = work.join("report");
+    let plot = Command::new(bin("fusionctl")?)
+        .args(["plot", "--input"])
+        .arg(&recording)
+        .arg("--truth")
+        .arg(&truth_path)
+        .arg("--output-dir")
+        .arg(&report)
+        .output()?;
+    if plot.status.success() {
+        println!(
+            "\nrecording: {}\nreport (trajectory, errors with ±3σ, NIS, latency): {}",
+            recording.display(),
+            report.display()
+        );
+    } else {
+        eprintln!("fusion-demo: the report failed: {}", String::from_utf8_lossy(&plot.stderr).trim());
     }
     Ok(())
 }

@@ -13,6 +13,7 @@ use std::fs::File;
 use std::io::Write;
 use std::path::Path;
 
+use fusion_shared::SampleKind;
 use fusion_shared::recording::{self, SnapshotJson};
 
 use super::{InputItem, ReplayCheck, ReplayError, ReplaySummary, replay_items};
@@ -23,12 +24,17 @@ use crate::model::Model;
 use crate::reorder::Sample;
 use crate::snapshot::{self, Input};
 
+/// Prefix of the sample topics (see [`recording::sample_topic`]).
+const SAMPLE_TOPIC_PREFIX: &str = "/fusion/samples/";
+
 /// Differences described one by one in a [`ComparisonReport`].
 pub const DIFFERENCES_REPORTED: usize = 10;
 
 /// An MCAP recording, mapped into memory.
 pub struct Recording {
     map: memmap2::Mmap,
+    /// The summary section, if the file has one (a cut-off recording has not).
+    summary: Option<mcap::Summary>,
 }
 
 fn mcap_error(e: mcap::McapError) -> std::io::Error {
@@ -43,7 +49,8 @@ impl Recording {
         // it is mapped would fault the reader (SIGBUS); a recording being replayed
         // is not written to (`fusionctl record` writes a new file).
         let map = unsafe { memmap2::Mmap::map(&file)? };
-        Ok(Self { map })
+        let summary = mcap::Summary::read(&map).ok().flatten();
+        Ok(Self { map, summary })
     }
 
     /// Whether `bytes` start with the MCAP magic.
@@ -54,8 +61,8 @@ impl Recording {
     /// How many sample messages the recording's summary counts (`None` for a
     /// file without one: a recording that was cut off).
     pub fn sample_count(&self) -> Option<u64> {
-        let summary = mcap::Summary::read(&self.map).ok().flatten()?;
-        let stats = summary.stats?;
+        let summary = self.summary.as_ref()?;
+        let stats = summary.stats.as_ref()?;
         let samples = stats
             .channel_message_counts
             .iter()
@@ -63,26 +70,47 @@ impl Recording {
         Some(samples.map(|(_, n)| n).sum())
     }
 
-    /// The input samples, in the order of the file.
+    /// The input samples, in the order of the file. With a summary, only the
+    /// chunks that hold samples are read (`fusionctl record` keeps samples and
+    /// snapshots in separate chunks); without one, the whole file.
     pub fn samples(&self) -> std::io::Result<impl Iterator<Item = std::io::Result<InputItem>> + '_> {
-        let stream = mcap::MessageStream::new(&self.map).map_err(mcap_error)?;
         let mut position = 0;
-        Ok(stream.filter_map(move |m| {
-            let m = match m {
-                Ok(m) => m,
-                Err(e) => return Some(Err(mcap_error(e))),
-            };
-            let topic = &m.channel.topic;
-            let kind = recording::kind_of_topic(topic);
-            if kind.is_none() && !topic.starts_with("/fusion/samples/") {
-                return None;
-            }
+        Ok(self.sample_messages()?.map(move |m| {
             position += 1;
-            let sample = match kind {
-                Some(kind) => recording::parse_sample(kind, &m.data).map_err(|e| format!("{topic}: {e}")),
-                None => Err(format!("{topic}: not a sample kind of this version")),
-            };
-            Some(Ok(InputItem { position, received_ns: Some(m.log_time), sample }))
+            let m = m?;
+            Ok(to_item(position, m.log_time, sample_kind(&m.channel.topic), &m.data))
+        }))
+    }
+
+    /// The messages of the sample topics, in the order of the file.
+    fn sample_messages<'s>(&'s self) -> std::io::Result<impl Iterator<Item = std::io::Result<mcap::Message<'s>>> + 's> {
+        let messages: Box<dyn Iterator<Item = mcap::McapResult<mcap::Message<'s>>> + 's> = match &self.summary {
+            Some(summary) if !summary.chunk_indexes.is_empty() => {
+                let sample_channels: Vec<u16> = summary
+                    .channels
+                    .iter()
+                    .filter(|(_, c)| c.topic.starts_with(SAMPLE_TOPIC_PREFIX))
+                    .map(|(&id, _)| id)
+                    .collect();
+                let mut chunks: Vec<_> = summary
+                    .chunk_indexes
+                    .iter()
+                    .filter(|c| c.message_index_offsets.keys().any(|id| sample_channels.contains(id)))
+                    .collect();
+                chunks.sort_by_key(|c| c.chunk_start_offset);
+                Box::new(chunk_messages(summary, &self.map, chunks))
+            }
+            _ => {
+                let stream = mcap::MessageStream::new(&self.map).map_err(mcap_error)?;
+                // A stream's messages own their data ('static); the type says 's.
+                #[allow(clippy::map_identity)]
+                Box::new(stream.map(|m| -> mcap::McapResult<mcap::Message<'s>> { m }))
+            }
+        };
+        Ok(messages.filter_map(|m| match m {
+            Ok(m) if m.channel.topic.starts_with(SAMPLE_TOPIC_PREFIX) => Some(Ok(m)),
+            Ok(_) => None,
+            Err(e) => Some(Err(mcap_error(e))),
         }))
     }
 
@@ -104,6 +132,44 @@ impl Recording {
             }
         }))
     }
+}
+
+/// The kind of a sample topic, or why it is none of this version's.
+fn sample_kind(topic: &str) -> Result<SampleKind, String> {
+    recording::kind_of_topic(topic).ok_or_else(|| format!("{topic}: not a sample kind of this version"))
+}
+
+/// The replay input of a sample message.
+fn to_item(position: u64, log_time: u64, kind: Result<SampleKind, String>, data: &[u8]) -> InputItem {
+    let sample = kind.and_then(|kind| {
+        recording::parse_sample(kind, data).map_err(|e| format!("{}: {e}", recording::sample_topic(kind)))
+    });
+    InputItem { position, received_ns: Some(log_time), sample }
+}
+
+/// A sample message read but not parsed: its log time, kind and bytes in the batch.
+type RawMessage = (u64, Result<SampleKind, String>, std::ops::Range<usize>);
+
+/// Sample messages read but not yet parsed, one buffer for all their bytes.
+#[derive(Default)]
+struct RawBatch {
+    data: Vec<u8>,
+    messages: Vec<std::io::Result<RawMessage>>,
+}
+
+/// The messages of `chunks`, in that order.
+fn chunk_messages<'a>(
+    summary: &'a mcap::Summary,
+    map: &'a [u8],
+    chunks: Vec<&'a mcap::records::ChunkIndex>,
+) -> impl Iterator<Item = mcap::McapResult<mcap::Message<'a>>> + 'a {
+    chunks.into_iter().flat_map(move |c| {
+        let (messages, error) = match summary.stream_chunk(map, c) {
+            Ok(messages) => (Some(messages), None),
+            Err(e) => (None, Some(Err(e))),
+        };
+        messages.into_iter().flatten().chain(error)
+    })
 }
 
 /// One field where the replay differs from the live run.
@@ -282,8 +348,15 @@ impl<I: Iterator<Item = std::io::Result<SnapshotJson>>> ReplayCheck for LiveComp
     }
 }
 
+/// Samples per batch handed from the reading thread to the replay.
+const READ_BATCH: usize = 4096;
+
 /// Replays `recording` (see [`super::replay_items`]), calling `progress` with
 /// each sample message; with `compare`, also against its live snapshots.
+///
+/// A second thread reads the recording (decompression and JSON, most of the
+/// work) while this one runs the engine: batches of samples pass between them
+/// through a bounded channel, in order.
 pub fn replay_recording(
     config: &Config,
     recording: &Recording,
@@ -292,11 +365,49 @@ pub fn replay_recording(
     compare: bool,
     mut progress: impl FnMut(),
 ) -> Result<(ReplaySummary, Option<ComparisonReport>), ReplayError> {
-    let samples = recording.samples()?.inspect(|_| progress());
-    if !compare {
-        return Ok((replay_items(config, samples, output, smooth, &mut super::NoCheck)?, None));
-    }
-    let mut comparison = LiveComparison::new(recording.live_snapshots()?);
-    let summary = replay_items(config, samples, output, smooth, &mut comparison)?;
-    Ok((summary, Some(comparison.finish()?)))
+    std::thread::scope(|scope| {
+        let (tx, rx) = crossbeam::channel::bounded::<RawBatch>(8);
+        scope.spawn(move || {
+            let messages = match recording.sample_messages() {
+                Ok(messages) => messages,
+                Err(e) => {
+                    let _ = tx.send(RawBatch { data: Vec::new(), messages: vec![Err(e)] });
+                    return;
+                }
+            };
+            let mut batch = RawBatch::default();
+            for m in messages {
+                batch.messages.push(m.map(|m| {
+                    let start = batch.data.len();
+                    batch.data.extend_from_slice(&m.data);
+                    (m.log_time, sample_kind(&m.channel.topic), start..batch.data.len())
+                }));
+                // The replay stopped (an error) when the channel is closed.
+                if batch.messages.len() == READ_BATCH && tx.send(std::mem::take(&mut batch)).is_err() {
+                    return;
+                }
+            }
+            let _ = tx.send(batch);
+        });
+        let samples = rx
+            .into_iter()
+            .flat_map(|batch| {
+                let RawBatch { data, messages } = batch;
+                messages.into_iter().map(move |m| {
+                    let (log_time, kind, range) = m?;
+                    Ok(to_item(0, log_time, kind, &data[range]))
+                })
+            })
+            .enumerate()
+            .map(|(i, item): (usize, std::io::Result<InputItem>)| {
+                item.map(|item| InputItem { position: i as u64 + 1, ..item })
+            })
+            .inspect(|_| progress());
+        if !compare {
+            return Ok((replay_items(config, samples, output, smooth, &mut super::NoCheck)?, None));
+        }
+        let mut comparison = LiveComparison::new(recording.live_snapshots()?);
+        let summary = replay_items(config, samples, output, smooth, &mut comparison)?;
+        Ok((summary, Some(comparison.finish()?)))
+    })
 }

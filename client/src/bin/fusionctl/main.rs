@@ -4,7 +4,9 @@
 //!   plus the input, health and counters.
 //! - `fusionctl state`: the latest snapshot, for a person.
 //! - `fusionctl record`: every input sample and snapshot to an MCAP file.
+//! - `fusionctl plot`: a report (SVG and PNG) of a recording or a replay.
 
+mod plot;
 mod record;
 
 use std::io::Write;
@@ -53,6 +55,22 @@ enum Command {
         /// Write uncompressed chunks (default: zstd).
         #[arg(long)]
         no_compression: bool,
+    },
+    /// Write a report of a run (SVG and PNG): trajectory, errors or ±3σ bands,
+    /// NIS per sensor with χ² bounds, latency histogram of a live recording.
+    Plot {
+        /// An MCAP recording, or a replay output (`fusiond replay --output`).
+        #[arg(long)]
+        input: std::path::PathBuf,
+        /// With a replay output: the replay's input, for the fixes.
+        #[arg(long)]
+        samples: Option<std::path::PathBuf>,
+        /// The truth (`fusion-sim record --truth`), for the errors.
+        #[arg(long)]
+        truth: Option<std::path::PathBuf>,
+        /// Directory of the report.
+        #[arg(long, default_value = "fusion-report")]
+        output_dir: std::path::PathBuf,
     },
     /// Print the latest snapshot for a person: state, standard deviations, health, counters, age.
     State {
@@ -124,6 +142,13 @@ fn main() -> anyhow::Result<()> {
                      missed; a replay will not equal the live run everywhere",
                     c.samples_lost, c.snapshots_lost, c.missed
                 );
+            }
+            Ok(())
+        }
+        Command::Plot { input, samples, truth, output_dir } => {
+            let files = plot::run(&input, samples.as_deref(), truth.as_deref(), &output_dir)?;
+            for f in files {
+                println!("{}", f.display());
             }
             Ok(())
         }

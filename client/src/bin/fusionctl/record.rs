@@ -21,6 +21,18 @@ use fusion_client::{Client, ClientError, Sample, SampleKind, StateSnapshot, now_
 use fusion_shared::recording::{self, SnapshotJson};
 use fusion_shared::snapshot::INPUT_NONE;
 
+/// Bytes of messages gathered before they are written as chunks of their own:
+/// the samples and the snapshots go to separate chunks, so that a replay reads
+/// (and decompresses) only the samples' chunks.
+const BATCH_BYTES: usize = 1 << 20;
+
+/// Messages gathered for chunks of their own.
+#[derive(Default)]
+struct Batch {
+    data: Vec<u8>,
+    messages: Vec<(mcap::records::MessageHeader, std::ops::Range<usize>)>,
+}
+
 /// How long a sample waits for the snapshot that reports it, and a snapshot's
 /// input for its sample, by the recorder's clock.
 pub const MATCH_WAIT_NS: u64 = 250_000_000;
@@ -87,6 +99,8 @@ pub struct Recorder<W: Write + std::io::Seek> {
     last_snapshot: Option<u64>,
     sequence: u32,
     buf: Vec<u8>,
+    samples: Batch,
+    snapshots: Batch,
     counts: Counts,
 }
 
@@ -128,6 +142,8 @@ impl<W: Write + std::io::Seek> Recorder<W> {
             last_snapshot: None,
             sequence: 0,
             buf: Vec::with_capacity(8192),
+            samples: Batch::default(),
+            snapshots: Batch::default(),
             counts: Counts::default(),
         })
     }
@@ -137,10 +153,28 @@ impl<W: Write + std::io::Seek> Recorder<W> {
         self.counts
     }
 
+    /// Adds the message in `buf` to its batch, writing the batch when it is full.
     fn write(&mut self, channel_id: u16, log_time: u64, publish_time: u64) -> anyhow::Result<()> {
         let header = mcap::records::MessageHeader { channel_id, sequence: self.sequence, log_time, publish_time };
         self.sequence = self.sequence.wrapping_add(1);
-        self.mcap.write_to_known_channel(&header, &self.buf)?;
+        let sample = self.channels.samples.contains(&channel_id);
+        let batch = if sample { &mut self.samples } else { &mut self.snapshots };
+        let start = batch.data.len();
+        batch.data.extend_from_slice(&self.buf);
+        batch.messages.push((header, start..batch.data.len()));
+        if batch.data.len() >= BATCH_BYTES {
+            Self::write_batch(&mut self.mcap, batch)?;
+        }
+        Ok(())
+    }
+
+    /// Writes `batch` as chunks of its own.
+    fn write_batch(mcap: &mut mcap::Writer<W>, batch: &mut Batch) -> anyhow::Result<()> {
+        for (header, range) in batch.messages.drain(..) {
+            mcap.write_to_known_channel(&header, &batch.data[range])?;
+        }
+        batch.data.clear();
+        mcap.flush()?;
         Ok(())
     }
 
@@ -264,6 +298,8 @@ impl<W: Write + std::io::Seek> Recorder<W> {
         .into_iter()
         .map(|(k, v)| (k.to_string(), v.to_string()))
         .collect();
+        Self::write_batch(&mut self.mcap, &mut self.samples)?;
+        Self::write_batch(&mut self.mcap, &mut self.snapshots)?;
         self.mcap.write_metadata(&mcap::records::Metadata { name: "fusion.recording".into(), metadata })?;
         self.mcap.finish()?;
         Ok(c)
