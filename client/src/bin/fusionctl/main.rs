@@ -5,9 +5,11 @@
 //! - `fusionctl state`: the latest snapshot, for a person.
 //! - `fusionctl record`: every input sample and snapshot to an MCAP file.
 //! - `fusionctl plot`: a report (SVG and PNG) of a recording or a replay.
+//! - `fusionctl top`: a live dashboard.
 
 mod plot;
 mod record;
+mod top;
 
 use std::io::Write;
 use std::sync::Arc;
@@ -71,6 +73,13 @@ enum Command {
         /// Directory of the report.
         #[arg(long, default_value = "fusion-report")]
         output_dir: std::path::PathBuf,
+    },
+    /// A live dashboard: health, per-sensor rates and counters, estimate and σ,
+    /// latency percentiles; `q` quits.
+    Top {
+        /// Namespace of the services.
+        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
+        namespace: String,
     },
     /// Print the latest snapshot for a person: state, standard deviations, health, counters, age.
     State {
@@ -152,6 +161,7 @@ fn main() -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Command::Top { namespace } => top::run(&namespace, &stop),
         Command::State { namespace } => {
             let client = Client::connect(&namespace)?;
             let mut state = client.state_subscriber()?;
@@ -167,30 +177,11 @@ fn main() -> anyhow::Result<()> {
     }
 }
 
-fn describe(s: &StateSnapshot) -> String {
-    let mut o = String::new();
-    let age_ms = now_ns().saturating_sub(s.publish_ns) as f64 * 1e-6;
-    let mut reasons: Vec<String> = s.health_reason_names().map(String::from).collect();
-    let stale: Vec<String> = s.stale_sensor_counters().map(|c| format!("{} {}", kind_name(c.kind), c.sensor)).collect();
-    if !stale.is_empty() {
-        reasons.push(format!("stale: {}", stale.join(", ")));
-    }
-    o += &format!(
-        "model {}, snapshot {} published {age_ms:.1} ms ago, estimate at t = {:.6} s\n",
-        model::name(s.model),
-        s.seq,
-        s.t_ns as f64 * 1e-9
-    );
-    o += &format!(
-        "health: {}{}\n\n",
-        health::name(s.health),
-        if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) }
-    );
-    // Each state's name and the index of its standard deviation in the covariance
-    // (the INS covariance is over 15 error states: the quaternion's 4 entries share
-    // the 3 attitude errors, shown in degrees below).
-    let ins = s.model == model::INS;
-    let layout: Vec<(String, Option<usize>)> = match s.model {
+/// Each state's name and the index of its standard deviation in the covariance
+/// (the INS covariance is over 15 error states: the quaternion's 4 entries share
+/// the 3 attitude errors).
+fn state_layout(s: &StateSnapshot) -> Vec<(String, Option<usize>)> {
+    match s.model {
         model::LINEAR => ["p_x m", "p_y m", "p_z m", "v_x m/s", "v_y m/s", "v_z m/s"]
             .iter()
             .enumerate()
@@ -218,7 +209,30 @@ fn describe(s: &StateSnapshot) -> String {
         .map(|(n, i)| (n.to_string(), *i))
         .collect(),
         _ => (0..s.state().len()).map(|i| (format!("x[{i}]"), Some(i))).collect(),
-    };
+    }
+}
+
+fn describe(s: &StateSnapshot) -> String {
+    let mut o = String::new();
+    let age_ms = now_ns().saturating_sub(s.publish_ns) as f64 * 1e-6;
+    let mut reasons: Vec<String> = s.health_reason_names().map(String::from).collect();
+    let stale: Vec<String> = s.stale_sensor_counters().map(|c| format!("{} {}", kind_name(c.kind), c.sensor)).collect();
+    if !stale.is_empty() {
+        reasons.push(format!("stale: {}", stale.join(", ")));
+    }
+    o += &format!(
+        "model {}, snapshot {} published {age_ms:.1} ms ago, estimate at t = {:.6} s\n",
+        model::name(s.model),
+        s.seq,
+        s.t_ns as f64 * 1e-9
+    );
+    o += &format!(
+        "health: {}{}\n\n",
+        health::name(s.health),
+        if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) }
+    );
+    let ins = s.model == model::INS;
+    let layout = state_layout(s);
     let sd: Vec<f64> = s.std_devs().collect();
     o += &format!("  {:<12} {:>14} {:>12}\n", "state", "value", "1-sigma");
     for (v, (name, k)) in s.state().iter().zip(&layout) {

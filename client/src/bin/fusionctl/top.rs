@@ -1,0 +1,292 @@
+//! `fusionctl top`: a live dashboard of a running fusiond (`ratatui`): health
+//! and its reasons, each sensor's rate and counters, the estimate with its
+//! standard deviations, and the end-to-end latency percentiles, redrawn every
+//! [`REFRESH`]; `q` (or Esc, Ctrl-C) quits.
+
+use std::collections::{HashMap, VecDeque};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use fusion_client::{Client, StateSnapshot, now_ns};
+use fusion_shared::snapshot::{INPUT_NONE, health, model};
+use ratatui::Frame;
+use ratatui::crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
+use ratatui::layout::{Constraint, Layout};
+use ratatui::style::{Color, Modifier, Style};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Cell, Paragraph, Row, Table};
+
+/// How often the view is redrawn.
+pub const REFRESH: Duration = Duration::from_millis(200);
+/// Latencies kept for the percentiles: the most recent ones.
+const LATENCY_WINDOW: usize = 5000;
+/// Time over which sensor rates are measured.
+const RATE_WINDOW: Duration = Duration::from_secs(2);
+
+/// What the dashboard shows, gathered from the snapshots read.
+#[derive(Default)]
+pub struct View {
+    /// Namespace shown in the title.
+    pub namespace: String,
+    /// The newest snapshot, if any.
+    pub latest: Option<StateSnapshot>,
+    /// Snapshots read.
+    pub snapshots: u64,
+    /// Per sensor (kind code, id): samples received per second.
+    pub rates: HashMap<(u32, u32), f64>,
+    /// Recent end-to-end latencies (sample sent → snapshot published), ns.
+    latencies: VecDeque<u64>,
+    /// Per sensor: (time, received) at the start of the rate window.
+    rate_base: HashMap<(u32, u32), (Instant, u64)>,
+}
+
+impl View {
+    /// An empty view of `namespace`.
+    pub fn new(namespace: &str) -> Self {
+        Self { namespace: namespace.to_string(), ..Self::default() }
+    }
+
+    /// Takes in one snapshot, read at `now`.
+    pub fn add(&mut self, s: &StateSnapshot, now: Instant) {
+        self.snapshots += 1;
+        if s.input_kind != INPUT_NONE && s.input_replayed == 0 && s.input_sent_ns > 0 {
+            if self.latencies.len() == LATENCY_WINDOW {
+                self.latencies.pop_front();
+            }
+            self.latencies.push_back(s.publish_ns.saturating_sub(s.input_sent_ns));
+        }
+        for c in s.sensor_counters() {
+            let key = (c.kind, c.sensor);
+            let base = *self.rate_base.entry(key).or_insert((now, c.counts.received));
+            let elapsed = now.duration_since(base.0);
+            if elapsed >= RATE_WINDOW {
+                self.rates
+                    .insert(key, (c.counts.received - base.1.min(c.counts.received)) as f64 / elapsed.as_secs_f64());
+                self.rate_base.insert(key, (now, c.counts.received));
+            }
+        }
+        self.latest = Some(*s);
+    }
+
+    /// Latency percentiles (p50, p90, p99, max) of the window, µs.
+    pub fn latency_us(&self) -> Option<[f64; 4]> {
+        if self.latencies.is_empty() {
+            return None;
+        }
+        let mut v: Vec<u64> = self.latencies.iter().copied().collect();
+        v.sort_unstable();
+        let q = |p: f64| v[((v.len() - 1) as f64 * p) as usize] as f64 * 1e-3;
+        Some([q(0.5), q(0.9), q(0.99), q(1.0)])
+    }
+}
+
+fn kind_name(code: u32) -> &'static str {
+    fusion_shared::SampleKind::from_code(code).map_or("?", |k| k.name())
+}
+
+/// Draws the dashboard of `view` into `frame`.
+pub fn draw(frame: &mut Frame, view: &View) {
+    let [header, sensors, lower, footer] =
+        Layout::vertical([Constraint::Length(3), Constraint::Min(6), Constraint::Length(12), Constraint::Length(1)])
+            .areas(frame.area());
+    let title = format!(" fusiond · namespace {} ", view.namespace);
+    let Some(s) = &view.latest else {
+        let text = format!("waiting for the first snapshot of fusiond in namespace {:?} …", view.namespace);
+        frame.render_widget(Paragraph::new(text).block(Block::bordered().title(title)), header);
+        frame.render_widget(Paragraph::new(" q: quit"), footer);
+        return;
+    };
+
+    let colour = match s.health {
+        health::OK => Color::Green,
+        health::DEGRADED => Color::Red,
+        _ => Color::Yellow,
+    };
+    let mut reasons: Vec<String> = s.health_reason_names().map(String::from).collect();
+    let stale: Vec<String> = s.stale_sensor_counters().map(|c| format!("{} {}", kind_name(c.kind), c.sensor)).collect();
+    if !stale.is_empty() {
+        reasons.push(format!("stale: {}", stale.join(", ")));
+    }
+    let age_ms = now_ns().saturating_sub(s.publish_ns) as f64 * 1e-6;
+    let line = Line::from(vec![
+        Span::raw("health "),
+        Span::styled(health::name(s.health), Style::default().fg(colour).add_modifier(Modifier::BOLD)),
+        Span::raw(if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) }),
+        Span::raw(format!(
+            "   model {}   snapshot {} ({age_ms:.0} ms ago)   t {:.3} s   rewinds {}   re-initialisations {}",
+            model::name(s.model),
+            s.seq,
+            s.t_ns as f64 * 1e-9,
+            s.rewinds,
+            s.reinitialisations
+        )),
+    ]);
+    frame.render_widget(Paragraph::new(line).block(Block::bordered().title(title)), header);
+
+    let head = [
+        "sensor", "rate Hz", "received", "fused", "gated", "late", "too late", "dup", "invalid", "lost", "limited",
+        "restarts", "last NIS",
+    ];
+    let stale_rows: Vec<(u32, u32)> = s.stale_sensor_counters().map(|c| (c.kind, c.sensor)).collect();
+    let rows = s.sensor_counters().iter().map(|c| {
+        let n = &c.counts;
+        let rate = view.rates.get(&(c.kind, c.sensor)).map_or("-".into(), |r| format!("{r:.1}"));
+        let nis = if c.last_nis.is_finite() { format!("{:.2}", c.last_nis) } else { "-".into() };
+        let style =
+            if stale_rows.contains(&(c.kind, c.sensor)) { Style::default().fg(Color::Red) } else { Style::default() };
+        Row::new(
+            [
+                format!("{} {}", kind_name(c.kind), c.sensor),
+                rate,
+                n.received.to_string(),
+                n.fused.to_string(),
+                n.gated.to_string(),
+                n.late.to_string(),
+                n.too_late.to_string(),
+                n.duplicate.to_string(),
+                n.invalid.to_string(),
+                n.lost.to_string(),
+                n.rate_limited.to_string(),
+                n.restarts.to_string(),
+                nis,
+            ]
+            .map(Cell::from),
+        )
+        .style(style)
+    });
+    let mut widths = vec![Constraint::Length(12)];
+    widths.extend([Constraint::Length(9); 12]);
+    let table = Table::new(rows, widths)
+        .header(Row::new(head).style(Style::default().add_modifier(Modifier::BOLD)))
+        .block(Block::bordered().title(" sensors "));
+    frame.render_widget(table, sensors);
+
+    let [estimate, latency] = Layout::horizontal([Constraint::Percentage(60), Constraint::Percentage(40)]).areas(lower);
+    let sd: Vec<f64> = s.std_devs().collect();
+    let rows = crate::state_layout(s).into_iter().zip(s.state()).map(|((name, k), v)| {
+        let sigma = k.and_then(|k| sd.get(k)).map_or(String::new(), |v| format!("{v:.4}"));
+        Row::new([name, format!("{v:.4}"), sigma].map(Cell::from))
+    });
+    let table = Table::new(rows, [Constraint::Length(12), Constraint::Length(14), Constraint::Length(12)])
+        .header(Row::new(["state", "value", "1-sigma"]).style(Style::default().add_modifier(Modifier::BOLD)))
+        .block(Block::bordered().title(" estimate "));
+    frame.render_widget(table, estimate);
+
+    let text = match view.latency_us() {
+        Some([p50, p90, p99, max]) => format!(
+            "sample sent → snapshot published\n(last {} in order)\n\np50 {p50:9.1} µs\np90 {p90:9.1} µs\np99 {p99:9.1} µs\nmax {max:9.1} µs",
+            view.latencies.len()
+        ),
+        None => "no sample with a send time yet".into(),
+    };
+    frame.render_widget(Paragraph::new(text).block(Block::bordered().title(" latency ")), latency);
+    frame.render_widget(Paragraph::new(format!(" q: quit   {} snapshots read", view.snapshots)), footer);
+}
+
+/// Runs the dashboard on the terminal until `q` or `stop`.
+pub fn run(namespace: &str, stop: &AtomicBool) -> anyhow::Result<()> {
+    let client = Client::connect(namespace)?;
+    let mut view = View::new(namespace);
+    let mut state = None;
+    let mut terminal = ratatui::init();
+    let result = (|| -> anyhow::Result<()> {
+        loop {
+            if state.is_none() {
+                // fusiond may start after the dashboard.
+                state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER).ok();
+            }
+            if let Some(state) = &mut state {
+                while let Some(s) = state.try_next()? {
+                    view.add(s, Instant::now());
+                }
+            }
+            terminal.draw(|frame| draw(frame, &view))?;
+            let deadline = Instant::now() + REFRESH;
+            while let Some(left) = deadline.checked_duration_since(Instant::now()) {
+                if stop.load(Ordering::Relaxed) {
+                    return Ok(());
+                }
+                if event::poll(left.min(Duration::from_millis(50)))?
+                    && let Event::Key(key) = event::read()?
+                    && key.kind == KeyEventKind::Press
+                    && (matches!(key.code, KeyCode::Char('q') | KeyCode::Esc)
+                        || (key.code == KeyCode::Char('c') && key.modifiers.contains(KeyModifiers::CONTROL)))
+                {
+                    return Ok(());
+                }
+            }
+        }
+    })();
+    ratatui::restore();
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fusion_shared::SampleKind;
+    use ratatui::Terminal;
+    use ratatui::backend::TestBackend;
+
+    fn screen(view: &View) -> String {
+        let mut terminal = Terminal::new(TestBackend::new(140, 30)).unwrap();
+        terminal.draw(|frame| draw(frame, view)).unwrap();
+        let buffer = terminal.backend().buffer();
+        (0..buffer.area.height)
+            .map(|y| (0..buffer.area.width).map(|x| buffer[(x, y)].symbol()).collect::<String>() + "\n")
+            .collect()
+    }
+
+    #[test]
+    fn the_dashboard_shows_health_sensors_estimate_and_latency() {
+        let mut s = StateSnapshot {
+            model: model::LINEAR,
+            health: health::DEGRADED,
+            health_reasons: health::IMU_STALE,
+            state_len: 6,
+            cov_dim: 6,
+            sensor_count: 2,
+            input_kind: SampleKind::Position as u32,
+            input_sent_ns: 1_000,
+            publish_ns: 51_000,
+            ..Default::default()
+        };
+        s.x[0] = 12.5;
+        s.cov[0] = 0.25;
+        s.sensors[0].kind = SampleKind::Imu as u32;
+        s.sensors[0].counts.received = 400;
+        s.sensors[1].kind = SampleKind::Position as u32;
+        s.sensors[1].sensor = 1;
+        s.sensors[1].counts.received = 10;
+        s.sensors[1].counts.gated = 3;
+        s.sensors[1].last_nis = 2.5;
+        let start = Instant::now();
+        let mut view = View::new("test-ns");
+        view.add(&s, start);
+        s.sensors[0].counts.received = 1200;
+        view.add(&s, start + RATE_WINDOW);
+        let text = screen(&view);
+        for needle in [
+            "namespace test-ns",
+            "health degraded (imu stale)",
+            "model linear",
+            "imu 0",
+            "position 1",
+            "400.0", // (1200 − 400) / 2 s
+            "2.50",
+            "p_x m",
+            "12.5000",
+            "0.5000", // √0.25
+            "p50      50.0 µs",
+            "q: quit",
+        ] {
+            assert!(text.contains(needle), "{needle:?} not on the screen:\n{text}");
+        }
+    }
+
+    #[test]
+    fn before_the_first_snapshot_it_says_what_it_waits_for() {
+        let text = screen(&View::new("ns"));
+        assert!(text.contains("waiting for the first snapshot"), "{text}");
+    }
+}
