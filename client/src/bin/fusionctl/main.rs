@@ -6,7 +6,9 @@
 //! - `fusionctl record`: every input sample and snapshot to an MCAP file.
 //! - `fusionctl plot`: a report (SVG and PNG) of a recording or a replay.
 //! - `fusionctl top`: a live dashboard.
+//! - `fusionctl foxglove`: the live run for the Foxglove app (WebSocket).
 
+mod foxglove;
 mod plot;
 mod record;
 mod top;
@@ -80,6 +82,19 @@ enum Command {
         /// Namespace of the services.
         #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
         namespace: String,
+    },
+    /// Serve the live estimate, snapshots and samples over the Foxglove
+    /// WebSocket protocol (open `ws://HOST:PORT` in the Foxglove app).
+    Foxglove {
+        /// Namespace of the services.
+        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
+        namespace: String,
+        /// Address to listen on (`0.0.0.0` for the vehicle network).
+        #[arg(long, default_value = "127.0.0.1")]
+        host: String,
+        /// Port (0: any free one, printed at start).
+        #[arg(long, default_value_t = 8765)]
+        port: u16,
     },
     /// Print the latest snapshot for a person: state, standard deviations, health, counters, age.
     State {
@@ -162,6 +177,7 @@ fn main() -> anyhow::Result<()> {
             Ok(())
         }
         Command::Top { namespace } => top::run(&namespace, &stop),
+        Command::Foxglove { namespace, host, port } => foxglove::run(&namespace, &host, port, &stop),
         Command::State { namespace } => {
             let client = Client::connect(&namespace)?;
             let mut state = client.state_subscriber()?;

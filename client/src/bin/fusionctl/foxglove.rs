@@ -1,0 +1,86 @@
+//! `fusionctl foxglove`: serves a running fusiond live over the Foxglove
+//! WebSocket protocol (the `foxglove` SDK), on the topics and with the JSON
+//! messages of a recording (`fusion_shared::recording`): the estimate as
+//! `foxglove.PoseInFrame` and, once a datum is set, `foxglove.LocationFix`; the
+//! full snapshot (health, reasons, counters, x, P); every input sample (the
+//! fixes). Open it in the Foxglove app with "Open connection" to
+//! `ws://HOST:PORT`.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use fusion_client::{Client, ClientError, SampleKind};
+use fusion_shared::recording::{self, SnapshotJson};
+use fusion_shared::snapshot::INPUT_NONE;
+
+fn channel(topic: &str, schema_name: &str, schema: String) -> anyhow::Result<Arc<foxglove::RawChannel>> {
+    let schema = foxglove::Schema::new(schema_name, recording::SCHEMA_ENCODING, schema.into_bytes());
+    Ok(foxglove::ChannelBuilder::new(topic).message_encoding(recording::MESSAGE_ENCODING).schema(schema).build_raw()?)
+}
+
+/// Serves namespace `namespace` on `host:port` (0: any free port) until `stop`.
+pub fn run(namespace: &str, host: &str, port: u16, stop: &AtomicBool) -> anyhow::Result<()> {
+    let client = Client::connect(namespace)?;
+    let mut samples = client.sample_subscriber()?;
+    let server =
+        foxglove::WebSocketServer::new().name(format!("fusiond {namespace}")).bind(host, port).start_blocking()?;
+    // The port line is what a script (or test) waits for.
+    println!("serving fusiond namespace {namespace:?} on ws://{host}:{}", server.port());
+    let state = channel(recording::STATE_TOPIC, recording::STATE_SCHEMA, recording::state_schema())?;
+    let pose = channel(recording::POSE_TOPIC, recording::POSE_SCHEMA, recording::POSE_IN_FRAME_JSON_SCHEMA.into())?;
+    let location =
+        channel(recording::LOCATION_TOPIC, recording::LOCATION_SCHEMA, recording::LOCATION_FIX_JSON_SCHEMA.into())?;
+    let mut kinds = HashMap::new();
+    for &kind in SampleKind::ALL {
+        let (name, schema) = recording::sample_schema(kind);
+        kinds.insert(kind, channel(&recording::sample_topic(kind), &name, schema)?);
+    }
+    let mut reader = None;
+    let mut buf = Vec::with_capacity(8192);
+    while !stop.load(Ordering::Relaxed) {
+        let mut busy = false;
+        while let Some(s) = samples.try_next()? {
+            busy = true;
+            let Some(channel) = kinds.get(&s.kind()).filter(|c| c.has_sinks()) else { continue };
+            buf.clear();
+            recording::write_sample(&s, &mut buf);
+            channel.log(&buf);
+        }
+        if reader.is_none() {
+            // fusiond may start after this server.
+            match client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER) {
+                Ok(r) => reader = Some(r),
+                Err(ClientError::DaemonNotRunning { .. }) => {}
+                Err(e) => return Err(e.into()),
+            }
+        }
+        if let Some(reader) = &mut reader {
+            while let Some(s) = reader.try_next()? {
+                busy = true;
+                if state.has_sinks() {
+                    buf.clear();
+                    serde_json::to_writer(&mut buf, &SnapshotJson::from(s))?;
+                    state.log(&buf);
+                }
+                if s.input_kind == INPUT_NONE {
+                    continue;
+                }
+                if pose.has_sinks() {
+                    pose.log(&serde_json::to_vec(&recording::pose_in_frame(s))?);
+                }
+                if location.has_sinks()
+                    && let Some(fix) = recording::location_fix(s)
+                {
+                    location.log(&serde_json::to_vec(&fix)?);
+                }
+            }
+        }
+        if !busy {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+    server.stop().wait_blocking();
+    Ok(())
+}

@@ -1,0 +1,115 @@
+//! `fusionctl foxglove` against a running fusiond: a WebSocket client speaking
+//! the Foxglove protocol subscribes to the estimate and receives it.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::net::TcpStream;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::live::{Daemon, TestDomain, publish_in_lockstep, workspace_bin};
+use fusion_shared::recording;
+use fusion_shared::service::DOMAIN_ENV;
+use fusion_shared::{ImuSample, PositionSample, Sample};
+use tungstenite::client::IntoClientRequest;
+use tungstenite::stream::MaybeTlsStream;
+use tungstenite::{Message, WebSocket};
+
+type Socket = WebSocket<MaybeTlsStream<TcpStream>>;
+
+fn connect(port: u16) -> Socket {
+    let mut request = format!("ws://127.0.0.1:{port}").into_client_request().unwrap();
+    request.headers_mut().insert("Sec-WebSocket-Protocol", "foxglove.sdk.v1".parse().unwrap());
+    let (mut socket, response) = tungstenite::connect(request).unwrap();
+    assert_eq!(response.headers()["Sec-WebSocket-Protocol"], "foxglove.sdk.v1");
+    if let MaybeTlsStream::Plain(s) = socket.get_mut() {
+        s.set_read_timeout(Some(Duration::from_millis(200))).unwrap();
+    }
+    socket
+}
+
+/// The next message, or `None` after the read timeout.
+fn next(socket: &mut Socket) -> Option<Message> {
+    match socket.read() {
+        Ok(m) => Some(m),
+        Err(tungstenite::Error::Io(e))
+            if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) =>
+        {
+            None
+        }
+        Err(e) => panic!("websocket: {e}"),
+    }
+}
+
+#[test]
+fn a_foxglove_client_receives_the_live_estimate() {
+    let domain = TestDomain::new("foxglove");
+    let mut daemon = Daemon::start(&domain, &common::linear_config(Some(0.999)), "event");
+    let mut server = Command::new(workspace_bin("fusionctl"))
+        .args(["foxglove", "--namespace", &domain.namespace, "--port", "0"])
+        .env(DOMAIN_ENV, &domain.domain)
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(server.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let port: u16 = line.trim().rsplit(':').next().unwrap().parse().unwrap_or_else(|_| panic!("{line}"));
+
+    // The channels are advertised; subscribe to the pose.
+    let mut socket = connect(port);
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let pose_channel = loop {
+        assert!(Instant::now() < deadline, "no advertisement of {}", recording::POSE_TOPIC);
+        let Some(Message::Text(text)) = next(&mut socket) else { continue };
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        if v["op"] != "advertise" {
+            continue;
+        }
+        let channels = v["channels"].as_array().unwrap();
+        if let Some(c) = channels.iter().find(|c| c["topic"] == recording::POSE_TOPIC) {
+            assert_eq!(c["schemaName"], "foxglove.PoseInFrame");
+            assert_eq!(c["encoding"], "json");
+            break c["id"].as_u64().unwrap();
+        }
+    };
+    let subscribe = serde_json::json!({"op": "subscribe", "subscriptions": [{"id": 7, "channelId": pose_channel}]});
+    socket.send(Message::Text(subscribe.to_string().into())).unwrap();
+    std::thread::sleep(Duration::from_millis(200)); // the subscription reaches the server
+
+    let client = domain.client();
+    let mut reader = client.state_subscriber().unwrap();
+    let mut samples: Vec<Sample> = (0..10u64)
+        .map(|k| Sample::Imu(ImuSample::new(1_000_000_000 + k * 10_000_000, 0, k, [0.5, 0.0, 0.0], [0.0; 3])))
+        .collect();
+    let cov = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    samples.push(Sample::Position(PositionSample::new(1_095_000_000, 1, 0, [2.0, 1.0, 0.0], cov)));
+    let last = *publish_in_lockstep(&client, &mut reader, &samples).last().unwrap();
+
+    // Message data: opcode 1, subscription id, log time, the JSON pose.
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let mut poses = 0;
+    loop {
+        assert!(Instant::now() < deadline, "the last estimate never arrived ({poses} poses)");
+        let Some(Message::Binary(data)) = next(&mut socket) else { continue };
+        assert_eq!(data[0], 1, "message data");
+        assert_eq!(u32::from_le_bytes(data[1..5].try_into().unwrap()), 7, "our subscription");
+        let pose: serde_json::Value = serde_json::from_slice(&data[13..]).unwrap();
+        poses += 1;
+        let p = &pose["pose"]["position"];
+        if pose["timestamp"]["nsec"].as_u64() == Some(last.t_ns % 1_000_000_000)
+            && p["x"].as_f64() == Some(last.x[0])
+            && p["y"].as_f64() == Some(last.x[1])
+        {
+            break;
+        }
+    }
+    assert!(poses > 1, "one pose per snapshot");
+    socket.close(None).unwrap();
+    let _ = Command::new("kill").args(["-INT", &server.id().to_string()]).status();
+    assert!(server.wait().unwrap().success());
+    drop(reader);
+    drop(client);
+    assert!(daemon.terminate().success());
+    assert!(domain.files().is_empty(), "left in /dev/shm: {:?}", domain.files());
+}
