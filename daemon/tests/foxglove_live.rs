@@ -8,7 +8,7 @@ use std::net::TcpStream;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::live::{Daemon, TestDomain, publish_in_lockstep, workspace_bin};
+use common::live::{Daemon, Running, TestDomain, publish_in_lockstep, workspace_bin};
 use fusion_shared::recording;
 use fusion_shared::service::DOMAIN_ENV;
 use fusion_shared::{ImuSample, PositionSample, Sample};
@@ -46,14 +46,16 @@ fn next(socket: &mut Socket) -> Option<Message> {
 fn a_foxglove_client_receives_the_live_estimate() {
     let domain = TestDomain::new("foxglove");
     let mut daemon = Daemon::start(&domain, &common::linear_config(Some(0.999)), "event");
-    let mut server = Command::new(workspace_bin("fusionctl"))
-        .args(["foxglove", "--namespace", &domain.namespace, "--port", "0"])
-        .env(DOMAIN_ENV, &domain.domain)
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut server = Running(
+        Command::new(workspace_bin("fusionctl"))
+            .args(["foxglove", "--namespace", &domain.namespace, "--port", "0"])
+            .env(DOMAIN_ENV, &domain.domain)
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
     let mut line = String::new();
-    BufReader::new(server.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    BufReader::new(server.0.stdout.take().unwrap()).read_line(&mut line).unwrap();
     let port: u16 = line.trim().rsplit(':').next().unwrap().parse().unwrap_or_else(|_| panic!("{line}"));
 
     // The channels are advertised; subscribe to the pose.
@@ -106,8 +108,8 @@ fn a_foxglove_client_receives_the_live_estimate() {
     }
     assert!(poses > 1, "one pose per snapshot");
     socket.close(None).unwrap();
-    let _ = Command::new("kill").args(["-INT", &server.id().to_string()]).status();
-    assert!(server.wait().unwrap().success());
+    let _ = Command::new("kill").args(["-INT", &server.0.id().to_string()]).status();
+    assert!(server.wait_for(Duration::from_secs(10)).expect("fusionctl foxglove did not stop").success());
     drop(reader);
     drop(client);
     assert!(daemon.terminate().success());

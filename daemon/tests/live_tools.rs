@@ -4,13 +4,11 @@
 mod common;
 
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
 use common::live::{Daemon, TestDomain, workspace_bin};
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_shared::Sample;
-use fusion_shared::service::{self, DOMAIN_ENV, ServiceNames};
-use iceoryx2::prelude::*;
+use fusion_shared::service::DOMAIN_ENV;
 
 fn config() -> String {
     common::linear_config(Some(0.999)).replace("[100, 100, 100, 10, 10, 10]", "[100, 100, 100, 225, 225, 225]")
@@ -38,13 +36,7 @@ fn sim_into_daemon_with_echo(
         .spawn()
         .unwrap();
     // Start publishing only once echo has subscribed.
-    let node = service::create_node("test-probe", &service::iceoryx_config(Some(&domain.domain)).unwrap()).unwrap();
-    let state = service::state_service(&node, &ServiceNames::new(&domain.namespace).unwrap(), None).unwrap();
-    let deadline = Instant::now() + Duration::from_secs(10);
-    while state.dynamic_config().number_of_subscribers() == 0 {
-        assert!(Instant::now() < deadline, "fusionctl echo did not subscribe");
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    common::live::wait_for_state_reader(&domain, "fusionctl echo");
     let sim = Command::new(workspace_bin("fusion-sim"))
         .args(["run", "--namespace", &domain.namespace, "--input"])
         .arg(&input)

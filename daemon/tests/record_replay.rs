@@ -10,12 +10,11 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::live::{Daemon, TestDomain, workspace_bin};
+use common::live::{Daemon, Running, TestDomain, workspace_bin};
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_shared::recording;
-use fusion_shared::service::{self, DOMAIN_ENV, ServiceNames};
+use fusion_shared::service::DOMAIN_ENV;
 use fusion_shared::{Sample, SampleKind};
-use iceoryx2::prelude::*;
 
 /// The daemon's config, which the replay must be given too: simulated time
 /// lies far behind the daemon's clock, and the replay judges timestamps
@@ -44,22 +43,17 @@ fn record_live_run(domain: &TestDomain, dir: &Path, samples: &[Sample]) -> std::
     let text: String = samples.iter().map(|s| fusion_shared::jsonl::format_sample(s) + "\n").collect();
     std::fs::write(&input, text).unwrap();
     let mcap = dir.join("run.mcap");
-    let recorder = Command::new(workspace_bin("fusionctl"))
-        .args(["record", "--namespace", &domain.namespace, "--output"])
-        .arg(&mcap)
-        .env(DOMAIN_ENV, &domain.domain)
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut recorder = Running(
+        Command::new(workspace_bin("fusionctl"))
+            .args(["record", "--namespace", &domain.namespace, "--output"])
+            .arg(&mcap)
+            .env(DOMAIN_ENV, &domain.domain)
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
     // The recorder opens the sample services before the state service.
-    let node = service::create_node("test-probe", &service::iceoryx_config(Some(&domain.domain)).unwrap()).unwrap();
-    let names = ServiceNames::new(&domain.namespace).unwrap();
-    let state = service::state_service(&node, &names, None).unwrap();
-    let deadline = Instant::now() + Duration::from_secs(10);
-    while state.dynamic_config().number_of_subscribers() == 0 {
-        assert!(Instant::now() < deadline, "fusionctl record did not subscribe");
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    common::live::wait_for_state_reader(domain, "fusionctl record");
     let sim = Command::new(workspace_bin("fusion-sim"))
         .args(["run", "--namespace", &domain.namespace, "--input"])
         .arg(&input)
@@ -80,15 +74,14 @@ fn record_live_run(domain: &TestDomain, dir: &Path, samples: &[Sample]) -> std::
         std::thread::sleep(Duration::from_millis(10));
     }
     drop(reader);
-    let pid = recorder.id().to_string();
+    let pid = recorder.0.id().to_string();
     assert!(Command::new("kill").args(["-INT", &pid]).status().unwrap().success());
-    let out = recorder.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "fusionctl record failed: {stderr}");
+    let status = recorder.wait_for(Duration::from_secs(20)).expect("fusionctl record did not stop");
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut recorder.0.stderr.take().unwrap(), &mut stderr).unwrap();
+    assert!(status.success(), "fusionctl record failed: {stderr}");
     assert!(stderr.contains(&format!("recorded {} samples (0 not processed by fusiond)", samples.len())), "{stderr}");
     assert!(!stderr.contains("incomplete"), "{stderr}");
-    drop(state);
-    drop(node);
     assert!(daemon.terminate().success());
     mcap
 }

@@ -4,11 +4,12 @@
 mod common;
 
 use std::io::{Read, Write};
+use std::os::unix::process::CommandExt;
 use std::process::{Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use common::live::{Daemon, TestDomain, publish_in_lockstep, workspace_bin};
+use common::live::{Daemon, Running, TestDomain, publish_in_lockstep, workspace_bin};
 use fusion_shared::service::DOMAIN_ENV;
 use fusion_shared::{ImuSample, PositionSample, Sample};
 
@@ -37,17 +38,21 @@ fn the_dashboard_shows_a_running_daemon_and_quits_on_q() {
         workspace_bin("fusionctl").display(),
         domain.namespace
     );
-    let mut top = Command::new("script")
-        .args(["-qfec", &command, "/dev/null"])
-        .env(DOMAIN_ENV, &domain.domain)
-        .env("TERM", "xterm")
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    // In a process group of its own, so that a failing test stops it and its child.
+    let mut top = Running(
+        Command::new("script")
+            .process_group(0)
+            .args(["-qfec", &command, "/dev/null"])
+            .env(DOMAIN_ENV, &domain.domain)
+            .env("TERM", "xterm")
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
     // The screen as it is drawn, read on a thread of its own.
-    let mut stdout = top.stdout.take().unwrap();
+    let mut stdout = top.0.stdout.take().unwrap();
     let (tx, rx) = mpsc::channel();
     std::thread::spawn(move || {
         let mut buf = [0u8; 4096];
@@ -67,15 +72,8 @@ fn the_dashboard_shows_a_running_daemon_and_quits_on_q() {
             screen.push_str(&String::from_utf8_lossy(&bytes));
         }
     }
-    top.stdin.as_mut().unwrap().write_all(b"q").unwrap();
-    let deadline = Instant::now() + Duration::from_secs(10);
-    let status = loop {
-        if let Some(status) = top.try_wait().unwrap() {
-            break status;
-        }
-        assert!(Instant::now() < deadline, "fusionctl top did not quit on q");
-        std::thread::sleep(Duration::from_millis(20));
-    };
+    top.0.stdin.as_mut().unwrap().write_all(b"q").unwrap();
+    let status = top.wait_for(Duration::from_secs(10)).expect("fusionctl top did not quit on q");
     assert!(status.success(), "fusionctl top failed: {status}");
     drop(reader);
     drop(client);

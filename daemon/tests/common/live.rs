@@ -203,6 +203,55 @@ impl Drop for Daemon {
     }
 }
 
+/// A tool's process, stopped with SIGTERM (to its whole process group when it
+/// leads one) and reaped when dropped: a failing test leaves nothing running.
+pub struct Running(pub Child);
+
+impl Running {
+    /// Waits for the process to end by itself, at most `timeout`.
+    pub fn wait_for(&mut self, timeout: Duration) -> Option<ExitStatus> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Some(status) = self.0.try_wait().unwrap() {
+                return Some(status);
+            }
+            if Instant::now() > deadline {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        if matches!(self.0.try_wait(), Ok(None)) {
+            let pid = self.0.id().to_string();
+            let _ = Command::new("kill").args(["-TERM", "--", &format!("-{pid}")]).status();
+            let _ = Command::new("kill").args(["-TERM", &pid]).status();
+            if self.wait_for(Duration::from_secs(5)).is_none() {
+                let _ = self.0.kill();
+            }
+        }
+        let _ = self.0.wait();
+    }
+}
+
+/// Waits (at most 10 s) until `who` reads `<ns>/state`: a tool started as a
+/// process of its own has subscribed, and may be sent to.
+pub fn wait_for_state_reader(domain: &TestDomain, who: &str) {
+    use iceoryx2::service::port_factory::PortFactory as _;
+    let config = fusion_shared::service::iceoryx_config(Some(&domain.domain)).unwrap();
+    let node = fusion_shared::service::create_node("test-probe", &config).unwrap();
+    let names = fusion_shared::service::ServiceNames::new(&domain.namespace).unwrap();
+    let state = fusion_shared::service::state_service(&node, &names, None).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while state.dynamic_config().number_of_subscribers() == 0 {
+        assert!(Instant::now() < deadline, "{who} did not subscribe");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
 /// Whether a snapshot was triggered by `sample`.
 pub fn triggered_by(s: &StateSnapshot, sample: &Sample) -> bool {
     s.input_t_ns == sample.t_ns()
