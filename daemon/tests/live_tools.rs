@@ -24,8 +24,6 @@ fn sim_into_daemon_with_echo(
     let mut daemon = Daemon::start(&domain, &config(), "event");
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("drive.jsonl");
-    let text: String = samples.iter().map(|s| fusion_shared::jsonl::format_sample(s) + "\n").collect();
-    std::fs::write(&input, text).unwrap();
 
     let echo_out = dir.path().join("echo.jsonl");
     let mut echo = Command::new(workspace_bin("fusionctl"))
@@ -37,13 +35,7 @@ fn sim_into_daemon_with_echo(
         .unwrap();
     // Start publishing only once echo has subscribed.
     common::live::wait_for_state_reader(&domain, "fusionctl echo");
-    let sim = Command::new(workspace_bin("fusion-sim"))
-        .args(["run", "--namespace", &domain.namespace, "--input"])
-        .arg(&input)
-        .env(DOMAIN_ENV, &domain.domain)
-        .output()
-        .unwrap();
-    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    common::live::publish_file(&domain, &input, samples);
     assert!(echo.wait().unwrap().success());
     assert!(daemon.terminate().success());
     let echoed =

@@ -39,9 +39,6 @@ fn drive() -> Vec<Sample> {
 /// Records a live run of `samples` and returns the recording's path.
 fn record_live_run(domain: &TestDomain, dir: &Path, samples: &[Sample]) -> std::path::PathBuf {
     let mut daemon = Daemon::start(domain, &config(0.3), "event");
-    let input = dir.join("drive.jsonl");
-    let text: String = samples.iter().map(|s| fusion_shared::jsonl::format_sample(s) + "\n").collect();
-    std::fs::write(&input, text).unwrap();
     let mcap = dir.join("run.mcap");
     let mut recorder = Running(
         Command::new(workspace_bin("fusionctl"))
@@ -54,13 +51,7 @@ fn record_live_run(domain: &TestDomain, dir: &Path, samples: &[Sample]) -> std::
     );
     // The recorder opens the sample services before the state service.
     common::live::wait_for_state_reader(domain, "fusionctl record");
-    let sim = Command::new(workspace_bin("fusion-sim"))
-        .args(["run", "--namespace", &domain.namespace, "--input"])
-        .arg(&input)
-        .env(DOMAIN_ENV, &domain.domain)
-        .output()
-        .unwrap();
-    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    common::live::publish_file(domain, &dir.join("drive.jsonl"), samples);
     // Every sample processed live before the recorder is stopped.
     let mut reader = domain.client().state_subscriber().unwrap();
     let deadline = Instant::now() + Duration::from_secs(20);

@@ -42,8 +42,8 @@ pub const LOCATION_TOPIC: &str = "/fusion/location";
 pub const LOCATION_SCHEMA: &str = "foxglove.LocationFix";
 /// Frame of the poses: the local ENU frame of the filter.
 pub const WORLD_FRAME: &str = "enu";
-/// Prefix of the sample topics.
-const SAMPLE_TOPIC_PREFIX: &str = "/fusion/samples/";
+/// Prefix of the sample topics (`/fusion/samples/<kind>`).
+pub const SAMPLE_TOPIC_PREFIX: &str = "/fusion/samples/";
 
 /// The topic of the samples of `kind`.
 pub fn sample_topic(kind: SampleKind) -> String {

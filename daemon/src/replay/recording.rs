@@ -14,7 +14,7 @@ use std::io::Write;
 use std::path::Path;
 
 use fusion_shared::SampleKind;
-use fusion_shared::recording::{self, SnapshotJson};
+use fusion_shared::recording::{self, SAMPLE_TOPIC_PREFIX, SnapshotJson};
 
 use super::{InputItem, ReplayCheck, ReplayError, ReplaySummary, replay_items};
 use crate::config::Config;
@@ -23,9 +23,6 @@ use crate::health::HealthNow;
 use crate::model::Model;
 use crate::reorder::Sample;
 use crate::snapshot::{self, Input};
-
-/// Prefix of the sample topics (see [`recording::sample_topic`]).
-const SAMPLE_TOPIC_PREFIX: &str = "/fusion/samples/";
 
 /// Differences described one by one in a [`ComparisonReport`].
 pub const DIFFERENCES_REPORTED: usize = 10;
@@ -66,23 +63,13 @@ impl Recording {
         let samples = stats
             .channel_message_counts
             .iter()
-            .filter(|(id, _)| summary.channels.get(id).is_some_and(|c| recording::kind_of_topic(&c.topic).is_some()));
+            .filter(|(id, _)| summary.channels.get(id).is_some_and(|c| c.topic.starts_with(SAMPLE_TOPIC_PREFIX)));
         Some(samples.map(|(_, n)| n).sum())
     }
 
-    /// The input samples, in the order of the file. With a summary, only the
-    /// chunks that hold samples are read (`fusionctl record` keeps samples and
-    /// snapshots in separate chunks); without one, the whole file.
-    pub fn samples(&self) -> std::io::Result<impl Iterator<Item = std::io::Result<InputItem>> + '_> {
-        let mut position = 0;
-        Ok(self.sample_messages()?.map(move |m| {
-            position += 1;
-            let m = m?;
-            Ok(to_item(position, m.log_time, sample_kind(&m.channel.topic), &m.data))
-        }))
-    }
-
-    /// The messages of the sample topics, in the order of the file.
+    /// The messages of the sample topics, in the order of the file. With a
+    /// summary, only the chunks that hold samples are read (`fusionctl record`
+    /// keeps samples and snapshots in separate chunks); without one, the whole file.
     fn sample_messages<'s>(&'s self) -> std::io::Result<impl Iterator<Item = std::io::Result<mcap::Message<'s>>> + 's> {
         let messages: Box<dyn Iterator<Item = mcap::McapResult<mcap::Message<'s>>> + 's> = match &self.summary {
             Some(summary) if !summary.chunk_indexes.is_empty() => {
@@ -139,7 +126,7 @@ fn sample_kind(topic: &str) -> Result<SampleKind, String> {
     recording::kind_of_topic(topic).ok_or_else(|| format!("{topic}: not a sample kind of this version"))
 }
 
-/// The replay input of a sample message.
+/// The replay input of the sample message at `position`.
 fn to_item(position: u64, log_time: u64, kind: Result<SampleKind, String>, data: &[u8]) -> InputItem {
     let sample = kind.and_then(|kind| {
         recording::parse_sample(kind, data).map_err(|e| format!("{}: {e}", recording::sample_topic(kind)))
@@ -147,8 +134,9 @@ fn to_item(position: u64, log_time: u64, kind: Result<SampleKind, String>, data:
     InputItem { position, received_ns: Some(log_time), sample }
 }
 
-/// A sample message read but not parsed: its log time, kind and bytes in the batch.
-type RawMessage = (u64, Result<SampleKind, String>, std::ops::Range<usize>);
+/// A sample message read but not parsed: its position, log time, kind, and
+/// its bytes in the batch.
+type RawMessage = (u64, u64, Result<SampleKind, String>, std::ops::Range<usize>);
 
 /// Sample messages read but not yet parsed, one buffer for all their bytes.
 #[derive(Default)]
@@ -354,9 +342,9 @@ const READ_BATCH: usize = 4096;
 /// Replays `recording` (see [`super::replay_items`]), calling `progress` with
 /// each sample message; with `compare`, also against its live snapshots.
 ///
-/// A second thread reads the recording (decompression and JSON, most of the
-/// work) while this one runs the engine: batches of samples pass between them
-/// through a bounded channel, in order.
+/// A second thread reads the recording (the decompression) while this one
+/// parses the messages and runs the engine: batches of raw messages pass
+/// between them through a bounded channel, in order.
 pub fn replay_recording(
     config: &Config,
     recording: &Recording,
@@ -376,11 +364,11 @@ pub fn replay_recording(
                 }
             };
             let mut batch = RawBatch::default();
-            for m in messages {
+            for (i, m) in messages.enumerate() {
                 batch.messages.push(m.map(|m| {
                     let start = batch.data.len();
                     batch.data.extend_from_slice(&m.data);
-                    (m.log_time, sample_kind(&m.channel.topic), start..batch.data.len())
+                    (i as u64 + 1, m.log_time, sample_kind(&m.channel.topic), start..batch.data.len())
                 }));
                 // The replay stopped (an error) when the channel is closed.
                 if batch.messages.len() == READ_BATCH && tx.send(std::mem::take(&mut batch)).is_err() {
@@ -394,13 +382,9 @@ pub fn replay_recording(
             .flat_map(|batch| {
                 let RawBatch { data, messages } = batch;
                 messages.into_iter().map(move |m| {
-                    let (log_time, kind, range) = m?;
-                    Ok(to_item(0, log_time, kind, &data[range]))
+                    let (position, log_time, kind, range) = m?;
+                    Ok(to_item(position, log_time, kind, &data[range]))
                 })
-            })
-            .enumerate()
-            .map(|(i, item): (usize, std::io::Result<InputItem>)| {
-                item.map(|item| InputItem { position: i as u64 + 1, ..item })
             })
             .inspect(|_| progress());
         if !compare {

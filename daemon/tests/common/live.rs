@@ -3,7 +3,7 @@
 //! seeing each other, and can check that nothing is left behind.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
@@ -235,6 +235,20 @@ impl Drop for Running {
         }
         let _ = self.0.wait();
     }
+}
+
+/// Writes `samples` to `path` as JSON lines and publishes the file with
+/// `fusion-sim run --input` (as fast as fusiond takes them).
+pub fn publish_file(domain: &TestDomain, path: &Path, samples: &[Sample]) {
+    let text: String = samples.iter().map(|s| fusion_shared::jsonl::format_sample(s) + "\n").collect();
+    std::fs::write(path, text).unwrap();
+    let sim = Command::new(workspace_bin("fusion-sim"))
+        .args(["run", "--namespace", &domain.namespace, "--input"])
+        .arg(path)
+        .env(DOMAIN_ENV, &domain.domain)
+        .output()
+        .unwrap();
+    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
 }
 
 /// Waits (at most 10 s) until `who` reads `<ns>/state`: a tool started as a

@@ -228,14 +228,20 @@ fn state_layout(s: &StateSnapshot) -> Vec<(String, Option<usize>)> {
     }
 }
 
-fn describe(s: &StateSnapshot) -> String {
-    let mut o = String::new();
-    let age_ms = now_ns().saturating_sub(s.publish_ns) as f64 * 1e-6;
+/// The health reasons of a snapshot, and which sensors are stale (`stale: imu 0`).
+fn health_reasons(s: &StateSnapshot) -> Vec<String> {
     let mut reasons: Vec<String> = s.health_reason_names().map(String::from).collect();
     let stale: Vec<String> = s.stale_sensor_counters().map(|c| format!("{} {}", kind_name(c.kind), c.sensor)).collect();
     if !stale.is_empty() {
         reasons.push(format!("stale: {}", stale.join(", ")));
     }
+    reasons
+}
+
+fn describe(s: &StateSnapshot) -> String {
+    let mut o = String::new();
+    let age_ms = now_ns().saturating_sub(s.publish_ns) as f64 * 1e-6;
+    let reasons = health_reasons(s);
     o += &format!(
         "model {}, snapshot {} published {age_ms:.1} ms ago, estimate at t = {:.6} s\n",
         model::name(s.model),

@@ -80,10 +80,6 @@ impl View {
     }
 }
 
-fn kind_name(code: u32) -> &'static str {
-    fusion_shared::SampleKind::from_code(code).map_or("?", |k| k.name())
-}
-
 /// Draws the dashboard of `view` into `frame`.
 pub fn draw(frame: &mut Frame, view: &View) {
     let [header, sensors, lower, footer] =
@@ -102,11 +98,7 @@ pub fn draw(frame: &mut Frame, view: &View) {
         health::DEGRADED => Color::Red,
         _ => Color::Yellow,
     };
-    let mut reasons: Vec<String> = s.health_reason_names().map(String::from).collect();
-    let stale: Vec<String> = s.stale_sensor_counters().map(|c| format!("{} {}", kind_name(c.kind), c.sensor)).collect();
-    if !stale.is_empty() {
-        reasons.push(format!("stale: {}", stale.join(", ")));
-    }
+    let reasons = crate::health_reasons(s);
     let age_ms = now_ns().saturating_sub(s.publish_ns) as f64 * 1e-6;
     let line = Line::from(vec![
         Span::raw("health "),
@@ -136,7 +128,7 @@ pub fn draw(frame: &mut Frame, view: &View) {
             if stale_rows.contains(&(c.kind, c.sensor)) { Style::default().fg(Color::Red) } else { Style::default() };
         Row::new(
             [
-                format!("{} {}", kind_name(c.kind), c.sensor),
+                format!("{} {}", crate::kind_name(c.kind), c.sensor),
                 rate,
                 n.received.to_string(),
                 n.fused.to_string(),
