@@ -149,6 +149,7 @@ pub fn steady_state(s: &Scenario<'_>) -> anyhow::Result<Window> {
         wait: s.wait,
         summary_interval: Duration::from_millis(50),
         cpu: None,
+        stall: None,
     };
     let daemon = {
         let shutdown = Arc::clone(&shutdown);

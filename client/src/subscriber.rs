@@ -138,7 +138,7 @@ impl StateSubscriber {
             if left.is_zero() {
                 return Ok(None);
             }
-            match self.listener()?.timed_wait(|_| {}, left.min(WAIT_SLICE)) {
+            match self.listener()?.timed_wait(|_| {}, fusion_shared::service::listener_timeout(left.min(WAIT_SLICE))) {
                 Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
                 Err(e) => {
                     return Err(ClientError::Receive { service: self.service.clone(), detail: format!("{e:?}") });

@@ -23,11 +23,12 @@ use iceoryx2::service::port_factory::{PortFactory, publish_subscribe};
 
 use crate::config::{Config, ConfigError};
 use crate::engine::{Engine, EngineConfig};
-use crate::live::{LiveCore, SampleSource, SnapshotSink};
+use crate::live::{LiveCore, LoopObserver, SampleSource, SnapshotSink};
 pub use crate::live::{RunReport, WaitMode};
 use crate::measurement;
 use crate::model::{Model, WithModel, with_model};
 use crate::summary::SummaryLogger;
+use crate::systemd::Watchdog;
 
 /// Options of `fusiond run` besides the config file.
 #[derive(Debug, Clone)]
@@ -42,6 +43,8 @@ pub struct RunOptions {
     /// core of its own: pinned, the kernel never moves it, and other busy
     /// threads can be kept off that core. `None` leaves placement to the kernel.
     pub cpu: Option<usize>,
+    /// Fault injection: stall the loop after this many samples (`--fault-stall-after`).
+    pub stall: Option<crate::systemd::StallFault>,
 }
 
 /// Why the daemon could not start or had to stop.
@@ -285,7 +288,7 @@ impl SampleSource for IpcSource {
 
     fn wait(&mut self, timeout: Duration) {
         let refused = &mut self.readers_refused;
-        match self.wake.timed_wait(|a| count_refused(refused, a), timeout) {
+        match self.wake.timed_wait(|a| count_refused(refused, a), service::listener_timeout(timeout)) {
             // A signal interrupted the wait: the loop condition looks at it.
             Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
             Err(e) => {
@@ -385,6 +388,28 @@ impl SnapshotSink for IpcSink {
     }
 }
 
+/// The loop's observer in `fusiond run`: summaries to the log thread, the
+/// systemd watchdog, the stall fault.
+struct Observer<'a> {
+    summary: SummaryLogger,
+    watchdog: Watchdog,
+    stall: Option<crate::systemd::StallFault>,
+    shutdown: &'a AtomicBool,
+}
+
+impl LoopObserver for Observer<'_> {
+    fn summary(&mut self, summary: crate::summary::Summary) {
+        self.summary.send(summary);
+    }
+
+    fn alive(&mut self, now_ns: u64, report: RunReport) {
+        self.watchdog.pet(now_ns);
+        if let Some(stall) = &self.stall {
+            stall.check(report, self.shutdown);
+        }
+    }
+}
+
 fn run_model<M: Model>(
     model: M,
     config: &Config,
@@ -416,7 +441,10 @@ fn run_model<M: Model>(
 
     let engine = Engine::new(model, EngineConfig::from_config(config));
     let mut core = LiveCore::new(engine, config.health, options.summary_interval, fusion_shared::now_ns());
-    let report = crate::live::run(&mut core, &mut source, &mut sink, options.wait, shutdown, &mut |s| summary.send(s));
+    let mut observer = Observer { summary, watchdog: Watchdog::from_env(), stall: options.stall, shutdown };
+    crate::systemd::ready(&format!("fusing in namespace {} ({})", names.namespace, M::KIND));
+    let report = crate::live::run(&mut core, &mut source, &mut sink, options.wait, shutdown, &mut observer);
+    crate::systemd::stopping();
 
     tracing::info!(
         received = report.received,

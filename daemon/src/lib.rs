@@ -13,6 +13,7 @@
 //! - [`ipc`]: `fusiond run` over iceoryx2 (the only file that touches it): N subscribers
 //!   merged by timestamp, the snapshot publisher.
 //! - [`summary`]: the low-rate summary log line, formatted off the fusion thread.
+//! - [`systemd`]: READY, WATCHDOG and STOPPING to the service manager.
 //! - [`config`]: TOML configuration, validated at start-up.
 //! - [`replay`]: `fusiond replay`, JSON lines through the engine.
 
@@ -29,4 +30,5 @@ pub mod reorder;
 pub mod replay;
 pub mod snapshot;
 pub mod summary;
+pub mod systemd;
 pub mod validate;

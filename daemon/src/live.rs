@@ -11,8 +11,9 @@
 //! one [`StateSnapshot`] per processed sample, then flushes the sink once. Every
 //! [`HOUSEKEEPING_NS`] it re-evaluates the health (a stream that stopped is
 //! marked stale even though nothing arrives, and a health-only snapshot says so),
-//! refreshes the sink's connections, and every summary interval hands a
-//! [`Summary`] to the caller. Between turns it busy-polls ([`WaitMode::Spin`],
+//! refreshes the sink's connections, tells the [`LoopObserver`] that the loop
+//! turns (the systemd watchdog), and every summary interval hands it a
+//! [`Summary`]. Between turns it busy-polls ([`WaitMode::Spin`],
 //! warming what the next sample touches every [`WARM_NS`]) or sleeps on the
 //! source ([`WaitMode::Event`]).
 //!
@@ -47,6 +48,16 @@ pub enum WaitMode {
     Spin,
     /// Sleep on the source's wake-up between samples: no CPU while idle.
     Event,
+}
+
+/// What the loop reports besides snapshots, from its own thread.
+pub trait LoopObserver {
+    /// The summary of an interval (at most every `summary_interval`).
+    fn summary(&mut self, summary: Summary);
+    /// The loop is turning: called at every housekeeping (every
+    /// [`HOUSEKEEPING_NS`] while the loop is healthy, never while it is stuck),
+    /// with the time and the loop's counts so far.
+    fn alive(&mut self, _now_ns: u64, _report: RunReport) {}
 }
 
 /// Where samples come from.
@@ -291,22 +302,25 @@ impl<M: Model> LiveCore<M> {
     }
 }
 
-/// Runs `core` on `source` and `sink` until `shutdown` becomes true, handing each
-/// interval's summary to `on_summary`.
+/// Runs `core` on `source` and `sink` until `shutdown` becomes true, telling
+/// `observer` that it turns and handing it each interval's summary.
 pub fn run<M: Model>(
     core: &mut LiveCore<M>,
     source: &mut impl SampleSource,
     sink: &mut impl SnapshotSink,
     wait: WaitMode,
     shutdown: &AtomicBool,
-    on_summary: &mut impl FnMut(Summary),
+    observer: &mut impl LoopObserver,
 ) -> RunReport {
     let mut next_warm = now_ns();
     while !shutdown.load(Ordering::Relaxed) {
         let taken = core.turn(source, sink);
         let now = now_ns();
-        if let Some(summary) = core.housekeeping(now, source, sink) {
-            on_summary(summary);
+        if now >= core.next_housekeeping() {
+            if let Some(summary) = core.housekeeping(now, source, sink) {
+                observer.summary(summary);
+            }
+            observer.alive(now, core.report());
         }
         if taken > 0 {
             next_warm = now + WARM_NS;
@@ -425,9 +439,21 @@ mod tests {
         let mut source = QueueSource { queue: input.iter().copied().collect(), stop: &stop };
         let mut sink = VecSink::default();
         let mut core = core();
-        let mut summaries = 0;
-        let report = run(&mut core, &mut source, &mut sink, WaitMode::Spin, &stop, &mut |_| summaries += 1);
+        /// The reports the loop gave at its housekeeping.
+        #[derive(Default)]
+        struct Alive(Vec<RunReport>);
+        impl LoopObserver for Alive {
+            fn summary(&mut self, _: Summary) {}
+            fn alive(&mut self, _: u64, report: RunReport) {
+                self.0.push(report);
+            }
+        }
+        let mut alive = Alive::default();
+        let report = run(&mut core, &mut source, &mut sink, WaitMode::Spin, &stop, &mut alive);
         assert_eq!(report, RunReport { received: input.len() as u64, snapshots: input.len() as u64 });
+        // The first housekeeping is due at once: the loop said it turns, with its counts.
+        assert!(!alive.0.is_empty());
+        assert!(alive.0.windows(2).all(|w| w[0].received <= w[1].received));
         assert_eq!(sink.sent.len(), input.len());
         assert!(sink.flushes >= 1);
 

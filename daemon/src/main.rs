@@ -16,6 +16,7 @@ use fusion_daemon::config::{Config, default_config_text};
 use fusion_daemon::ipc::{RunOptions, WaitMode};
 use fusion_daemon::replay;
 use fusion_daemon::replay::recording::Recording;
+use fusion_daemon::systemd::StallFault;
 
 #[derive(Parser)]
 #[command(name = "fusiond", version, about = "Low-latency Kalman-filter sensor fusion daemon")]
@@ -44,6 +45,17 @@ enum Command {
         /// nothing else busy runs on).
         #[arg(long)]
         cpu: Option<usize>,
+        /// Fault injection: after N samples the fusion loop stops turning while
+        /// the process stays up (to check that a supervisor's watchdog restarts
+        /// fusiond; see docs/systemd.md).
+        #[arg(long, value_name = "N")]
+        fault_stall_after: Option<u64>,
+    },
+    /// Check a configuration file (as `run` would load it) and exit: 0 when it
+    /// is valid, 1 with the reason when not.
+    CheckConfig {
+        /// Configuration file (TOML).
+        config: PathBuf,
     },
     /// Replay recorded samples (JSON lines, or an MCAP recording of `fusionctl
     /// record`) through the engine and write the estimates.
@@ -77,14 +89,19 @@ enum Wait {
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
-        )
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let logs = tracing_subscriber::fmt()
+        .with_env_filter(filter)
         .with_writer(std::io::stderr)
-        .with_ansi(std::io::stderr().is_terminal())
-        .init();
+        .with_ansi(std::io::stderr().is_terminal());
+    // Under systemd (stderr connected to the journal), journald stamps every line
+    // itself: no second timestamp, no colours.
+    if std::env::var_os("JOURNAL_STREAM").is_some() {
+        logs.without_time().init();
+    } else {
+        logs.init();
+    }
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -115,7 +132,7 @@ fn progress_bar(len: Option<u64>, bytes: bool) -> indicatif::ProgressBar {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Run { config, namespace, wait, summary_interval, cpu } => {
+        Command::Run { config, namespace, wait, summary_interval, cpu, fault_stall_after } => {
             let config = Config::load(&config)?;
             let shutdown = Arc::new(AtomicBool::new(false));
             for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
@@ -130,8 +147,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 summary_interval: Duration::try_from_secs_f64(summary_interval)
                     .context("--summary-interval must be a positive number of seconds")?,
                 cpu,
+                stall: fault_stall_after.map(|after_samples| StallFault { after_samples }),
             };
             fusion_daemon::ipc::run(&config, &options, &shutdown)?;
+            Ok(())
+        }
+        Command::CheckConfig { config: path } => {
+            let config = Config::load(&path)?;
+            println!("{}: valid (model {})", path.display(), config.model.kind());
             Ok(())
         }
         Command::PrintConfig => {

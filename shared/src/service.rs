@@ -13,6 +13,8 @@
 //! Every side opens the services with the same settings through the functions
 //! here, so whichever process comes first creates them and the others open them.
 
+use std::time::Duration;
+
 use iceoryx2::node::NodeState;
 use iceoryx2::prelude::*;
 use iceoryx2::service::builder::publish_subscribe::{PublishSubscribeOpenError, PublishSubscribeOpenOrCreateError};
@@ -278,6 +280,14 @@ pub fn event_service(node: &Node<Ipc>, name: &str) -> Result<event::PortFactory<
         .map_err(|e| ServiceError::Other { service: name.to_string(), detail: format!("{e:?}") })
 }
 
+/// A listener timeout iceoryx2 0.10 keeps: `timeout` rounded up to a whole
+/// microsecond. Its socket-based `Listener::timed_wait` sets `SO_RCVTIMEO` from
+/// the timeout in whole microseconds, and a timeout under 1 µs becomes 0, which
+/// the kernel takes as "block until an event", however long that is.
+pub fn listener_timeout(timeout: Duration) -> Duration {
+    Duration::from_micros(timeout.as_nanos().div_ceil(1000).clamp(1, u64::MAX as u128) as u64)
+}
+
 /// iceoryx2 keeps one 16-byte node counter per domain in `/dev/shm`. When this
 /// process's node was the last iceoryx2 node of the domain (call it after dropping
 /// the node), removing it leaves nothing behind. A process starting at the same moment keeps its mapping, and node ids
@@ -311,6 +321,14 @@ mod tests {
         for bad in ["", "a/b", "with space", "ü", &"x".repeat(65)] {
             assert!(ServiceNames::new(bad).is_err(), "{bad:?}");
         }
+    }
+
+    #[test]
+    fn listener_timeouts_are_whole_microseconds_of_at_least_one() {
+        assert_eq!(listener_timeout(Duration::from_nanos(1)), Duration::from_micros(1));
+        assert_eq!(listener_timeout(Duration::ZERO), Duration::from_micros(1));
+        assert_eq!(listener_timeout(Duration::from_nanos(1_001)), Duration::from_micros(2));
+        assert_eq!(listener_timeout(Duration::from_millis(5)), Duration::from_millis(5));
     }
 
     #[test]

@@ -121,6 +121,11 @@ impl Daemon {
     /// behind the daemon's clock: unless `config` has a `[validation]` table of
     /// its own, the past-timestamp check is opened up ([`RECORDED_TIME`]).
     pub fn start_with(domain: &TestDomain, config: &str, args: &[&str]) -> Self {
+        Self::start_with_env(domain, config, args, &[])
+    }
+
+    /// [`start_with`](Self::start_with), with `env` added to fusiond's environment.
+    pub fn start_with_env(domain: &TestDomain, config: &str, args: &[&str], env: &[(&str, &str)]) -> Self {
         let dir = tempfile::tempdir().unwrap();
         let config_path = dir.path().join("config.toml");
         let config =
@@ -133,6 +138,7 @@ impl Daemon {
             .args(args)
             .env(DOMAIN_ENV, &domain.domain)
             .env("RUST_LOG", "info")
+            .envs(env.iter().copied())
             .stdout(Stdio::null())
             .stderr(std::fs::File::create(&stderr).unwrap())
             .spawn()
