@@ -8,11 +8,14 @@
 //!   [`wait_next`](StateSubscriber::wait_next) (blocking on an event) and
 //!   [`spin_next`](StateSubscriber::spin_next) (busy-polling, lowest latency).
 //! - [`sim`]: a simulated sensor of every kind on a ground-truth trajectory.
+//! - [`capi`]: the same as a C library (`libfusion_client.so`/`.a`, header
+//!   `client/include/fusion_client.h`).
 //!
 //! The wire types and service names live in [`fusion_shared`]. The library pulls
 //! no command-line or logging-backend crates; the binaries (`fusion-sim`,
 //! `fusionctl`) are behind the `cli` feature.
 
+pub mod capi;
 mod error;
 mod publisher;
 pub mod sim;

@@ -4,8 +4,8 @@
 //! sequence number, sensor id, kind) followed by the payload of its kind. Each kind
 //! has its own file (its wire type, its JSON-lines form) and one line in
 //! [`for_each_sample_kind!`](crate::for_each_sample_kind), the one list of kinds in
-//! the whole system. From it this file generates the kind's module, [`SampleKind`],
-//! the in-process sum type [`Sample`] and the [`WireSample`] impls; the daemon
+//! the whole system (and a `mod` line here). From the list this file generates
+//! [`SampleKind`], the in-process sum type [`Sample`] and the [`WireSample`] impls; the daemon
 //! generates its measurement registry and the client its simulators from the same
 //! list.
 //!
@@ -94,12 +94,21 @@ macro_rules! for_each_sample_kind {
     };
 }
 
-/// Generates each kind's module, [`SampleKind`], [`Sample`] and the [`WireSample`]
+// Each kind's file. Declared here rather than by the macro below, so that tools
+// that read the source without expanding macros (cbindgen, for the C header)
+// find the wire types; a kind missing here fails to compile.
+mod geodetic;
+mod heading;
+mod imu;
+mod odometry;
+mod position;
+mod velocity;
+
+/// Re-exports each kind's wire type, generates [`SampleKind`], [`Sample`] and the [`WireSample`]
 /// impls from [`for_each_sample_kind!`](crate::for_each_sample_kind).
 macro_rules! sample_kinds {
     ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident;)*) => {
         $(
-            mod $module;
             pub use $module::$ty;
         )*
 

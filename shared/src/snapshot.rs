@@ -14,6 +14,8 @@ use crate::geodesy::Datum;
 pub const MAX_STATE: usize = 16;
 /// Largest covariance side a snapshot carries.
 pub const MAX_COV: usize = 15;
+/// Entries of the covariance array (`MAX_COV²`).
+pub const MAX_COV_LEN: usize = MAX_COV * MAX_COV;
 /// Most sensors (of all kinds) a snapshot reports.
 pub const MAX_SENSORS: usize = 16;
 /// [`StateSnapshot::input_kind`] of a snapshot published because the health
@@ -279,7 +281,7 @@ pub struct StateSnapshot {
     /// State vector (first `state_len` entries).
     pub x: [f64; MAX_STATE],
     /// Covariance, row-major `cov_dim × cov_dim` (first `cov_dim²` entries).
-    pub cov: [f64; MAX_COV * MAX_COV],
+    pub cov: [f64; MAX_COV_LEN],
     /// Counters per sensor (first `sensor_count` entries).
     pub sensors: [SensorCounters; MAX_SENSORS],
     /// Rewinds since start.
@@ -337,7 +339,7 @@ impl Default for StateSnapshot {
             cov_dim: 0,
             sensor_count: 0,
             x: [0.0; MAX_STATE],
-            cov: [0.0; MAX_COV * MAX_COV],
+            cov: [0.0; MAX_COV_LEN],
             sensors: [SensorCounters::default(); MAX_SENSORS],
             rewinds: 0,
             replayed: 0,

@@ -41,7 +41,13 @@ impl GeodeticSample {
         height_m: f64,
         cov_enu_m2: [f64; 9],
     ) -> Self {
-        Self { header: SampleHeader::new(SampleKind::Geodetic, t_ns, sensor, seq), lat_deg, lon_deg, height_m, cov_enu_m2 }
+        Self {
+            header: SampleHeader::new(SampleKind::Geodetic, t_ns, sensor, seq),
+            lat_deg,
+            lon_deg,
+            height_m,
+            cov_enu_m2,
+        }
     }
 }
 

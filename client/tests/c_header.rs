@@ -1,0 +1,32 @@
+//! The committed C header (`client/include/fusion_client.h`) is what cbindgen
+//! makes of `src/capi.rs` now. `FUSION_UPDATE_HEADER=1` rewrites it.
+
+use std::path::Path;
+
+#[test]
+fn the_c_header_is_fresh() {
+    let crate_dir = env!("CARGO_MANIFEST_DIR");
+    let config = cbindgen::Config::from_file(Path::new(crate_dir).join("cbindgen.toml")).unwrap();
+    let mut generated = Vec::new();
+    cbindgen::Builder::new()
+        .with_crate(crate_dir)
+        .with_config(config)
+        .generate()
+        .expect("cbindgen")
+        .write(&mut generated);
+    let generated = String::from_utf8(generated).unwrap();
+    let path = Path::new(crate_dir).join("include/fusion_client.h");
+    if std::env::var_os("FUSION_UPDATE_HEADER").is_some() {
+        std::fs::write(&path, &generated).unwrap();
+    }
+    let committed = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(
+        committed == generated,
+        "{} is stale: run `FUSION_UPDATE_HEADER=1 cargo test -p fusion-client --test c_header` and commit it",
+        path.display()
+    );
+    // Every sample kind can be published from C.
+    for kind in fusion_shared::SampleKind::ALL {
+        assert!(generated.contains(&format!("fusion_publish_{}(", kind.name())), "no C publish function for {kind:?}");
+    }
+}

@@ -1,0 +1,112 @@
+//! The C API against a live fusiond: the C example (`client/examples/c/`) and
+//! the error checks (`client/tests/c/errors.c`) compiled with the system C
+//! compiler and linked with `libfusion_client.a`; the header compiled as C++.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Duration;
+
+use common::live::{Daemon, TestDomain};
+use fusion_shared::service::DOMAIN_ENV;
+
+fn client_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../client")
+}
+
+/// `libfusion_client.a` of this build: the client library, a dependency of
+/// these tests, is built with all its crate types into `deps/` beside fusiond.
+fn static_lib() -> PathBuf {
+    let lib = PathBuf::from(env!("CARGO_BIN_EXE_fusiond")).with_file_name("deps").join("libfusion_client.a");
+    assert!(lib.exists(), "{} is not built", lib.display());
+    lib
+}
+
+/// Compiles `sources` with `compiler` (`cc`, `c++`) and links the client
+/// library; returns the executable.
+fn compile(compiler: &str, flags: &[&str], source: &Path, out_dir: &Path) -> PathBuf {
+    let exe = out_dir.join(source.file_stem().unwrap());
+    let output = Command::new(compiler)
+        .args(flags)
+        .args(["-Wall", "-Wextra", "-Werror", "-I"])
+        .arg(client_dir().join("include"))
+        .arg(source)
+        .arg(static_lib())
+        // What rustc says a static Rust library needs (--print native-static-libs).
+        .args(["-lgcc_s", "-lutil", "-lrt", "-lpthread", "-lm", "-ldl", "-lc", "-o"])
+        .arg(&exe)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {compiler}: {e}"));
+    assert!(output.status.success(), "{compiler} {}: {}", source.display(), String::from_utf8_lossy(&output.stderr));
+    exe
+}
+
+fn run(exe: &Path, domain: &TestDomain, namespace: &str) -> (bool, String, String) {
+    let out = Command::new(exe).arg(namespace).env(DOMAIN_ENV, &domain.domain).output().unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn the_c_example_publishes_and_reads_from_a_live_fusiond() {
+    let build = tempfile::tempdir().unwrap();
+    let example = compile("cc", &["-std=c11"], &client_dir().join("examples/c/example.c"), build.path());
+
+    let domain = TestDomain::new("c-api");
+    let mut daemon = Daemon::start(&domain, &common::linear_config(None), "event");
+    let client = domain.client();
+    let mut reader = client.state_subscriber_with_buffer(16).unwrap();
+    let (ok, stdout, stderr) = run(&example, &domain, &domain.namespace);
+    assert!(ok, "{stdout}{stderr}");
+
+    // fusiond processed the C program's IMU sample, and the program printed that snapshot.
+    let snapshot = *reader.wait_next(Duration::from_secs(10)).unwrap().expect("a snapshot");
+    assert_eq!(snapshot.input_kind, fusion_shared::SampleKind::Imu as u32);
+    let imu = &snapshot.sensor_counters()[0];
+    assert_eq!((imu.counts.received, imu.counts.processed, imu.counts.invalid), (1, 1, 0));
+    // `t_ns <t> x <x0> <x1> <x2> health <name>`, the doubles printed with 17 digits.
+    let words: Vec<&str> = stdout.split_whitespace().collect();
+    assert_eq!((words.len(), words[0], words[2], words[6]), (8, "t_ns", "x", "health"), "{stdout}");
+    assert_eq!(words[1].parse::<u64>().unwrap(), snapshot.t_ns);
+    let x: Vec<f64> = words[3..6].iter().map(|w| w.parse().unwrap()).collect();
+    assert_eq!(x, snapshot.state()[..3], "{stdout}");
+    assert_eq!(words[7], fusion_shared::snapshot::health::name(snapshot.health));
+    drop(reader);
+    drop(client);
+    assert!(daemon.terminate().success());
+    drop(daemon);
+    assert!(domain.files().is_empty(), "{:?}", domain.files());
+}
+
+#[test]
+fn bad_c_calls_get_a_status_and_a_reason() {
+    let build = tempfile::tempdir().unwrap();
+    let errors = compile("cc", &["-std=c11"], &client_dir().join("tests/c/errors.c"), build.path());
+    let domain = TestDomain::new("c-errors");
+    let (ok, stdout, stderr) = run(&errors, &domain, &domain.namespace);
+    assert!(ok && stdout.ends_with("all checks held\n"), "{stdout}{stderr}");
+    assert!(stdout.contains("not running in namespace"), "{stdout}");
+    assert!(stdout.contains("NaN"), "{stdout}");
+    assert!(domain.files().is_empty(), "{:?}", domain.files());
+}
+
+#[test]
+fn the_header_compiles_and_links_as_cpp() {
+    let build = tempfile::tempdir().unwrap();
+    let exe = compile("c++", &["-std=c++17"], &client_dir().join("tests/c/header.cpp"), build.path());
+    let domain = TestDomain::new("cpp");
+    let (ok, stdout, stderr) = run(&exe, &domain, &domain.namespace);
+    assert!(ok && stdout == "connected; health ok\n", "{stdout}{stderr}");
+    assert!(domain.files().is_empty(), "{:?}", domain.files());
+}
+
+#[test]
+fn the_readme_shows_the_tested_c_example() {
+    let readme = std::fs::read_to_string(client_dir().join("../README.md")).unwrap();
+    let example = std::fs::read_to_string(client_dir().join("examples/c/example.c")).unwrap();
+    assert!(readme.contains(&format!("```c\n{example}```\n")), "README's C example differs from examples/c/example.c");
+}
