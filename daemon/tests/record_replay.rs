@@ -130,7 +130,7 @@ with open(sys.argv[1], "rb") as f:
         counts[channel.topic] = counts.get(channel.topic, 0) + 1
     print(json.dumps(counts))
 "#;
-    let out = Command::new(common::python_with_mcap()).arg("-c").arg(script).arg(mcap).output().unwrap();
+    let out = Command::new(common::python_venv()).arg("-c").arg(script).arg(mcap).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let counts: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let imu = samples.iter().filter(|s| s.kind() == SampleKind::Imu).count();

@@ -109,26 +109,47 @@ pub fn pv_error_and_nees(
     (err, nees)
 }
 
-/// The Python package `mcap` of the tests, pinned.
-pub const PYTHON_MCAP: &str = "mcap==1.6.0";
+/// The Python packages of the tests, pinned: `client/python/requirements-test.txt`.
+pub const PYTHON_REQUIREMENTS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../client/python/requirements-test.txt");
 
-/// A Python interpreter with [`PYTHON_MCAP`] installed: a virtual environment
-/// in the workspace's `target/python-venv`, made (from PyPI) on first use.
-pub fn python_with_mcap() -> PathBuf {
+/// A Python interpreter with [`PYTHON_REQUIREMENTS`] installed and the
+/// `fusion_client` package of `client/python` importable: a virtual environment
+/// in the workspace's `target/python-venv` (`.ci/run` makes it first; a test makes
+/// it from PyPI if it is missing, saying so).
+pub fn python_venv() -> PathBuf {
+    static MADE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one_at_a_time = MADE.lock().unwrap_or_else(|e| e.into_inner());
     let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/python-venv");
     let python = venv.join("bin/python");
     let installed = |python: &Path| {
-        Command::new(python).args(["-c", "import mcap.reader"]).output().is_ok_and(|o| o.status.success())
+        Command::new(python)
+            .args(["-c", "import mcap.reader, iceoryx2, numpy"])
+            .output()
+            .is_ok_and(|o| o.status.success())
     };
     if !installed(&python) {
+        eprintln!("making the tests' Python environment in {} (pip, from PyPI)", venv.display());
         let made = Command::new("python3").arg("-m").arg("venv").arg(&venv).status().expect("python3 runs");
         assert!(made.success(), "python3 -m venv {} failed", venv.display());
         let pip = Command::new(&python)
-            .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check", PYTHON_MCAP])
+            .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check", "-r", PYTHON_REQUIREMENTS])
             .status()
             .expect("pip runs");
-        assert!(pip.success(), "pip install {PYTHON_MCAP} failed");
+        assert!(pip.success(), "pip install -r {PYTHON_REQUIREMENTS} failed");
     }
-    assert!(installed(&python), "{PYTHON_MCAP} is not importable in {}", venv.display());
+    assert!(installed(&python), "the packages of {PYTHON_REQUIREMENTS} are not importable in {}", venv.display());
     python
+}
+
+/// `python` running `script` of `client/python` with `args`, the `fusion_client`
+/// package on its path, in iceoryx2 domain `domain`.
+pub fn python_command(domain: &str, script: &str, args: &[&str]) -> Command {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../client/python");
+    let mut cmd = Command::new(python_venv());
+    cmd.arg(dir.join(script))
+        .args(args)
+        .env("PYTHONPATH", &dir)
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .env(fusion_shared::service::DOMAIN_ENV, domain);
+    cmd
 }

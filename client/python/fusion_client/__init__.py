@@ -1,0 +1,315 @@
+"""fusion_client: publish samples to fusiond and read its state from Python.
+
+Built on iceoryx2's own Python package (``iceoryx2`` 0.10, the version of the
+Rust crates) with ctypes mirrors of the wire types (:mod:`fusion_client.wire`)::
+
+    import fusion_client as fc
+
+    client = fc.Client("fusion")
+    imu = client.publisher(fc.ImuSample, sensor=0)
+    imu.publish(fc.ImuSample(accel_mps2=(0.1, 0.0, 0.0)), t_ns=fc.now_ns())
+    state = client.state_reader()
+    s = state.wait_next(timeout=1.0)
+    print(s.x[:3], s.P.diagonal(), s.health)
+
+Like the Rust client, a client and its ports belong to the thread that made them.
+"""
+
+import ctypes
+import math
+import os
+import time
+
+import iceoryx2 as iox2
+import numpy as np
+
+from .wire import (
+    ALL_TYPES,
+    HEALTH_NAMES,
+    INPUT_NONE,
+    KIND_NAMES,
+    MODEL_NAMES,
+    SAMPLE_TYPES,
+    Counters,
+    GeodeticSample,
+    HeadingSample,
+    ImuSample,
+    OdometrySample,
+    PositionSample,
+    SampleHeader,
+    SensorCounters,
+    StateSnapshot,
+    VelocitySample,
+)
+
+__all__ = [
+    "ALL_TYPES", "Client", "Counters", "DaemonNotRunning", "FusionError", "GeodeticSample", "HeadingSample",
+    "ImuSample", "INPUT_NONE", "OdometrySample", "PositionSample", "Publisher", "SampleHeader",
+    "SensorCounters", "Snapshot", "StateReader", "StateSnapshot", "VelocitySample", "now_ns",
+]
+
+#: Environment variable naming the iceoryx2 domain (as for every fusiond process).
+DOMAIN_ENV = "FUSION_ICEORYX_DOMAIN"
+
+# The service settings of `fusion_shared::service` (checked by tests/check_layout.py).
+SAMPLE_BUFFER = 4096
+MAX_SAMPLE_PUBLISHERS = 16
+MAX_BORROWED_PER_PUBLISHER = 8
+MAX_SAMPLE_SUBSCRIBERS = 4
+STATE_BUFFER = 512
+MAX_NODES = 32
+MAX_EVENT_PORTS = 32
+READER_REFUSED_EVENT = 1
+MAX_NAMESPACE_LEN = 64
+
+# Health reason bits (`fusion_shared::snapshot::health`).
+_GENERAL_REASONS = ((1 << 0, "nis out of bounds"), (1 << 1, "samples lost"), (1 << 2, "re-initialised from fixes"))
+
+# Longest sleep while waiting for a snapshot: a reader that connected after the
+# last snapshot gets the latest one without an event, so waits re-check this often.
+_WAIT_SLICE_S = 0.005
+
+
+class FusionError(Exception):
+    """A refusal of fusiond's services or of an argument, with the reason."""
+
+
+class DaemonNotRunning(FusionError):
+    """No fusiond has published state in the namespace."""
+
+
+def now_ns() -> int:
+    """Nanoseconds of CLOCK_MONOTONIC: the clock of every timestamp."""
+    return time.clock_gettime_ns(time.CLOCK_MONOTONIC)
+
+
+def _check_namespace(namespace: str) -> None:
+    ok = 0 < len(namespace) <= MAX_NAMESPACE_LEN and all(c.isascii() and (c.isalnum() or c in "_-.") for c in namespace)
+    if not ok:
+        raise ValueError(f"invalid namespace {namespace!r}: use 1 to {MAX_NAMESPACE_LEN} characters of A-Z a-z 0-9 _ - .")
+
+
+def _config(domain):
+    config = iox2.config.default()
+    domain = domain if domain is not None else (os.environ.get(DOMAIN_ENV) or None)
+    if domain is not None:
+        ok = 0 < len(domain) <= 32 and all(c.isascii() and (c.isalnum() or c in "_-") for c in domain)
+        if not ok:
+            raise ValueError(f"invalid iceoryx2 domain {domain!r}: use 1 to 32 characters of A-Z a-z 0-9 _ -")
+        config.global_cfg.prefix = iox2.FileName.new(f"iox2_{domain}_")
+    return config
+
+
+def _finite(value) -> bool:
+    """Every float in a ctypes structure or array is finite."""
+    if isinstance(value, ctypes.Structure):
+        return all(_finite(getattr(value, name)) for name, _ in value._fields_)
+    if isinstance(value, ctypes.Array):
+        return all(_finite(v) for v in value)
+    if isinstance(value, float):
+        return math.isfinite(value)
+    return True
+
+
+class Client:
+    """A connection to fusiond's services in one namespace (``"fusion"`` unless
+    fusiond was given another), in the iceoryx2 domain ``domain`` or the one
+    named by ``FUSION_ICEORYX_DOMAIN``. Works whether or not fusiond runs."""
+
+    def __init__(self, namespace: str = "fusion", domain=None):
+        _check_namespace(namespace)
+        self.namespace = namespace
+        try:
+            self._node = (
+                iox2.NodeBuilder.new()
+                .name(iox2.NodeName.new(f"fusion-client-py.{namespace}"))
+                .config(_config(domain))
+                .signal_handling_mode(iox2.SignalHandlingMode.Disabled)
+                .create(iox2.ServiceType.Ipc)
+            )
+        except iox2.NodeCreationFailure as e:
+            raise FusionError(f"cannot create iceoryx2 node: {e!r}") from e
+
+    def _service_name(self, suffix: str):
+        return iox2.ServiceName.new(f"{self.namespace}/{suffix}")
+
+    def _event(self, suffix: str):
+        try:
+            return (
+                self._node.service_builder(self._service_name(suffix))
+                .event()
+                .max_notifiers(MAX_EVENT_PORTS)
+                .max_listeners(MAX_EVENT_PORTS)
+                .max_nodes(MAX_NODES)
+                .open_or_create()
+            )
+        except Exception as e:
+            raise FusionError(f"service {self.namespace}/{suffix}: {e!r}") from e
+
+    def publisher(self, sample_type, sensor: int = 0) -> "Publisher":
+        """A publisher of sensor ``sensor``'s samples of ``sample_type``
+        (:class:`ImuSample`, :class:`PositionSample`, ...) on ``<ns>/<kind>``."""
+        if sample_type not in SAMPLE_TYPES:
+            raise ValueError(f"not a sample type: {sample_type!r}")
+        name = KIND_NAMES[sample_type.KIND]
+        try:
+            service = (
+                self._node.service_builder(self._service_name(name))
+                .publish_subscribe(sample_type)
+                .enable_safe_overflow(True)
+                .subscriber_max_buffer_size(SAMPLE_BUFFER)
+                .subscriber_max_borrowed_samples(MAX_BORROWED_PER_PUBLISHER)
+                .history_size(0)
+                .max_publishers(MAX_SAMPLE_PUBLISHERS)
+                .max_subscribers(MAX_SAMPLE_SUBSCRIBERS)
+                .max_nodes(MAX_NODES)
+                .open_or_create()
+            )
+            publisher = service.publisher_builder().create()
+        except Exception as e:
+            raise FusionError(f"service {self.namespace}/{name}: {e!r}") from e
+        wake = self._event("wake").notifier_builder().create()
+        return Publisher(sample_type, sensor, publisher, wake)
+
+    def state_reader(self, buffer: int = 64) -> "StateReader":
+        """A reader of ``<ns>/state`` keeping up to ``buffer`` unread snapshots.
+        Raises :class:`DaemonNotRunning` when no fusiond ever started here."""
+        try:
+            service = self._node.service_builder(self._service_name("state")).publish_subscribe(StateSnapshot).open()
+        except iox2.PublishSubscribeOpenError as e:
+            if "DoesNotExist" in repr(e):
+                raise DaemonNotRunning(f"fusiond is not running in namespace {self.namespace!r}") from e
+            raise FusionError(f"service {self.namespace}/state: {e!r}") from e
+        try:
+            subscriber = service.subscriber_builder().buffer_size(max(1, min(buffer, STATE_BUFFER))).create()
+        except Exception as e:
+            if "ExceedsMaxSupportedSubscribers" in repr(e):
+                # Tell fusiond, which counts refused readers in its snapshots.
+                self._event("wake").notifier_builder().create().notify_with_custom_event_id(
+                    iox2.EventId.new(READER_REFUSED_EVENT)
+                )
+                raise FusionError(f"all reader slots of {self.namespace}/state are taken") from e
+            raise FusionError(f"service {self.namespace}/state: {e!r}") from e
+        return StateReader(subscriber, self._event("state"))
+
+
+class Publisher:
+    """Publishes one sensor's samples of one kind and wakes fusiond."""
+
+    def __init__(self, sample_type, sensor, publisher, wake):
+        self.sample_type = sample_type
+        self.sensor = sensor
+        self.next_seq = 0
+        self._publisher = publisher
+        self._wake = wake
+
+    def publish(self, sample, t_ns=None) -> int:
+        """Publishes ``sample`` as this sensor's next sample: stamps its header's
+        sensor id, next sequence number, kind and send time (and ``t_ns`` if
+        given). Raises ``ValueError`` for a NaN or infinite value, ``TypeError``
+        for a sample of another kind. Returns the readers it reached (0: no
+        fusiond)."""
+        if not isinstance(sample, self.sample_type):
+            raise TypeError(f"a {type(sample).__name__} given to a {self.sample_type.__name__} publisher")
+        if t_ns is not None:
+            sample.header.t_ns = t_ns
+        if not _finite(sample):
+            raise ValueError(f"{type(sample).__name__} with a NaN or infinite value")
+        sample.header.sensor = self.sensor
+        sample.header.seq = self.next_seq
+        sample.header.kind = self.sample_type.KIND
+        sample.header.sent_ns = now_ns()
+        reached = self._publisher.send_copy(sample)
+        self.next_seq += 1
+        self._wake.notify()
+        return reached
+
+
+class Snapshot:
+    """A snapshot read from fusiond: the raw :class:`StateSnapshot` (``raw``),
+    the estimate as numpy arrays and the codes by name."""
+
+    def __init__(self, raw: StateSnapshot):
+        self.raw = raw
+
+    def __getattr__(self, name):
+        return getattr(self.raw, name)
+
+    @property
+    def x(self) -> np.ndarray:
+        """The state vector in use (``linear``: p, v; ``ins``: p, v, q (w, x, y, z), b_a, b_g)."""
+        n = min(self.raw.state_len, len(self.raw.x))
+        return np.array(self.raw.x[:n], dtype=np.float64)
+
+    @property
+    def P(self) -> np.ndarray:  # noqa: N802 (the usual name of the covariance)
+        """The covariance in use, ``cov_dim × cov_dim``."""
+        n = min(self.raw.cov_dim, 15)
+        return np.array(self.raw.cov[: n * n], dtype=np.float64).reshape(n, n)
+
+    @property
+    def health_name(self) -> str:
+        return HEALTH_NAMES.get(self.raw.health, "unknown")
+
+    @property
+    def health_reason_names(self) -> list:
+        reasons = self.raw.health_reasons
+        names = [name for bit, name in _GENERAL_REASONS if reasons & bit]
+        names += [f"{KIND_NAMES[k]} stale" for k in sorted(KIND_NAMES) if reasons & (1 << (8 + k))]
+        return names
+
+    @property
+    def model_name(self) -> str:
+        return MODEL_NAMES.get(self.raw.model, "unknown")
+
+    def sensor_counters(self) -> list:
+        """The sensor rows in use."""
+        return list(self.raw.sensors[: min(self.raw.sensor_count, len(self.raw.sensors))])
+
+
+class StateReader:
+    """Reads fusiond's snapshots in publication order."""
+
+    def __init__(self, subscriber, event):
+        self._subscriber = subscriber
+        self._event = event
+        self._listener = None
+        self._last = None
+
+    def _receive(self):
+        sample = self._subscriber.receive()
+        if sample is None:
+            return None
+        # Copied out at once: the slot goes back to fusiond.
+        snapshot = Snapshot(StateSnapshot.from_buffer_copy(sample.payload().contents))
+        sample.delete()
+        self._last = snapshot
+        return snapshot
+
+    def try_next(self):
+        """The next unread snapshot, or ``None`` right away."""
+        return self._receive()
+
+    def latest(self):
+        """The newest snapshot, skipping older unread ones; the last one again if
+        nothing new came; ``None`` if none ever did."""
+        while self._receive() is not None:
+            pass
+        return self._last
+
+    def wait_next(self, timeout: float = 1.0):
+        """The next unread snapshot, sleeping on fusiond's state event until one
+        arrives or ``timeout`` seconds pass (``None``)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            snapshot = self._receive()
+            if snapshot is not None:
+                return snapshot
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return None
+            if self._listener is None:
+                self._listener = self._event.listener_builder().create()
+            # Whole microseconds, at least one: iceoryx2 takes 0 as "no timeout".
+            wait_us = max(1, math.ceil(min(left, _WAIT_SLICE_S) * 1e6))
+            self._listener.timed_wait(iox2.Duration.from_micros(wait_us))

@@ -1,0 +1,182 @@
+"""ctypes mirrors of fusiond's wire types (crate ``fusion-shared``).
+
+Same fields, same layout, same versioned type names as the Rust types, so that
+iceoryx2 opens fusiond's services with them. ``tests/check_layout.py`` checks
+every size, offset and type name against the Rust build.
+"""
+
+import ctypes
+
+MAX_STATE = 16
+MAX_COV = 15
+MAX_COV_LEN = MAX_COV * MAX_COV
+MAX_SENSORS = 16
+
+#: Sample kind codes (``SampleHeader.kind``), and their service names.
+KIND_IMU, KIND_POSITION, KIND_VELOCITY, KIND_GEODETIC, KIND_ODOMETRY, KIND_HEADING = 1, 2, 3, 4, 5, 6
+KIND_NAMES = {1: "imu", 2: "position", 3: "velocity", 4: "geodetic", 5: "odometry", 6: "heading"}
+#: ``StateSnapshot.input_kind`` of a snapshot sent because the health changed.
+INPUT_NONE = 0
+
+HEALTH_NAMES = {0: "initialising", 1: "ok", 2: "degraded"}
+MODEL_NAMES = {1: "linear", 2: "ins"}
+
+f64x3 = ctypes.c_double * 3
+f64x9 = ctypes.c_double * 9
+
+
+class _Wire(ctypes.Structure):
+    """A wire type: its iceoryx2 type name is ``TYPE_NAME``."""
+
+    TYPE_NAME = ""
+
+    @classmethod
+    def type_name(cls) -> str:
+        return cls.TYPE_NAME
+
+
+class SampleHeader(_Wire):
+    """What every sample starts with (``fusion.SampleHeader.v2``)."""
+
+    TYPE_NAME = "fusion.SampleHeader.v2"
+    _fields_ = [
+        ("t_ns", ctypes.c_uint64),  # time of validity, ns of CLOCK_MONOTONIC
+        ("sent_ns", ctypes.c_uint64),  # when published (stamped by the publisher)
+        ("seq", ctypes.c_uint64),  # sequence number of this sensor
+        ("sensor", ctypes.c_uint32),  # sensor id
+        ("kind", ctypes.c_uint32),  # kind code
+    ]
+
+
+class _Sample(_Wire):
+    KIND = 0
+
+
+class ImuSample(_Sample):
+    """Specific force (``ins``) or world acceleration (``linear``), m/s²; angular rate, rad/s."""
+
+    TYPE_NAME = "fusion.ImuSample.v2"
+    KIND = KIND_IMU
+    _fields_ = [("header", SampleHeader), ("accel_mps2", f64x3), ("gyro_radps", f64x3)]
+
+
+class PositionSample(_Sample):
+    """A position fix, m ENU, with its covariance (m², row-major 3×3)."""
+
+    TYPE_NAME = "fusion.PositionSample.v2"
+    KIND = KIND_POSITION
+    _fields_ = [("header", SampleHeader), ("pos_m", f64x3), ("cov_m2", f64x9)]
+
+
+class VelocitySample(_Sample):
+    """A velocity, m/s ENU, with its covariance (m²/s², row-major 3×3)."""
+
+    TYPE_NAME = "fusion.VelocitySample.v2"
+    KIND = KIND_VELOCITY
+    _fields_ = [("header", SampleHeader), ("vel_mps", f64x3), ("cov_m2ps2", f64x9)]
+
+
+class GeodeticSample(_Sample):
+    """A GNSS fix: WGS-84 latitude, longitude (deg), ellipsoidal height (m); ENU covariance m²."""
+
+    TYPE_NAME = "fusion.GeodeticSample.v2"
+    KIND = KIND_GEODETIC
+    _fields_ = [
+        ("header", SampleHeader),
+        ("lat_deg", ctypes.c_double),
+        ("lon_deg", ctypes.c_double),
+        ("height_m", ctypes.c_double),
+        ("cov_enu_m2", f64x9),
+    ]
+
+
+class OdometrySample(_Sample):
+    """Forward speed from wheel odometry, m/s, with its variance."""
+
+    TYPE_NAME = "fusion.OdometrySample.v2"
+    KIND = KIND_ODOMETRY
+    _fields_ = [("header", SampleHeader), ("speed_mps", ctypes.c_double), ("var_m2ps2", ctypes.c_double)]
+
+
+class HeadingSample(_Sample):
+    """Yaw, rad ENU (from east, counter-clockwise), with its variance."""
+
+    TYPE_NAME = "fusion.HeadingSample.v2"
+    KIND = KIND_HEADING
+    _fields_ = [("header", SampleHeader), ("yaw_rad", ctypes.c_double), ("var_rad2", ctypes.c_double)]
+
+
+SAMPLE_TYPES = (ImuSample, PositionSample, VelocitySample, GeodeticSample, OdometrySample, HeadingSample)
+
+
+class Counters(_Wire):
+    """What became of a sensor's samples."""
+
+    TYPE_NAME = "fusion.Counters.v3"
+    _fields_ = [
+        (name, ctypes.c_uint64)
+        for name in (
+            "received", "processed", "fused", "gated", "refused", "late", "too_late",
+            "duplicate", "invalid", "lost", "rate_limited", "restarts",
+        )
+    ]
+
+
+class SensorCounters(_Wire):
+    """One sensor's row of the snapshot."""
+
+    TYPE_NAME = "fusion.SensorCounters.v3"
+    _fields_ = [
+        ("kind", ctypes.c_uint32),
+        ("sensor", ctypes.c_uint32),
+        ("counts", Counters),
+        ("last_nis", ctypes.c_double),
+        ("last_t_ns", ctypes.c_uint64),
+        ("last_arrival_ns", ctypes.c_uint64),
+    ]
+
+
+class StateSnapshot(_Wire):
+    """The fusion state after one processed sample (``fusion.StateSnapshot.v6``)."""
+
+    TYPE_NAME = "fusion.StateSnapshot.v6"
+    _fields_ = [
+        ("seq", ctypes.c_uint64),
+        ("publish_ns", ctypes.c_uint64),
+        ("t_ns", ctypes.c_uint64),
+        ("sample_seq", ctypes.c_uint64),
+        ("sample_sensor", ctypes.c_uint32),
+        ("sample_kind", ctypes.c_uint32),
+        ("outcome", ctypes.c_uint32),
+        ("model", ctypes.c_uint32),
+        ("nis", ctypes.c_double),
+        ("input_t_ns", ctypes.c_uint64),
+        ("input_sent_ns", ctypes.c_uint64),
+        ("input_received_ns", ctypes.c_uint64),
+        ("input_seq", ctypes.c_uint64),
+        ("input_sensor", ctypes.c_uint32),
+        ("input_kind", ctypes.c_uint32),
+        ("input_replayed", ctypes.c_uint32),
+        ("health", ctypes.c_uint32),
+        ("health_reasons", ctypes.c_uint32),
+        ("state_len", ctypes.c_uint32),
+        ("cov_dim", ctypes.c_uint32),
+        ("sensor_count", ctypes.c_uint32),
+        ("x", ctypes.c_double * MAX_STATE),
+        ("cov", ctypes.c_double * MAX_COV_LEN),
+        ("sensors", SensorCounters * MAX_SENSORS),
+        ("rewinds", ctypes.c_uint64),
+        ("replayed", ctypes.c_uint64),
+        ("unknown_sensor", ctypes.c_uint64),
+        ("datum_lat_deg", ctypes.c_double),
+        ("datum_lon_deg", ctypes.c_double),
+        ("datum_height_m", ctypes.c_double),
+        ("datum_set", ctypes.c_uint32),
+        ("stale_sensors", ctypes.c_uint32),
+        ("reinitialisations", ctypes.c_uint64),
+        ("readers_refused", ctypes.c_uint64),
+    ]
+
+
+#: Every mirror, for the layout check.
+ALL_TYPES = (SampleHeader,) + SAMPLE_TYPES + (Counters, SensorCounters, StateSnapshot)

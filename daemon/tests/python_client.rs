@@ -1,0 +1,284 @@
+//! The Python client (`client/python`, on iceoryx2's own Python package) against
+//! the Rust types and a live fusiond: its ctypes mirrors have the layout and
+//! type names of the wire types; it reads the snapshots `fusionctl echo` reads,
+//! bit for bit; fusiond fuses what it publishes, and it refuses bad samples.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use common::live::{Daemon, Running, TestDomain, publish_in_lockstep, workspace_bin};
+use fusion_client::sim::{Scenario, ScenarioConfig};
+use fusion_shared::snapshot::{Counters, SensorCounters};
+use fusion_shared::{
+    GeodeticSample, HeadingSample, ImuSample, OdometrySample, PositionSample, SampleHeader, SampleKind, StateSnapshot,
+    VelocitySample,
+};
+use iceoryx2::prelude::ZeroCopySend;
+use serde_json::{Value, json};
+
+/// The layout of a wire type as the Python check reads it: its iceoryx2 type
+/// name, size, alignment, and every field (name, offset, size). The listed
+/// fields must fill the type exactly, so a field added in Rust and not here
+/// fails this test before the Python side is asked.
+macro_rules! layout {
+    ($t:ident { $($f:ident),* $(,)? }) => {{
+        let v = <$t>::default();
+        let fields: Vec<(&str, usize, usize)> =
+            vec![$((stringify!($f), std::mem::offset_of!($t, $f), std::mem::size_of_val(&v.$f))),*];
+        let total: usize = fields.iter().map(|f| f.2).sum();
+        assert_eq!(total, std::mem::size_of::<$t>(), "{}: the fields listed do not fill the type", stringify!($t));
+        // SAFETY: only reads the name the type declares.
+        let type_name = unsafe { <$t as ZeroCopySend>::type_name() };
+        (stringify!($t), json!({
+            "type_name": type_name,
+            "size": std::mem::size_of::<$t>(),
+            "align": std::mem::align_of::<$t>(),
+            "fields": fields.iter().map(|(n, o, s)| json!([n, o, s])).collect::<Vec<_>>(),
+        }))
+    }};
+}
+
+fn rust_layout() -> Value {
+    let types = [
+        layout!(SampleHeader { t_ns, sent_ns, seq, sensor, kind }),
+        layout!(ImuSample { header, accel_mps2, gyro_radps }),
+        layout!(PositionSample { header, pos_m, cov_m2 }),
+        layout!(VelocitySample { header, vel_mps, cov_m2ps2 }),
+        layout!(GeodeticSample { header, lat_deg, lon_deg, height_m, cov_enu_m2 }),
+        layout!(OdometrySample { header, speed_mps, var_m2ps2 }),
+        layout!(HeadingSample { header, yaw_rad, var_rad2 }),
+        layout!(Counters {
+            received,
+            processed,
+            fused,
+            gated,
+            refused,
+            late,
+            too_late,
+            duplicate,
+            invalid,
+            lost,
+            rate_limited,
+            restarts
+        }),
+        layout!(SensorCounters { kind, sensor, counts, last_nis, last_t_ns, last_arrival_ns }),
+        layout!(StateSnapshot {
+            seq,
+            publish_ns,
+            t_ns,
+            sample_seq,
+            sample_sensor,
+            sample_kind,
+            outcome,
+            model,
+            nis,
+            input_t_ns,
+            input_sent_ns,
+            input_received_ns,
+            input_seq,
+            input_sensor,
+            input_kind,
+            input_replayed,
+            health,
+            health_reasons,
+            state_len,
+            cov_dim,
+            sensor_count,
+            x,
+            cov,
+            sensors,
+            rewinds,
+            replayed,
+            unknown_sensor,
+            datum_lat_deg,
+            datum_lon_deg,
+            datum_height_m,
+            datum_set,
+            stale_sensors,
+            reinitialisations,
+            readers_refused
+        }),
+    ];
+    assert_eq!(types.len(), 4 + SampleKind::COUNT, "a new kind needs its layout here and a Python mirror");
+    use fusion_shared::service as s;
+    use fusion_shared::snapshot as snap;
+    let mut constants = json!({
+        "SAMPLE_BUFFER": s::SAMPLE_BUFFER,
+        "MAX_SAMPLE_PUBLISHERS": s::MAX_SAMPLE_PUBLISHERS,
+        "MAX_BORROWED_PER_PUBLISHER": s::MAX_BORROWED_PER_PUBLISHER,
+        "MAX_SAMPLE_SUBSCRIBERS": s::MAX_SAMPLE_SUBSCRIBERS,
+        "STATE_BUFFER": s::STATE_BUFFER,
+        "MAX_NODES": s::MAX_NODES,
+        "MAX_EVENT_PORTS": s::MAX_EVENT_PORTS,
+        "READER_REFUSED_EVENT": s::READER_REFUSED_EVENT,
+        "MAX_NAMESPACE_LEN": s::MAX_NAMESPACE_LEN,
+        "MAX_STATE": snap::MAX_STATE,
+        "MAX_COV": snap::MAX_COV,
+        "MAX_SENSORS": snap::MAX_SENSORS,
+        "INPUT_NONE": snap::INPUT_NONE,
+    });
+    for &kind in SampleKind::ALL {
+        constants[format!("KIND_{}", kind.name().to_uppercase())] = json!(kind as u32);
+    }
+    json!({ "types": types.into_iter().map(|(n, l)| (n.to_string(), l)).collect::<serde_json::Map<_, _>>(), "constants": constants })
+}
+
+#[test]
+fn the_python_mirrors_have_the_rust_layout() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("layout.json");
+    std::fs::write(&path, rust_layout().to_string()).unwrap();
+    let out = common::python_command("unused", "tests/check_layout.py", &[path.to_str().unwrap()]).output().unwrap();
+    let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{said}");
+    assert!(said.contains("10 types, 19 constants: 0 differences"), "{said}");
+
+    // The check sees a difference: a layout with one offset moved fails it.
+    let mut broken = rust_layout();
+    broken["types"]["ImuSample"]["fields"][2][1] = json!(57);
+    broken["types"]["StateSnapshot"]["type_name"] = json!("fusion.StateSnapshot.v5");
+    std::fs::write(&path, broken.to_string()).unwrap();
+    let out = common::python_command("unused", "tests/check_layout.py", &[path.to_str().unwrap()]).output().unwrap();
+    let said = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(!out.status.success() && said.contains("2 differences"), "{said}");
+}
+
+fn drive() -> Vec<fusion_shared::Sample> {
+    let mut c = ScenarioConfig { seed: 21, duration_s: 1.0, ..Default::default() };
+    c.imu.rate_hz = 100.0;
+    c.position.delay_min_ns = 20_000_000;
+    c.position.delay_max_ns = 60_000_000;
+    Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect()
+}
+
+fn numbers(v: &Value) -> Vec<f64> {
+    v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
+}
+
+#[test]
+fn python_reads_the_snapshots_fusionctl_echo_reads() {
+    let domain = TestDomain::new("py-echo");
+    let _daemon = Daemon::start(&domain, &common::linear_config(Some(0.999)), "event");
+    let samples = drive();
+    let count = samples.len().to_string();
+    let fusionctl = workspace_bin("fusionctl");
+
+    let mut python = Running(
+        common::python_command(&domain.domain, "tests/echo.py", &[&domain.namespace, &count])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let mut python_out = BufReader::new(python.0.stdout.take().unwrap());
+    let mut ready = String::new();
+    python_out.read_line(&mut ready).unwrap();
+    assert_eq!(ready, "ready\n", "the Python reader did not start");
+    let mut echo = Running(
+        Command::new(fusionctl)
+            .args(["echo", "--namespace", &domain.namespace, "--count", &count, "--idle-timeout", "20"])
+            .env(fusion_shared::service::DOMAIN_ENV, &domain.domain)
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let echo_out = echo.0.stdout.take().unwrap();
+    // Publish only once both readers have subscribed.
+    let deadline = std::time::Instant::now() + Duration::from_secs(20);
+    while readers(&domain) < 2 {
+        assert!(std::time::Instant::now() < deadline, "fusionctl echo did not subscribe");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+
+    let client = domain.client();
+    let mut reader = client.state_subscriber_with_buffer(16).unwrap();
+    publish_in_lockstep(&client, &mut reader, &samples);
+
+    let python_lines: Vec<Value> = python_out.lines().map(|l| serde_json::from_str(&l.unwrap()).unwrap()).collect();
+    let echo_lines: Vec<Value> =
+        BufReader::new(echo_out).lines().map(|l| serde_json::from_str(&l.unwrap()).unwrap()).collect();
+    assert!(python.wait_for(Duration::from_secs(20)).is_some_and(|s| s.success()));
+    assert!(echo.wait_for(Duration::from_secs(20)).is_some_and(|s| s.success()));
+    assert_eq!(python_lines.len(), samples.len());
+    assert_eq!(echo_lines.len(), samples.len());
+
+    let mut fused = 0;
+    for (i, (py, rs)) in python_lines.iter().zip(&echo_lines).enumerate() {
+        for key in ["snapshot_seq", "t_ns", "kind", "seq", "model", "health", "health_reasons"] {
+            assert_eq!(py[key], rs[key], "snapshot {i}: {key}");
+        }
+        // Every double, bit for bit (both print the shortest exact decimal).
+        assert_eq!(numbers(&py["x"]), numbers(&rs["x"]), "snapshot {i}: x");
+        assert_eq!(numbers(&py["P"]), numbers(&rs["P"]), "snapshot {i}: P");
+        let counters = rs["counters"].as_array().unwrap();
+        let received: Vec<u64> = counters.iter().map(|c| c["received"].as_u64().unwrap()).collect();
+        let fused_now: Vec<u64> = counters.iter().map(|c| c["fused"].as_u64().unwrap()).collect();
+        assert_eq!(py["received"], json!(received), "snapshot {i}");
+        assert_eq!(py["fused"], json!(fused_now), "snapshot {i}");
+        fused = fused_now.iter().sum();
+    }
+    assert!(fused > 5, "the drive's fixes were fused: {fused}");
+}
+
+/// State readers attached to the domain's `<ns>/state`.
+fn readers(domain: &TestDomain) -> usize {
+    use iceoryx2::service::port_factory::PortFactory as _;
+    let config = fusion_shared::service::iceoryx_config(Some(&domain.domain)).unwrap();
+    let node = fusion_shared::service::create_node("test-probe", &config).unwrap();
+    let names = fusion_shared::service::ServiceNames::new(&domain.namespace).unwrap();
+    let state = fusion_shared::service::state_service(&node, &names, None).unwrap();
+    state.dynamic_config().number_of_subscribers()
+}
+
+#[test]
+fn fusiond_fuses_what_python_publishes_and_python_refuses_bad_samples() {
+    let domain = TestDomain::new("py-publish");
+    let mut daemon = Daemon::start(&domain, &common::linear_config(None), "event");
+    let out = common::python_command(&domain.domain, "tests/publish.py", &[&domain.namespace]).output().unwrap();
+    let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{said}");
+    assert!(said.contains("refused: PositionSample with a NaN or infinite value"), "{said}");
+    assert!(said.contains("refused: a PositionSample given to a ImuSample publisher"), "{said}");
+    assert!(said.contains("published 220 samples, reached 220"), "{said}");
+
+    let client = domain.client();
+    let mut reader = client.state_subscriber().unwrap();
+    let s = *reader.wait_next(Duration::from_secs(10)).unwrap().expect("the latest snapshot");
+    let counters = |kind: SampleKind| *s.sensor_counters().iter().find(|c| c.sample_kind() == Some(kind)).unwrap();
+    let (imu, gnss) = (counters(SampleKind::Imu), counters(SampleKind::Position));
+    assert_eq!((imu.sensor, imu.counts.received, imu.counts.processed, imu.counts.invalid), (0, 200, 200, 0));
+    assert_eq!((gnss.sensor, gnss.counts.received, gnss.counts.fused, gnss.counts.invalid), (1, 20, 20, 0));
+    assert_eq!(gnss.counts.lost, 0, "the NaN fix never left Python");
+    // Fused, and nothing wrong but the streams that stopped when Python did.
+    let reasons: Vec<_> = s.health_reason_names().collect();
+    assert!(reasons.iter().all(|r| r.ends_with(" stale")), "{reasons:?}");
+    // A stationary vehicle at the origin.
+    assert!(s.state()[..3].iter().all(|p| p.abs() < 1.0), "{:?}", s.state());
+    drop(reader);
+    drop(client);
+    assert!(daemon.terminate().success());
+}
+
+#[test]
+fn the_python_example_reads_a_live_snapshot() {
+    let domain = TestDomain::new("py-example");
+    let mut daemon = Daemon::start(&domain, &common::linear_config(None), "event");
+    let out = common::python_command(&domain.domain, "examples/example.py", &[&domain.namespace]).output().unwrap();
+    let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{said}");
+    assert!(said.starts_with("t_ns ") && said.contains(" x [") && said.ends_with("health initialising\n"), "{said}");
+    assert!(daemon.terminate().success());
+    drop(daemon);
+    assert!(domain.files().is_empty(), "{:?}", domain.files());
+
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md")).unwrap();
+    let example =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../client/python/examples/example.py")).unwrap();
+    assert!(
+        readme.contains(&format!("```python\n{example}```\n")),
+        "README's Python example differs from the tested one"
+    );
+}
