@@ -227,6 +227,12 @@ impl Running {
             std::thread::sleep(Duration::from_millis(20));
         }
     }
+
+    /// SIGTERM, then the exit status within `timeout` (`None`: still running).
+    pub fn stop(&mut self, timeout: Duration) -> Option<ExitStatus> {
+        let _ = Command::new("kill").args(["-TERM", &self.0.id().to_string()]).status();
+        self.wait_for(timeout)
+    }
 }
 
 impl Drop for Running {

@@ -1,0 +1,221 @@
+//! `fusion-bridge` between two "hosts" on one machine: two iceoryx2 domains
+//! joined only by two bridges over Zenoh on loopback, with explicit endpoints
+//! and no multicast scouting. Needs the `zenoh` feature (the README's test
+//! command turns it on).
+#![cfg(feature = "zenoh")]
+
+mod common;
+
+use std::net::TcpListener;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::live::{Daemon, Running, TestDomain};
+use fusion_client::Client;
+use fusion_client::sim::{Scenario, ScenarioConfig};
+use fusion_shared::service::DOMAIN_ENV;
+use fusion_shared::{Sample, StateSnapshot};
+
+/// A free TCP port on loopback.
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+}
+
+/// A bridge in `domain`'s iceoryx2 domain, its stderr to `log`.
+fn bridge(domain: &TestDomain, namespace: &str, args: &[&str], log: &Path) -> Running {
+    Running(
+        Command::new(env!("CARGO_BIN_EXE_fusion-bridge"))
+            .args(["--namespace", namespace, "--status-interval", "0.2"])
+            .args(args)
+            .env(DOMAIN_ENV, &domain.domain)
+            .env("RUST_LOG", "info")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(log).unwrap())
+            .spawn()
+            .unwrap(),
+    )
+}
+
+fn wait_for_log(log: &Path, text: &str) {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while !std::fs::read_to_string(log).unwrap_or_default().contains(text) {
+        assert!(Instant::now() < deadline, "no {text:?} in {}", std::fs::read_to_string(log).unwrap_or_default());
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn bytes(s: &StateSnapshot) -> &[u8] {
+    // SAFETY: a `#[repr(C)]` type of integers and floats without padding.
+    unsafe {
+        std::slice::from_raw_parts((s as *const StateSnapshot).cast::<u8>(), std::mem::size_of::<StateSnapshot>())
+    }
+}
+
+/// Reads snapshots until `n` arrived (or 30 s passed).
+fn read_all(reader: &mut fusion_client::StateSubscriber, n: usize) -> Vec<StateSnapshot> {
+    let mut out = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while out.len() < n && Instant::now() < deadline {
+        if let Some(s) = reader.wait_next(Duration::from_millis(100)).unwrap() {
+            out.push(*s);
+        }
+    }
+    out
+}
+
+/// Host A runs fusiond; host B runs the sensors and a reader. The samples go
+/// B → A and the snapshots A → B, each over its own bridge stream; the reader on
+/// B receives every snapshot that a reader on A receives, in order, bit for bit.
+#[test]
+fn two_hosts_joined_by_zenoh_see_every_snapshot_bit_for_bit() {
+    let (host_a, host_b) = (TestDomain::new("bridge-a"), TestDomain::new("bridge-b"));
+    let ns = host_a.namespace.clone();
+    let logs = tempfile::tempdir().unwrap();
+    let mut daemon = Daemon::start(&host_a, &common::linear_config(Some(0.999)), "event");
+
+    let port = free_port();
+    let listen = format!("tcp/127.0.0.1:{port}");
+    let log_a = logs.path().join("a.log");
+    let log_b = logs.path().join("b.log");
+    let mut bridge_a = bridge(&host_a, &ns, &["--listen", &listen, "--state", "out", "--samples", "in"], &log_a);
+    let mut bridge_b = bridge(&host_b, &ns, &["--connect", &listen, "--state", "in", "--samples", "out"], &log_b);
+    wait_for_log(&log_a, "fusion-bridge running");
+    wait_for_log(&log_b, "fusion-bridge running");
+
+    let client_a = Client::connect_in_domain(&ns, Some(&host_a.domain)).unwrap();
+    let mut reader_a = client_a.state_subscriber_with_buffer(512).unwrap();
+    // On host B, `<ns>/state` exists once bridge B has opened it.
+    let client_b = Client::connect_in_domain(&ns, Some(&host_b.domain)).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let mut reader_b = loop {
+        match client_b.state_subscriber_with_buffer(512) {
+            Ok(r) => break r,
+            Err(e) => assert!(Instant::now() < deadline, "no state service on host B: {e}"),
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    // The Zenoh peers found each other (and, a moment later, each other's
+    // subscriptions); the sensors of B publish only then.
+    wait_for_log(&log_a, "zenoh peers: 1");
+    wait_for_log(&log_b, "zenoh peers: 1");
+    std::thread::sleep(Duration::from_secs(1));
+
+    let mut c = ScenarioConfig { seed: 31, duration_s: 1.0, ..Default::default() };
+    c.imu.rate_hz = 200.0;
+    let samples: Vec<Sample> = Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect();
+    let mut publishers = fusion_client::SensorPublishers::all(&client_b).unwrap();
+    for s in &samples {
+        publishers.publish(*s).unwrap();
+        std::thread::sleep(Duration::from_micros(300));
+    }
+
+    let on_a = read_all(&mut reader_a, samples.len());
+    let on_b = read_all(&mut reader_b, samples.len());
+    assert_eq!(on_a.len(), samples.len(), "fusiond on A processed every sample sent on B");
+    assert_eq!(on_b.len(), on_a.len(), "B received every snapshot of A");
+    for (i, (a, b)) in on_a.iter().zip(&on_b).enumerate() {
+        assert!(bytes(a) == bytes(b), "snapshot {i} differs (seq {} vs {})", a.seq, b.seq);
+    }
+    assert!(on_b.windows(2).all(|w| w[1].seq == w[0].seq + 1), "in order, none missing");
+    let fused: u64 = on_b.last().unwrap().sensor_counters().iter().map(|c| c.counts.fused).sum();
+    assert!(fused > 5, "fixes fused: {fused}");
+
+    drop((reader_a, reader_b, publishers, client_a, client_b));
+    for (bridge, log) in [(&mut bridge_a, &log_a), (&mut bridge_b, &log_b)] {
+        let status = bridge.stop(Duration::from_secs(10));
+        assert!(status.is_some_and(|s| s.success()), "{}", std::fs::read_to_string(log).unwrap());
+    }
+    let log_b = std::fs::read_to_string(&log_b).unwrap();
+    let n = samples.len();
+    assert!(log_b.contains(&format!("state in: forwarded {n}, refused 0, gaps 0")), "{log_b}");
+    assert!(log_b.contains(&format!("samples out: forwarded {n}, refused 0")), "{log_b}");
+    assert!(daemon.terminate().success());
+    drop(daemon);
+    assert!(host_a.files().is_empty(), "{:?}", host_a.files());
+    assert!(host_b.files().is_empty(), "{:?}", host_b.files());
+}
+
+/// A snapshot of another wire version (or size) reaching a bridge is refused,
+/// counted and named; the good ones around it still reach the readers.
+#[test]
+fn a_bridge_refuses_a_snapshot_of_another_version() {
+    use zenoh::Wait;
+    let host_b = TestDomain::new("bridge-v");
+    let ns = host_b.namespace.clone();
+    let logs = tempfile::tempdir().unwrap();
+    let port = free_port();
+    let listen = format!("tcp/127.0.0.1:{port}");
+    let log_b = logs.path().join("b.log");
+    let mut bridge_b = bridge(&host_b, &ns, &["--listen", &listen, "--state", "in"], &log_b);
+    wait_for_log(&log_b, "fusion-bridge running");
+
+    // A Zenoh peer of this test's own, in place of a bridge of another version.
+    let mut config = zenoh::Config::default();
+    config.insert_json5("mode", "\"peer\"").unwrap();
+    config.insert_json5("connect/endpoints", &format!("[\"{listen}\"]")).unwrap();
+    config.insert_json5("scouting/multicast/enabled", "false").unwrap();
+    let session = zenoh::open(config).wait().unwrap();
+    let key = format!("fusion/{ns}/state");
+    let octets = zenoh::bytes::Encoding::APPLICATION_OCTET_STREAM;
+    let client_b = Client::connect_in_domain(&ns, Some(&host_b.domain)).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let mut reader = loop {
+        if let Ok(r) = client_b.state_subscriber() {
+            break r;
+        }
+        assert!(Instant::now() < deadline, "no state service from the bridge");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    wait_for_log(&log_b, "zenoh peers: 1");
+    std::thread::sleep(Duration::from_secs(1));
+
+    let good = |seq: u64| StateSnapshot { seq, t_ns: 1000 + seq, ..Default::default() };
+    let put = |payload: Vec<u8>, schema: &str| {
+        session.put(key.clone(), payload).encoding(octets.clone().with_schema(schema)).wait().unwrap();
+    };
+    put(bytes(&good(0)).to_vec(), "fusion.StateSnapshot.v6");
+    put(bytes(&good(1)).to_vec(), "fusion.StateSnapshot.v5");
+    put(bytes(&good(2))[..4000].to_vec(), "fusion.StateSnapshot.v6");
+    put(bytes(&good(3)).to_vec(), "fusion.StateSnapshot.v6");
+    let got = read_all(&mut reader, 2);
+    assert_eq!(got.iter().map(|s| s.seq).collect::<Vec<_>>(), [0, 3]);
+    assert!(reader.wait_next(Duration::from_millis(300)).unwrap().is_none(), "nothing else came through");
+
+    drop((reader, client_b));
+    let _ = session.close().wait();
+    assert!(bridge_b.stop(Duration::from_secs(10)).is_some_and(|s| s.success()));
+    let log = std::fs::read_to_string(&log_b).unwrap();
+    assert!(log.contains("state in: forwarded 2, refused 2, gaps 2"), "{log}");
+    assert!(
+        log.contains("fusion.StateSnapshot.v5 (expected application/octet-stream;fusion.StateSnapshot.v6)"),
+        "{log}"
+    );
+    assert!(log.contains("4000 bytes (expected 4168)"), "{log}");
+    assert!(host_b.files().is_empty(), "{:?}", host_b.files());
+}
+
+#[test]
+fn bad_arguments_are_refused_before_anything_starts() {
+    let domain = TestDomain::new("bridge-args");
+    for (args, reason) in [
+        (&["--listen", "tcp/127.0.0.1:1"][..], "nothing to forward"),
+        (&["--state", "out"][..], "no peers"),
+        (&["--state", "out", "--listen", "carrier-pigeon/x"][..], "transport carrier-pigeon is not built in"),
+        (
+            &["--samples", "in", "--listen", "tcp/127.0.0.1:1", "--kinds", "imu,sonar"][..],
+            "unknown sample kind \"sonar\"",
+        ),
+        (&["--state", "in", "--listen", "tcp/127.0.0.1:1", "--namespace", "a/b"][..], "invalid namespace"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_fusion-bridge"))
+            .args(args)
+            .env(DOMAIN_ENV, &domain.domain)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.starts_with("fusion-bridge: ") && err.contains(reason), "{args:?}: {err}");
+    }
+    assert!(domain.files().is_empty(), "{:?}", domain.files());
+}
