@@ -159,6 +159,18 @@ fn guard(body: impl FnOnce() -> Result<FusionStatus, Failure>) -> FusionStatus {
     status
 }
 
+/// Drops a handle made by `Box::into_raw` (null: nothing); a panic in the drop
+/// stays on this side.
+///
+/// # Safety
+/// `handle` is null or came from `Box::into_raw` and is not used again.
+unsafe fn release<T>(handle: *mut T) {
+    if !handle.is_null() {
+        // SAFETY: the caller's contract.
+        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(handle) })));
+    }
+}
+
 /// A string argument: not null, UTF-8.
 ///
 /// # Safety
@@ -225,10 +237,8 @@ pub unsafe extern "C" fn fusion_client_connect(
 /// `client` is null or came from [`fusion_client_connect`] and was not released.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn fusion_client_free(client: *mut FusionClient) {
-    if !client.is_null() {
-        // SAFETY: made by `Box::into_raw` in `fusion_client_connect`, released once.
-        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(client) })));
-    }
+    // SAFETY: null or made by `Box::into_raw` in `fusion_client_connect`, released once.
+    unsafe { release(client) }
 }
 
 /// A publisher of sensor `sensor`'s samples of `kind` (`FUSION_KIND_*`) on
@@ -275,10 +285,8 @@ pub unsafe extern "C" fn fusion_publisher_new(
 /// `publisher` is null or came from [`fusion_publisher_new`] and was not released.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn fusion_publisher_free(publisher: *mut FusionPublisher) {
-    if !publisher.is_null() {
-        // SAFETY: made by `Box::into_raw` in `fusion_publisher_new`, released once.
-        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(publisher) })));
-    }
+    // SAFETY: null or made by `Box::into_raw` in `fusion_publisher_new`, released once.
+    unsafe { release(publisher) }
 }
 
 /// Every value of the payload of `sample` (the fields after the header, all
@@ -448,10 +456,8 @@ pub unsafe extern "C" fn fusion_state_reader_new(
 /// `reader` is null or came from [`fusion_state_reader_new`] and was not released.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn fusion_state_reader_free(reader: *mut FusionStateReader) {
-    if !reader.is_null() {
-        // SAFETY: made by `Box::into_raw` in `fusion_state_reader_new`, released once.
-        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(reader) })));
-    }
+    // SAFETY: null or made by `Box::into_raw` in `fusion_state_reader_new`, released once.
+    unsafe { release(reader) }
 }
 
 /// Copies a snapshot into `*out` if one was read; the status otherwise.

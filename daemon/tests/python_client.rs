@@ -9,7 +9,7 @@ use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use common::live::{Daemon, Running, TestDomain, publish_in_lockstep, workspace_bin};
+use common::live::{Daemon, Running, TestDomain, publish_in_lockstep, wait_for_state_readers, workspace_bin};
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_shared::snapshot::{Counters, SensorCounters};
 use fusion_shared::{
@@ -187,11 +187,7 @@ fn python_reads_the_snapshots_fusionctl_echo_reads() {
     );
     let echo_out = echo.0.stdout.take().unwrap();
     // Publish only once both readers have subscribed.
-    let deadline = std::time::Instant::now() + Duration::from_secs(20);
-    while readers(&domain) < 2 {
-        assert!(std::time::Instant::now() < deadline, "fusionctl echo did not subscribe");
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    wait_for_state_readers(&domain, 2, "fusionctl echo");
 
     let client = domain.client();
     let mut reader = client.state_subscriber_with_buffer(16).unwrap();
@@ -221,16 +217,6 @@ fn python_reads_the_snapshots_fusionctl_echo_reads() {
         fused = fused_now.iter().sum();
     }
     assert!(fused > 5, "the drive's fixes were fused: {fused}");
-}
-
-/// State readers attached to the domain's `<ns>/state`.
-fn readers(domain: &TestDomain) -> usize {
-    use iceoryx2::service::port_factory::PortFactory as _;
-    let config = fusion_shared::service::iceoryx_config(Some(&domain.domain)).unwrap();
-    let node = fusion_shared::service::create_node("test-probe", &config).unwrap();
-    let names = fusion_shared::service::ServiceNames::new(&domain.namespace).unwrap();
-    let state = fusion_shared::service::state_service(&node, &names, None).unwrap();
-    state.dynamic_config().number_of_subscribers()
 }
 
 #[test]

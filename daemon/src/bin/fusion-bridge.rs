@@ -285,6 +285,16 @@ fn encoding<T: ZeroCopySend>() -> Encoding {
     Encoding::APPLICATION_OCTET_STREAM.with_schema(unsafe { <T as ZeroCopySend>::type_name() })
 }
 
+/// A Zenoh publisher of wire type `T` on `key`: its encoding, reliable, `Block`.
+fn declare_publisher<T: ZeroCopySend>(
+    session: &zenoh::Session,
+    key: String,
+) -> anyhow::Result<zenoh::pubsub::Publisher<'static>> {
+    let declared =
+        session.declare_publisher(key.clone()).encoding(encoding::<T>()).congestion_control(CongestionControl::Block);
+    declared.wait().map_err(|e| anyhow::anyhow!("Zenoh publisher {key}: {e}"))
+}
+
 /// The bytes of a wire value.
 fn bytes_of<T: ZeroCopySend + Copy>(value: &T) -> &[u8] {
     // SAFETY: the wire types are `#[repr(C)]` integers and floats without
@@ -339,12 +349,7 @@ fn state_reader(client: &Client, stop: &AtomicBool) -> anyhow::Result<Option<fus
 /// fusiond's snapshots to Zenoh, every one in order.
 fn state_out(ns: &str, session: &zenoh::Session, key: &str, stop: &AtomicBool, counts: &Counts) -> anyhow::Result<()> {
     let client = Client::connect(ns)?;
-    let publisher = session
-        .declare_publisher(key.to_string())
-        .encoding(encoding::<StateSnapshot>())
-        .congestion_control(CongestionControl::Block)
-        .wait()
-        .map_err(|e| anyhow::anyhow!("Zenoh publisher {key}: {e}"))?;
+    let publisher = declare_publisher::<StateSnapshot>(session, key.to_string())?;
     let Some(mut reader) = state_reader(&client, stop)? else { return Ok(()) };
     while !stop.load(Ordering::Relaxed) {
         if let Some(snapshot) = reader.wait_next(Duration::from_millis(100))? {
@@ -422,16 +427,9 @@ fn samples_out(
             if !self.kinds.contains(&T::KIND) || self.error.is_some() {
                 return;
             }
-            let key = self.keys.samples(T::KIND);
-            let declared = self
-                .session
-                .declare_publisher(key.clone())
-                .encoding(encoding::<T>())
-                .congestion_control(CongestionControl::Block)
-                .wait();
-            match declared {
+            match declare_publisher::<T>(self.session, self.keys.samples(T::KIND)) {
                 Ok(p) => drop(self.publishers.insert(T::KIND, p)),
-                Err(e) => self.error = Some(anyhow::anyhow!("Zenoh publisher {key}: {e}")),
+                Err(e) => self.error = Some(e),
             }
         }
     }

@@ -263,16 +263,22 @@ pub fn publish_file(domain: &TestDomain, path: &Path, samples: &[Sample]) {
     assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
 }
 
-/// Waits (at most 10 s) until `who` reads `<ns>/state`: a tool started as a
+/// Waits (at most 20 s) until `who` reads `<ns>/state`: a tool started as a
 /// process of its own has subscribed, and may be sent to.
 pub fn wait_for_state_reader(domain: &TestDomain, who: &str) {
+    wait_for_state_readers(domain, 1, who);
+}
+
+/// Waits (at most 20 s) until `n` readers have subscribed to the domain's
+/// `<ns>/state` (fusiond itself is not one).
+pub fn wait_for_state_readers(domain: &TestDomain, n: usize, who: &str) {
     use iceoryx2::service::port_factory::PortFactory as _;
     let config = fusion_shared::service::iceoryx_config(Some(&domain.domain)).unwrap();
     let node = fusion_shared::service::create_node("test-probe", &config).unwrap();
     let names = fusion_shared::service::ServiceNames::new(&domain.namespace).unwrap();
     let state = fusion_shared::service::state_service(&node, &names, None).unwrap();
-    let deadline = Instant::now() + Duration::from_secs(10);
-    while state.dynamic_config().number_of_subscribers() == 0 {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while state.dynamic_config().number_of_subscribers() < n {
         assert!(Instant::now() < deadline, "{who} did not subscribe");
         std::thread::sleep(Duration::from_millis(10));
     }
