@@ -249,6 +249,9 @@ pub struct FilterConfig {
     /// Most entries in the rewind history.
     #[serde(default = "FilterConfig::default_history_capacity")]
     pub history_capacity: usize,
+    /// How the covariance is held and updated: `"joseph"` (default) or `"udu"`.
+    #[serde(default)]
+    pub form: crate::filter::Form,
 }
 
 impl FilterConfig {
@@ -267,6 +270,7 @@ impl Default for FilterConfig {
             initial_covariance_diagonal: vec![100.0, 100.0, 100.0, 10.0, 10.0, 10.0],
             history_ns: Self::default_history_ns(),
             history_capacity: Self::default_history_capacity(),
+            form: crate::filter::Form::default(),
         }
     }
 }

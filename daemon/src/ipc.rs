@@ -432,6 +432,7 @@ fn run_model<M: Model>(
     tracing::info!(
         namespace = %names.namespace,
         model = M::KIND,
+        form = config.filter.form.name(),
         wait = ?options.wait,
         cpu = ?options.cpu,
         "fusiond running: samples on {}, state on {}",

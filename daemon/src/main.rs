@@ -154,7 +154,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Command::CheckConfig { config: path } => {
             let config = Config::load(&path)?;
-            println!("{}: valid (model {})", path.display(), config.model.kind());
+            println!("{}: valid (model {}, form {})", path.display(), config.model.kind(), config.filter.form.name());
             Ok(())
         }
         Command::PrintConfig => {
@@ -163,6 +163,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Command::Replay { config, input, output, smooth, compare } => {
             let config = Config::load(&config)?;
+            eprintln!("replay: model {}, form {}", config.model.kind(), config.filter.form.name());
             let writer = output
                 .map(|o| File::create(&o).map(BufWriter::new).with_context(|| format!("cannot create {}", o.display())))
                 .transpose()?;

@@ -256,6 +256,8 @@ struct Sink<M: Model, W: Write> {
     output: Option<W>,
     finals: Option<Vec<(SampleKey, StepOutcome, Sample)>>,
     error: Option<std::io::Error>,
+    /// The covariance of the entry being written.
+    cov: Vec<f64>,
     _model: std::marker::PhantomData<M>,
 }
 
@@ -264,10 +266,12 @@ impl<M: Model, W: Write> Sink<M, W> {
         match &mut self.finals {
             Some(finals) => finals.push((e.key, e.outcome, e.sample)),
             None if self.error.is_none() => {
-                if let Some(output) = &mut self.output
-                    && let Err(err) = write_output(output, &e.key, &e.outcome, M::x(&e.state), M::covariance(&e.state))
-                {
-                    self.error = Some(err);
+                if let Some(output) = &mut self.output {
+                    self.cov.resize(M::COV_DIM * M::COV_DIM, 0.0);
+                    M::write_covariance(&e.state, &mut self.cov);
+                    if let Err(err) = write_output(output, &e.key, &e.outcome, M::x(&e.state), &self.cov) {
+                        self.error = Some(err);
+                    }
                 }
             }
             None => {}
@@ -291,7 +295,13 @@ fn replay_model<M: Model>(
     let mut summary = ReplaySummary::default();
     // Smoothing needs every final sample; without an output there is nothing to smooth.
     let smooth = smooth && output.is_some();
-    let mut sink = Sink::<M, _> { output, finals: smooth.then(Vec::new), error: None, _model: Default::default() };
+    let mut sink = Sink::<M, _> {
+        output,
+        finals: smooth.then(Vec::new),
+        error: None,
+        cov: Vec::new(),
+        _model: Default::default(),
+    };
 
     // Inputs that never became a sample; the engine counts the rest.
     let mut unreadable = 0;

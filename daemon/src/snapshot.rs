@@ -64,14 +64,12 @@ pub fn fill<M: Model>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Optio
         snap.outcome = outcome_code(&latest.outcome);
         snap.nis = latest.outcome.nis().unwrap_or(f64::NAN);
         let x = M::x(&latest.state);
-        let p = M::covariance(&latest.state);
         let n = x.len().min(MAX_STATE);
         snap.x[..n].copy_from_slice(&x[..n]);
         snap.state_len = n as u32;
-        let side = (p.len() as f64).sqrt() as usize;
-        let side = side.min(MAX_COV);
-        snap.cov[..side * side].copy_from_slice(&p[..side * side]);
-        snap.cov_dim = side as u32;
+        const { assert!(M::COV_DIM <= MAX_COV, "the snapshot holds the covariance") };
+        M::write_covariance(&latest.state, &mut snap.cov[..M::COV_DIM * M::COV_DIM]);
+        snap.cov_dim = M::COV_DIM as u32;
         snap.reinitialisations = M::reinitialisations(&latest.state);
     }
     match input {

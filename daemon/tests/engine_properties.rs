@@ -110,7 +110,7 @@ proptest! {
         for s in &samples {
             e.insert(s, None, &mut sink);
             let state = &e.latest().unwrap().state;
-            let p = Matrix6::from_column_slice(LinearModel::covariance(state));
+            let p = Matrix6::from_column_slice(&LinearModel::covariance(state));
             prop_assert_eq!(p, p.transpose());
             prop_assert!(Cholesky::new(p).is_some(), "P not positive definite: {}", p);
             prop_assert!(LinearModel::x(state).iter().all(|v| v.is_finite()));

@@ -147,7 +147,7 @@ fn check_config_validates_and_exits() {
     let default = String::from_utf8(default).unwrap();
     let (code, out, _) = check(&default);
     assert_eq!(code, Some(0));
-    assert!(out.ends_with(": valid (model linear)\n"), "{out}");
+    assert!(out.ends_with(": valid (model linear, form joseph)\n"), "{out}");
 
     let (code, out, err) = check(&default.replace("probability = 0.999", "probability = 1.5"));
     assert_eq!(code, Some(1), "{out}{err}");

@@ -190,7 +190,7 @@ fn run(seed: u64, seconds: f64, setup: Setup, stats: &mut Stats) {
         }
         let (x, cov) = (InsModel::x_of(&e.state), InsModel::covariance_of(&e.state));
         let truth = scenario.truth_at(e.key.t_ns);
-        let (err, nees) = common::pv_error_and_nees(x, cov, &truth);
+        let (err, nees) = common::pv_error_and_nees(x, &cov, &truth);
         let q_est = UnitQuaternion::new_normalize(nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]));
         let yaw = |q: &UnitQuaternion<f64>| {
             let f = q * Vector3::x();

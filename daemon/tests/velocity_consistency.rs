@@ -38,7 +38,7 @@ fn run(seed: u64, velocity: bool) -> (f64, u64, f64) {
         let x = LinearModel::x(&e.state);
         let err =
             Vector6::from_iterator((0..6).map(|i| x[i] - if i < 3 { truth.pos_m[i] } else { truth.vel_mps[i - 3] }));
-        let P = Matrix6::from_column_slice(LinearModel::covariance(&e.state));
+        let P = Matrix6::from_column_slice(&LinearModel::covariance(&e.state));
         nees += (err.transpose() * P.try_inverse().unwrap() * err)[(0, 0)];
         sq += err.fixed_rows::<3>(0).norm_squared();
         n += 1;

@@ -11,6 +11,7 @@
 use nalgebra::{Cholesky, RealField, SMatrix, SVector};
 
 mod cholesky;
+mod factored;
 mod joseph;
 mod selection;
 
@@ -32,17 +33,53 @@ pub enum FilterError {
     /// The initial covariance is not symmetric positive definite.
     #[error("initial covariance is not symmetric positive definite")]
     CovarianceNotPositiveDefinite,
+    /// The process noise `Q` is not symmetric positive semi-definite (UDU form:
+    /// it has no UDU factors).
+    #[error("process noise is not symmetric positive semi-definite")]
+    ProcessNoiseNotPositiveSemiDefinite,
+    /// The measurement noise `R` is not positive definite (UDU form: it has no
+    /// Cholesky factor to decorrelate the components with).
+    #[error("measurement noise R is not positive definite")]
+    MeasurementNoiseNotPositiveDefinite,
 }
 
-/// A Kalman filter on a fixed-size state: the estimate and its covariance, nothing
-/// else, so that a history of filter states stays small and cheap to copy.
+/// How a [`KalmanFilter`] holds and updates its covariance (`[filter] form`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Form {
+    /// `P` itself, the Joseph-form update and the dense (or model-structured)
+    /// `F P Fᵀ + Q` predict.
+    #[default]
+    Joseph,
+    /// The factors `P = U D Uᵀ`, Thornton's MWGS predict and Bierman's sequential
+    /// scalar update ([`super::udu`]): positive definite by construction, and the
+    /// factors span about the square root of `P`'s dynamic range.
+    Udu,
+}
+
+impl Form {
+    /// Name as in the config.
+    pub fn name(self) -> &'static str {
+        match self {
+            Form::Joseph => "joseph",
+            Form::Udu => "udu",
+        }
+    }
+}
+
+/// A Kalman filter on a fixed-size state: the estimate and its covariance (as `P`
+/// or as its UDU factors, by [`Form`]), nothing else, so that a history of filter
+/// states stays small and cheap to copy.
 ///
 /// What the RTS smoother needs of a step (prior, transition) is kept by a
 /// [`StepLog`](super::smoother::StepLog) around the calls, only when a caller smooths.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct KalmanFilter<T: RealField + Copy, const N: usize> {
     x: SVector<T, N>,
-    P: SMatrix<T, N, N>,
+    /// [`Form::Joseph`]: `P`. [`Form::Udu`]: `P`'s packed factors (`D` on the
+    /// diagonal, `U` above it; [`super::udu`]).
+    c: SMatrix<T, N, N>,
+    form: Form,
 }
 
 fn all_finite<T: RealField + Copy, const R: usize, const C: usize>(m: &SMatrix<T, R, C>) -> bool {
@@ -109,7 +146,8 @@ pub fn map_process_noise<T: RealField + Copy, const N: usize, const W: usize>(
 
 impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
     /// Starts from `x0` with covariance `P0`, which must be finite and symmetric
-    /// positive definite (checked by Cholesky).
+    /// positive definite (checked by Cholesky), in the Joseph form (see
+    /// [`with_form`](Self::with_form)).
     pub fn new(x0: SVector<T, N>, P0: SMatrix<T, N, N>) -> Result<Self, FilterError> {
         if !all_finite(&x0) || !all_finite(&P0) {
             return Err(FilterError::NonFinite("initial state"));
@@ -118,7 +156,7 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         if (P0 - P0.transpose()).amax() > tol || Cholesky::new(P0).is_none() {
             return Err(FilterError::CovarianceNotPositiveDefinite);
         }
-        Ok(Self { x: x0, P: P0 })
+        Ok(Self { x: x0, c: P0, form: Form::Joseph })
     }
 
     /// State estimate (posterior of the last update, or prior if none followed).
@@ -126,30 +164,47 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         &self.x
     }
 
-    /// Covariance of [`x`](Self::x).
-    pub fn P(&self) -> &SMatrix<T, N, N> {
-        &self.P
+    /// Covariance of [`x`](Self::x) (in the UDU form composed from the factors,
+    /// `U D Uᵀ`).
+    pub fn P(&self) -> SMatrix<T, N, N> {
+        match self.form {
+            Form::Joseph => self.c,
+            Form::Udu => super::udu::compose(&self.c),
+        }
     }
 
     /// Overwrites the estimate, e.g. after an error-state reset. Refused (state
-    /// unchanged) if anything is non-finite.
+    /// unchanged) if anything is non-finite, or in the UDU form if `P` is not
+    /// positive definite.
     pub fn set_state(&mut self, x: SVector<T, N>, P: SMatrix<T, N, N>) -> Result<(), FilterError> {
         if !all_finite(&x) || !all_finite(&P) {
             return Err(FilterError::NonFinite("state"));
         }
+        let mut P = P;
+        symmetrize(&mut P);
+        self.c = self.stored(P)?;
         self.x = x;
-        self.P = P;
-        symmetrize(&mut self.P);
         Ok(())
     }
 
-    /// Error-state reset after an injection: `x ← 0`, and `P` transformed in place
-    /// by `reset` (`P ← G P Gᵀ` with the reset Jacobian `G`; Solà 2017, §7.2). The
-    /// transform must keep `P` symmetric; it cannot make it non-finite when `G` is
-    /// finite, and `G` derives from the accepted, finite correction.
+    /// Error-state reset: `x ← 0`, and `P` changed in place by `reset` (e.g. a
+    /// variance raised to a floor). The change must keep `P` symmetric positive
+    /// definite; in the UDU form `P` is composed, changed and factorised again
+    /// (kept as it was if the change left it without factors). For a linear
+    /// transform `P ← G P Gᵀ` use [`reset_transform`](Self::reset_transform),
+    /// which works on the factors.
     pub fn reset_error(&mut self, reset: impl FnOnce(&mut SMatrix<T, N, N>)) {
         self.x = SVector::zeros();
-        reset(&mut self.P);
+        match self.form {
+            Form::Joseph => reset(&mut self.c),
+            Form::Udu => {
+                let mut P = self.P();
+                reset(&mut P);
+                if let Some(ud) = super::udu::factorize(&P, T::zero()) {
+                    self.c = ud;
+                }
+            }
+        }
     }
 
     /// Linear predict `x⁻ = F x`, `P⁻ = F P Fᵀ + Q` (Simon 2006, eq. 5.19).
@@ -184,16 +239,29 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
     }
 
     /// Predict with a propagation the model computes itself, exploiting the
-    /// structure of its `F` and `G` instead of dense products. `propagate(x, P)`
-    /// must turn `(x, P)` in place into exactly `(x⁻, P⁻) = (f(x), F P Fᵀ + Q)` with
-    /// `P⁻` symmetric (it is taken as it is, not symmetrised: a structured
-    /// propagation computes one triangle and mirrors it). A non-finite result is
-    /// refused and leaves the filter as it was.
+    /// structure of its `F` and `G` instead of dense products: `propagate_x(x)`
+    /// turns `x` into `x⁻ = f(x)`; in the Joseph form `propagate_P(P)` turns `P`
+    /// in place into exactly `P⁻ = F P Fᵀ + Q`, symmetric (it is taken as it is,
+    /// not symmetrised: a structured propagation computes one triangle and
+    /// mirrors it); in the UDU form `transition()` gives `(F, Q)` for Thornton's
+    /// update of the factors. Only the one the form needs is called. A
+    /// non-finite result is refused and leaves the filter as it was.
     pub fn predict_structured(
         &mut self,
-        propagate: impl FnOnce(&mut SVector<T, N>, &mut SMatrix<T, N, N>),
+        propagate_x: impl FnOnce(&mut SVector<T, N>),
+        propagate_P: impl FnOnce(&mut SMatrix<T, N, N>),
+        transition: impl FnOnce() -> (SMatrix<T, N, N>, SMatrix<T, N, N>),
     ) -> Result<(), FilterError> {
-        self.change_or_keep("predicted state", propagate)
+        match self.form {
+            Form::Joseph => self.change_or_keep("predicted state", |x, P| {
+                propagate_x(x);
+                propagate_P(P);
+            }),
+            Form::Udu => {
+                let (F, Q) = transition();
+                self.predict_factored(propagate_x, &F, &Q)
+            }
+        }
     }
 
     fn finish_predict(
@@ -202,7 +270,10 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         F: &SMatrix<T, N, N>,
         Q: &SMatrix<T, N, N>,
     ) -> Result<(), FilterError> {
-        let mut P = F * self.P * F.transpose() + Q;
+        if self.form == Form::Udu {
+            return self.predict_factored(|x_| *x_ = x, F, Q);
+        }
+        let mut P = F * self.c * F.transpose() + Q;
         symmetrize(&mut P);
         // Math note: P⁻ is symmetric by construction; PD follows from P ≻ 0, Q ⪰ 0.
         self.change_or_keep("predicted state", |x_, P_| (*x_, *P_) = (x, P))
@@ -218,8 +289,8 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         change: impl FnOnce(&mut SVector<T, N>, &mut SMatrix<T, N, N>),
     ) -> Result<(), FilterError> {
         let before = *self;
-        change(&mut self.x, &mut self.P);
-        if !all_finite(&self.x) || !all_finite(&self.P) {
+        change(&mut self.x, &mut self.c);
+        if !all_finite(&self.x) || !all_finite(&self.c) {
             *self = before;
             return Err(FilterError::NonFinite(what));
         }
@@ -250,7 +321,10 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
     /// ```
     ///
     /// The Joseph form is evaluated in O(N² M), without the N×N product (see
-    /// `joseph::joseph_low_rank`), exactly symmetric.
+    /// `joseph::joseph_low_rank`), exactly symmetric. In the UDU form `P Hᵀ`
+    /// comes from the factors and the accepted update is Bierman's, one
+    /// decorrelated component at a time ([`super::udu`]); the state then moves by
+    /// `dx` up to rounding.
     ///
     /// The hook (if any) edits `y, H, R` first; then the gate (if any) refuses the
     /// measurement when `NIS = yᵀ S⁻¹ y` exceeds the χ²ₘ quantile. A refused or
@@ -267,7 +341,7 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         if !all_finite(z) || !all_finite(predicted) || !all_finite(H) || !all_finite(R) {
             return Err(FilterError::NonFinite("measurement"));
         }
-        let PHt = self.P * H.transpose();
+        let PHt = self.times_transpose(H);
         let mut view = MeasurementView::new(z - predicted, *H, *R, H * PHt + R);
         let mut decision = UpdateDecision::Accepted;
         let mut PHt = PHt;
@@ -275,7 +349,7 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
             match hook.inspect(&mut view) {
                 FaultDecision::Keep => {}
                 FaultDecision::Modified => {
-                    PHt = self.P * view.H.transpose();
+                    PHt = self.times_transpose(&view.H);
                     view.S = view.H * PHt + view.R;
                 }
                 FaultDecision::Reject => decision = UpdateDecision::RejectedByHook,
@@ -315,225 +389,16 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
             return Ok(diagnostics);
         }
 
-        self.change_or_keep("updated state", |x, P| {
-            *x += dx;
-            joseph::joseph_low_rank(P, &K, &PHt, &S);
-        })?;
+        match self.form {
+            Form::Joseph => self.change_or_keep("updated state", |x, P| {
+                *x += dx;
+                joseph::joseph_low_rank(P, &K, &PHt, &S);
+            })?,
+            Form::Udu => self.update_factors(&y, &view.H, &view.R)?,
+        }
         Ok(diagnostics)
     }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::filter::ChiSquareGate;
-    use nalgebra::{Matrix1, Matrix1x2, Matrix2, Vector1, Vector2};
-
-    #[test]
-    fn all_finite_finds_every_non_finite_entry() {
-        let mut m = SMatrix::<f64, 5, 3>::from_fn(|i, j| (i as f64 - 2.0) * 1e300 * (j as f64 + 0.5));
-        m[(4, 2)] = -f64::MAX;
-        assert!(all_finite(&m));
-        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
-            for k in 0..15 {
-                let mut b = m;
-                b.as_mut_slice()[k] = bad;
-                assert!(!all_finite(&b), "{bad} at {k}");
-            }
-        }
-    }
-
-    fn hand_filter() -> KalmanFilter<f64, 2> {
-        KalmanFilter::new(Vector2::new(1.0, 2.0), Matrix2::new(4.0, 1.0, 1.0, 2.0)).unwrap()
-    }
-
-    #[test]
-    fn joseph_update_matches_hand_computed_values() {
-        // x = [1, 2], P = [[4, 1], [1, 2]], z = 3, H = [1 0], R = 1.
-        // y = 2, S = 5, K = [4/5, 1/5], x⁺ = [2.6, 2.4],
-        // P⁺ = (I−KH) P (I−KH)ᵀ + K R Kᵀ = [[0.8, 0.2], [0.2, 1.8]], NIS = 4/5.
-        let mut kf = hand_filter();
-        let d = kf
-            .update(&Vector1::new(3.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(1.0), UpdateOptions::default())
-            .unwrap();
-        assert_eq!(d.decision, UpdateDecision::Accepted);
-        let close = |a: f64, b: f64| (a - b).abs() < 1e-14;
-        assert!(close(d.residual[0], 2.0) && close(d.S[(0, 0)], 5.0));
-        assert!(close(d.K[0], 0.8) && close(d.K[1], 0.2));
-        assert!(close(kf.x()[0], 2.6) && close(kf.x()[1], 2.4));
-        let P = kf.P();
-        assert!(close(P[(0, 0)], 0.8) && close(P[(0, 1)], 0.2) && close(P[(1, 0)], 0.2) && close(P[(1, 1)], 1.8));
-        assert!(close(d.nis, 0.8));
-        let ll = -0.5 * (0.8 + 5f64.ln() + (2.0 * std::f64::consts::PI).ln());
-        assert!(close(d.log_likelihood().unwrap(), ll));
-        assert!(close(d.dx[0], 1.6) && close(d.dx[1], 0.4));
-        // Σdx = K S Kᵀ = 5 [[.64, .16], [.16, .04]].
-        let sdx = d.sigma_dx();
-        assert!(close(sdx[(0, 0)], 3.2) && close(sdx[(0, 1)], 0.8) && close(sdx[(1, 1)], 0.2));
-    }
-
-    #[test]
-    fn small_cholesky_solves_match_the_explicit_inverse() {
-        let S = nalgebra::Matrix3::new(2.0, 0.6, -0.3, 0.6, 1.5, 0.2, -0.3, 0.2, 0.9);
-        let B = SMatrix::<f64, 5, 3>::from_fn(|i, j| (i as f64 - 1.7) * (j as f64 + 0.3) + 0.1 * (i * j) as f64);
-        let y = nalgebra::Vector3::new(0.7, -1.1, 0.4);
-        let c = SmallCholesky::new(S).unwrap();
-        let Si = S.try_inverse().unwrap();
-        assert!((c.gain(&B) - B * Si).amax() < 1e-13);
-        let w = c.whiten(&y);
-        assert!((w.dot(&w) - (y.transpose() * Si * y)[0]).abs() < 1e-13);
-        assert!(SmallCholesky::new(nalgebra::Matrix2::new(1.0, 2.0, 2.0, 1.0)).is_none());
-    }
-
-    #[test]
-    fn joseph_form_stays_psd_with_a_suboptimal_gain() {
-        // With an exactly zero R the optimal update makes P⁺ singular; the Joseph
-        // form must still give a symmetric PSD result, never a negative variance.
-        let mut kf = hand_filter();
-        kf.update(&Vector1::new(3.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(1e-300), UpdateOptions::default())
-            .unwrap();
-        let eig = kf.P().symmetric_eigenvalues();
-        assert!(eig.iter().all(|e| *e >= -1e-12), "{eig}");
-    }
-
-    #[test]
-    fn predict_with_input_and_mapped_noise() {
-        // Constant velocity, dt = 0.5: F = [[1, .5], [0, 1]], G = [.125, .5], q = 4.
-        let mut kf = hand_filter();
-        let F = Matrix2::new(1.0, 0.5, 0.0, 1.0);
-        let G = nalgebra::Matrix2x1::new(0.125, 0.5);
-        let Q = map_process_noise(&G, &Matrix1::new(4.0));
-        kf.predict_with_input(&F, &(G * 2.0), &Q).unwrap();
-        // x = F x + G a = [1 + 1 + .25, 2 + 1] ; P = F P Fᵀ + G q Gᵀ.
-        assert_eq!(*kf.x(), Vector2::new(2.25, 3.0));
-        let P = F * Matrix2::new(4.0, 1.0, 1.0, 2.0) * F.transpose() + G * 4.0 * G.transpose();
-        assert!((kf.P() - P).amax() < 1e-15);
-    }
-
-    #[test]
-    fn ekf_predict_uses_the_model_jacobian() {
-        let mut kf = hand_filter();
-        // f(x) = [x0², x1], F = [[2 x0, 0], [0, 1]]
-        kf.predict_ekf(
-            |x| (Vector2::new(x[0] * x[0], x[1]), Matrix2::new(2.0 * x[0], 0.0, 0.0, 1.0)),
-            &Matrix2::zeros(),
-        )
-        .unwrap();
-        assert_eq!(*kf.x(), Vector2::new(1.0, 2.0));
-        assert_eq!(kf.P()[(0, 0)], 16.0);
-        assert_eq!(kf.P()[(0, 1)], 2.0);
-    }
-
-    #[test]
-    fn indefinite_innovation_is_refused_and_state_kept() {
-        let mut kf = hand_filter();
-        let before = kf;
-        let err = kf
-            .update(&Vector1::new(3.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(-10.0), UpdateOptions::default())
-            .unwrap_err();
-        assert_eq!(err, FilterError::InnovationNotPositiveDefinite);
-        assert_eq!(kf, before);
-    }
-
-    #[test]
-    fn non_finite_inputs_never_enter_the_state() {
-        let mut kf = hand_filter();
-        let before = kf;
-        let H = Matrix1x2::new(1.0, 0.0);
-        assert!(kf.update(&Vector1::new(f64::NAN), &H, &Matrix1::new(1.0), UpdateOptions::default()).is_err());
-        assert!(kf.update(&Vector1::new(1.0), &H, &Matrix1::new(f64::INFINITY), UpdateOptions::default()).is_err());
-        assert!(kf.predict(&Matrix2::new(1e300, 0.0, 0.0, 1.0), &Matrix2::zeros()).is_err());
-        assert!(kf.set_state(Vector2::new(f64::NAN, 0.0), Matrix2::identity()).is_err());
-        assert_eq!(kf, before);
-        assert!(KalmanFilter::new(Vector2::new(0.0, 0.0), Matrix2::new(1.0, 2.0, 2.0, 1.0)).is_err());
-    }
-
-    #[test]
-    fn gated_measurement_leaves_the_state_untouched() {
-        let gate = ChiSquareGate::new(0.99).unwrap();
-        let mut kf = hand_filter();
-        let before = kf;
-        let opts = UpdateOptions { gate: Some(&gate), fault_detector: None };
-        // y = 99, S = 5: NIS = 1960 ≫ 6.63.
-        let d = kf.update(&Vector1::new(100.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(1.0), opts).unwrap();
-        assert_eq!(d.decision, UpdateDecision::Gated);
-        assert!((d.gate_threshold.unwrap() - 6.634896601021214).abs() < 1e-9);
-        assert_eq!(kf, before);
-    }
-
-    struct DropSecond;
-    impl FaultDetector<f64, 2, 2> for DropSecond {
-        fn inspect(&mut self, m: &mut MeasurementView<f64, 2, 2>) -> FaultDecision {
-            m.drop_component(1);
-            FaultDecision::Modified
-        }
-    }
-
-    #[test]
-    fn fault_hook_can_drop_a_component() {
-        // Measuring both states with component 1 dropped equals measuring state 0 only.
-        let mut a = hand_filter();
-        let mut b = hand_filter();
-        let mut hook = DropSecond;
-        let d = a
-            .update(
-                &Vector2::new(3.0, 1000.0),
-                &Matrix2::identity(),
-                &Matrix2::new(1.0, 0.3, 0.3, 1.0),
-                UpdateOptions { gate: None, fault_detector: Some(&mut hook) },
-            )
-            .unwrap();
-        b.update(&Vector1::new(3.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(1.0), UpdateOptions::default()).unwrap();
-        assert_eq!(d.dims, 1);
-        assert!((a.x() - b.x()).amax() < 1e-12 && (a.P() - b.P()).amax() < 1e-12);
-        assert!((d.nis - 0.8).abs() < 1e-12);
-    }
-
-    #[test]
-    fn fault_hook_reweighting_and_rejection() {
-        struct Inflate(f64);
-        impl FaultDetector<f64, 2, 1> for Inflate {
-            fn inspect(&mut self, m: &mut MeasurementView<f64, 2, 1>) -> FaultDecision {
-                if self.0 == 0.0 {
-                    return FaultDecision::Reject;
-                }
-                m.reweight_component(0, self.0);
-                FaultDecision::Modified
-            }
-        }
-        let H = Matrix1x2::new(1.0, 0.0);
-        let mut a = hand_filter();
-        let mut b = hand_filter();
-        let mut hook = Inflate(9.0);
-        a.update(
-            &Vector1::new(3.0),
-            &H,
-            &Matrix1::new(1.0),
-            UpdateOptions { gate: None, fault_detector: Some(&mut hook) },
-        )
-        .unwrap();
-        b.update(&Vector1::new(3.0), &H, &Matrix1::new(9.0), UpdateOptions::default()).unwrap();
-        assert!((a.x() - b.x()).amax() < 1e-12 && (a.P() - b.P()).amax() < 1e-12);
-
-        let mut c = hand_filter();
-        let before = c;
-        let mut reject = Inflate(0.0);
-        let d = c
-            .update(
-                &Vector1::new(3.0),
-                &H,
-                &Matrix1::new(1.0),
-                UpdateOptions { gate: None, fault_detector: Some(&mut reject) },
-            )
-            .unwrap();
-        assert_eq!(d.decision, UpdateDecision::RejectedByHook);
-        assert_eq!(c, before);
-    }
-
-    #[test]
-    fn f32_filter_matches_f64() {
-        let mut a = KalmanFilter::<f32, 2>::new(Vector2::new(1.0, 2.0), Matrix2::new(4.0, 1.0, 1.0, 2.0)).unwrap();
-        a.update(&Vector1::new(3.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(1.0), UpdateOptions::default()).unwrap();
-        assert!((a.x()[0] - 2.6).abs() < 1e-6 && (a.P()[(1, 1)] - 1.8).abs() < 1e-6);
-    }
-}
+mod tests;

@@ -53,7 +53,7 @@ pub struct StepLog<T: RealField + Copy, const N: usize> {
 impl<T: RealField + Copy, const N: usize> StepLog<T, N> {
     /// Starts a step at the filter's current estimate, with transition `I`.
     pub fn begin(kf: &KalmanFilter<T, N>) -> Self {
-        let (x, P) = (*kf.x(), *kf.P());
+        let (x, P) = (*kf.x(), kf.P());
         Self { step: RtsStep { x_prior: x, P_prior: P, x_post: x, P_post: P, F: SMatrix::identity() } }
     }
 
@@ -61,14 +61,14 @@ impl<T: RealField + Copy, const N: usize> StepLog<T, N> {
     /// prior becomes its estimate and the step's transition `F · F_step`.
     pub fn predicted(&mut self, kf: &KalmanFilter<T, N>, F: &SMatrix<T, N, N>) {
         self.step.x_prior = *kf.x();
-        self.step.P_prior = *kf.P();
+        self.step.P_prior = kf.P();
         self.step.F = F * self.step.F;
     }
 
     /// The step's record, with the filter's current estimate as its posterior.
     pub fn finish(mut self, kf: &KalmanFilter<T, N>) -> RtsStep<T, N> {
         self.step.x_post = *kf.x();
-        self.step.P_post = *kf.P();
+        self.step.P_post = kf.P();
         self.step
     }
 }

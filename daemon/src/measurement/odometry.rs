@@ -134,7 +134,7 @@ mod tests {
         assert_eq!(odo.fuse(&m, &mut s).0, StepOutcome::Refused);
         assert_eq!(InsModel::x_of(&s), InsModel::x_of(&before));
         assert_eq!(s.filter().P(), before.filter().P());
-        let mut P = *s.filter().P();
+        let mut P = s.filter().P();
         for i in 6..9 {
             P[(i, i)] = 1e-4;
         }

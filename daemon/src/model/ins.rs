@@ -245,8 +245,8 @@ impl InsModel {
     }
 
     /// The error-state covariance, row-major 15×15 (same as [`Model::covariance`]).
-    pub fn covariance_of(s: &InsState) -> &[f64] {
-        s.kf.P().as_slice()
+    pub fn covariance_of(s: &InsState) -> Vec<f64> {
+        Self::covariance(s)
     }
 
     /// A model with the IMU noise, gravity (m/s²), nominal x₀, diag(P₀) (error-state
@@ -289,6 +289,12 @@ impl InsModel {
         self
     }
 
+    /// The same model with its error-state filter in `form` (`[filter] form`).
+    pub fn with_form(mut self, form: crate::filter::Form) -> Result<Self, FilterError> {
+        self.initial = self.initial.with_form(form)?;
+        Ok(self)
+    }
+
     /// The same model with the land-vehicle motion constraint applied.
     pub fn with_nonholonomic(mut self, constraint: Option<Nonholonomic>) -> Self {
         self.nonholonomic = constraint;
@@ -327,6 +333,7 @@ impl InsModel {
         let alignment = p.alignment.map_or(0, |a| a.static_samples);
         let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
         Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)
+            .and_then(|m| m.with_form(config.filter.form))
             .map(|m| m.with_nonholonomic(p.constraints).with_frames(frames).with_lockout(config.lockout))
             .map_err(|e| invalid("filter.initial_state", e.to_string()))
     }
@@ -363,7 +370,7 @@ impl InsModel {
         let moving = held.filter(|_| s.ready);
         let Some((f_m, w_m, _)) = moving else {
             // Nothing to integrate yet: hold the nominal state, grow the covariance.
-            if s.kf.predict_structured(|_, P| Q.add_to(P)).is_ok()
+            if s.kf.predict_structured(|_| {}, |P| Q.add_to(P), || (SMatrix::identity(), Q.dense())).is_ok()
                 && let Some(log) = log
             {
                 log.predicted(&s.kf, &SMatrix::identity());
@@ -382,7 +389,7 @@ impl InsModel {
         q_new.renormalize();
 
         let F = Transition { dt, A: -R * f.cross_matrix(), B: -R, C: dq.to_rotation_matrix().into_inner().transpose() };
-        if s.kf.predict_structured(|_, P| F.propagate_covariance(P, &Q)).is_ok() {
+        if s.kf.predict_structured(|_| {}, |P| F.propagate_covariance(P, &Q), || (F.dense(), Q.dense())).is_ok() {
             let (b_a, b_g) = (s.b_a(), s.b_g());
             s.set(p_new, v_new, q_new, b_a, b_g);
             if let Some(log) = log {
@@ -418,7 +425,7 @@ impl InsModel {
         match held {
             Held::Held => {}
             Held::Switched => {
-                let P0 = *self.initial.P();
+                let P0 = self.initial.P();
                 s.kf.reset_error(|P| {
                     for i in 9..15 {
                         P[(i, i)] = P[(i, i)].max(P0[(i, i)]);
@@ -564,8 +571,10 @@ impl Model for InsModel {
         &s.nominal
     }
 
-    fn covariance(s: &InsState) -> &[f64] {
-        s.kf.P().as_slice()
+    const COV_DIM: usize = N;
+
+    fn write_covariance(s: &InsState, out: &mut [f64]) {
+        s.kf.write_covariance(out);
     }
 
     /// Error-state RTS smoothing. Each step's error is taken about the nominal

@@ -95,6 +95,12 @@ impl LinearModel {
         Ok(Self { sigma_a, initial, gate, lockout: None, frames: Frames::default() })
     }
 
+    /// The same model with its filter in `form` (`[filter] form`).
+    pub fn with_form(mut self, form: crate::filter::Form) -> Result<Self, crate::filter::FilterError> {
+        self.initial = self.initial.with_form(form)?;
+        Ok(self)
+    }
+
     /// The same model with lock-out recovery ([`crate::measurement::lockout`]).
     pub fn with_lockout(mut self, lockout: Option<LockoutConfig>) -> Self {
         self.lockout = lockout;
@@ -135,6 +141,7 @@ impl LinearModel {
             }
         }
         Self::new(sigma_a, x0, p0, config.gating.clone())
+            .and_then(|m| m.with_form(config.filter.form))
             .map(|m| m.with_frames(frames).with_lockout(config.lockout))
             .map_err(|e| invalid("filter.initial_covariance_diagonal", e.to_string()))
     }
@@ -165,7 +172,9 @@ impl LinearModel {
             let a = s.imu.mean().map_or_else(Vector3::zeros, |(a, _, _)| a);
             // A non-finite result is refused by the filter and leaves x, P as they
             // were; the filter time still moves on so later samples stay in order.
-            if s.kf.predict_structured(|x, P| propagate(x, P, &a, &Q, dt)).is_ok()
+            let propagated =
+                s.kf.predict_structured(|x| propagate_x(x, &a, dt), |P| propagate_covariance(P, &Q, dt), || (F, Q));
+            if propagated.is_ok()
                 && let Some(log) = log
             {
                 log.predicted(&s.kf, &F);
@@ -205,7 +214,7 @@ impl LinearModel {
             x.fixed_rows_mut::<3>(0).copy_from(&r.p);
             x.fixed_rows_mut::<3>(3).copy_from(&r.v);
             // Finite by construction from validated fixes; a refusal keeps the estimate.
-            let _ = s.kf.set_state(x, r.covariance(self.initial.P()));
+            let _ = s.kf.set_state(x, r.covariance(&self.initial.P()));
         }
         outcome
     }
@@ -223,8 +232,17 @@ impl LinearModel {
     }
 }
 
-/// `x⁻ = F x + G a` and `P⁻ = F P Fᵀ + Q` in block form, with
-/// `P = [[A, B], [Bᵀ, D]]` (position, velocity blocks) and `F = [[I, dt I], [0, I]]`:
+/// `x⁻ = F x + G a`.
+fn propagate_x(x: &mut SVector<f64, N>, a: &Vector3<f64>, dt: f64) {
+    let half_dt2 = 0.5 * dt * dt;
+    for i in 0..3 {
+        x[i] += dt * x[i + 3] + half_dt2 * a[i];
+        x[i + 3] += dt * a[i];
+    }
+}
+
+/// `P⁻ = F P Fᵀ + Q` in block form, with `P = [[A, B], [Bᵀ, D]]` (position,
+/// velocity blocks) and `F = [[I, dt I], [0, I]]`:
 ///
 /// ```text
 /// F P Fᵀ = [[A + dt (B + Bᵀ) + dt² D,  B + dt D],
@@ -232,12 +250,7 @@ impl LinearModel {
 /// ```
 ///
 /// 36 multiply-adds instead of the 432 of two dense 6×6 products.
-fn propagate(x: &mut SVector<f64, N>, P: &mut SMatrix<f64, N, N>, a: &Vector3<f64>, Q: &SMatrix<f64, N, N>, dt: f64) {
-    let half_dt2 = 0.5 * dt * dt;
-    for i in 0..3 {
-        x[i] += dt * x[i + 3] + half_dt2 * a[i];
-        x[i + 3] += dt * a[i];
-    }
+fn propagate_covariance(P: &mut SMatrix<f64, N, N>, Q: &SMatrix<f64, N, N>, dt: f64) {
     // Each (i, j) reads and writes its own four entries: in place is exact.
     for i in 0..3 {
         for j in 0..3 {
@@ -287,9 +300,10 @@ impl Model for LinearModel {
         s.kf.x().as_slice()
     }
 
-    fn covariance(s: &LinearState) -> &[f64] {
-        // Column-major storage of a symmetric matrix is its row-major form.
-        s.kf.P().as_slice()
+    const COV_DIM: usize = N;
+
+    fn write_covariance(s: &LinearState, out: &mut [f64]) {
+        s.kf.write_covariance(out);
     }
 
     fn smooth(records: &mut [RtsStep<f64, N>]) -> Result<(), SmootherError> {
@@ -364,7 +378,8 @@ mod tests {
         let x = SVector::<f64, N>::from_fn(|i, _| i as f64 - 2.5);
         let a = Vector3::new(0.3, -1.0, 2.0);
         let (mut xp, mut Pp) = (x, P);
-        propagate(&mut xp, &mut Pp, &a, &Q, dt);
+        propagate_x(&mut xp, &a, dt);
+        propagate_covariance(&mut Pp, &Q, dt);
         assert!((xp - (F * x + G * a)).amax() < 1e-14);
         assert!((Pp - (F * P * F.transpose() + Q)).amax() < 1e-12 * P.amax());
     }

@@ -164,8 +164,21 @@ pub trait Model {
     /// The state vector `x` as published.
     fn x(state: &Self::State) -> &[f64];
 
-    /// The covariance as published, row-major (it is symmetric).
-    fn covariance(state: &Self::State) -> &[f64];
+    /// Side of the published covariance (the error-state dimension).
+    const COV_DIM: usize;
+
+    /// Writes the covariance as published, row-major (it is symmetric), into
+    /// `out` (`COV_DIM²` entries). In the UDU form it is composed from the factors.
+    fn write_covariance(state: &Self::State, out: &mut [f64]);
+
+    /// The covariance as published, row-major, in a new vector (for tools and
+    /// tests; the live loop writes it in place with
+    /// [`write_covariance`](Self::write_covariance)).
+    fn covariance(state: &Self::State) -> Vec<f64> {
+        let mut out = vec![0.0; Self::COV_DIM * Self::COV_DIM];
+        Self::write_covariance(state, &mut out);
+        out
+    }
 
     /// [`step`](Self::step), also returning the smoother's record of the step. The
     /// state it leaves is bit for bit the one `step` leaves: a smoother re-runs the

@@ -5,7 +5,10 @@
 use nalgebra::{RealField, SMatrix, SVector};
 
 use super::joseph::joseph_low_rank;
-use super::{FilterError, KalmanFilter, SmallCholesky, UpdateDecision, UpdateDiagnostics, all_finite, symmetrize};
+use super::{
+    FilterError, Form, KalmanFilter, SmallCholesky, UpdateDecision, UpdateDiagnostics, UpdateOptions, all_finite,
+    symmetrize,
+};
 use crate::filter::gate::ChiSquareGate;
 
 impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
@@ -68,13 +71,22 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         gate: Option<&ChiSquareGate>,
     ) -> Result<SelectionCore<T, N, M>, FilterError> {
         assert!(offset + M <= N, "selection out of the state");
+        if self.form == Form::Udu {
+            // The factors have no cheap selection: the general update serves.
+            let mut H = SMatrix::<T, M, N>::zeros();
+            H.fixed_view_mut::<M, M>(0, offset).fill_with_identity();
+            let options = UpdateOptions { gate, fault_detector: None };
+            let d = self.update_nonlinear(z, predicted, &H, R, options)?;
+            let (decision, nis, gate_threshold, S, K) = (d.decision, d.nis, d.gate_threshold, d.S, d.K);
+            return Ok(SelectionCore { decision, nis, gate_threshold, S, K });
+        }
         if !all_finite(z) || !all_finite(predicted) || !all_finite(R) {
             return Err(FilterError::NonFinite("measurement"));
         }
         // P Hᵀ: columns `offset..offset + M` of P; S = H P Hᵀ + R: their rows there.
         // (Plain array copies: nalgebra's strided views cost more than the copy.)
         let mut PHt = SMatrix::<T, N, M>::zeros();
-        PHt.data.0.copy_from_slice(&self.P.data.0[offset..offset + M]);
+        PHt.data.0.copy_from_slice(&self.c.data.0[offset..offset + M]);
         let mut S = *R;
         for (s, b) in S.data.0.iter_mut().zip(&PHt.data.0) {
             for (v, p) in s.iter_mut().zip(&b[offset..offset + M]) {

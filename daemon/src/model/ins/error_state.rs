@@ -44,8 +44,7 @@ pub(super) struct ProcessNoise {
 }
 
 impl ProcessNoise {
-    /// `Q` as a dense matrix (for the tests).
-    #[cfg(test)]
+    /// `Q` as a dense matrix (for the UDU form and the tests).
     pub fn dense(&self) -> SMatrix<f64, N, N> {
         let mut Q = SMatrix::<f64, N, N>::zeros();
         for i in 0..3 {
@@ -186,7 +185,14 @@ pub(crate) fn inject_and_reset(s: &mut InsState) -> SVector<f64, N> {
     inject(s, &dx);
     let dtheta = Vector3::new(dx[6], dx[7], dx[8]);
     let Gt = Matrix3::identity() - (dtheta * 0.5).cross_matrix();
-    s.kf.reset_error(|P| reset_attitude_block(P, &row_major(&Gt)));
+    s.kf.reset_transform(
+        |P| reset_attitude_block(P, &row_major(&Gt)),
+        || {
+            let mut G = SMatrix::<f64, N, N>::identity();
+            G.fixed_view_mut::<3, 3>(6, 6).copy_from(&Gt);
+            G
+        },
+    );
     dx
 }
 

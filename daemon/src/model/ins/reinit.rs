@@ -27,7 +27,7 @@ impl InsModel {
     pub(crate) fn observe_fix(&self, s: &mut InsState, outcome: &StepOutcome, origin: &Vector3<f64>, R: &Matrix3<f64>) {
         let t = s.t_ns.unwrap_or(0);
         let Some(r) = s.lockout.observe(self.lockout.as_ref(), outcome, t, origin, R) else { return };
-        let P = r.covariance(self.initial.P());
+        let P = r.covariance(&self.initial.P());
         let (q, b_a, b_g) = (s.q(), s.b_a(), s.b_g());
         s.set(r.p, r.v, q, b_a, b_g);
         s.kf.reset_error(|old| *old = P);

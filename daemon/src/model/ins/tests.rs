@@ -57,7 +57,7 @@ fn structured_fpft_equals_the_dense_product() {
     assert!(F.fixed_view::<3, 3>(3, 6).amax() > 1e-3 && F.fixed_view::<3, 3>(6, 12).amax() > 1e-3);
     let dense = F * P * F.transpose() + m.process_noise(0.005, 1).dense();
     assert!((s.kf.P() - dense).amax() < 1e-12 * dense.amax(), "{}", (s.kf.P() - dense).amax());
-    assert_eq!(*s.kf.P(), s.kf.P().transpose(), "exactly symmetric");
+    assert_eq!(s.kf.P(), s.kf.P().transpose(), "exactly symmetric");
 }
 
 #[test]
@@ -86,7 +86,7 @@ fn the_motion_constraint_pulls_sideways_velocity_but_waits_for_a_known_attitude(
     let mut loose = p0();
     loose[8] = 1.0;
     let (waiting, free) = (run(loose, Some(nhc)), run(loose, None));
-    assert_eq!((waiting.nominal, *waiting.kf.P()), (free.nominal, *free.kf.P()));
+    assert_eq!((waiting.nominal, waiting.kf.P()), (free.nominal, free.kf.P()));
 }
 
 #[test]
@@ -259,7 +259,7 @@ fn when_the_imus_in_use_change_the_bias_variances_grow_back() {
             assert_eq!(m.hold_imu(&mut s, 1, 0, f, Vector3::zeros()), Held::Held);
             assert_eq!(m.hold_imu(&mut s, 0, 10, f, Vector3::zeros()), Held::Held);
         }
-        let mut shrunk = *s.kf.P();
+        let mut shrunk = s.kf.P();
         for i in 9..15 {
             shrunk[(i, i)] = 1e-9;
         }
