@@ -5,9 +5,13 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use fusion_benches::{bench_drive, ins_fix, ins_imu, ins_model, linear_config};
+use fusion_benches::precision::{InsRun, LinearRun, StudyRun, drives};
+use fusion_benches::{bench_drive, ins_config_text, ins_fix, ins_imu, ins_model, linear_config};
+use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig};
+use fusion_daemon::filter::Form;
 use fusion_daemon::model::Model;
+use fusion_daemon::model::ins::InsModel;
 use fusion_daemon::model::linear::LinearModel;
 use fusion_daemon::replay::replay;
 use fusion_shared::jsonl::format_sample;
@@ -94,6 +98,67 @@ fn ins_steps(c: &mut Criterion) {
     group.finish();
 }
 
+/// The `[filter] form`s in the daemon's models (f64), and both forms in f32 and
+/// f64 through the study's runs (`fusion_benches::precision`: dense predicts,
+/// the same in every scalar type and form).
+fn forms(c: &mut Criterion) {
+    let mut group = c.benchmark_group("forms");
+    for form in ["joseph", "udu"] {
+        let text = ins_config_text().replacen("[filter]\n", &format!("[filter]\nform = \"{form}\"\n"), 1);
+        let model = InsModel::from_config(&Config::parse(&text).unwrap()).unwrap();
+        let mut state = model.initial_state();
+        model.step(&mut state, &ins_imu(0));
+        let mut t = 0;
+        group.bench_function(format!("ins model, {form}: predict (IMU step)"), |b| {
+            b.iter(|| {
+                t += 5_000_000;
+                black_box(model.step(&mut state, black_box(&ins_imu(t))))
+            })
+        });
+        let (base, mut scratch) = (state, state);
+        group.bench_function(format!("ins model, {form}: update (fix, plus state copy)"), |b| {
+            b.iter(|| {
+                scratch = black_box(base);
+                black_box(model.step(&mut scratch, black_box(&ins_fix(t))))
+            })
+        });
+    }
+    let (_, lin) = drives::linear(1.0, 0.5, 1);
+    let (_, ins) = drives::ins(1.0, 0.5, 1);
+    for form in [Form::Joseph, Form::Udu] {
+        study_steps(&mut group, "linear f64", form, LinearRun::<f64>::new(&lin, form));
+        study_steps(&mut group, "linear f32", form, LinearRun::<f32>::new(&lin, form));
+        study_steps(&mut group, "ins f64", form, InsRun::<f64>::new(&ins, form));
+        study_steps(&mut group, "ins f32", form, InsRun::<f32>::new(&ins, form));
+    }
+    group.finish();
+}
+
+/// Predict and update of a study run.
+fn study_steps<R: StudyRun + Clone>(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    form: Form,
+    mut run: R,
+) {
+    run.step(&ins_imu(0));
+    let mut t = 0;
+    group.bench_function(format!("{name} {}: predict", form.name()), |b| {
+        b.iter(|| {
+            t += 5_000_000;
+            run.step(black_box(&ins_imu(t)));
+        })
+    });
+    let base = run.clone();
+    let mut scratch = run;
+    group.bench_function(format!("{name} {}: update (fix, plus state copy)", form.name()), |b| {
+        b.iter(|| {
+            scratch.clone_from(black_box(&base));
+            scratch.step(black_box(&ins_fix(t)));
+        })
+    });
+}
+
 fn replay_throughput(c: &mut Criterion) {
     let drive = bench_drive(20.0);
     let samples: Vec<Sample> = drive.arrivals.iter().map(|a| a.sample).collect();
@@ -130,6 +195,6 @@ criterion_group! {
     // Short windows keep the whole `cargo bench` under five minutes; the figures
     // are stable to a few per cent at this length (the VM itself varies more).
     config = Criterion::default().warm_up_time(std::time::Duration::from_secs(1)).measurement_time(std::time::Duration::from_secs(3));
-    targets = linear_steps, ins_steps, replay_throughput
+    targets = linear_steps, ins_steps, forms, replay_throughput
 }
 criterion_main!(benches);

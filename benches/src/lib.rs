@@ -8,6 +8,7 @@
 
 pub mod alloc;
 pub mod latency;
+pub mod precision;
 
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_daemon::config::Config;

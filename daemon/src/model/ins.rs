@@ -61,6 +61,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 mod error_state;
+mod linearised;
 mod reinit;
 
 pub(crate) use error_state::inject_and_reset;
@@ -377,6 +378,26 @@ impl InsModel {
             }
             return;
         };
+        let (p_new, v_new, q_new, F) = self.mechanise(s, f_m, w_m, dt);
+        if s.kf.predict_structured(|_| {}, |P| F.propagate_covariance(P, &Q), || (F.dense(), Q.dense())).is_ok() {
+            let (b_a, b_g) = (s.b_a(), s.b_g());
+            s.set(p_new, v_new, q_new, b_a, b_g);
+            if let Some(log) = log {
+                log.predicted(&s.kf, &F.dense());
+            }
+        }
+    }
+
+    /// The nominal state's strapdown step over `dt` with the IMU values `f_m`,
+    /// `w_m` (see the model docs), and the error-state transition of that step:
+    /// `(p, v, q)` after it and `F`.
+    fn mechanise(
+        &self,
+        s: &InsState,
+        f_m: Vector3<f64>,
+        w_m: Vector3<f64>,
+        dt: f64,
+    ) -> (Vector3<f64>, Vector3<f64>, UnitQuaternion<f64>, Transition) {
         let (p, v, q) = (s.p(), s.v(), s.q());
         let f = f_m - s.b_a();
         let w = w_m - s.b_g();
@@ -387,15 +408,8 @@ impl InsModel {
         let v_new = v + a * dt;
         let mut q_new = q * dq;
         q_new.renormalize();
-
         let F = Transition { dt, A: -R * f.cross_matrix(), B: -R, C: dq.to_rotation_matrix().into_inner().transpose() };
-        if s.kf.predict_structured(|_| {}, |P| F.propagate_covariance(P, &Q), || (F.dense(), Q.dense())).is_ok() {
-            let (b_a, b_g) = (s.b_a(), s.b_g());
-            s.set(p_new, v_new, q_new, b_a, b_g);
-            if let Some(log) = log {
-                log.predicted(&s.kf, &F.dense());
-            }
-        }
+        (p_new, v_new, q_new, F)
     }
 
     /// One step (see [`Model::step`]), logging the transition for the smoother when
@@ -588,7 +602,7 @@ impl Model for InsModel {
         let mut steps: Vec<RtsStep<f64, N>> = records.iter().map(|r| r.step).collect();
         rts_smooth(&mut steps)?;
         // `inject` works on the nominal part of a state only.
-        let placeholder = KalmanFilter::new(SVector::zeros(), SMatrix::identity()).expect("I is a valid covariance");
+        let placeholder = linearised::placeholder();
         for (r, smoothed) in records.iter_mut().zip(&steps) {
             let mut s = InsState::new(r.nominal, placeholder);
             inject(&mut s, &smoothed.x_post);

@@ -95,6 +95,11 @@ impl LinearModel {
         Ok(Self { sigma_a, initial, gate, lockout: None, frames: Frames::default() })
     }
 
+    /// The filter the model starts from (x₀, P₀, form).
+    pub fn initial_filter(&self) -> &KalmanFilter<f64, N> {
+        &self.initial
+    }
+
     /// The same model with its filter in `form` (`[filter] form`).
     pub fn with_form(mut self, form: crate::filter::Form) -> Result<Self, crate::filter::FilterError> {
         self.initial = self.initial.with_form(form)?;

@@ -183,17 +183,22 @@ pub(super) fn inject(s: &mut InsState, dx: &SVector<f64, N>) {
 pub(crate) fn inject_and_reset(s: &mut InsState) -> SVector<f64, N> {
     let dx = *s.kf.x();
     inject(s, &dx);
-    let dtheta = Vector3::new(dx[6], dx[7], dx[8]);
-    let Gt = Matrix3::identity() - (dtheta * 0.5).cross_matrix();
-    s.kf.reset_transform(
-        |P| reset_attitude_block(P, &row_major(&Gt)),
-        || {
-            let mut G = SMatrix::<f64, N, N>::identity();
-            G.fixed_view_mut::<3, 3>(6, 6).copy_from(&Gt);
-            G
-        },
-    );
+    let Gt = attitude_reset(&dx);
+    s.kf.reset_transform(|P| reset_attitude_block(P, &row_major(&Gt)), || reset_jacobian(&Gt));
     dx
+}
+
+/// The attitude block `Gθ = I − [½δθ]×` of the reset Jacobian after injecting `dx`.
+pub(super) fn attitude_reset(dx: &SVector<f64, N>) -> Matrix3<f64> {
+    let dtheta = Vector3::new(dx[6], dx[7], dx[8]);
+    Matrix3::identity() - (dtheta * 0.5).cross_matrix()
+}
+
+/// The reset Jacobian `G = diag(I, I, Gθ, I, I)` as a dense matrix.
+pub(super) fn reset_jacobian(Gt: &Matrix3<f64>) -> SMatrix<f64, N, N> {
+    let mut G = SMatrix::<f64, N, N>::identity();
+    G.fixed_view_mut::<3, 3>(6, 6).copy_from(Gt);
+    G
 }
 
 /// `P ← G P Gᵀ` for `G = diag(I, I, Gθ, I, I)`, `g` = Gθ row-major.
