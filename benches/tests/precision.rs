@@ -29,7 +29,7 @@ fn f32_joseph_loses_positive_definiteness_with_very_accurate_fixes_and_f32_udu_d
 }
 
 /// An hour of 200 Hz `ins` with 10 Hz fixes: the error-state filter in f32, in
-/// either form, stays positive definite and within 10 µm and 0.01 % (position
+/// either form, stays positive definite and within 0.1 mm and 0.01 % (position
 /// σ) of f64 (35 s in the test profile; the figures of the report come from the
 /// example `precision` in release).
 #[test]
@@ -41,6 +41,6 @@ fn one_hour_of_ins_in_f32_stays_positive_definite_and_close_to_f64() {
     for name in ["f64 udu", "f32 joseph", "f32 udu"] {
         let c = row(&rows, name);
         assert_eq!((c.not_positive_definite, c.refused), (0, 0), "{c:?}");
-        assert!(c.max_position_diff_m < 1e-5 && c.max_position_sd_rel_diff < 1e-4, "{c:?}");
+        assert!(c.max_position_diff_m < 1e-4 && c.max_position_sd_rel_diff < 1e-4, "{c:?}");
     }
 }

@@ -45,6 +45,10 @@ history_ns = 1_000_000_000
 # it is allocated and touched at start (about 0.5 KB per entry for linear, 2.4 KB
 # for ins), so no page fault ever lands on the live path.
 history_capacity = 4096
+# How the covariance is held: "joseph" (P itself, Joseph-form update; fastest) or
+# "udu" (P = U D U^T: Thornton predict, Bierman update; positive definite by
+# construction, equal to "joseph" to rounding; see docs/performance.md).
+form = "joseph"
 
 [gating]
 # Chi-square gate on the NIS: the probability a consistent measurement passes.
