@@ -65,7 +65,7 @@ mod linearised;
 mod reinit;
 
 pub(crate) use error_state::inject_and_reset;
-use error_state::{ProcessNoise, Transition, inject};
+use error_state::{ProcessNoise, inject};
 
 use super::{Model, StepOutcome, advance_time};
 use crate::config::{Config, ConfigError, ModelConfig, invalid, positive};
@@ -386,30 +386,6 @@ impl InsModel {
                 log.predicted(&s.kf, &F.dense());
             }
         }
-    }
-
-    /// The nominal state's strapdown step over `dt` with the IMU values `f_m`,
-    /// `w_m` (see the model docs), and the error-state transition of that step:
-    /// `(p, v, q)` after it and `F`.
-    fn mechanise(
-        &self,
-        s: &InsState,
-        f_m: Vector3<f64>,
-        w_m: Vector3<f64>,
-        dt: f64,
-    ) -> (Vector3<f64>, Vector3<f64>, UnitQuaternion<f64>, Transition) {
-        let (p, v, q) = (s.p(), s.v(), s.q());
-        let f = f_m - s.b_a();
-        let w = w_m - s.b_g();
-        let R = q.to_rotation_matrix().into_inner();
-        let a = R * f + self.g();
-        let dq = UnitQuaternion::from_scaled_axis(w * dt);
-        let p_new = p + v * dt + a * (0.5 * dt * dt);
-        let v_new = v + a * dt;
-        let mut q_new = q * dq;
-        q_new.renormalize();
-        let F = Transition { dt, A: -R * f.cross_matrix(), B: -R, C: dq.to_rotation_matrix().into_inner().transpose() };
-        (p_new, v_new, q_new, F)
     }
 
     /// One step (see [`Model::step`]), logging the transition for the smoother when

@@ -5,13 +5,37 @@
 
 #![allow(non_snake_case)]
 
-use nalgebra::{SMatrix, SVector, Vector3};
+use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
 
-use super::error_state::{attitude_reset, inject, reset_jacobian};
+use super::error_state::{Transition, attitude_reset, inject, reset_jacobian};
 use super::{InsModel, InsState, N, NOMINAL};
 use crate::filter::KalmanFilter;
 
 impl InsModel {
+    /// The nominal state's strapdown step over `dt` with the IMU values `f_m`,
+    /// `w_m` (see the model docs), and the error-state transition of that step:
+    /// `(p, v, q)` after it and `F`.
+    pub(super) fn mechanise(
+        &self,
+        s: &InsState,
+        f_m: Vector3<f64>,
+        w_m: Vector3<f64>,
+        dt: f64,
+    ) -> (Vector3<f64>, Vector3<f64>, UnitQuaternion<f64>, Transition) {
+        let (p, v, q) = (s.p(), s.v(), s.q());
+        let f = f_m - s.b_a();
+        let w = w_m - s.b_g();
+        let R = q.to_rotation_matrix().into_inner();
+        let a = R * f + self.g();
+        let dq = UnitQuaternion::from_scaled_axis(w * dt);
+        let p_new = p + v * dt + a * (0.5 * dt * dt);
+        let v_new = v + a * dt;
+        let mut q_new = q * dq;
+        q_new.renormalize();
+        let F = Transition { dt, A: -R * f.cross_matrix(), B: -R, C: dq.to_rotation_matrix().into_inner().transpose() };
+        (p_new, v_new, q_new, F)
+    }
+
     /// The strapdown step of `nominal` over `dt` seconds with one IMU's specific
     /// force `f_m` and rate `w_m` (body frame), exactly as the model makes it:
     /// the nominal state after it, and the step's error-state transition `F` and
