@@ -56,8 +56,7 @@ impl Nonholonomic {
 /// Whether every axis of the attitude is known to [`MAX_ATTITUDE_SD`]: before,
 /// a measurement through the attitude is linearised about a wrong body frame.
 pub fn attitude_known(s: &InsState) -> bool {
-    let P = s.filter().P();
-    (6..9).all(|i| P[(i, i)] <= MAX_ATTITUDE_SD * MAX_ATTITUDE_SD)
+    (6..9).all(|i| s.filter().variance(i) <= MAX_ATTITUDE_SD * MAX_ATTITUDE_SD)
 }
 
 /// Fuses `[v_b,y, v_b,z] = 0` into `s` and injects the correction, which it

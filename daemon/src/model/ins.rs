@@ -415,10 +415,10 @@ impl InsModel {
         match held {
             Held::Held => {}
             Held::Switched => {
-                let P0 = self.initial.P();
+                let initial = &self.initial;
                 s.kf.reset_error(|P| {
                     for i in 9..15 {
-                        P[(i, i)] = P[(i, i)].max(P0[(i, i)]);
+                        P[(i, i)] = P[(i, i)].max(initial.variance(i));
                     }
                 });
             }
