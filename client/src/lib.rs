@@ -11,9 +11,19 @@
 //! - [`capi`]: the same as a C library (`libfusion_client.so`/`.a`, header
 //!   `client/include/fusion_client.h`).
 //!
-//! The wire types and service names live in [`fusion_shared`]. The library pulls
-//! no command-line or logging-backend crates; the binaries (`fusion-sim`,
-//! `fusionctl`) are behind the `cli` feature.
+//! Reading a snapshot: [`StateSnapshot`] has typed accessors
+//! ([`position`](StateSnapshot::position), [`velocity`](StateSnapshot::velocity),
+//! [`attitude`](StateSnapshot::attitude), [`roll_pitch_yaw`](StateSnapshot::roll_pitch_yaw),
+//! the biases, their standard deviations, [`health`](StateSnapshot::health) as a
+//! [`Health`] with its [`HealthReason`]s, the [`Model`]); its documentation has the
+//! state layout of each model.
+//!
+//! The wire contract comes from the `fusion-shared` crate and is re-exported here
+//! whole, so these docs show it: [`snapshot`] (the snapshot and the codes of its
+//! `u32` fields), [`sample`] (the sample kinds), [`service`] (service names, buffer
+//! sizes, iceoryx2 settings), [`geodesy`] and [`time`]. The library pulls no
+//! command-line or logging-backend crates; the binaries (`fusion-sim`,
+//! `fusionctl`, `fusion-demo`) are behind the `cli` feature.
 
 pub mod capi;
 mod error;
@@ -25,11 +35,14 @@ pub use error::ClientError;
 pub use fusion_shared;
 // Every kind's wire type, whatever the kinds are.
 pub use fusion_shared::sample::*;
+pub use fusion_shared::snapshot::{Health, HealthReason, Model, Outcome};
 pub use fusion_shared::{StateSnapshot, now_ns};
+// The wire contract's modules, documented with the client.
+pub use fusion_shared::{for_each_sample_kind, geodesy, permissions, sample, service, snapshot, time, transport};
 pub use publisher::{ImuPublisher, PositionPublisher, SamplePublisher, SensorPublishers};
 pub use subscriber::{SampleSubscriber, StateSubscriber};
 
-use fusion_shared::service::{self, ServiceNames};
+use fusion_shared::service::ServiceNames;
 use fusion_shared::transport::Ipc;
 use iceoryx2::prelude::*;
 

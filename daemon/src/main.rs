@@ -33,13 +33,14 @@ enum Command {
         #[arg(long)]
         config: PathBuf,
         /// Namespace of the services (`<ns>/imu`, `<ns>/position`, `<ns>/state`, ...).
-        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
+        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE,
+              value_parser = fusion_shared::service::namespace_arg)]
         namespace: String,
         /// `spin`: busy-poll for the lowest latency (uses one core); `event`: sleep until woken.
         #[arg(long, value_enum, default_value_t = Wait::Event)]
         wait: Wait,
         /// Seconds between summary log lines (info level).
-        #[arg(long, default_value_t = 5.0)]
+        #[arg(long, default_value_t = 5.0, value_parser = positive_seconds)]
         summary_interval: f64,
         /// Pin the fusion loop to this CPU (with `--wait spin`, give it a core that
         /// nothing else busy runs on).
@@ -105,9 +106,17 @@ fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("fusiond: {e:#}");
-            ExitCode::FAILURE
+            eprintln!("fusiond: {}", fusion_shared::exit::error_line(e.as_ref()));
+            ExitCode::from(fusion_shared::exit::FAILURE)
         }
+    }
+}
+
+/// A positive, finite number of seconds (else a usage error).
+fn positive_seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s > 0.0 && Duration::try_from_secs_f64(s).is_ok() => Ok(s),
+        _ => Err(format!("{text:?} is not a positive number of seconds")),
     }
 }
 

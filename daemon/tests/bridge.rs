@@ -214,8 +214,9 @@ fn bad_arguments_are_refused_before_anything_starts() {
             .output()
             .unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
-        assert!(err.starts_with("fusion-bridge: ") && err.contains(reason), "{args:?}: {err}");
+        // A usage error: status 2, clap's format, before anything started.
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.starts_with("error: ") && err.lines().next().unwrap().contains(reason), "{args:?}: {err}");
     }
     assert!(domain.files().is_empty(), "{:?}", domain.files());
 }

@@ -4,6 +4,7 @@
 //!   kind ([`ImuSample`], [`PositionSample`], [`VelocitySample`], …); [`SampleKind`] lists
 //!   the kinds, [`for_each_sample_kind!`] is the list they come from.
 //! - [`snapshot`]: [`StateSnapshot`], what fusiond publishes.
+//! - [`exit`]: the exit statuses and the error line of every fusion binary.
 //! - [`geodesy`]: WGS-84 geodetic coordinates ↔ the local ENU frame of a datum.
 //! - [`service`]: service names under a namespace, QoS, and how every side opens them.
 //! - `jsonl` (feature `json`): the JSON-lines sample format of replay files.
@@ -17,6 +18,7 @@
 //! Every type here is `#[repr(C)]` with fixed-width fields only, units in the field
 //! names, SI units, world frame ENU and body frame forward-left-up (REP-103).
 
+pub mod exit;
 pub mod geodesy;
 #[cfg(feature = "json")]
 pub mod jsonl;
@@ -31,5 +33,5 @@ pub mod transport;
 
 // Every kind's wire type, whatever the kinds are (see `for_each_sample_kind!`).
 pub use sample::*;
-pub use snapshot::{Counters, SensorCounters, StateSnapshot};
+pub use snapshot::{Counters, Health, HealthReason, Model, Outcome, SensorCounters, StateSnapshot};
 pub use time::now_ns;

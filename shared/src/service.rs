@@ -60,7 +60,12 @@ pub struct InvalidNamespace(pub String);
 
 impl std::fmt::Display for InvalidNamespace {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "invalid namespace {:?}: use 1 to {MAX_NAMESPACE_LEN} characters of A-Z a-z 0-9 _ - .", self.0)
+        write!(
+            f,
+            "invalid namespace {:?}: use 1 to {MAX_NAMESPACE_LEN} characters of A-Z a-z 0-9 _ - ., starting with a \
+             letter, digit or _ and without \"..\" (a namespace is part of file names)",
+            self.0
+        )
     }
 }
 
@@ -79,20 +84,27 @@ pub struct ServiceNames {
 
 impl ServiceNames {
     /// The names under `namespace`, which must be 1–64 characters of
-    /// `A-Z a-z 0-9 _ - .`.
+    /// `A-Z a-z 0-9 _ - .`, start with a letter, digit or `_`, and hold no `..`:
+    /// nothing path-like (`.`, `..`, `../x`, `.hidden`, `-option`).
     pub fn new(namespace: &str) -> Result<Self, InvalidNamespace> {
-        let ok = !namespace.is_empty()
-            && namespace.len() <= MAX_NAMESPACE_LEN
-            && namespace.bytes().all(|b| b.is_ascii_alphanumeric() || b"_-.".contains(&b));
-        if !ok {
-            return Err(InvalidNamespace(namespace.to_string()));
-        }
+        namespace_arg(namespace)?;
         Ok(Self {
             namespace: namespace.to_string(),
             wake: format!("{namespace}/wake"),
             state: format!("{namespace}/state"),
         })
     }
+}
+
+/// `namespace` if it is one [`ServiceNames::new`] takes: the value parser of
+/// every binary's `--namespace`, so a bad one is a usage error before anything starts.
+pub fn namespace_arg(namespace: &str) -> Result<String, InvalidNamespace> {
+    let first_ok = namespace.bytes().next().is_some_and(|b| b.is_ascii_alphanumeric() || b == b'_');
+    let ok = first_ok
+        && namespace.len() <= MAX_NAMESPACE_LEN
+        && !namespace.contains("..")
+        && namespace.bytes().all(|b| b.is_ascii_alphanumeric() || b"_-.".contains(&b));
+    if ok { Ok(namespace.to_string()) } else { Err(InvalidNamespace(namespace.to_string())) }
 }
 
 impl ServiceNames {
@@ -318,7 +330,8 @@ mod tests {
         assert_eq!(ServiceNames::new("fusion").unwrap().state, "fusion/state");
         assert_eq!(ServiceNames::new("fusion").unwrap().samples(SampleKind::Velocity), "fusion/velocity");
         assert!(ServiceNames::new("test-1.a_b").is_ok());
-        for bad in ["", "a/b", "with space", "ü", &"x".repeat(65)] {
+        assert!(ServiceNames::new("_x.y").is_ok());
+        for bad in ["", "a/b", "with space", "ü", &"x".repeat(65), ".", "..", ".hidden", "a..b", "-x", "x/../y"] {
             assert!(ServiceNames::new(bad).is_err(), "{bad:?}");
         }
     }

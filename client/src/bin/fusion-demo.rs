@@ -4,35 +4,62 @@
 
 use std::io::Write;
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command, ExitCode, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
-use clap::Parser;
+use clap::{Parser, ValueEnum};
 use fusion_client::sim::CarTrajectory;
 use fusion_client::{Client, StateSnapshot, now_ns};
-use fusion_shared::snapshot::{INPUT_NONE, health};
+use fusion_shared::snapshot::INPUT_NONE;
 use hdrhistogram::Histogram;
 
 #[derive(Parser)]
 #[command(name = "fusion-demo", about = "fusiond with simulated IMU and position sensors, as separate processes")]
 struct Args {
-    /// Seconds to run (Ctrl-C ends it early).
-    #[arg(long, default_value_t = 10.0)]
+    /// Seconds to run, at least 1 (Ctrl-C ends it early).
+    #[arg(long, default_value_t = 10.0, value_parser = drive_seconds)]
     duration: f64,
     /// fusiond's wait mode: event (sleeps between samples) or spin (busy-polls one core).
-    #[arg(long, default_value = "event")]
-    wait: String,
+    #[arg(long, value_enum, default_value_t = Wait::Event)]
+    wait: Wait,
     /// Seed of the drive.
     #[arg(long, default_value_t = 7)]
     seed: u64,
     /// Filter model: `linear` (the IMU gives world acceleration) or `ins` (a real
     /// IMU: body specific force and rates with noise and biases, error-state INS).
-    #[arg(long, default_value = "linear")]
-    model: String,
+    #[arg(long, value_enum, default_value_t = ModelArg::Linear)]
+    model: ModelArg,
 }
+
+/// `fusiond run --wait`.
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum Wait {
+    Event,
+    Spin,
+}
+
+/// `--model`.
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum ModelArg {
+    Linear,
+    Ins,
+}
+
+/// A drive's length: at least 1 s, at most a day.
+fn drive_seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if (1.0..=86_400.0).contains(&s) => Ok(s),
+        _ => Err(format!("{text:?} is not a number of seconds from 1 to 86400")),
+    }
+}
+
+/// The IMU rate of the `linear` demo (fusion-sim's default), Hz.
+const LINEAR_IMU_HZ: u32 = 400;
+/// The IMU rate of the `ins` demo, Hz.
+const INS_IMU_HZ: u32 = 200;
 
 /// The `ins` demo: a car with a GNSS receiver (latitude/longitude/height and
 /// Doppler velocity of an antenna 1.5 m from the IMUs), two IMUs on one clock
@@ -149,8 +176,23 @@ impl Drop for Children {
     }
 }
 
-fn main() -> anyhow::Result<()> {
-    let args = Args::parse();
+fn main() -> ExitCode {
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("fusion-demo: {}", fusion_shared::exit::error_line(e.as_ref()));
+            ExitCode::from(fusion_shared::exit::FAILURE)
+        }
+    }
+}
+
+/// The last line of a log that says something (fusiond's reason for stopping).
+fn last_line(path: &std::path::Path) -> String {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    text.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("no log").trim().to_string()
+}
+
+fn run(args: Args) -> anyhow::Result<()> {
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(signal, Arc::clone(&stop))?;
@@ -165,16 +207,20 @@ fn main() -> anyhow::Result<()> {
     };
     let work = bin_dir.join("demo");
     std::fs::create_dir_all(&work)?;
-    let (config_text, imu_args): (&str, &[&str]) = match args.model.as_str() {
-        "linear" => (CONFIG, &[]),
+    let ins = args.model == ModelArg::Ins;
+    let (model, wait) = (if ins { "ins" } else { "linear" }, if args.wait == Wait::Spin { "spin" } else { "event" });
+    let imu_hz = if ins { INS_IMU_HZ } else { LINEAR_IMU_HZ };
+    let imu_rate = imu_hz.to_string();
+    let (config_text, imu_args): (&str, &[&str]) = match args.model {
+        ModelArg::Linear => (CONFIG, &["--imu-rate", &imu_rate]),
         // Automotive MEMS (Kalibr densities as configured), 200 Hz, 5 mg / ~100 deg/h turn-on biases.
-        "ins" => (
+        ModelArg::Ins => (
             INS_CONFIG,
             &[
                 "--imu-output",
                 "body",
                 "--imu-rate",
-                "200",
+                &imu_rate,
                 "--accel-noise",
                 "0.283",
                 "--gyro-noise",
@@ -189,14 +235,13 @@ fn main() -> anyhow::Result<()> {
                 "1e-5",
             ],
         ),
-        other => bail!("unknown --model {other:?}: linear or ins"),
     };
-    let config = work.join(format!("{}.toml", args.model));
+    let config = work.join(format!("{model}.toml"));
     std::fs::write(&config, config_text)?;
     let log = work.join("fusiond.log");
     let namespace = format!("demo-{}", std::process::id());
 
-    println!("fusiond demo: namespace {namespace}, model {}, --wait {}, {} s", args.model, args.wait, args.duration);
+    println!("fusiond demo: namespace {namespace}, model {model}, --wait {wait}, {} s", args.duration);
     let mut children = Children(Vec::new());
     // The recorder first: it reads the sample services at once and the
     // snapshots as soon as fusiond is up, so it misses nothing.
@@ -210,7 +255,7 @@ fn main() -> anyhow::Result<()> {
             .spawn()?,
     )]);
     let daemon = Command::new(bin("fusiond")?)
-        .args(["run", "--namespace", &namespace, "--wait", &args.wait, "--config"])
+        .args(["run", "--namespace", &namespace, "--wait", wait, "--config"])
         .arg(&config)
         .stderr(std::fs::File::create(&log)?)
         .spawn()?;
@@ -218,17 +263,19 @@ fn main() -> anyhow::Result<()> {
     let client = Client::connect(&namespace)?;
     let deadline = Instant::now() + Duration::from_secs(10);
     let mut state = loop {
+        if let Ok(Some(status)) = children.0[0].1.try_wait() {
+            bail!("fusiond stopped at start ({status}): {} (log: {})", last_line(&log), log.display());
+        }
         match client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER) {
             Ok(s) => break s,
             Err(_) if Instant::now() < deadline => std::thread::sleep(Duration::from_millis(20)),
-            Err(e) => bail!("fusiond did not start ({e}); see {}", log.display()),
+            Err(e) => bail!("fusiond did not start: {e} (log: {})", log.display()),
         }
     };
     println!("  fusiond started (log: {})", log.display());
 
     // Every sensor process drives the same trajectory from the same start time.
     let start_ns = now_ns() + 300_000_000;
-    let ins = args.model == "ins";
     let sim = |role: &[&str]| -> anyhow::Result<Child> {
         let imu = role[0] == "--imu-only";
         Ok(Command::new(bin("fusion-sim")?)
@@ -251,18 +298,26 @@ fn main() -> anyhow::Result<()> {
         children.0.push(("fusion-sim --imu-only --imu-ids 1", sim(&["--imu-only", "--imu-ids", "1"])?));
         children.0.push(("fusion-sim --position-only", sim(&["--position-only"])?));
         println!(
-            "  fusion-sim: two IMU processes (200 Hz each, one clock, differently mounted, one in FRD axes) and a \
-             GNSS receiver\n  (10 Hz latitude/longitude/height with 3 % outliers and 10 Hz Doppler velocity of an \
+            "  fusion-sim: two IMU processes ({imu_hz} Hz each, one clock, differently mounted, one in FRD axes) and \
+             a GNSS receiver\n  (10 Hz latitude/longitude/height with 3 % outliers and 10 Hz Doppler velocity of an \
              antenna 1.5 m from the IMUs,\n  20-120 ms late) with wheel odometry (50 Hz, 0.2 % scale error) started\n"
         );
     } else {
         children.0.push(("fusion-sim --imu-only", sim(&["--imu-only"])?));
         children.0.push(("fusion-sim --position-only", sim(&["--position-only"])?));
         println!(
-            "  fusion-sim --imu-only and fusion-sim --position-only (a GNSS receiver: 10 Hz positions with 3 % outliers \
-             and 10 Hz Doppler velocities, 20-120 ms late) started\n"
+            "  fusion-sim --imu-only ({imu_hz} Hz) and fusion-sim --position-only (a GNSS receiver: 10 Hz positions \
+             with 3 % outliers and 10 Hz Doppler velocities, 20-120 ms late) started\n"
         );
     }
+    // The health and why it is not ok.
+    let describe = |snap: &StateSnapshot| {
+        let reasons: Vec<&str> = snap.health_reasons().map(|r| r.name()).collect();
+        let reasons = if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) };
+        format!("{}{reasons}", snap.health())
+    };
+    // With the recorder and this reader.
+    let processes = children.0.len() + 2;
 
     let truth = CarTrajectory::new(args.seed);
     let truth_path = work.join("demo.truth.jsonl");
@@ -307,12 +362,12 @@ fn main() -> anyhow::Result<()> {
             let fixes = [fusion_shared::SampleKind::Position as u32, fusion_shared::SampleKind::Geodetic as u32];
             let pos = c.iter().find(|c| fixes.contains(&c.kind));
             print!(
-                "\r  t {t:5.1} s  pos ({:7.2},{:7.2},{:6.2}) m  err {:5.2} m  {:<12}  fixes {:3} fused {:2} gated  latency p50 {:5.0} us ",
+                "\r  t {t:5.1} s  pos ({:7.2},{:7.2},{:6.2}) m  err {:5.2} m  {:<28}  fixes {:3} fused {:2} gated  latency p50 {:5.0} us ",
                 x[0],
                 x[1],
                 x[2],
                 err,
-                health::name(s.health),
+                describe(s),
                 pos.map_or(0, |c| c.counts.fused),
                 pos.map_or(0, |c| c.counts.gated),
                 latency.value_at_quantile(0.5) as f64 / 1e3,
@@ -326,15 +381,27 @@ fn main() -> anyhow::Result<()> {
     recorder.stop();
     truth_file.flush()?;
 
-    let Some((s, err)) = last else { bail!("no snapshot received; see {}", log.display()) };
+    let Some((s, err)) = last else { bail!("no snapshot received (log: {})", log.display()) };
     let sd: Vec<f64> = s.std_devs().collect();
-    println!("\nresult after {:.1} s of driving:", (s.t_ns as f64 - start_ns as f64) * 1e-9);
+    let driven_s = (s.t_ns as f64 - start_ns as f64) * 1e-9;
+    println!("\nresult after {driven_s:.1} s of driving:");
     for c in s.sensor_counters() {
-        let kind = fusion_shared::SampleKind::from_code(c.kind).map_or("?", |k| k.name());
+        let kind = fusion_shared::SampleKind::from_code(c.kind);
         let n = &c.counts;
+        // Samples of a sensor span (n − 1) periods from the start to its newest timestamp.
+        let span_s = (c.last_t_ns as f64 - start_ns as f64) * 1e-9;
+        let hz = n.received.saturating_sub(1) as f64 / span_s.max(1e-9);
+        let name = format!("{} {} ({hz:.0} Hz)", kind.map_or("?", |k| k.name()), c.sensor);
+        // IMU samples propagate the state; only measurements are fused or gated.
+        let what = if kind == Some(fusion_shared::SampleKind::Imu) {
+            format!("propagated {}", n.processed)
+        } else {
+            format!("fused {}, gated {}", n.fused, n.gated)
+        };
         println!(
-            "  {kind:<8} {}: received {}, fused {}, gated {}, fused late {}, dropped too late {}, invalid {}, lost {}",
-            c.sensor, n.received, n.fused, n.gated, n.late, n.too_late, n.invalid, n.lost
+            "  {name:<21} received {}, {what}; out of order {} (processed exactly by rewind), too late {}, \
+             invalid {}, lost {}",
+            n.received, n.late, n.too_late, n.invalid, n.lost
         );
     }
     println!(
@@ -345,19 +412,19 @@ fn main() -> anyhow::Result<()> {
         (sum_sq / n_err.max(1) as f64).sqrt()
     );
     println!(
-        "  end-to-end latency, sample published -> snapshot received ({} samples, --wait {}):\n    p50 {:.1} us, p90 {:.1} us, p99 {:.1} us, max {:.1} us",
+        "  end-to-end latency, sample published -> snapshot received ({} samples, --wait {wait}):\n    p50 {:.1} us, \
+         p90 {:.1} us, p99 {:.1} us, max {:.1} us",
         latency.len(),
-        args.wait,
         latency.value_at_quantile(0.5) as f64 / 1e3,
         latency.value_at_quantile(0.9) as f64 / 1e3,
         latency.value_at_quantile(0.99) as f64 / 1e3,
         latency.max() as f64 / 1e3,
     );
-    let describe = |snap: &StateSnapshot| {
-        let reasons: Vec<&str> = snap.health_reason_names().collect();
-        let reasons = if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) };
-        format!("{}{reasons}", health::name(snap.health))
-    };
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    println!(
+        "    (this reader sleeps on an event and {processes} processes share {cores} cores; the README's ~1 us is the \
+         benchmark's busy-polling reader: cargo bench -p fusion-benches --bench latency)"
+    );
     let during = drive_health.map(|(health, reasons)| {
         let mut d = s;
         (d.health, d.health_reasons) = (health, reasons);
@@ -385,7 +452,7 @@ fn main() -> anyhow::Result<()> {
             report.display()
         );
     } else {
-        eprintln!("fusion-demo: the report failed: {}", String::from_utf8_lossy(&plot.stderr).trim());
+        bail!("the report failed: {}", String::from_utf8_lossy(&plot.stderr).trim());
     }
     Ok(())
 }

@@ -15,8 +15,9 @@ use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 
 use anyhow::Context;
-use clap::{Args, Parser, Subcommand};
+use clap::{Args, CommandFactory, Parser, Subcommand};
 use std::io::BufRead;
+use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
@@ -43,8 +44,13 @@ enum Command {
     /// Publish simulated sensors (or a file) live to fusiond.
     Run {
         /// Namespace of the services.
-        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
+        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE,
+              value_parser = fusion_shared::service::namespace_arg)]
         namespace: String,
+        /// Exit 0 even if no fusiond received the samples (by default a run
+        /// that reached no daemon is an error).
+        #[arg(long)]
+        allow_no_daemon: bool,
         /// Publish only the IMUs.
         #[arg(long, conflicts_with = "position_only")]
         imu_only: bool,
@@ -306,19 +312,49 @@ fn parse_mount(text: &str) -> anyhow::Result<Matrix3<f64>> {
         * Matrix3::from_diagonal(&flip))
 }
 
-fn main() -> anyhow::Result<()> {
-    match Cli::parse().command {
-        Command::Run { namespace, imu_only, imu_ids, position_only, input, realtime, start_at_ns, sim } => {
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("fusion-sim: {}", fusion_shared::exit::error_line(e.as_ref()));
+            ExitCode::from(fusion_shared::exit::FAILURE)
+        }
+    }
+}
+
+/// Refuses invalid arguments before anything starts: clap's usage error (status 2).
+fn usage_error(e: anyhow::Error) -> ! {
+    Cli::command().error(clap::error::ErrorKind::ValueValidation, fusion_shared::exit::error_line(e.as_ref())).exit()
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Run {
+            namespace,
+            allow_no_daemon,
+            imu_only,
+            imu_ids,
+            position_only,
+            input,
+            realtime,
+            start_at_ns,
+            sim,
+        } => {
+            let config = sim.scenario().unwrap_or_else(|e| usage_error(e));
+            if let Some(ids) = &imu_ids
+                && !config.imus().any(|i| ids.contains(&i.sensor))
+            {
+                usage_error(anyhow::anyhow!("--imu-ids names no simulated IMU (ids 0..{})", config.imus().count()));
+            }
             let stop = Arc::new(AtomicBool::new(false));
             for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
                 signal_hook::flag::register(signal, Arc::clone(&stop))?;
             }
             let client = Client::connect(&namespace)?;
             if let Some(path) = input {
-                return publish_file(&client, &path, realtime, &stop);
+                return publish_file(&client, &path, realtime, allow_no_daemon, &stop);
             }
             let start = start_at_ns.unwrap_or_else(|| now_ns() + 100_000_000);
-            let config = sim.scenario()?;
             let trajectory = CarTrajectory::new(config.seed);
             let end_ns = start + (config.duration_s * 1e9) as u64;
             let mut publishers = SensorPublishers::default();
@@ -328,9 +364,6 @@ fn main() -> anyhow::Result<()> {
             {
                 publishers.open(&client, SampleKind::Imu, imu.sensor)?;
                 imus.push(ImuSim::new(trajectory.clone(), imu.clone(), config.imu_output, start, config.seed));
-            }
-            if imu_ids.is_some() && imus.is_empty() {
-                anyhow::bail!("--imu-ids names no simulated IMU (ids 0..{})", config.imus().count());
             }
             // The first IMU paces the run; the others (same instants) merge in by arrival.
             let mut imus = imus.into_iter();
@@ -345,18 +378,27 @@ fn main() -> anyhow::Result<()> {
                     publishers.open(&client, sim.kind(), sim.sensor())?;
                 }
             }
-            let counts = play(ArrivalMerge::new(imu_sim, delayed), &mut publishers, end_ns, &stop)?;
+            let played = play(ArrivalMerge::new(imu_sim, delayed), &mut publishers, end_ns, &stop)?;
             let counts: Vec<String> = SampleKind::ALL
                 .iter()
-                .zip(counts)
+                .zip(played.published)
                 .filter(|(_, n)| *n > 0)
                 .map(|(k, n)| format!("{n} {} samples", k.name()))
                 .collect();
-            eprintln!("fusion-sim: published {}", counts.join(", "));
+            let published: u64 = played.published.iter().sum();
+            let missed = published - played.delivered;
+            let reached = if missed == 0 { String::new() } else { format!(" ({missed} reached no reader)") };
+            eprintln!("fusion-sim: published {} to namespace {namespace:?}{reached}", counts.join(", "));
+            if published > 0 && played.delivered == 0 && !allow_no_daemon {
+                anyhow::bail!(
+                    "no fusiond received the samples: none runs in namespace {namespace:?} (--allow-no-daemon to \
+                     publish anyway)"
+                );
+            }
             Ok(())
         }
         Command::Record { output, truth, sim } => {
-            let scenario = Scenario::generate(&sim.scenario()?);
+            let scenario = Scenario::generate(&sim.scenario().unwrap_or_else(|e| usage_error(e)));
             let mut out = BufWriter::new(std::fs::File::create(&output).with_context(|| output.display().to_string())?);
             for a in &scenario.arrivals {
                 writeln!(out, "{}", format_sample(&a.sample))?;
@@ -393,11 +435,22 @@ const ACK_TIMEOUT: Duration = Duration::from_millis(50);
 /// lockstep with the daemon: each sample after the snapshot of the one before, so
 /// the daemon sees exactly the file's order and any reader can keep up with the
 /// snapshots.
-fn publish_file(client: &Client, path: &std::path::Path, realtime: bool, stop: &AtomicBool) -> anyhow::Result<()> {
+fn publish_file(
+    client: &Client,
+    path: &std::path::Path,
+    realtime: bool,
+    allow_no_daemon: bool,
+    stop: &AtomicBool,
+) -> anyhow::Result<()> {
     let file = std::io::BufReader::new(std::fs::File::open(path).with_context(|| path.display().to_string())?);
     let mut publishers = SensorPublishers::all(client)?;
-    let mut state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER)?;
-    let (mut published, mut skipped, mut unacknowledged) = (0u64, 0u64, 0u64);
+    // Lockstep needs the daemon's snapshots; paced by the clock, it may start later.
+    let mut state = match client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER) {
+        Ok(s) => Some(s),
+        Err(fusion_client::ClientError::DaemonNotRunning { .. }) if realtime => None,
+        Err(e) => return Err(e.into()),
+    };
+    let (mut published, mut delivered, mut skipped, mut unacknowledged) = (0u64, 0u64, 0u64, 0u64);
     let mut pace: Option<(u64, u64)> = None; // (first timestamp, wall time of it)
     for (i, line) in file.lines().enumerate() {
         if stop.load(Ordering::Relaxed) {
@@ -419,9 +472,9 @@ fn publish_file(client: &Client, path: &std::path::Path, realtime: bool, stop: &
             let (t0, wall0) = *pace.get_or_insert((sample.t_ns(), now_ns()));
             sleep_until(wall0 + sample.t_ns().saturating_sub(t0), stop);
         }
-        publishers.publish(sample)?;
+        delivered += u64::from(publishers.publish(sample)?.is_some_and(|readers| readers > 0));
         published += 1;
-        if !realtime {
+        if let Some(state) = state.as_mut().filter(|_| !realtime) {
             let deadline = std::time::Instant::now() + ACK_TIMEOUT;
             let acknowledged = loop {
                 let left = deadline.saturating_duration_since(std::time::Instant::now());
@@ -442,8 +495,16 @@ fn publish_file(client: &Client, path: &std::path::Path, realtime: bool, stop: &
         }
     }
     eprintln!(
-        "fusion-sim: published {published} samples from {} ({skipped} unreadable lines, {unacknowledged} without a snapshot)",
-        path.display()
+        "fusion-sim: published {published} samples from {} ({skipped} unreadable lines, {unacknowledged} without a \
+         snapshot, {} reached no reader)",
+        path.display(),
+        published - delivered
     );
+    if published > 0 && delivered == 0 && !allow_no_daemon {
+        anyhow::bail!(
+            "no fusiond received the samples: none runs in namespace {:?} (--allow-no-daemon to publish anyway)",
+            client.names().namespace
+        );
+    }
     Ok(())
 }

@@ -93,26 +93,36 @@ pub fn sleep_until(t_ns: u64, stop: &AtomicBool) {
     }
 }
 
+/// What [`play`] published.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Played {
+    /// Samples published of each kind (index [`fusion_shared::SampleKind::index`]).
+    pub published: [u64; fusion_shared::SampleKind::COUNT],
+    /// Samples that reached at least one reader (fusiond, a recorder): none when
+    /// no fusiond ran in the namespace.
+    pub delivered: u64,
+}
+
 /// Publishes `arrivals` at their arrival times until they end, `end_ns` passes
-/// or `stop` is set. Samples of a kind without a publisher are skipped. Returns
-/// the number published of each kind (index [`fusion_shared::SampleKind::index`]).
+/// or `stop` is set. Samples of a kind without a publisher are skipped.
 pub fn play(
     arrivals: impl Iterator<Item = Arrival>,
     publishers: &mut SensorPublishers,
     end_ns: u64,
     stop: &AtomicBool,
-) -> Result<[u64; fusion_shared::SampleKind::COUNT], ClientError> {
-    let mut counts = [0; fusion_shared::SampleKind::COUNT];
+) -> Result<Played, ClientError> {
+    let mut played = Played::default();
     for a in arrivals {
         if a.arrival_ns > end_ns || stop.load(Ordering::Relaxed) {
             break;
         }
         sleep_until(a.arrival_ns, stop);
-        if publishers.publish(a.sample)?.is_some() {
-            counts[a.sample.kind().index()] += 1;
+        if let Some(readers) = publishers.publish(a.sample)? {
+            played.published[a.sample.kind().index()] += 1;
+            played.delivered += u64::from(readers > 0);
         }
     }
-    Ok(counts)
+    Ok(played)
 }
 
 #[cfg(test)]

@@ -28,7 +28,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use clap::{Parser, ValueEnum};
+use clap::{CommandFactory, Parser, ValueEnum};
 use fusion_client::{Client, SampleSubscriber, SensorPublishers};
 use fusion_shared::service::{self, ServiceNames};
 use fusion_shared::{KindVisitor, Sample, SampleKind, StateSnapshot, WireSample};
@@ -48,7 +48,7 @@ compile_error!("fusion-bridge sends the wire types' little-endian bytes");
 )]
 struct Cli {
     /// Namespace of the local services.
-    #[arg(long, default_value = service::DEFAULT_NAMESPACE)]
+    #[arg(long, default_value = service::DEFAULT_NAMESPACE, value_parser = service::namespace_arg)]
     namespace: String,
     /// Zenoh endpoint to listen on (repeatable), e.g. `tcp/0.0.0.0:7447`.
     #[arg(long)]
@@ -98,33 +98,33 @@ fn main() -> ExitCode {
         .with_writer(std::io::stderr)
         .with_ansi(std::io::stderr().is_terminal())
         .init();
-    match run(Cli::parse()) {
+    let cli = Cli::parse();
+    // Invalid arguments are a usage error (status 2) before anything starts.
+    let args = check(&cli).unwrap_or_else(|e| {
+        Cli::command()
+            .error(clap::error::ErrorKind::ValueValidation, fusion_shared::exit::error_line(e.as_ref()))
+            .exit()
+    });
+    match run(cli, args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("fusion-bridge: {e:#}");
-            ExitCode::FAILURE
+            eprintln!("fusion-bridge: {}", fusion_shared::exit::error_line(e.as_ref()));
+            ExitCode::from(fusion_shared::exit::FAILURE)
         }
     }
 }
 
-/// What one stream did, for the status lines and the last line.
-#[derive(Default)]
-struct Counts {
-    forwarded: AtomicU64,
-    refused: AtomicU64,
-    /// `--state in`: snapshots missing from the sequence (the exporting side
-    /// lagged behind fusiond, or the bridge restarted).
-    gaps: AtomicU64,
+/// The arguments, checked.
+struct Checked {
+    names: ServiceNames,
+    kinds: Vec<SampleKind>,
+    status_interval: Duration,
+    zenoh: zenoh::Config,
+    keys: Keys,
 }
 
-impl Counts {
-    fn line(&self) -> String {
-        let get = |c: &AtomicU64| c.load(Ordering::Relaxed);
-        format!("forwarded {}, refused {}, gaps {}", get(&self.forwarded), get(&self.refused), get(&self.gaps))
-    }
-}
-
-fn run(cli: Cli) -> anyhow::Result<()> {
+/// Checks every argument without starting anything.
+fn check(cli: &Cli) -> anyhow::Result<Checked> {
     let names = ServiceNames::new(&cli.namespace)?;
     anyhow::ensure!(
         cli.state != Direction::Off || cli.samples != Direction::Off,
@@ -146,15 +146,36 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         .ok()
         .filter(|d| !d.is_zero())
         .context("--status-interval must be a positive number of seconds")?;
-    let session = zenoh_session(&cli)?;
+    let keys = Keys { prefix: format!("{}/{}", cli.key_prefix, names.namespace) };
+    zenoh::key_expr::KeyExpr::try_from(keys.state())
+        .map_err(|e| anyhow::anyhow!("--key-prefix {:?}: {e}", cli.key_prefix))?;
+    Ok(Checked { names, kinds, status_interval, zenoh: zenoh_config(cli)?, keys })
+}
+
+/// What one stream did, for the status lines and the last line.
+#[derive(Default)]
+struct Counts {
+    forwarded: AtomicU64,
+    refused: AtomicU64,
+    /// `--state in`: snapshots missing from the sequence (the exporting side
+    /// lagged behind fusiond, or the bridge restarted).
+    gaps: AtomicU64,
+}
+
+impl Counts {
+    fn line(&self) -> String {
+        let get = |c: &AtomicU64| c.load(Ordering::Relaxed);
+        format!("forwarded {}, refused {}, gaps {}", get(&self.forwarded), get(&self.refused), get(&self.gaps))
+    }
+}
+
+fn run(cli: Cli, args: Checked) -> anyhow::Result<()> {
+    let Checked { names, kinds, status_interval, zenoh, keys } = args;
+    let session = zenoh::open(zenoh).wait().map_err(|e| anyhow::anyhow!("cannot open the Zenoh session: {e}"))?;
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(signal, Arc::clone(&stop)).context("cannot install signal handler")?;
     }
-    let keys = Keys { prefix: format!("{}/{}", cli.key_prefix, names.namespace) };
-    zenoh::key_expr::KeyExpr::try_from(keys.state())
-        .map_err(|e| anyhow::anyhow!("--key-prefix {:?}: {e}", cli.key_prefix))?;
-
     let mut streams: Vec<Stream> = Vec::new();
     let mut spawn = |name: &'static str, body: StreamBody| {
         let counts = Arc::new(Counts::default());
@@ -256,7 +277,8 @@ const TRANSPORTS: &[&str] = &["tcp"];
 
 /// A Zenoh peer with exactly the endpoints given (multicast scouting only
 /// with `--scouting`).
-fn zenoh_session(cli: &Cli) -> anyhow::Result<zenoh::Session> {
+/// The Zenoh configuration of the endpoints given, each checked.
+fn zenoh_config(cli: &Cli) -> anyhow::Result<zenoh::Config> {
     let mut config = zenoh::Config::default();
     let set = |config: &mut zenoh::Config, key: &str, value: String| {
         config.insert_json5(key, &value).map_err(|e| anyhow::anyhow!("zenoh config {key}: {e}"))
@@ -276,7 +298,7 @@ fn zenoh_session(cli: &Cli) -> anyhow::Result<zenoh::Session> {
         set(&mut config, key, serde_json::to_string(endpoints)?)?;
     }
     set(&mut config, "scouting/multicast/enabled", cli.scouting.to_string())?;
-    zenoh::open(config).wait().map_err(|e| anyhow::anyhow!("cannot open the Zenoh session: {e}"))
+    Ok(config)
 }
 
 /// The encoding of wire type `T`: `application/octet-stream;<type name>`.

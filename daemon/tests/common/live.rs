@@ -3,6 +3,7 @@
 //! seeing each other, and can check that nothing is left behind.
 #![allow(dead_code)]
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -77,26 +78,60 @@ impl Drop for TestDomain {
     }
 }
 
-/// Path of a tool of the client crate (`fusion-sim`, `fusionctl`) next to fusiond.
+/// Path of a tool of the client crate (`fusion-sim`, `fusionctl`, `fusion-demo`)
+/// next to fusiond.
 ///
-/// Cargo rebuilds only this package's binaries for its tests, so the client's
-/// tools are brought up to date here, once per test binary (a no-op when fresh:
-/// same profile and features as `cargo test --workspace`).
+/// `cargo test --workspace` builds them with the tests (this package's
+/// dev-dependency on `fusion-client` turns on its `cli` feature). Run otherwise
+/// (`cargo test -p fusion-daemon`), a tool may be missing or older than the
+/// sources: then it is built here once per test binary, with cargo's progress
+/// on the terminal rather than captured, so the wait is visible.
 pub fn workspace_bin(name: &str) -> PathBuf {
+    let path = PathBuf::from(env!("CARGO_BIN_EXE_fusiond")).with_file_name(name);
     static BUILD: std::sync::Once = std::sync::Once::new();
     BUILD.call_once(|| {
+        if built_after_sources(&path) {
+            return;
+        }
+        let args = ["build", "-p", "fusion-client", "--features", "cli", "--bins"];
+        // Straight to the terminal: the test harness captures only `eprintln!`.
+        let _ = writeln!(std::io::stderr(), "{name} is missing or older than its sources: cargo {}", args.join(" "));
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let mut cmd = Command::new(cargo);
-        cmd.args(["build", "--quiet", "-p", "fusion-client", "--features", "cli", "--bins"]);
+        cmd.args(args);
         if !cfg!(debug_assertions) {
             cmd.arg("--release");
         }
         let status = cmd.current_dir(env!("CARGO_MANIFEST_DIR")).status().expect("run cargo build");
         assert!(status.success(), "building the client tools failed");
     });
-    let path = PathBuf::from(env!("CARGO_BIN_EXE_fusiond")).with_file_name(name);
     assert!(path.exists(), "{} is not built", path.display());
     path
+}
+
+/// Whether `binary` exists and is newer than every source file of the client
+/// and shared crates.
+fn built_after_sources(binary: &Path) -> bool {
+    fn newest(dir: &Path) -> std::time::SystemTime {
+        let mut latest = std::time::SystemTime::UNIX_EPOCH;
+        for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+            let path = entry.path();
+            let t = if path.is_dir() {
+                newest(&path)
+            } else {
+                entry.metadata().and_then(|m| m.modified()).unwrap_or(latest)
+            };
+            latest = latest.max(t);
+        }
+        latest
+    }
+    let Ok(built) = std::fs::metadata(binary).and_then(|m| m.modified()) else { return false };
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    ["client/src", "client/Cargo.toml", "shared/src", "shared/Cargo.toml"].iter().all(|p| {
+        let p = root.join(p);
+        let t = if p.is_dir() { newest(&p) } else { std::fs::metadata(&p).and_then(|m| m.modified()).unwrap_or(built) };
+        t <= built
+    })
 }
 
 /// The `[validation]` table for a daemon fed recorded or simulated time: any
@@ -182,7 +217,12 @@ impl Daemon {
 
     /// SIGTERM, then the exit status (SIGKILL after 10 s).
     pub fn terminate(&mut self) -> ExitStatus {
-        self.signal("-TERM");
+        self.stop_with("-TERM")
+    }
+
+    /// `signal` (`-TERM`, `-INT`), then the exit status (SIGKILL after 10 s).
+    pub fn stop_with(&mut self, signal: &str) -> ExitStatus {
+        self.signal(signal);
         let deadline = Instant::now() + Duration::from_secs(10);
         while Instant::now() < deadline {
             if let Ok(Some(status)) = self.child.try_wait() {
@@ -191,7 +231,7 @@ impl Daemon {
             std::thread::sleep(Duration::from_millis(10));
         }
         let _ = self.child.kill();
-        panic!("fusiond ignored SIGTERM: {}", self.stderr());
+        panic!("fusiond ignored {signal}: {}", self.stderr());
     }
 
     pub fn kill(&mut self) {

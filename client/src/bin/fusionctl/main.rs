@@ -14,6 +14,7 @@ mod record;
 mod top;
 
 use std::io::Write;
+use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -35,13 +36,14 @@ enum Command {
     /// Print snapshots as JSON lines (replay output format plus input, health and counters).
     Echo {
         /// Namespace of the services.
-        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
+        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE,
+              value_parser = fusion_shared::service::namespace_arg)]
         namespace: String,
         /// Stop after this many snapshots.
         #[arg(long)]
         count: Option<u64>,
         /// Stop after this many seconds without a snapshot.
-        #[arg(long)]
+        #[arg(long, value_parser = seconds)]
         idle_timeout: Option<f64>,
     },
     /// Record every input sample and every snapshot to an MCAP file (Foxglove,
@@ -51,10 +53,11 @@ enum Command {
         #[arg(long)]
         output: std::path::PathBuf,
         /// Namespace of the services.
-        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
+        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE,
+              value_parser = fusion_shared::service::namespace_arg)]
         namespace: String,
         /// Stop after this many seconds.
-        #[arg(long)]
+        #[arg(long, value_parser = seconds)]
         duration: Option<f64>,
         /// Write uncompressed chunks (default: zstd).
         #[arg(long)]
@@ -80,14 +83,16 @@ enum Command {
     /// latency percentiles; `q` quits.
     Top {
         /// Namespace of the services.
-        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
+        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE,
+              value_parser = fusion_shared::service::namespace_arg)]
         namespace: String,
     },
     /// Serve the live estimate, snapshots and samples over the Foxglove
     /// WebSocket protocol (open `ws://HOST:PORT` in the Foxglove app).
     Foxglove {
         /// Namespace of the services.
-        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
+        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE,
+              value_parser = fusion_shared::service::namespace_arg)]
         namespace: String,
         /// Address to listen on (`0.0.0.0` for the vehicle network).
         #[arg(long, default_value = "127.0.0.1")]
@@ -97,10 +102,15 @@ enum Command {
         port: u16,
     },
     /// Print the latest snapshot for a person: state, standard deviations, health, counters, age.
+    /// Exit status 3 when fusiond runs but has published no snapshot yet.
     State {
         /// Namespace of the services.
-        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE)]
+        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE,
+              value_parser = fusion_shared::service::namespace_arg)]
         namespace: String,
+        /// Seconds to wait for a first snapshot when fusiond has published none yet.
+        #[arg(long, default_value_t = 1.0, value_parser = seconds)]
+        wait: f64,
     },
 }
 
@@ -112,12 +122,31 @@ fn finite(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
 }
 
-fn main() -> anyhow::Result<()> {
+/// A number of seconds: finite and not negative (else a usage error).
+fn seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s.is_finite() && s >= 0.0 && Duration::try_from_secs_f64(s).is_ok() => Ok(s),
+        _ => Err(format!("{text:?} is not a number of seconds (finite, not negative)")),
+    }
+}
+
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(code) => ExitCode::from(code),
+        Err(e) => {
+            eprintln!("fusionctl: {}", fusion_shared::exit::error_line(e.as_ref()));
+            ExitCode::from(fusion_shared::exit::FAILURE)
+        }
+    }
+}
+
+/// Runs a command; its exit status ([`fusion_shared::exit`]).
+fn run(cli: Cli) -> anyhow::Result<u8> {
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM, signal_hook::consts::SIGPIPE] {
         signal_hook::flag::register(signal, Arc::clone(&stop))?;
     }
-    match Cli::parse().command {
+    match cli.command {
         Command::Echo { namespace, count, idle_timeout } => {
             let client = Client::connect(&namespace)?;
             let mut state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER)?;
@@ -145,13 +174,10 @@ fn main() -> anyhow::Result<()> {
                 }
             }
             let _ = out.flush();
-            Ok(())
+            Ok(fusion_shared::exit::SUCCESS)
         }
         Command::Record { output, namespace, duration, no_compression } => {
-            let duration = duration
-                .map(Duration::try_from_secs_f64)
-                .transpose()
-                .map_err(|_| anyhow::anyhow!("--duration must be a positive number of seconds"))?;
+            let duration = duration.map(Duration::from_secs_f64);
             let c = record::run(&namespace, &output, duration, !no_compression, &stop)?;
             eprintln!(
                 "fusionctl: recorded {} samples ({} not processed by fusiond) and {} snapshots to {}",
@@ -167,64 +193,47 @@ fn main() -> anyhow::Result<()> {
                     c.samples_lost, c.snapshots_lost, c.missed
                 );
             }
-            Ok(())
+            Ok(fusion_shared::exit::SUCCESS)
         }
         Command::Plot { input, samples, truth, output_dir } => {
             let files = plot::run(&input, samples.as_deref(), truth.as_deref(), &output_dir)?;
             for f in files {
                 println!("{}", f.display());
             }
-            Ok(())
+            Ok(fusion_shared::exit::SUCCESS)
         }
-        Command::Top { namespace } => top::run(&namespace, &stop),
-        Command::Foxglove { namespace, host, port } => foxglove::run(&namespace, &host, port, &stop),
-        Command::State { namespace } => {
+        Command::Top { namespace } => top::run(&namespace, &stop).map(|()| fusion_shared::exit::SUCCESS),
+        Command::Foxglove { namespace, host, port } => {
+            foxglove::run(&namespace, &host, port, &stop).map(|()| fusion_shared::exit::SUCCESS)
+        }
+        Command::State { namespace, wait } => {
             let client = Client::connect(&namespace)?;
             let mut state = client.state_subscriber()?;
             let s = match state.latest()? {
                 Some(s) => *s,
-                None => *state.wait_next(Duration::from_secs(1))?.ok_or_else(|| {
-                    anyhow::anyhow!("fusiond runs in namespace {namespace:?} but has published no state yet")
-                })?,
+                None => match state.wait_next(Duration::from_secs_f64(wait))? {
+                    Some(s) => *s,
+                    None => {
+                        eprintln!(
+                            "fusionctl: fusiond runs in namespace {namespace:?} but has published no snapshot yet \
+                             (it has had no input)"
+                        );
+                        return Ok(fusion_shared::exit::NO_STATE_YET);
+                    }
+                },
             };
             print!("{}", describe(&s));
-            Ok(())
+            Ok(fusion_shared::exit::SUCCESS)
         }
     }
 }
 
 /// Each state's name and the index of its standard deviation in the covariance
-/// (the INS covariance is over 15 error states: the quaternion's 4 entries share
-/// the 3 attitude errors).
+/// (see [`fusion_client::Model::state_layout`]).
 fn state_layout(s: &StateSnapshot) -> Vec<(String, Option<usize>)> {
-    match s.model {
-        model::LINEAR => ["p_x m", "p_y m", "p_z m", "v_x m/s", "v_y m/s", "v_z m/s"]
-            .iter()
-            .enumerate()
-            .map(|(i, n)| (n.to_string(), Some(i)))
-            .collect(),
-        model::INS => [
-            ("p_x m", Some(0)),
-            ("p_y m", Some(1)),
-            ("p_z m", Some(2)),
-            ("v_x m/s", Some(3)),
-            ("v_y m/s", Some(4)),
-            ("v_z m/s", Some(5)),
-            ("q_w", None),
-            ("q_x", None),
-            ("q_y", None),
-            ("q_z", None),
-            ("b_ax m/s2", Some(9)),
-            ("b_ay m/s2", Some(10)),
-            ("b_az m/s2", Some(11)),
-            ("b_gx rad/s", Some(12)),
-            ("b_gy rad/s", Some(13)),
-            ("b_gz rad/s", Some(14)),
-        ]
-        .iter()
-        .map(|(n, i)| (n.to_string(), *i))
-        .collect(),
-        _ => (0..s.state().len()).map(|i| (format!("x[{i}]"), Some(i))).collect(),
+    match s.model() {
+        Some(m) => m.state_layout().iter().map(|(n, i)| (n.to_string(), *i)).collect(),
+        None => (0..s.state().len()).map(|i| (format!("x[{i}]"), Some(i))).collect(),
     }
 }
 
@@ -253,7 +262,6 @@ fn describe(s: &StateSnapshot) -> String {
         health::name(s.health),
         if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) }
     );
-    let ins = s.model == model::INS;
     let layout = state_layout(s);
     let sd: Vec<f64> = s.std_devs().collect();
     o += &format!("  {:<12} {:>14} {:>12}\n", "state", "value", "1-sigma");
@@ -261,13 +269,12 @@ fn describe(s: &StateSnapshot) -> String {
         let sigma = k.and_then(|k| sd.get(k)).map_or_else(String::new, |v| format!("{v:.4}"));
         o += &format!("  {name:<12} {v:>14.6} {sigma:>12}\n");
     }
-    if ins && sd.len() >= 9 {
-        let deg = |i: usize| sd[i].to_degrees();
+    if let (Some(rpy), Some(sigma)) = (s.roll_pitch_yaw(), s.roll_pitch_yaw_std()) {
+        let [r, p, y] = rpy.map(f64::to_degrees);
+        let [sr, sp, sy] = sigma.map(f64::to_degrees);
         o += &format!(
-            "  attitude error 1-sigma (roll/pitch/yaw axes, deg): {:.3} {:.3} {:.3}\n",
-            deg(6),
-            deg(7),
-            deg(8)
+            "  roll/pitch/yaw deg: {r:.3} / {p:.3} / {y:.3}, 1-sigma {sr:.3} / {sp:.3} / {sy:.3} (yaw from east, \
+             counter-clockwise)\n"
         );
     }
     o += &format!(

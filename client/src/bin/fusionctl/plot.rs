@@ -441,7 +441,9 @@ pub fn run(input: &Path, samples: Option<&Path>, truth: Option<&Path>, dir: &Pat
     plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
         .map_err(|_| anyhow::anyhow!("the embedded font does not load"))?;
     let mut head = [0u8; 8];
-    let n = std::io::Read::read(&mut std::fs::File::open(input)?, &mut head)?;
+    let n = std::fs::File::open(input)
+        .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+        .with_context(|| format!("cannot read {}", input.display()))?;
     let mut data =
         if head[..n].starts_with(mcap::MAGIC) { from_recording(input)? } else { from_replay(input, samples)? };
     anyhow::ensure!(!data.estimates.is_empty(), "{} has no estimates to plot", input.display());
