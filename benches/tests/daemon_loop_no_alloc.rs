@@ -11,6 +11,9 @@
 
 use std::sync::Once;
 
+#[path = "../../daemon/tests/common/heartbeat.rs"]
+mod heartbeat;
+
 use fusion_benches::alloc::{Counting, Scenario, Window, count_this_thread, sizes, steady_state};
 use fusion_benches::latency::{INS_CONFIG, LINEAR_CONFIG, VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST};
 use fusion_daemon::ipc::WaitMode;
@@ -39,6 +42,7 @@ fn check(w: &Window, what: &str) {
 
 #[test]
 fn the_daemon_loop_allocates_nothing_per_sample() {
+    let _beat = heartbeat::Heartbeat::start("daemon loop allocations", std::time::Duration::from_secs(15));
     let domain = domain();
     let scenario = |namespace, config, wait, accel_mps2| Scenario {
         namespace,

@@ -3,6 +3,9 @@
 //! not, and the `ins` model's error-state filter in f32 over an hour's drive. The
 //! example `precision` prints all the tables of the report.
 
+#[path = "../../daemon/tests/common/heartbeat.rs"]
+mod heartbeat;
+
 use fusion_benches::precision::{Comparison, compare, drives, ins_runs, linear_runs, table, time_ordered};
 
 fn row<'a>(rows: &'a [Comparison], name: &str) -> &'a Comparison {
@@ -34,6 +37,7 @@ fn f32_joseph_loses_positive_definiteness_with_very_accurate_fixes_and_f32_udu_d
 /// example `precision` in release).
 #[test]
 fn one_hour_of_ins_in_f32_stays_positive_definite_and_close_to_f64() {
+    let _beat = heartbeat::Heartbeat::start("an hour of ins in f32 and f64", std::time::Duration::from_secs(40));
     let (scenario, model) = drives::ins(3600.0, 0.5, 2);
     let rows = compare(&mut ins_runs(&model), &time_ordered(&scenario), |t| scenario.truth_at(t).pos_m);
     eprintln!("{}", table(&rows));

@@ -249,6 +249,20 @@ typedef struct FusionSensorCounters {
 } FusionSensorCounters;
 
 // The fusion state after one processed sample.
+//
+// The state layout of each model (code in `model`):
+//
+// | model | state `x` (nominal) | covariance (error state) |
+// |---|---|---|
+// | `linear` (1) | `[p (0..3), v (3..6)]` | 6×6 over `[p, v]` |
+// | `ins` (2) | `[p (0..3), v (3..6), q_wxyz (6..10), b_a (10..13), b_g (13..16)]` | 15×15 over `[δp, δv, δθ, δb_a, δb_g]` |
+//
+// Units and frames: `p` m and `v` m/s in the world frame (ENU about the datum);
+// `q` rotates the body frame (forward-left-up) into the world frame; `b_a` (m/s²)
+// and `b_g` (rad/s) are the IMU's biases in the body frame. The attitude error
+// `δθ` is local, `q_true = q ⊗ Exp(δθ)`, in rad about the body axes (Solà 2017,
+// §5.3.3). Because the quaternion's 4 entries share 3 error states,
+// covariance row `i` lines up with state entry `i` only for `i < 6`.
 typedef struct FusionStateSnapshot {
   // Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
   uint64_t seq;

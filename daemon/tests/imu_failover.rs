@@ -16,6 +16,7 @@ mod common;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use common::heartbeat::Heartbeat;
 use common::live::{Daemon, TestDomain, workspace_bin};
 use fusion_client::sim::CarTrajectory;
 use fusion_shared::service::DOMAIN_ENV;
@@ -98,6 +99,10 @@ fn error(s: &StateSnapshot, truth: &CarTrajectory, start_ns: u64) -> (Vector6<f6
 }
 
 fn drive(combine: &str) {
+    let _beat = Heartbeat::start(
+        if combine == "average" { "imu_failover average" } else { "imu_failover failover" },
+        Duration::from_secs(14),
+    );
     let domain = TestDomain::new(&format!("failover-{combine}"));
     let mut daemon = Daemon::start(&domain, &config(combine), "event");
     let client = domain.client();

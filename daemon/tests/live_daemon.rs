@@ -273,7 +273,7 @@ fn start_up_errors_are_clear_and_exit_non_zero() {
     assert_eq!(code, Some(1));
     assert!(err.contains("model.accel_noise_std"), "{err}");
     let (code, err) = run(&config(), "no/slashes");
-    assert_eq!(code, Some(1));
+    assert_eq!(code, Some(2), "a usage error");
     assert!(err.contains("invalid namespace"), "{err}");
     let (code, err) = run_with(&config(), &domain.namespace, &["--cpu", "100000"]);
     assert_eq!(code, Some(1));

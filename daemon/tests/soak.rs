@@ -11,6 +11,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
+use common::heartbeat::Heartbeat;
 use common::live::{Daemon, TestDomain, workspace_bin};
 use fusion_client::sim::CarTrajectory;
 use fusion_shared::service::DOMAIN_ENV;
@@ -57,6 +58,7 @@ fn spawn_sim(domain: &TestDomain, start: u64, seed: u64, duration_s: u64) -> Chi
 #[test]
 fn fusiond_survives_a_fault_injection_soak_with_flat_memory_and_a_consistent_estimate() {
     let secs: u64 = std::env::var("FUSION_SOAK_SECS").ok().and_then(|s| s.parse().ok()).unwrap_or(60);
+    let _beat = Heartbeat::start("soak", Duration::from_secs(secs + 5));
     let domain = TestDomain::new("soak");
     // The demo's model on the real clock (default validation), gated.
     let config = format!("{}\n[validation]\n", common::linear_config(Some(0.999)));

@@ -231,73 +231,19 @@ impl SensorCounters {
 
 /// The fusion state after one processed sample.
 ///
-/// Read it with the typed accessors: [`position`](Self::position),
-/// [`velocity`](Self::velocity), [`attitude`](Self::attitude) (and
-/// [`roll_pitch_yaw`](Self::roll_pitch_yaw)), the biases, the standard deviation of
-/// each ([`position_std`](Self::position_std), …), [`health`](Self::health) and
-/// [`health_reasons`](Self::health_reasons), [`model`](Self::model),
-/// [`input_kind`](Self::input_kind). They know the layout of each model; the raw
-/// fields (`x`, `cov`, `health`, `model`, …) are what is on the wire:
+/// The state layout of each model (code in `model`):
 ///
 /// | model | state `x` (nominal) | covariance (error state) |
 /// |---|---|---|
-/// | [`Model::Linear`] | `[p (0..3), v (3..6)]` | 6×6 over `[p, v]` |
-/// | [`Model::Ins`] | `[p (0..3), v (3..6), q_wxyz (6..10), b_a (10..13), b_g (13..16)]` | 15×15 over `[δp, δv, δθ, δb_a, δb_g]` |
+/// | `linear` (1) | `[p (0..3), v (3..6)]` | 6×6 over `[p, v]` |
+/// | `ins` (2) | `[p (0..3), v (3..6), q_wxyz (6..10), b_a (10..13), b_g (13..16)]` | 15×15 over `[δp, δv, δθ, δb_a, δb_g]` |
 ///
 /// Units and frames: `p` m and `v` m/s in the world frame (ENU about the datum);
 /// `q` rotates the body frame (forward-left-up) into the world frame; `b_a` (m/s²)
 /// and `b_g` (rad/s) are the IMU's biases in the body frame. The attitude error
 /// `δθ` is local, `q_true = q ⊗ Exp(δθ)`, in rad about the body axes (Solà 2017,
 /// §5.3.3). Because the quaternion's 4 entries share 3 error states,
-/// `std_devs()[i]` lines up with `state()[i]` only for `i < 6`; the `*_std`
-/// accessors take the right entries.
-///
-/// ```
-/// use fusion_shared::StateSnapshot;
-/// use fusion_shared::snapshot::{Health, HealthReason, Model, Outcome, model, health, outcome};
-/// use fusion_shared::SampleKind;
-///
-/// // What fusiond publishes for the ins model (built by hand here).
-/// let mut s = StateSnapshot { model: model::INS, state_len: 16, cov_dim: 15, ..Default::default() };
-/// let half = std::f64::consts::FRAC_PI_8; // a yaw of 45°: q = [cos 22.5°, 0, 0, sin 22.5°]
-/// s.x[..16].copy_from_slice(&[
-///     1.0, 2.0, 3.0, 10.0, 0.5, 0.0, half.cos(), 0.0, 0.0, half.sin(), 0.01, 0.0, 0.0, 0.0, 0.0, 1e-4,
-/// ]);
-/// for (i, var) in [0.25, 0.25, 1.0, 0.01, 0.01, 0.04, 1e-4, 1e-4, 4e-4, 1e-6, 1e-6, 1e-6, 1e-8, 1e-8, 1e-8]
-///     .into_iter()
-///     .enumerate()
-/// {
-///     s.cov[i * 15 + i] = var;
-/// }
-/// s.health = health::DEGRADED;
-/// s.health_reasons = health::SAMPLES_LOST | health::stale(SampleKind::Geodetic);
-/// s.input_kind = SampleKind::Imu as u32;
-/// s.sample_kind = SampleKind::Imu as u32;
-/// s.outcome = outcome::PROPAGATED;
-///
-/// assert_eq!(s.model(), Some(Model::Ins));
-/// assert_eq!(s.position(), Some([1.0, 2.0, 3.0]));
-/// assert_eq!(s.velocity(), Some([10.0, 0.5, 0.0]));
-/// assert_eq!(s.attitude(), Some([half.cos(), 0.0, 0.0, half.sin()]));
-/// let [roll, pitch, yaw] = s.roll_pitch_yaw().unwrap(); // rad
-/// assert!(roll.abs() < 1e-12 && pitch.abs() < 1e-12 && (yaw.to_degrees() - 45.0).abs() < 1e-9);
-/// assert_eq!(s.accel_bias(), Some([0.01, 0.0, 0.0]));
-/// assert_eq!(s.gyro_bias(), Some([0.0, 0.0, 1e-4]));
-/// let close = |a: Option<[f64; 3]>, b: [f64; 3]| a.unwrap().iter().zip(b).all(|(a, b)| (a - b).abs() < 1e-12);
-/// assert!(close(s.position_std(), [0.5, 0.5, 1.0]));
-/// assert!(close(s.velocity_std(), [0.1, 0.1, 0.2]));
-/// assert!(close(s.attitude_std(), [0.01, 0.01, 0.02])); // rad, about the body axes
-/// assert!(close(s.roll_pitch_yaw_std(), [0.01, 0.01, 0.02])); // level: the same
-/// assert!(close(s.accel_bias_std(), [1e-3; 3]));
-/// assert!(close(s.gyro_bias_std(), [1e-4; 3]));
-/// assert_eq!(s.health(), Health::Degraded);
-/// let reasons: Vec<HealthReason> = s.health_reasons().collect();
-/// assert_eq!(reasons, [HealthReason::SamplesLost, HealthReason::Stale(SampleKind::Geodetic)]);
-/// assert_eq!(reasons[1].to_string(), "geodetic stale");
-/// assert_eq!(s.input_kind(), Some(SampleKind::Imu));
-/// assert_eq!(s.sample_kind(), Some(SampleKind::Imu));
-/// assert_eq!(s.outcome(), Some(Outcome::Propagated));
-/// ```
+/// covariance row `i` lines up with state entry `i` only for `i < 6`.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[type_name("fusion.StateSnapshot.v6")]
 #[repr(C)]

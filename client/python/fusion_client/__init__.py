@@ -84,9 +84,18 @@ def now_ns() -> int:
 
 
 def _check_namespace(namespace: str) -> None:
-    ok = 0 < len(namespace) <= MAX_NAMESPACE_LEN and all(c.isascii() and (c.isalnum() or c in "_-.") for c in namespace)
+    # The same rule as fusion_shared::service::namespace_arg: nothing path-like.
+    ok = (
+        0 < len(namespace) <= MAX_NAMESPACE_LEN
+        and all(c.isascii() and (c.isalnum() or c in "_-.") for c in namespace)
+        and (namespace[0].isalnum() or namespace[0] == "_")
+        and ".." not in namespace
+    )
     if not ok:
-        raise ValueError(f"invalid namespace {namespace!r}: use 1 to {MAX_NAMESPACE_LEN} characters of A-Z a-z 0-9 _ - .")
+        raise ValueError(
+            f"invalid namespace {namespace!r}: use 1 to {MAX_NAMESPACE_LEN} characters of A-Z a-z 0-9 _ - ., "
+            'starting with a letter, digit or _ and without ".." (a namespace is part of file names)'
+        )
 
 
 def _config(domain):

@@ -37,6 +37,13 @@ def main() -> int:
         mine = getattr(fusion_client, key, getattr(wire, key, None))
         if mine != value:
             problems.append(f"{key}: Python {mine} vs Rust {value}")
+    # Path-like namespaces are refused, as by the Rust client and every binary.
+    for bad in (".", "..", "../x", ".hidden", "-x", "a..b"):
+        try:
+            fusion_client.Client(bad)
+            problems.append(f"namespace {bad!r} accepted")
+        except ValueError:
+            pass
     for p in problems:
         print(p)
     print(f"{len(rust['types'])} types, {len(rust['constants'])} constants: {len(problems)} differences")

@@ -59,6 +59,7 @@ pub fn acceptance_scenario(seed: u64, outlier_probability: f64) -> Scenario {
     Scenario::generate(&c)
 }
 
+pub mod heartbeat;
 pub mod live;
 
 /// Numbers as a TOML array's contents (`1e0, -2.5e-1`), exactly.
@@ -128,11 +129,23 @@ pub fn python_venv() -> PathBuf {
             .is_ok_and(|o| o.status.success())
     };
     if !installed(&python) {
-        eprintln!("making the tests' Python environment in {} (pip, from PyPI)", venv.display());
+        // Straight to the terminal (the harness captures eprintln!), and pip's own
+        // progress with it: the download is a wait to be seen.
+        let note = format!("making the tests' Python environment in {} (pip, from PyPI)\n", venv.display());
+        let _ = std::io::Write::write_all(&mut std::io::stderr(), note.as_bytes());
         let made = Command::new("python3").arg("-m").arg("venv").arg(&venv).status().expect("python3 runs");
         assert!(made.success(), "python3 -m venv {} failed", venv.display());
         let pip = Command::new(&python)
-            .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check", "-r", PYTHON_REQUIREMENTS])
+            .args([
+                "-m",
+                "pip",
+                "install",
+                "--progress-bar",
+                "off",
+                "--disable-pip-version-check",
+                "-r",
+                PYTHON_REQUIREMENTS,
+            ])
             .status()
             .expect("pip runs");
         assert!(pip.success(), "pip install -r {PYTHON_REQUIREMENTS} failed");

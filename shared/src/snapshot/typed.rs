@@ -218,6 +218,56 @@ impl Outcome {
 /// Index of the attitude error δθ in the ins covariance.
 const ATTITUDE_ERROR: usize = 6;
 
+/// The typed accessors. They know the layout of each model (see [`StateSnapshot`]),
+/// so that `std_devs()[i]`, which lines up with `state()[i]` only for `i < 6` in
+/// the ins model, need not be indexed by hand.
+///
+/// ```
+/// use fusion_shared::StateSnapshot;
+/// use fusion_shared::snapshot::{Health, HealthReason, Model, Outcome, model, health, outcome};
+/// use fusion_shared::SampleKind;
+///
+/// // What fusiond publishes for the ins model (built by hand here).
+/// let mut s = StateSnapshot { model: model::INS, state_len: 16, cov_dim: 15, ..Default::default() };
+/// let half = std::f64::consts::FRAC_PI_8; // a yaw of 45°: q = [cos 22.5°, 0, 0, sin 22.5°]
+/// s.x[..16].copy_from_slice(&[
+///     1.0, 2.0, 3.0, 10.0, 0.5, 0.0, half.cos(), 0.0, 0.0, half.sin(), 0.01, 0.0, 0.0, 0.0, 0.0, 1e-4,
+/// ]);
+/// for (i, var) in [0.25, 0.25, 1.0, 0.01, 0.01, 0.04, 1e-4, 1e-4, 4e-4, 1e-6, 1e-6, 1e-6, 1e-8, 1e-8, 1e-8]
+///     .into_iter()
+///     .enumerate()
+/// {
+///     s.cov[i * 15 + i] = var;
+/// }
+/// s.health = health::DEGRADED;
+/// s.health_reasons = health::SAMPLES_LOST | health::stale(SampleKind::Geodetic);
+/// s.input_kind = SampleKind::Imu as u32;
+/// s.sample_kind = SampleKind::Imu as u32;
+/// s.outcome = outcome::PROPAGATED;
+///
+/// assert_eq!(s.model(), Some(Model::Ins));
+/// assert_eq!(s.position(), Some([1.0, 2.0, 3.0]));
+/// assert_eq!(s.velocity(), Some([10.0, 0.5, 0.0]));
+/// assert_eq!(s.attitude(), Some([half.cos(), 0.0, 0.0, half.sin()]));
+/// let [roll, pitch, yaw] = s.roll_pitch_yaw().unwrap(); // rad
+/// assert!(roll.abs() < 1e-12 && pitch.abs() < 1e-12 && (yaw.to_degrees() - 45.0).abs() < 1e-9);
+/// assert_eq!(s.accel_bias(), Some([0.01, 0.0, 0.0]));
+/// assert_eq!(s.gyro_bias(), Some([0.0, 0.0, 1e-4]));
+/// let close = |a: Option<[f64; 3]>, b: [f64; 3]| a.unwrap().iter().zip(b).all(|(a, b)| (a - b).abs() < 1e-12);
+/// assert!(close(s.position_std(), [0.5, 0.5, 1.0]));
+/// assert!(close(s.velocity_std(), [0.1, 0.1, 0.2]));
+/// assert!(close(s.attitude_std(), [0.01, 0.01, 0.02])); // rad, about the body axes
+/// assert!(close(s.roll_pitch_yaw_std(), [0.01, 0.01, 0.02])); // level: the same
+/// assert!(close(s.accel_bias_std(), [1e-3; 3]));
+/// assert!(close(s.gyro_bias_std(), [1e-4; 3]));
+/// assert_eq!(s.health(), Health::Degraded);
+/// let reasons: Vec<HealthReason> = s.health_reasons().collect();
+/// assert_eq!(reasons, [HealthReason::SamplesLost, HealthReason::Stale(SampleKind::Geodetic)]);
+/// assert_eq!(reasons[1].to_string(), "geodetic stale");
+/// assert_eq!(s.input_kind(), Some(SampleKind::Imu));
+/// assert_eq!(s.sample_kind(), Some(SampleKind::Imu));
+/// assert_eq!(s.outcome(), Some(Outcome::Propagated));
+/// ```
 impl StateSnapshot {
     /// The model that produced the estimate; `None` for a code this version
     /// does not know (and on a default, never published snapshot).
