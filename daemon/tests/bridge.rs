@@ -220,3 +220,21 @@ fn bad_arguments_are_refused_before_anything_starts() {
     }
     assert!(domain.files().is_empty(), "{:?}", domain.files());
 }
+
+#[test]
+fn an_endpoint_that_cannot_be_opened_is_a_failure_on_one_line() {
+    let domain = TestDomain::new("bridge-busy");
+    // The port is taken: the arguments are valid, the job cannot be done.
+    let taken = TcpListener::bind("127.0.0.1:0").unwrap();
+    let endpoint = format!("tcp/127.0.0.1:{}", taken.local_addr().unwrap().port());
+    let out = Command::new(env!("CARGO_BIN_EXE_fusion-bridge"))
+        .args(["--state", "out", "--listen", &endpoint])
+        .env(DOMAIN_ENV, &domain.domain)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    let last = err.lines().last().unwrap_or_default();
+    assert!(last.starts_with("fusion-bridge: cannot open the Zenoh session: "), "{err}");
+    assert!(domain.files().is_empty(), "{:?}", domain.files());
+}

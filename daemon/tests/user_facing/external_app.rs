@@ -1,16 +1,14 @@
 //! An application outside the workspace, built against `fusion-client` by path
-//! as a user builds one (`tests/external_app/`), reads a live fusiond's position,
+//! as a user builds one (`tests/user_facing/app/`), reads a live fusiond's position,
 //! velocity, attitude and health with the typed accessors only; what it prints
 //! is the raw snapshot's entries, bit for bit.
-
-mod common;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::live::{Daemon, TestDomain, workspace_bin};
+use crate::common::live::{Daemon, TestDomain, workspace_bin};
 use fusion_client::sim::CarTrajectory;
 use fusion_shared::SampleKind;
 use fusion_shared::service::DOMAIN_ENV;
@@ -38,19 +36,19 @@ fn config() -> String {
 fn write_app(dir: &Path) {
     let here = Path::new(env!("CARGO_MANIFEST_DIR"));
     let root = here.parent().unwrap();
-    let manifest = std::fs::read_to_string(here.join("tests/external_app/Cargo.toml.in")).unwrap();
+    let manifest = std::fs::read_to_string(here.join("tests/user_facing/app/Cargo.toml.in")).unwrap();
     std::fs::write(dir.join("Cargo.toml"), manifest.replace("@CLIENT@", root.join("client").to_str().unwrap()))
         .unwrap();
     std::fs::create_dir_all(dir.join("src")).unwrap();
-    std::fs::copy(here.join("tests/external_app/src/main.rs"), dir.join("src/main.rs")).unwrap();
+    std::fs::copy(here.join("tests/user_facing/app/src/main.rs"), dir.join("src/main.rs")).unwrap();
     std::fs::copy(root.join("Cargo.lock"), dir.join("Cargo.lock")).unwrap();
 }
 
 /// Builds the application (cargo's output on the terminal, so the build is
-/// seen, not a silent wait) into the workspace's target directory, where the
-/// dependencies are built already; returns the binary.
+/// seen, not a silent wait) into `target/external-app` (unoptimised, without
+/// debug info: the quickest build of its dependencies); returns the binary.
 fn build_app(dir: &Path) -> PathBuf {
-    let target = PathBuf::from(env!("CARGO_BIN_EXE_fusiond")).parent().unwrap().parent().unwrap().to_path_buf();
+    let target = PathBuf::from(env!("CARGO_BIN_EXE_fusiond")).parent().unwrap().parent().unwrap().join("external-app");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let _ = writeln!(std::io::stderr(), "external_app: building an application against fusion-client by path");
     let status = Command::new(cargo)

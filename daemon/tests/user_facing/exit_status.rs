@@ -3,13 +3,11 @@
 //! invalid arguments refused before anything started, 3 for `fusionctl state`
 //! on a daemon that has published nothing yet. Real binaries, real iceoryx2.
 
-mod common;
-
 use std::path::PathBuf;
 use std::process::Command;
 use std::time::Duration;
 
-use common::live::{Daemon, TestDomain, workspace_bin};
+use crate::common::live::{Daemon, TestDomain, workspace_bin};
 use fusion_shared::exit::{FAILURE, NO_STATE_YET, SUCCESS, USAGE};
 use fusion_shared::service::DOMAIN_ENV;
 
@@ -46,7 +44,7 @@ fn path_like_namespaces_and_bad_values_are_usage_errors_of_every_binary() {
     let domain = TestDomain::new("exit-usage");
     let (sim, ctl, demo) = (workspace_bin("fusion-sim"), workspace_bin("fusionctl"), workspace_bin("fusion-demo"));
     let config = tempfile::NamedTempFile::new().unwrap();
-    std::fs::write(config.path(), common::linear_config(None)).unwrap();
+    std::fs::write(config.path(), crate::common::linear_config(None)).unwrap();
     let config = config.path().to_str().unwrap();
     for ns in [".", "..", "../x", ".hidden", "-x"] {
         assert_usage(&domain, &fusiond(), &["run", "--config", config, &format!("--namespace={ns}")], "namespace");
@@ -99,7 +97,7 @@ fn a_publisher_that_reached_no_daemon_fails_unless_allowed() {
     assert_eq!(code, i32::from(SUCCESS), "{err}");
 
     // With a daemon, the same run is done: every sample reached it.
-    let mut daemon = Daemon::start(&domain, &common::linear_config(None), "event");
+    let mut daemon = Daemon::start(&domain, &crate::common::linear_config(None), "event");
     let (code, _, err) = run(&domain, &sim, &args(&[]));
     assert_eq!(code, i32::from(SUCCESS), "{err}");
     assert!(!err.contains("reached no reader"), "{err}");
@@ -113,7 +111,7 @@ fn fusionctl_state_tells_no_daemon_from_no_snapshot_yet() {
     let state = ["state", "--namespace", domain.namespace.as_str(), "--wait", "0.2"];
     assert_failure(run(&domain, &ctl, &state), "fusionctl", "not running");
 
-    let mut daemon = Daemon::start(&domain, &common::linear_config(None), "event");
+    let mut daemon = Daemon::start(&domain, &crate::common::linear_config(None), "event");
     let (code, out, err) = run(&domain, &ctl, &state);
     assert_eq!(code, i32::from(NO_STATE_YET), "{out}{err}");
     assert!(out.is_empty() && err.lines().count() == 1 && err.contains("no snapshot yet"), "{err}");
