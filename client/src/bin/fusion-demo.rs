@@ -396,7 +396,11 @@ fn run(args: Args) -> anyhow::Result<()> {
         let what = if kind == Some(fusion_shared::SampleKind::Imu) {
             format!("propagated {}", n.processed)
         } else {
-            format!("fused {}, gated {}", n.fused, n.gated)
+            // Refused by the model, not the gate: odometry before the attitude is known.
+            let unused = n.processed.saturating_sub(n.fused + n.gated);
+            let unused =
+                if unused > 0 { format!(", {unused} before the filter could use them") } else { String::new() };
+            format!("fused {}, gated {}{unused}", n.fused, n.gated)
         };
         println!(
             "  {name:<21} received {}, {what}; out of order {} (processed exactly by rewind), too late {}, \
