@@ -34,21 +34,14 @@ const CHI2_6_999: f64 = 22.458;
 const MOUNTS: [&str; 4] = ["--imu-mount", "frd:3,-2,90", "--imu-mount", "flu:-1.5,2.5,-90"];
 
 fn config(combine: &str) -> String {
-    let truth = CarTrajectory::new(SEED).at(0.0);
-    let (p, v, q) = (truth.pos_m, truth.vel_mps, truth.attitude.quaternion().coords);
     format!(
-        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
-         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\
-         [filter]\ninitial_state = [{}, {}, {}, {}, {}, {}, {}, {}, {}, {}, 0, 0, 0, 0, 0, 0]\n\
-         initial_covariance_diagonal = [0.25, 0.25, 0.25, 0.09, 0.09, 0.09, 4e-4, 4e-4, 4e-4, \
-         0.0025, 0.0025, 0.0025, 2.5e-7, 2.5e-7, 2.5e-7]\n\
-         [gating]\nprobability = 0.9999\n\
+        "{}[gating]\nprobability = 0.9999\n\
          [datum]\nlatitude_deg = 48.1316\nlongitude_deg = 11.5494\nheight_m = 519.0\n\
          [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\", \"velocity\"]\nlever_arm_m = [1.0, 0.5, 1.0]\n\
          [[sensor]]\nname = \"imu-a\"\nid = 0\nkinds = [\"imu\"]\naxes = \"frd\"\nrotation_rpy_deg = [3.0, -2.0, 90.0]\n\
          [[sensor]]\nname = \"imu-b\"\nid = 1\nkinds = [\"imu\"]\nrotation_rpy_deg = [-1.5, 2.5, -90.0]\n\
          [imu]\ncombine = \"{combine}\"\n",
-        p.x, p.y, p.z, v.x, v.y, v.z, q[3], q[0], q[1], q[2]
+        common::ins_config_at_truth(SEED)
     )
 }
 

@@ -91,7 +91,7 @@ fn run(seed: u64, seconds: f64, position_std: f64, constraint: bool, stats: &mut
     let counted = |e: &Entry<_>| matches!(e.sample, Sample::Imu(_)) && e.key.t_ns >= t0 + 1_000_000_000;
     let mut sink = |e: &Entry<_>| {
         if counted(e) {
-            add(stats, e.key.t_ns, InsModel::x_of(&e.state), &InsModel::covariance_of(&e.state));
+            add(stats, e.key.t_ns, InsModel::x_of(&e.state), &<InsModel as Model>::covariance(&e.state));
         }
         finals.push((counted(e), e.key.t_ns, e.sample));
     };

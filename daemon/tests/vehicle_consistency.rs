@@ -32,6 +32,7 @@ use fusion_client::sim::{
 };
 use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig, Entry};
+use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::InsModel;
 use fusion_shared::Sample;
 use fusion_shared::geodesy::Datum;
@@ -188,7 +189,7 @@ fn run(seed: u64, seconds: f64, setup: Setup, stats: &mut Stats) {
         if !(matches!(e.sample, Sample::Imu(_)) && e.key.t_ns >= t0 + 1_000_000_000) {
             return;
         }
-        let (x, cov) = (InsModel::x_of(&e.state), InsModel::covariance_of(&e.state));
+        let (x, cov) = (InsModel::x_of(&e.state), <InsModel as Model>::covariance(&e.state));
         let truth = scenario.truth_at(e.key.t_ns);
         let (err, nees) = common::pv_error_and_nees(x, &cov, &truth);
         let q_est = UnitQuaternion::new_normalize(nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]));

@@ -245,11 +245,6 @@ impl InsModel {
         &s.nominal
     }
 
-    /// The error-state covariance, row-major 15×15 (same as [`Model::covariance`]).
-    pub fn covariance_of(s: &InsState) -> Vec<f64> {
-        Self::covariance(s)
-    }
-
     /// A model with the IMU noise, gravity (m/s²), nominal x₀, diag(P₀) (error-state
     /// order), optional gate, and a static alignment over the first
     /// `alignment_samples` IMU samples (0: none, x₀'s attitude is used).

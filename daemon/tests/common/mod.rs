@@ -9,6 +9,22 @@ use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_daemon::replay::OutputLine;
 use fusion_shared::jsonl::format_sample;
 
+/// The `ins` model with automotive MEMS noise (Kalibr densities), its filter
+/// started at the true state of the simulated drive of `seed`: `[model]` and
+/// `[filter]`, for a test to add its own tables to.
+pub fn ins_config_at_truth(seed: u64) -> String {
+    let truth = fusion_client::sim::CarTrajectory::new(seed).at(0.0);
+    let (p, v, q) = (truth.pos_m, truth.vel_mps, truth.attitude.quaternion().coords);
+    format!(
+        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\
+         [filter]\ninitial_state = [{}, {}, {}, {}, {}, {}, {}, {}, {}, {}, 0, 0, 0, 0, 0, 0]\n\
+         initial_covariance_diagonal = [0.25, 0.25, 0.25, 0.09, 0.09, 0.09, 4e-4, 4e-4, 4e-4, \
+         0.0025, 0.0025, 0.0025, 2.5e-7, 2.5e-7, 2.5e-7]\n",
+        p.x, p.y, p.z, v.x, v.y, v.z, q[3], q[0], q[1], q[2]
+    )
+}
+
 /// The config used by the reference tests, with or without gating.
 pub fn linear_config(gating: Option<f64>) -> String {
     let mut c = String::from(

@@ -9,26 +9,11 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use crate::common::live::{Daemon, TestDomain, workspace_bin};
-use fusion_client::sim::CarTrajectory;
 use fusion_shared::SampleKind;
 use fusion_shared::service::DOMAIN_ENV;
 use fusion_shared::snapshot::health;
 
 const SEED: u64 = 5;
-
-/// The ins model, started at the drive's true state.
-fn config() -> String {
-    let truth = CarTrajectory::new(SEED).at(0.0);
-    let (p, v, q) = (truth.pos_m, truth.vel_mps, truth.attitude.quaternion().coords);
-    format!(
-        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
-         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\
-         [filter]\ninitial_state = [{}, {}, {}, {}, {}, {}, {}, {}, {}, {}, 0, 0, 0, 0, 0, 0]\n\
-         initial_covariance_diagonal = [0.25, 0.25, 0.25, 0.09, 0.09, 0.09, 4e-4, 4e-4, 4e-4, \
-         0.0025, 0.0025, 0.0025, 2.5e-7, 2.5e-7, 2.5e-7]\n",
-        p.x, p.y, p.z, v.x, v.y, v.z, q[3], q[0], q[1], q[2]
-    )
-}
 
 /// The application's project in `dir`: its manifest with the client's path,
 /// its source, and the workspace's lock file (the same dependency versions, so
@@ -84,7 +69,7 @@ fn an_application_outside_the_workspace_reads_the_state_with_accessors() {
     let app = build_app(project.path());
 
     let domain = TestDomain::new("external-app");
-    let mut daemon = Daemon::start(&domain, &config(), "event");
+    let mut daemon = Daemon::start(&domain, &crate::common::ins_config_at_truth(SEED), "event");
     let sim = Command::new(workspace_bin("fusion-sim"))
         .args(["run", "--namespace", &domain.namespace, "--seed", &SEED.to_string(), "--duration", "2"])
         .args(["--imu-output", "body", "--imu-rate", "200", "--accel-noise", "0.283", "--gyro-noise", "0.0141"])
