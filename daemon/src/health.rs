@@ -30,6 +30,7 @@ use crate::model::StepOutcome;
 
 /// Number of sample kinds.
 const KINDS: usize = SampleKind::COUNT;
+const _: () = assert!(KINDS <= 32, "the kinds of a group are bits of a u32");
 
 /// Longest NIS window.
 pub const MAX_NIS_WINDOW: usize = 256;
@@ -93,12 +94,15 @@ impl HealthNow {
     }
 }
 
-/// NIS of a fused fix, or `None` for a gated one.
+/// NIS of a fused fix, or `None` for a gated one; with the count and sum of the
+/// fused ones, summed when a value comes in (not on every evaluation).
 #[derive(Debug, Clone, Copy)]
 struct NisWindow {
     values: [Option<f64>; MAX_NIS_WINDOW],
     next: usize,
     len: usize,
+    fused: usize,
+    sum: f64,
 }
 
 /// Tracks what the health needs beyond the engine's counters.
@@ -109,6 +113,9 @@ pub struct HealthMonitor {
     /// innovation dimension `m`.
     bands: [[(f64, f64); MAX_NIS_WINDOW + 1]; MAX_INNOVATION_DIM + 1],
     windows: [NisWindow; MAX_SENSORS],
+    /// Per group of kinds the health waits for ([`measurement::Needed`]): bit
+    /// `k.index()` for each kind `k` of the group.
+    needed_groups: [u32; KINDS],
     lost_seen: [u64; MAX_SENSORS],
     last_loss_ns: Option<u64>,
     reinitialisations_seen: u64,
@@ -128,11 +135,19 @@ impl HealthMonitor {
                 }
             }
         }
-        let empty = NisWindow { values: [None; MAX_NIS_WINDOW], next: 0, len: 0 };
+        let empty = NisWindow { values: [None; MAX_NIS_WINDOW], next: 0, len: 0, fused: 0, sum: 0.0 };
+        let mut needed_groups = [0; KINDS];
+        for &k in SampleKind::ALL {
+            if let Some(group) = measurement::needed(k) {
+                let of_group = SampleKind::ALL.iter().filter(|&&j| measurement::needed(j) == Some(group));
+                needed_groups[k.index()] = of_group.fold(0, |mask, j| mask | 1 << j.index());
+            }
+        }
         Self {
             config,
             bands,
             windows: [empty; MAX_SENSORS],
+            needed_groups,
             lost_seen: [0; MAX_SENSORS],
             last_loss_ns: None,
             reinitialisations_seen: 0,
@@ -156,6 +171,8 @@ impl HealthMonitor {
         w.values[w.next] = value;
         w.next = (w.next + 1) % self.config.nis_window;
         w.len = (w.len + 1).min(self.config.nis_window);
+        let fused = w.values[..w.len].iter().flatten();
+        (w.fused, w.sum) = fused.fold((0, 0.0), |(k, sum), v| (k + 1, sum + v));
     }
 
     /// Health state, reason bits and stale sensors at `now_ns` for the engine's
@@ -171,9 +188,11 @@ impl HealthMonitor {
     ) -> HealthNow {
         let mut reasons = 0;
         let mut stale_sensors = 0;
-        let mut seen = [false; KINDS];
+        let mut seen = 0u32;
         for (i, s) in sensors.iter().enumerate().take(MAX_SENSORS) {
-            seen[s.kind.index()] |= s.stats.processed > 0;
+            if s.stats.processed > 0 {
+                seen |= 1 << s.kind.index();
+            }
             if s.last_arrival_ns.is_some_and(|t| now_ns.saturating_sub(t) > self.config.timeout_ns(s.kind)) {
                 reasons |= health::stale(s.kind);
                 stale_sensors |= 1 << i;
@@ -184,8 +203,7 @@ impl HealthMonitor {
             self.lost_seen[i] = s.stats.lost;
             let w = &self.windows[i];
             if w.len == self.config.nis_window {
-                let fused = w.values[..w.len].iter().flatten();
-                let (k, sum) = fused.fold((0, 0.0), |(k, sum), v| (k + 1, sum + v));
+                let (k, sum) = (w.fused, w.sum);
                 let (lo, hi) = self.nis_band(measurement::innovation_dim(s.kind), k);
                 if 2 * k < w.len || sum < lo || sum > hi {
                     reasons |= health::NIS_OUT_OF_BOUNDS;
@@ -203,10 +221,7 @@ impl HealthMonitor {
             reasons |= health::REINITIALISED;
         }
         // Each group that some kind belongs to needs a processed sample of one of its kinds.
-        let waiting = SampleKind::ALL
-            .iter()
-            .filter_map(|&k| measurement::needed(k))
-            .any(|group| !SampleKind::ALL.iter().any(|&k| measurement::needed(k) == Some(group) && seen[k.index()]));
+        let waiting = self.needed_groups.iter().any(|&group| group != 0 && seen & group == 0);
         let state = if !initialised || waiting {
             health::INITIALISING
         } else if reasons != 0 {

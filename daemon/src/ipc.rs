@@ -4,7 +4,7 @@
 //! subscribes to `<ns>/<kind>` for every sample kind and merges the subscribers by
 //! timestamp; [`IpcSink`] fills each snapshot in place in a shared-memory chunk
 //! loaned beforehand, sends it, notifies `<ns>/state` once per turn and then loans
-//! the next chunk. The loop itself is the transport-free [`crate::live`] core.
+//! the next chunks. The loop itself is the transport-free [`crate::live`] core.
 
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
@@ -310,21 +310,26 @@ fn count_refused(count: &mut u64, activation: EventActivation) {
 /// snapshot, or one written while warming), not yet filled or sent.
 type LoanedSnapshot = iceoryx2::sample_mut::SampleMut<Ipc, StateSnapshot, ()>;
 
+/// Snapshot chunks the sink holds loaned ahead of the samples (the state
+/// publisher's `max_loaned_samples`).
+const LOANED: usize = 2;
+
 /// The state publisher and its event.
 pub struct IpcSink {
     state: Publisher<Ipc, StateSnapshot, ()>,
     state_event: Notifier<Ipc>,
-    /// The chunk of the next snapshot, loaned right after the last send so that
-    /// loaning (and writing its default content) is off the path from sample to
-    /// snapshot, which fills it in place.
-    loaned: Option<LoanedSnapshot>,
+    /// The chunks of the next snapshots, loaned after the last turn's sends so
+    /// that loaning (and writing a default snapshot, 4.2 KB) is off the path from
+    /// sample to snapshot, which fills a chunk in place. Two, for the samples
+    /// that come together (two IMUs of one instant, or an IMU sample and a fix).
+    loaned: [Option<LoanedSnapshot>; LOANED],
     publish_errors: u64,
 }
 
 impl IpcSink {
     fn open(node: &Node<Ipc>, names: &ServiceNames, max_readers: usize) -> Result<Self, RunError> {
         let state = service::state_service(node, names, Some(max_readers))?;
-        let state = match state.publisher_builder().create() {
+        let state = match state.publisher_builder().max_loaned_samples(LOANED).create() {
             Ok(p) => p,
             // The state service allows one publisher: fusiond.
             Err(PublisherCreateError::ExceedsMaxSupportedPublishers) => {
@@ -334,14 +339,14 @@ impl IpcSink {
         };
         let state_event = service::event_service(node, &names.state)?;
         let state_event = state_event.notifier_builder().create().map_err(ipc("state notifier"))?;
-        Ok(Self { state, state_event, loaned: None, publish_errors: 0 })
+        Ok(Self { state, state_event, loaned: [const { None }; LOANED], publish_errors: 0 })
     }
 }
 
 impl SnapshotSink for IpcSink {
     fn publish(&mut self, fill: impl FnOnce(&mut StateSnapshot)) -> bool {
         // Error texts are built only on failure.
-        let loaned = match self.loaned.take() {
+        let loaned = match self.loaned.iter_mut().find_map(Option::take) {
             Some(s) => Ok(s),
             None => self.state.loan().map_err(|e| format!("loan: {e:?}")),
         };
@@ -363,9 +368,9 @@ impl SnapshotSink for IpcSink {
 
     fn flush(&mut self) {
         let _ = self.state_event.notify();
-        // The readers have their snapshot: loan the next one now, off the
+        // The readers have their snapshots: loan the next ones now, off the
         // latency path (if this fails, `publish` tries again and counts it).
-        self.loaned = self.state.loan().ok();
+        self.loan_ahead();
     }
 
     fn refresh(&mut self) {
@@ -373,17 +378,25 @@ impl SnapshotSink for IpcSink {
         let _ = self.state.update_connections();
     }
 
-    /// Touches the loaned chunk of the next snapshot (loaning one if none is
-    /// held) by rewriting its content: between samples a millisecond apart this
+    /// Touches the loaned chunks of the next snapshots (loaning those not
+    /// held) by rewriting their content: between samples a millisecond apart this
     /// memory otherwise leaves the caches, and the next sample pays the misses on
     /// its way to the reader.
     fn warm(&mut self) {
-        if self.loaned.is_none() {
-            self.loaned = self.state.loan().ok();
-        }
-        if let Some(chunk) = self.loaned.as_mut() {
+        self.loan_ahead();
+        for chunk in self.loaned.iter_mut().flatten() {
             let snap = chunk.payload_mut();
             *snap = std::hint::black_box(*snap);
+        }
+    }
+}
+
+impl IpcSink {
+    /// Loans a chunk into every empty place of `loaned`, as far as the
+    /// publisher lends them.
+    fn loan_ahead(&mut self) {
+        for place in self.loaned.iter_mut().filter(|p| p.is_none()) {
+            *place = self.state.loan().ok();
         }
     }
 }
@@ -454,8 +467,8 @@ fn run_model<M: Model>(
         receive_errors = source.receive_errors,
         "fusiond stopping"
     );
-    // The loaned chunk keeps the publisher (and through it the node) alive: it
-    // goes first, or the node would outlive the domain cleanup below.
+    // The loaned chunks keep the publisher (and through it the node) alive: the
+    // sink goes first, or the node would outlive the domain cleanup below.
     drop(sink);
     drop(source);
     drop(node);

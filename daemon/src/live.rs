@@ -4,7 +4,7 @@
 //! - A [`SampleSource`] gives the next received sample (the iceoryx2 source merges
 //!   its subscribers by timestamp) and sleeps until woken.
 //! - A [`SnapshotSink`] lends a snapshot to fill and sends it, wakes readers after
-//!   a batch, lets late readers connect, and keeps its next chunk warm.
+//!   a batch, lets late readers connect, and keeps its next chunks warm.
 //!
 //! [`run`] is the loop of `fusiond run`: each turn takes the waiting samples (at
 //! most [`BATCH`]), feeds each to the engine with the daemon's clock and publishes
