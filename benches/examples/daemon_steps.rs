@@ -1,4 +1,4 @@
-//! Runs what `fusiond run` does per IMU sample, without iceoryx2: engine insert,
+//! Runs what `fusiond run` does per sample, without iceoryx2: engine insert,
 //! health, and the snapshot filled in place (in a chunk that holds the previous
 //! one, as a loaned chunk would). For an instruction-count profile under
 //! callgrind of the daemon's own time:
@@ -8,9 +8,19 @@
 //! valgrind --tool=callgrind --callgrind-out-file=/tmp/cg.out target/release/examples/daemon_steps linear 10000
 //! callgrind_annotate --inclusive=yes /tmp/cg.out
 //! ```
+//!
+//! With a third argument `time`, each sample's handling is timed and the p50 and
+//! p99 per sample kind are printed (the first and the second IMU sample of an
+//! instant apart).
+//!
+//! Models: `linear` and `ins` (one IMU at 1 kHz), and `vehicle`: the latency
+//! bench's vehicle set ([`fusion_benches::latency::VEHICLE_CONFIG`]: two IMUs at
+//! the same 1 kHz instants, a geodetic fix every 100th instant, an odometry
+//! speed every 20th).
 
 use std::hint::black_box;
 
+use fusion_benches::latency::{VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST};
 use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig, Insert};
 use fusion_daemon::health::HealthMonitor;
@@ -18,32 +28,104 @@ use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::InsModel;
 use fusion_daemon::model::linear::LinearModel;
 use fusion_daemon::snapshot::{self, Input};
-use fusion_shared::{ImuSample, Sample, StateSnapshot};
+use fusion_shared::{GeodeticSample, ImuSample, OdometrySample, Sample, StateSnapshot};
 
 fn main() {
     let model = std::env::args().nth(1).unwrap_or_else(|| "linear".into());
     let n: u64 = std::env::args().nth(2).and_then(|a| a.parse().ok()).unwrap_or(10_000);
-    if model == "ins" {
-        let config = Config::parse(&fusion_benches::ins_config_text()).expect("valid");
-        run(InsModel::from_config(&config).expect("ins"), &config, n, [0.0, 0.0, 9.80665]);
-    } else {
-        let config = fusion_benches::linear_config();
-        run(LinearModel::from_config(&config).expect("linear"), &config, n, [0.0; 3]);
+    let time = std::env::args().nth(3).is_some_and(|a| a == "time");
+    match model.as_str() {
+        "ins" => {
+            let config = Config::parse(&fusion_benches::ins_config_text()).expect("valid");
+            let imus = |t, k| vec![Sample::Imu(ImuSample::new(t, 0, k, [0.0, 0.0, 9.80665], [0.0; 3]))];
+            run(InsModel::from_config(&config).expect("ins"), &config, n, time, imus);
+        }
+        "vehicle" => {
+            let config = Config::parse(VEHICLE_CONFIG).expect("valid");
+            run(InsModel::from_config(&config).expect("ins"), &config, n, time, vehicle_instant);
+        }
+        _ => {
+            let config = fusion_benches::linear_config();
+            let imus = |t, k| vec![Sample::Imu(ImuSample::new(t, 0, k, [0.0; 3], [0.0; 3]))];
+            run(LinearModel::from_config(&config).expect("linear"), &config, n, time, imus);
+        }
     }
 }
 
+/// The samples of instant `k` at `t`, in the order the latency bench's vehicle
+/// prober publishes them.
+fn vehicle_instant(t: u64, k: u64) -> Vec<Sample> {
+    let cov = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64];
+    let mut out = Vec::with_capacity(4);
+    if k % 100 == 50 {
+        out.push(Sample::Geodetic(GeodeticSample::new(t, 3, k / 100, 48.1316, 11.5494, 519.0, cov)));
+    }
+    if k % 20 == 10 {
+        out.push(Sample::Odometry(OdometrySample::new(t, 0, k / 20, 0.0, 0.01)));
+    }
+    out.push(Sample::Imu(ImuSample::new(t, 0, k, VEHICLE_IMUS_AT_REST[0], [0.0; 3])));
+    out.push(Sample::Imu(ImuSample::new(t, 1, k, VEHICLE_IMUS_AT_REST[1], [0.0; 3])));
+    out
+}
+
 #[inline(never)]
-fn run<M: Model>(model: M, config: &Config, n: u64, accel: [f64; 3]) {
+fn run<M: Model>(model: M, config: &Config, n: u64, time: bool, instant: impl Fn(u64, u64) -> Vec<Sample>) {
     let mut engine = Engine::new(model, EngineConfig::from_config(config));
     let mut health = HealthMonitor::new(config.health);
     let mut chunk = Box::new(StateSnapshot::default());
     let t0 = 1_000_000_000u64;
-    for k in 0..n {
-        let t = t0 + k * 1_000_000;
-        let mut imu = ImuSample::new(t, 0, k, accel, [0.0; 3]);
-        imu.header.sent_ns = t;
-        let sample = Sample::Imu(imu);
-        handle(&mut engine, &mut health, black_box(&mut chunk), &sample, t + 500);
+    // The samples are made first, so the loop below is the daemon's work only.
+    let samples: Vec<Sample> = (0..n)
+        .flat_map(|k| {
+            let t = t0 + k * 1_000_000;
+            let mut s = instant(t, k);
+            for sample in &mut s {
+                sample.header_mut().sent_ns = t;
+            }
+            s
+        })
+        .collect();
+    // Per sample: its name (kind, and for an IMU whether it is the first of its
+    // instant) and ns.
+    let mut times: Vec<(String, u64)> = Vec::with_capacity(if time { samples.len() } else { 0 });
+    let mut last_imu_t = None;
+    for sample in &samples {
+        let t = sample.t_ns();
+        let start = std::time::Instant::now();
+        handle(&mut engine, &mut health, black_box(&mut chunk), sample, t + 500);
+        if time {
+            let ns = start.elapsed().as_nanos() as u64;
+            let name = match sample {
+                Sample::Imu(_) if last_imu_t == Some(t) => "imu, not first of its instant".to_string(),
+                Sample::Imu(_) => "imu, first of its instant".to_string(),
+                other => other.kind().name().to_string(),
+            };
+            if matches!(sample, Sample::Imu(_)) {
+                last_imu_t = Some(t);
+            }
+            times.push((name, ns));
+        }
+    }
+    if time {
+        report(times);
+    }
+}
+
+/// Prints the p50 and p99 of each sample name, and of every IMU sample.
+fn report(times: Vec<(String, u64)>) {
+    let mut names: Vec<String> = times.iter().map(|(n, _)| n.clone()).collect();
+    names.sort();
+    names.dedup();
+    names.push("imu, all".to_string());
+    for name in names {
+        let mut ns: Vec<u64> = times
+            .iter()
+            .filter(|(n, _)| *n == name || (name == "imu, all" && n.starts_with("imu")))
+            .map(|t| t.1)
+            .collect();
+        ns.sort_unstable();
+        let q = |p: f64| ns[((ns.len() - 1) as f64 * p) as usize];
+        println!("{name:<32} {:>7} samples  p50 {:>6} ns  p99 {:>6} ns", ns.len(), q(0.5), q(0.99));
     }
 }
 

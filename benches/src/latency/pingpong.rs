@@ -37,7 +37,7 @@ impl Payload for ImuSample {
     }
 }
 
-/// The answer the size of what fusiond answers with (3.9 KB), every byte written.
+/// The answer the size of what fusiond answers with (4.2 KB), every byte written.
 impl Payload for StateSnapshot {
     fn seq(&self) -> u64 {
         self.seq
@@ -100,7 +100,7 @@ impl<S: Payload, R: Payload> PingPongEnd<S, R> {
 
     /// Waits for the next sample (up to 1 s): its sequence number and time stamp,
     /// read in shared memory as fusiond's readers read a snapshot (not copied out:
-    /// copying a 3.9 KB answer would charge the floor for work a reader never does).
+    /// copying a 4.2 KB answer would charge the floor for work a reader never does).
     fn receive(&self, mode: Mode) -> anyhow::Result<Option<(u64, u64)>> {
         let deadline = Instant::now() + Duration::from_secs(1);
         loop {
