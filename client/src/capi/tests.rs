@@ -1,0 +1,66 @@
+use fusion_shared::{KindVisitor, SampleKind};
+
+use super::*;
+
+/// What `payload_is_finite` relies on: every kind's payload is f64s right
+/// after the header; a NaN in any of them is seen.
+#[test]
+fn every_payload_value_is_checked() {
+    struct Check;
+    impl KindVisitor for Check {
+        fn visit<T: WireSample>(&mut self) {
+            let header = std::mem::size_of::<fusion_shared::SampleHeader>();
+            assert_eq!((std::mem::size_of::<T>() - header) % 8, 0);
+            let good = T::default();
+            assert!(payload_is_finite(&good), "{:?}", T::KIND);
+            for i in 0..(std::mem::size_of::<T>() - header) / 8 {
+                let mut bad = good;
+                // SAFETY: slot `i` of the payload, as in `payload_is_finite`.
+                unsafe {
+                    (&mut bad as *mut T).cast::<u8>().add(header + 8 * i).cast::<f64>().write_unaligned(f64::NAN)
+                };
+                assert!(!payload_is_finite(&bad), "{:?} slot {i}", T::KIND);
+                // And the slot is a real field: the sample changed.
+                assert_ne!(format!("{bad:?}"), format!("{good:?}"), "{:?} slot {i}", T::KIND);
+            }
+        }
+    }
+    SampleKind::visit_all(&mut Check);
+}
+
+#[test]
+fn null_pointers_and_bad_arguments_are_errors() {
+    let mut client = std::ptr::null_mut();
+    // SAFETY: the arguments are null or valid.
+    unsafe {
+        assert_eq!(
+            fusion_client_connect(std::ptr::null(), std::ptr::null(), &mut client),
+            FusionStatus::FusionErrorNull
+        );
+        assert_eq!(
+            fusion_client_connect(c"x".as_ptr(), std::ptr::null(), std::ptr::null_mut()),
+            FusionStatus::FusionErrorNull
+        );
+        assert_eq!(
+            fusion_client_connect(c"a/b".as_ptr(), std::ptr::null(), &mut client),
+            FusionStatus::FusionErrorInvalidArgument
+        );
+        let message = CStr::from_ptr(fusion_last_error()).to_str().unwrap();
+        assert!(message.contains("invalid namespace"), "{message}");
+        assert!(client.is_null());
+        let mut publisher = std::ptr::null_mut();
+        assert_eq!(
+            fusion_publisher_new(std::ptr::null(), FUSION_KIND_IMU, 0, &mut publisher),
+            FusionStatus::FusionErrorNull
+        );
+        assert_eq!(
+            fusion_publish_imu(std::ptr::null_mut(), std::ptr::null(), std::ptr::null_mut()),
+            FusionStatus::FusionErrorNull
+        );
+        let mut snapshot = StateSnapshot::default();
+        assert_eq!(fusion_state_latest(std::ptr::null_mut(), &mut snapshot), FusionStatus::FusionErrorNull);
+        fusion_client_free(std::ptr::null_mut());
+        fusion_publisher_free(std::ptr::null_mut());
+        fusion_state_reader_free(std::ptr::null_mut());
+    }
+}
