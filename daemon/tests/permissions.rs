@@ -86,11 +86,16 @@ fn another_user_can_neither_read_nor_break_the_shared_memory_nor_hang_new_proces
     }
     let counter = node_counter(&domain);
     let before = std::fs::read(&counter).unwrap();
-    // The other user can neither truncate nor read the node counter (the hang of
-    // every new process came from truncating it), nor any segment, nor put files
-    // into iceoryx2's directory.
+    // The other user can neither write (truncate) nor read the node counter (the
+    // hang of every new process came from truncating it), nor any segment, nor put
+    // files into iceoryx2's directory.
     for f in files.iter().filter(|f| f.starts_with("/dev/shm/")) {
-        assert!(!as_peer(&["truncate", "-s", "0", f]).status.success(), "{f} truncated");
+        // Opened for writing, never created: a file that went away since the
+        // listing (a connection closed) must not come back as the other user's.
+        let out = as_peer(&["dd", "if=/dev/null", &format!("of={f}"), "conv=nocreat,notrunc", "status=none"]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{f} is writable by another user");
+        assert!(stderr.contains("Permission denied") || !Path::new(f).exists(), "{f}: {stderr}");
         assert!(!as_peer(&["cat", f]).status.success(), "{f} read");
     }
     assert!(!as_peer(&["touch", "/tmp/iceoryx2/planted"]).status.success());
