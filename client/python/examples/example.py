@@ -6,4 +6,4 @@ imu = client.publisher(fc.ImuSample, sensor=0)
 state = client.state_reader()  # fc.DaemonNotRunning if no fusiond runs here
 imu.publish(fc.ImuSample(accel_mps2=(0.1, 0.0, 0.0)), t_ns=fc.now_ns())
 s = state.wait_next(timeout=1.0)
-print(f"t_ns {s.t_ns} x {s.x[:3].tolist()} sd {s.P.diagonal()[:3] ** 0.5} health {s.health_name}")
+print(f"t_ns {s.t_ns} position {s.position.tolist()} sd {s.position_std.tolist()} health {s.health_name}")

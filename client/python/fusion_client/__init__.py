@@ -10,7 +10,8 @@ Rust crates) with ctypes mirrors of the wire types (:mod:`fusion_client.wire`)::
     imu.publish(fc.ImuSample(accel_mps2=(0.1, 0.0, 0.0)), t_ns=fc.now_ns())
     state = client.state_reader()
     s = state.wait_next(timeout=1.0)
-    print(s.x[:3], s.P.diagonal(), s.health)
+    print(s.position, s.position_std, s.health_name)  # and s.x, s.P: the raw estimate
+    print(s.roll_pitch_yaw)                           # ins: rad; None for linear
 
 Like the Rust client, a client and its ports belong to the thread that made them.
 """
@@ -28,6 +29,8 @@ from .wire import (
     HEALTH_NAMES,
     INPUT_NONE,
     KIND_NAMES,
+    MAX_COV,
+    MAX_STATE,
     MODEL_NAMES,
     SAMPLE_TYPES,
     Counters,
@@ -64,6 +67,9 @@ MAX_NAMESPACE_LEN = 64
 
 # Health reason bits (`fusion_shared::snapshot::health`).
 _GENERAL_REASONS = ((1 << 0, "nis out of bounds"), (1 << 1, "samples lost"), (1 << 2, "re-initialised from fixes"))
+
+# Index of the attitude error δθ in the ins covariance.
+_ATTITUDE_ERROR = 6
 
 # Longest sleep while waiting for a snapshot: a reader that connected after the
 # last snapshot gets the latest one without an event, so waits re-check this often.
@@ -236,7 +242,8 @@ class Publisher:
 
 class Snapshot:
     """A snapshot read from fusiond: the raw :class:`StateSnapshot` (``raw``),
-    the estimate as numpy arrays and the codes by name."""
+    the estimate as numpy arrays (whole: ``x``, ``P``; by name: ``position``,
+    ``roll_pitch_yaw``, ``gyro_bias_std``, ...) and the codes by name."""
 
     def __init__(self, raw: StateSnapshot):
         self.raw = raw
@@ -274,6 +281,119 @@ class Snapshot:
     def sensor_counters(self) -> list:
         """The sensor rows in use."""
         return list(self.raw.sensors[: min(self.raw.sensor_count, len(self.raw.sensors))])
+
+    # The estimate by name, as the Rust client's ``StateSnapshot`` accessors give
+    # it (the same layout knowledge, the same formulas): each is a numpy array, or
+    # ``None`` when the snapshot's model does not have it (or is not known).
+
+    def _model_known(self) -> bool:
+        return self.raw.model in MODEL_NAMES
+
+    def _ins(self) -> bool:
+        return MODEL_NAMES.get(self.raw.model) == "ins"
+
+    def _state(self, at: int, n: int):
+        if not self._model_known() or at + n > min(self.raw.state_len, MAX_STATE):
+            return None
+        return np.array(self.raw.x[at : at + n], dtype=np.float64)
+
+    def _std3(self, at: int):
+        n = self.raw.cov_dim
+        if not self._model_known() or at + 3 > n or n > MAX_COV:
+            return None
+        return np.array([math.sqrt(max(self.raw.cov[(at + i) * n + at + i], 0.0)) for i in range(3)])
+
+    @property
+    def position(self):
+        """Position, m, world frame (ENU about the datum): ``x[0:3]`` in every model."""
+        return self._state(0, 3)
+
+    @property
+    def velocity(self):
+        """Velocity, m/s, world frame (ENU): ``x[3:6]`` in every model."""
+        return self._state(3, 3)
+
+    @property
+    def attitude(self):
+        """Attitude as the unit quaternion ``[w, x, y, z]`` rotating the body frame
+        (forward-left-up) into the world frame (ENU): ``x[6:10]``, ``ins`` only."""
+        return self._state(6, 4) if self._ins() else None
+
+    @property
+    def roll_pitch_yaw(self):
+        """Roll, pitch and yaw, rad, ``ins`` only: body → world is
+        ``Rz(yaw) Ry(pitch) Rx(roll)`` (ZYX on ENU and forward-left-up axes); yaw is
+        the forward axis's angle from east, counter-clockwise (a compass heading is
+        90° − yaw)."""
+        q = self.attitude
+        if q is None:
+            return None
+        norm = math.sqrt(float(q @ q))
+        if math.isnan(norm) or norm <= 0.0:
+            return None
+        w, x, y, z = (float(c) / norm for c in q)
+        roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+        pitch = math.asin(min(max(2.0 * (w * y - z * x), -1.0), 1.0))
+        yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        return np.array([roll, pitch, yaw])
+
+    @property
+    def accel_bias(self):
+        """Accelerometer bias, m/s², body frame: ``x[10:13]``, ``ins`` only."""
+        return self._state(10, 3) if self._ins() else None
+
+    @property
+    def gyro_bias(self):
+        """Gyroscope bias, rad/s, body frame: ``x[13:16]``, ``ins`` only."""
+        return self._state(13, 3) if self._ins() else None
+
+    @property
+    def position_std(self):
+        """Standard deviation of each position component, m."""
+        return self._std3(0)
+
+    @property
+    def velocity_std(self):
+        """Standard deviation of each velocity component, m/s."""
+        return self._std3(3)
+
+    @property
+    def attitude_std(self):
+        """Standard deviation of the attitude error about each body axis (forward,
+        left, up), rad: the error state δθ, ``ins`` only."""
+        return self._std3(_ATTITUDE_ERROR) if self._ins() else None
+
+    @property
+    def roll_pitch_yaw_std(self):
+        """Standard deviation of roll, pitch and yaw, rad, ``ins`` only: the
+        attitude error covariance mapped through the Euler-angle rates,
+        ``E Σθ Eᵀ`` with ``E = [[1, sφ tθ, cφ tθ], [0, cφ, −sφ], [0, sφ/cθ, cφ/cθ]]``
+        (φ roll, θ pitch). Infinite at pitch ±90°."""
+        rpy = self.roll_pitch_yaw
+        if rpy is None or self.attitude_std is None:
+            return None
+        roll, pitch = float(rpy[0]), float(rpy[1])
+        n, a = self.raw.cov_dim, _ATTITUDE_ERROR
+        sr, cr, tp, cp = math.sin(roll), math.cos(roll), math.tan(pitch), math.cos(pitch)
+        e = [[1.0, sr * tp, cr * tp], [0.0, cr, -sr], [0.0, sr / cp, cr / cp]]
+        out = []
+        for r in range(3):
+            var = 0.0
+            for i in range(3):
+                for j in range(3):
+                    var += e[r][i] * self.raw.cov[(a + i) * n + a + j] * e[r][j]
+            out.append(math.sqrt(max(var, 0.0)))
+        return np.array(out)
+
+    @property
+    def accel_bias_std(self):
+        """Standard deviation of each accelerometer bias component, m/s², ``ins`` only."""
+        return self._std3(9) if self._ins() else None
+
+    @property
+    def gyro_bias_std(self):
+        """Standard deviation of each gyroscope bias component, rad/s, ``ins`` only."""
+        return self._std3(12) if self._ins() else None
 
 
 class StateReader:
