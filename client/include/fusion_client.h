@@ -65,6 +65,10 @@ typedef enum FusionStatus {
   // Nothing to read yet: no snapshot arrived (`fusion_state_latest`), or none
   // within the timeout (`fusion_state_wait_next`). Not an error.
   FUSION_NO_DATA = 1,
+  // The snapshot's model has no such quantity (the attitude of `linear`), or
+  // the snapshot is not of a model this library knows (`fusion_snapshot_*`;
+  // `out` is left as it was). Not an error.
+  FUSION_NOT_IN_MODEL = 2,
   // A pointer argument was null.
   FUSION_ERROR_NULL = -1,
   // An argument is not usable: a namespace that cannot name a service, a
@@ -474,6 +478,95 @@ enum FusionStatus fusion_state_wait_next(struct FusionStateReader *reader,
 // The name of a `FusionStateSnapshot.health` value ("ok", "degraded", ...), a
 // static string.
 const char *fusion_health_name(uint32_t health);
+
+// Position, m, world frame (ENU about the datum), into `out[0..3]`; every model.
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 3 doubles.
+enum FusionStatus fusion_snapshot_position(const struct FusionStateSnapshot *snapshot, double *out);
+
+// Velocity, m/s, world frame (ENU), into `out[0..3]`; every model.
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 3 doubles.
+enum FusionStatus fusion_snapshot_velocity(const struct FusionStateSnapshot *snapshot, double *out);
+
+// Attitude, the unit quaternion `[w, x, y, z]` rotating the body frame
+// (forward-left-up) into the world frame (ENU), into `out[0..4]`; ins only.
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 4 doubles.
+enum FusionStatus fusion_snapshot_attitude(const struct FusionStateSnapshot *snapshot, double *out);
+
+// Roll, pitch and yaw, rad, into `out[0..3]`; ins only. Body → world is
+// `Rz(yaw) Ry(pitch) Rx(roll)` (ZYX on ENU and forward-left-up axes); yaw is the
+// forward axis's angle from east, counter-clockwise (compass heading = 90° − yaw).
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 3 doubles.
+enum FusionStatus fusion_snapshot_roll_pitch_yaw(const struct FusionStateSnapshot *snapshot,
+                                                 double *out);
+
+// Accelerometer bias, m/s², body frame, into `out[0..3]`; ins only.
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 3 doubles.
+enum FusionStatus fusion_snapshot_accel_bias(const struct FusionStateSnapshot *snapshot,
+                                             double *out);
+
+// Gyroscope bias, rad/s, body frame, into `out[0..3]`; ins only.
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 3 doubles.
+enum FusionStatus fusion_snapshot_gyro_bias(const struct FusionStateSnapshot *snapshot,
+                                            double *out);
+
+// Standard deviation of each position component, m, into `out[0..3]`.
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 3 doubles.
+enum FusionStatus fusion_snapshot_position_std(const struct FusionStateSnapshot *snapshot,
+                                               double *out);
+
+// Standard deviation of each velocity component, m/s, into `out[0..3]`.
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 3 doubles.
+enum FusionStatus fusion_snapshot_velocity_std(const struct FusionStateSnapshot *snapshot,
+                                               double *out);
+
+// Standard deviation of the attitude error about each body axis (forward,
+// left, up), rad, into `out[0..3]`; ins only.
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 3 doubles.
+enum FusionStatus fusion_snapshot_attitude_std(const struct FusionStateSnapshot *snapshot,
+                                               double *out);
+
+// Standard deviation of roll, pitch and yaw, rad, into `out[0..3]`; ins only:
+// the attitude error covariance through the Euler-angle rates (infinite at
+// pitch ±90°).
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 3 doubles.
+enum FusionStatus fusion_snapshot_roll_pitch_yaw_std(const struct FusionStateSnapshot *snapshot,
+                                                     double *out);
+
+// Standard deviation of each accelerometer bias component, m/s², into
+// `out[0..3]`; ins only.
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 3 doubles.
+enum FusionStatus fusion_snapshot_accel_bias_std(const struct FusionStateSnapshot *snapshot,
+                                                 double *out);
+
+// Standard deviation of each gyroscope bias component, rad/s, into
+// `out[0..3]`; ins only.
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 3 doubles.
+enum FusionStatus fusion_snapshot_gyro_bias_std(const struct FusionStateSnapshot *snapshot,
+                                                double *out);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -10,7 +10,8 @@
 //! a client and everything made from it must be used on the thread that made it.
 //!
 //! The samples and snapshots are the wire types themselves (`FusionImuSample`,
-//! `FusionStateSnapshot`, ...), `#[repr(C)]` with the layout of the services.
+//! `FusionStateSnapshot`, ...), `#[repr(C)]` with the layout of the services;
+//! `fusion_snapshot_position` and its siblings read a snapshot's estimate by name.
 
 use std::cell::RefCell;
 use std::ffi::{CStr, CString, c_char};
@@ -32,6 +33,10 @@ pub enum FusionStatus {
     /// Nothing to read yet: no snapshot arrived (`fusion_state_latest`), or none
     /// within the timeout (`fusion_state_wait_next`). Not an error.
     FusionNoData = 1,
+    /// The snapshot's model has no such quantity (the attitude of `linear`), or
+    /// the snapshot is not of a model this library knows (`fusion_snapshot_*`;
+    /// `out` is left as it was). Not an error.
+    FusionNotInModel = 2,
     /// A pointer argument was null.
     FusionErrorNull = -1,
     /// An argument is not usable: a namespace that cannot name a service, a
@@ -530,6 +535,8 @@ pub extern "C" fn fusion_health_name(health: u32) -> *const c_char {
         _ => c"unknown".as_ptr(),
     }
 }
+
+mod typed;
 
 #[cfg(test)]
 mod tests;

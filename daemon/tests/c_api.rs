@@ -1,5 +1,6 @@
-//! The C API against a live fusiond: the C example (`client/examples/c/`) and
-//! the error checks (`client/tests/c/errors.c`) compiled with the system C
+//! The C API against a live fusiond: the C example (`client/examples/c/`), the
+//! error checks (`client/tests/c/errors.c`) and the typed accessors
+//! (`client/tests/c/typed.c`, against the Rust ones) compiled with the system C
 //! compiler and linked with `libfusion_client.a`; the header compiled as C++.
 
 mod common;
@@ -109,4 +110,14 @@ fn the_readme_shows_the_tested_c_example() {
     let readme = std::fs::read_to_string(client_dir().join("../README.md")).unwrap();
     let example = std::fs::read_to_string(client_dir().join("examples/c/example.c")).unwrap();
     assert!(readme.contains(&format!("```c\n{example}```\n")), "README's C example differs from examples/c/example.c");
+}
+
+#[test]
+fn the_c_typed_accessors_agree_with_the_rust_ones() {
+    let build = tempfile::tempdir().unwrap();
+    let typed = compile("cc", &["-std=c11"], &client_dir().join("tests/c/typed.c"), build.path());
+    let path = common::typed::write_cases(build.path());
+    let out = Command::new(typed).arg(&path).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    common::typed::assert_agree(&String::from_utf8_lossy(&out.stdout));
 }

@@ -276,107 +276,11 @@ fn the_python_example_reads_a_live_snapshot() {
     );
 }
 
-/// A tilted ins snapshot: roll, pitch, yaw (rad) as its attitude, a full
-/// attitude-error block and distinct variances everywhere else.
-fn ins_snapshot(rpy: [f64; 3], quaternion_scale: f64) -> StateSnapshot {
-    let [r, p, y] = rpy.map(|a| a / 2.0);
-    let (cr, sr, cp, sp, cy, sy) = (r.cos(), r.sin(), p.cos(), p.sin(), y.cos(), y.sin());
-    // q of Rz(yaw) Ry(pitch) Rx(roll), [w, x, y, z].
-    let q = [
-        cr * cp * cy + sr * sp * sy,
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-    ];
-    let mut s =
-        StateSnapshot { model: fusion_shared::snapshot::model::INS, state_len: 16, cov_dim: 15, ..Default::default() };
-    let x = [1.0, -2.0, 3.5, 10.0, 0.5, -0.25, 0.0, 0.0, 0.0, 0.0, 0.01, -0.02, 0.03, 1e-4, -2e-4, 3e-4];
-    s.x[..16].copy_from_slice(&x);
-    for (i, c) in q.iter().enumerate() {
-        s.x[6 + i] = c * quaternion_scale;
-    }
-    for i in 0..15 {
-        s.cov[i * 15 + i] = 1e-3 * (i + 1) as f64;
-    }
-    let block = [[4e-4, 1e-4, -5e-5], [1e-4, 9e-4, 2e-5], [-5e-5, 2e-5, 2.5e-3]];
-    for (i, row) in block.iter().enumerate() {
-        for (j, v) in row.iter().enumerate() {
-            s.cov[(6 + i) * 15 + 6 + j] = *v;
-        }
-    }
-    s
-}
-
 #[test]
 fn the_python_typed_accessors_agree_with_the_rust_ones() {
-    let mut cases = vec![ins_snapshot([0.3, -0.2, 2.0], 1.0), ins_snapshot([-1.2, 0.7, -2.9], 2.0)];
-    let mut linear =
-        StateSnapshot { model: fusion_shared::snapshot::model::LINEAR, state_len: 6, cov_dim: 6, ..Default::default() };
-    linear.x[..6].copy_from_slice(&[4.0, 5.0, 6.0, 0.1, 0.2, 0.3]);
-    (0..6).for_each(|i| linear.cov[i * 6 + i] = 0.5 + i as f64);
-    cases.push(linear);
-    // What must read as missing: an unknown model, a short state, a garbled side.
-    cases.push(StateSnapshot { model: 9, ..cases[0] });
-    cases.push(StateSnapshot { state_len: 5, ..cases[0] });
-    cases.push(StateSnapshot { cov_dim: 20, ..cases[0] });
-    cases.push(StateSnapshot::default());
-
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("snapshots.bin");
-    let bytes: Vec<u8> = cases
-        .iter()
-        .flat_map(|s| {
-            // SAFETY: `StateSnapshot` is `repr(C)` plain data without padding (its
-            // size is the sum of its fields, asserted in `fusion_shared`).
-            unsafe { std::slice::from_raw_parts((s as *const StateSnapshot).cast::<u8>(), size_of::<StateSnapshot>()) }
-                .to_vec()
-        })
-        .collect();
-    std::fs::write(&path, bytes).unwrap();
+    let path = common::typed::write_cases(dir.path());
     let out = common::python_command("unused", "tests/typed.py", &[path.to_str().unwrap()]).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let lines: Vec<Value> =
-        String::from_utf8_lossy(&out.stdout).lines().map(|l| serde_json::from_str(l).unwrap()).collect();
-    assert_eq!(lines.len(), cases.len());
-
-    type Accessor = fn(&StateSnapshot) -> Option<Vec<f64>>;
-    let rust: [(&str, Accessor); 12] = [
-        ("position", |s| s.position().map(Vec::from)),
-        ("velocity", |s| s.velocity().map(Vec::from)),
-        ("attitude", |s| s.attitude().map(Vec::from)),
-        ("roll_pitch_yaw", |s| s.roll_pitch_yaw().map(Vec::from)),
-        ("accel_bias", |s| s.accel_bias().map(Vec::from)),
-        ("gyro_bias", |s| s.gyro_bias().map(Vec::from)),
-        ("position_std", |s| s.position_std().map(Vec::from)),
-        ("velocity_std", |s| s.velocity_std().map(Vec::from)),
-        ("attitude_std", |s| s.attitude_std().map(Vec::from)),
-        ("roll_pitch_yaw_std", |s| s.roll_pitch_yaw_std().map(Vec::from)),
-        ("accel_bias_std", |s| s.accel_bias_std().map(Vec::from)),
-        ("gyro_bias_std", |s| s.gyro_bias_std().map(Vec::from)),
-    ];
-    let mut compared = 0;
-    for (i, (case, py)) in cases.iter().zip(&lines).enumerate() {
-        for (name, accessor) in rust {
-            match (accessor(case), &py[name]) {
-                (None, Value::Null) => {}
-                (Some(rs), v) if !v.is_null() => {
-                    let py = numbers(v);
-                    assert_eq!(py.len(), rs.len(), "case {i}: {name}");
-                    for (a, b) in py.iter().zip(&rs) {
-                        assert!(
-                            (a - b).abs() <= 1e-12 * b.abs().max(1.0),
-                            "case {i}: {name}: python {py:?}, rust {rs:?}"
-                        );
-                    }
-                    compared += 1;
-                }
-                (rs, v) => panic!("case {i}: {name}: python {v}, rust {rs:?}"),
-            }
-        }
-    }
-    // Every accessor of both ins snapshots; position to velocity_std of the
-    // linear one; of the short state its position and the five standard
-    // deviations its covariance has (not roll/pitch/yaw: no attitude); of the
-    // garbled side the six state accessors.
-    assert_eq!(compared, 12 + 12 + 4 + 6 + 6, "{lines:?}");
+    common::typed::assert_agree(&String::from_utf8_lossy(&out.stdout));
 }

@@ -77,6 +77,7 @@ pub fn acceptance_scenario(seed: u64, outlier_probability: f64) -> Scenario {
 
 pub mod heartbeat;
 pub mod live;
+pub mod typed;
 
 /// Numbers as a TOML array's contents (`1e0, -2.5e-1`), exactly.
 pub fn toml_list(v: &[f64]) -> String {

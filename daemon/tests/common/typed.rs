@@ -1,0 +1,127 @@
+//! The typed snapshot accessors of the other languages against the Rust ones:
+//! a set of snapshots written raw to a file, and the check of what a program
+//! printed of them (a JSON object per snapshot, an array of numbers or `null`
+//! for each accessor).
+
+use std::path::{Path, PathBuf};
+
+use fusion_shared::StateSnapshot;
+use fusion_shared::snapshot::model;
+use serde_json::Value;
+
+/// A tilted ins snapshot: roll, pitch, yaw (rad) as its attitude (the
+/// quaternion scaled by `quaternion_scale`), a full attitude-error block and
+/// distinct variances everywhere else.
+fn ins_snapshot(rpy: [f64; 3], quaternion_scale: f64) -> StateSnapshot {
+    let [r, p, y] = rpy.map(|a| a / 2.0);
+    let (cr, sr, cp, sp, cy, sy) = (r.cos(), r.sin(), p.cos(), p.sin(), y.cos(), y.sin());
+    // q of Rz(yaw) Ry(pitch) Rx(roll), [w, x, y, z].
+    let q = [
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    ];
+    let mut s = StateSnapshot { model: model::INS, state_len: 16, cov_dim: 15, ..Default::default() };
+    let x = [1.0, -2.0, 3.5, 10.0, 0.5, -0.25, 0.0, 0.0, 0.0, 0.0, 0.01, -0.02, 0.03, 1e-4, -2e-4, 3e-4];
+    s.x[..16].copy_from_slice(&x);
+    for (i, c) in q.iter().enumerate() {
+        s.x[6 + i] = c * quaternion_scale;
+    }
+    for i in 0..15 {
+        s.cov[i * 15 + i] = 1e-3 * (i + 1) as f64;
+    }
+    let block = [[4e-4, 1e-4, -5e-5], [1e-4, 9e-4, 2e-5], [-5e-5, 2e-5, 2.5e-3]];
+    for (i, row) in block.iter().enumerate() {
+        for (j, v) in row.iter().enumerate() {
+            s.cov[(6 + i) * 15 + 6 + j] = *v;
+        }
+    }
+    s
+}
+
+/// Two tilted ins snapshots (the second with a quaternion of norm 2), a linear
+/// one, and what must read as missing: an unknown model, a short state, a
+/// garbled covariance side, a default (never published) snapshot.
+pub fn cases() -> Vec<StateSnapshot> {
+    let ins = ins_snapshot([0.3, -0.2, 2.0], 1.0);
+    let mut linear = StateSnapshot { model: model::LINEAR, state_len: 6, cov_dim: 6, ..Default::default() };
+    linear.x[..6].copy_from_slice(&[4.0, 5.0, 6.0, 0.1, 0.2, 0.3]);
+    (0..6).for_each(|i| linear.cov[i * 6 + i] = 0.5 + i as f64);
+    vec![
+        ins,
+        ins_snapshot([-1.2, 0.7, -2.9], 2.0),
+        linear,
+        StateSnapshot { model: 9, ..ins },
+        StateSnapshot { state_len: 5, ..ins },
+        StateSnapshot { cov_dim: 20, ..ins },
+        StateSnapshot::default(),
+    ]
+}
+
+/// Writes [`cases`] raw, one `StateSnapshot` after another, to `dir/snapshots.bin`.
+pub fn write_cases(dir: &Path) -> PathBuf {
+    let path = dir.join("snapshots.bin");
+    let bytes: Vec<u8> = cases()
+        .iter()
+        .flat_map(|s| {
+            // SAFETY: `StateSnapshot` is `repr(C)` plain data without padding (its
+            // size is the sum of its fields, asserted in `fusion_shared`).
+            unsafe { std::slice::from_raw_parts((s as *const StateSnapshot).cast::<u8>(), size_of::<StateSnapshot>()) }
+                .to_vec()
+        })
+        .collect();
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+type Accessor = fn(&StateSnapshot) -> Option<Vec<f64>>;
+
+/// Every typed accessor, by the name the other languages give it.
+const ACCESSORS: [(&str, Accessor); 12] = [
+    ("position", |s| s.position().map(Vec::from)),
+    ("velocity", |s| s.velocity().map(Vec::from)),
+    ("attitude", |s| s.attitude().map(Vec::from)),
+    ("roll_pitch_yaw", |s| s.roll_pitch_yaw().map(Vec::from)),
+    ("accel_bias", |s| s.accel_bias().map(Vec::from)),
+    ("gyro_bias", |s| s.gyro_bias().map(Vec::from)),
+    ("position_std", |s| s.position_std().map(Vec::from)),
+    ("velocity_std", |s| s.velocity_std().map(Vec::from)),
+    ("attitude_std", |s| s.attitude_std().map(Vec::from)),
+    ("roll_pitch_yaw_std", |s| s.roll_pitch_yaw_std().map(Vec::from)),
+    ("accel_bias_std", |s| s.accel_bias_std().map(Vec::from)),
+    ("gyro_bias_std", |s| s.gyro_bias_std().map(Vec::from)),
+];
+
+/// Asserts that `printed` (a JSON line per case of [`cases`]) has what the Rust
+/// accessors give: the same missing ones, the values to 1e-12 relative.
+pub fn assert_agree(printed: &str) {
+    let lines: Vec<Value> = printed.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let cases = cases();
+    assert_eq!(lines.len(), cases.len(), "{printed}");
+    let mut compared = 0;
+    for (i, (case, line)) in cases.iter().zip(&lines).enumerate() {
+        for (name, accessor) in ACCESSORS {
+            match (accessor(case), &line[name]) {
+                (None, Value::Null) => {}
+                (Some(rust), Value::Array(values)) => {
+                    let other: Vec<f64> = values.iter().map(|v| v.as_f64().unwrap()).collect();
+                    assert_eq!(other.len(), rust.len(), "case {i}: {name}");
+                    for (a, b) in other.iter().zip(&rust) {
+                        assert!(
+                            (a - b).abs() <= 1e-12 * b.abs().max(1.0),
+                            "case {i}: {name}: {other:?}, rust {rust:?}"
+                        );
+                    }
+                    compared += 1;
+                }
+                (rust, v) => panic!("case {i}: {name}: printed {v}, rust {rust:?}"),
+            }
+        }
+    }
+    // Every accessor of both ins snapshots; position to velocity_std of the
+    // linear one; of the short state its position and the five standard
+    // deviations its covariance has (not roll/pitch/yaw: no attitude); of the
+    // garbled side the six state accessors.
+    assert_eq!(compared, 12 + 12 + 4 + 6 + 6, "{printed}");
+}
