@@ -87,7 +87,7 @@ fn run<M: Model>(model: M, config: &Config, n: u64, time: bool, instant: impl Fn
         .collect();
     // Per sample: its name (kind, and for an IMU whether it is the first of its
     // instant) and ns.
-    let mut times: Vec<(String, u64)> = Vec::with_capacity(if time { samples.len() } else { 0 });
+    let mut times: Vec<(&str, u64)> = Vec::with_capacity(if time { samples.len() } else { 0 });
     let mut last_imu_t = None;
     for sample in &samples {
         let t = sample.t_ns();
@@ -96,9 +96,9 @@ fn run<M: Model>(model: M, config: &Config, n: u64, time: bool, instant: impl Fn
         if time {
             let ns = start.elapsed().as_nanos() as u64;
             let name = match sample {
-                Sample::Imu(_) if last_imu_t == Some(t) => "imu, not first of its instant".to_string(),
-                Sample::Imu(_) => "imu, first of its instant".to_string(),
-                other => other.kind().name().to_string(),
+                Sample::Imu(_) if last_imu_t == Some(t) => "imu, not first of its instant",
+                Sample::Imu(_) => "imu, first of its instant",
+                other => other.kind().name(),
             };
             if matches!(sample, Sample::Imu(_)) {
                 last_imu_t = Some(t);
@@ -112,11 +112,11 @@ fn run<M: Model>(model: M, config: &Config, n: u64, time: bool, instant: impl Fn
 }
 
 /// Prints the p50 and p99 of each sample name, and of every IMU sample.
-fn report(times: Vec<(String, u64)>) {
-    let mut names: Vec<String> = times.iter().map(|(n, _)| n.clone()).collect();
+fn report(times: Vec<(&str, u64)>) {
+    let mut names: Vec<&str> = times.iter().map(|(n, _)| *n).collect();
     names.sort();
     names.dedup();
-    names.push("imu, all".to_string());
+    names.push("imu, all");
     for name in names {
         let mut ns: Vec<u64> = times
             .iter()

@@ -45,13 +45,6 @@ fn wait_for_log(log: &Path, text: &str) {
     }
 }
 
-fn bytes(s: &StateSnapshot) -> &[u8] {
-    // SAFETY: a `#[repr(C)]` type of integers and floats without padding.
-    unsafe {
-        std::slice::from_raw_parts((s as *const StateSnapshot).cast::<u8>(), std::mem::size_of::<StateSnapshot>())
-    }
-}
-
 /// Reads snapshots until `n` arrived (or 30 s passed).
 fn read_all(reader: &mut fusion_client::StateSubscriber, n: usize) -> Vec<StateSnapshot> {
     let mut out = Vec::new();
@@ -115,7 +108,12 @@ fn two_hosts_joined_by_zenoh_see_every_snapshot_bit_for_bit() {
     assert_eq!(on_a.len(), samples.len(), "fusiond on A processed every sample sent on B");
     assert_eq!(on_b.len(), on_a.len(), "B received every snapshot of A");
     for (i, (a, b)) in on_a.iter().zip(&on_b).enumerate() {
-        assert!(bytes(a) == bytes(b), "snapshot {i} differs (seq {} vs {})", a.seq, b.seq);
+        assert!(
+            common::snapshot_bytes(a) == common::snapshot_bytes(b),
+            "snapshot {i} differs (seq {} vs {})",
+            a.seq,
+            b.seq
+        );
     }
     assert!(on_b.windows(2).all(|w| w[1].seq == w[0].seq + 1), "in order, none missing");
     let fused: u64 = on_b.last().unwrap().sensor_counters().iter().map(|c| c.counts.fused).sum();
@@ -174,10 +172,10 @@ fn a_bridge_refuses_a_snapshot_of_another_version() {
     let put = |payload: Vec<u8>, schema: &str| {
         session.put(key.clone(), payload).encoding(octets.clone().with_schema(schema)).wait().unwrap();
     };
-    put(bytes(&good(0)).to_vec(), "fusion.StateSnapshot.v6");
-    put(bytes(&good(1)).to_vec(), "fusion.StateSnapshot.v5");
-    put(bytes(&good(2))[..4000].to_vec(), "fusion.StateSnapshot.v6");
-    put(bytes(&good(3)).to_vec(), "fusion.StateSnapshot.v6");
+    put(common::snapshot_bytes(&good(0)).to_vec(), "fusion.StateSnapshot.v6");
+    put(common::snapshot_bytes(&good(1)).to_vec(), "fusion.StateSnapshot.v5");
+    put(common::snapshot_bytes(&good(2))[..4000].to_vec(), "fusion.StateSnapshot.v6");
+    put(common::snapshot_bytes(&good(3)).to_vec(), "fusion.StateSnapshot.v6");
     let got = read_all(&mut reader, 2);
     assert_eq!(got.iter().map(|s| s.seq).collect::<Vec<_>>(), [0, 3]);
     assert!(reader.wait_next(Duration::from_millis(300)).unwrap().is_none(), "nothing else came through");

@@ -3,6 +3,7 @@
 //! function writes its values to `out` and returns [`FusionStatus::FusionOk`],
 //! or [`FusionStatus::FusionNotInModel`] when the snapshot's model has no such
 //! quantity. Units, frames and conventions are those of the Rust accessors.
+//! The functions are written out one by one: cbindgen does not expand macros.
 
 use fusion_shared::StateSnapshot;
 

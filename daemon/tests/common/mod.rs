@@ -25,6 +25,18 @@ pub fn ins_config_at_truth(seed: u64) -> String {
     )
 }
 
+/// The bytes of a snapshot, as they travel.
+pub fn snapshot_bytes(s: &fusion_shared::StateSnapshot) -> &[u8] {
+    // SAFETY: `StateSnapshot` is `repr(C)` plain data without padding (its size is
+    // the sum of its fields, asserted in `fusion_shared`).
+    unsafe {
+        std::slice::from_raw_parts(
+            (s as *const fusion_shared::StateSnapshot).cast::<u8>(),
+            size_of::<fusion_shared::StateSnapshot>(),
+        )
+    }
+}
+
 /// The config used by the reference tests, with or without gating.
 pub fn linear_config(gating: Option<f64>) -> String {
     let mut c = String::from(

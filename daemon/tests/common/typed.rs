@@ -62,15 +62,7 @@ pub fn cases() -> Vec<StateSnapshot> {
 /// Writes [`cases`] raw, one `StateSnapshot` after another, to `dir/snapshots.bin`.
 pub fn write_cases(dir: &Path) -> PathBuf {
     let path = dir.join("snapshots.bin");
-    let bytes: Vec<u8> = cases()
-        .iter()
-        .flat_map(|s| {
-            // SAFETY: `StateSnapshot` is `repr(C)` plain data without padding (its
-            // size is the sum of its fields, asserted in `fusion_shared`).
-            unsafe { std::slice::from_raw_parts((s as *const StateSnapshot).cast::<u8>(), size_of::<StateSnapshot>()) }
-                .to_vec()
-        })
-        .collect();
+    let bytes: Vec<u8> = cases().iter().flat_map(|s| super::snapshot_bytes(s).to_vec()).collect();
     std::fs::write(&path, bytes).unwrap();
     path
 }
