@@ -344,6 +344,20 @@ typedef struct FusionStateSnapshot {
   // State readers refused because every reader slot (`[ipc] max_readers`)
   // was taken, as the refused readers reported it.
   uint64_t readers_refused;
+  // 0 when this estimate is final for every sample received (settled). More
+  // while a late sample's correction is being worked in: the estimate then
+  // lacks that sample's effect, and this many later samples are still to be
+  // re-processed (in the daemon's idle time, between samples) before a
+  // snapshot includes it. See [`StateSnapshot::settled`].
+  uint64_t pending_steps;
+  // While `pending_steps > 0`: the time of validity of the oldest received
+  // sample whose effect is not yet in this estimate, ns; 0 when settled.
+  uint64_t pending_since_t_ns;
+  // Samples re-processed for late samples in the daemon's idle time since it
+  // started (the rewinds' work kept off the latency path). `fusiond replay
+  // --compare` does the same work at the same points, to reproduce every
+  // snapshot, provisional ones included.
+  uint64_t background_steps;
 } FusionStateSnapshot;
 
 #ifdef __cplusplus

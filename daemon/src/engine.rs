@@ -10,6 +10,21 @@
 //! fused exactly: the engine restores the state before its place, processes it,
 //! and re-processes every later sample, so the result equals processing the sorted
 //! stream. All buffers are allocated at construction; nothing allocates per sample.
+//!
+//! The re-processing can wait. [`Engine::insert_deferred`] only places a late
+//! sample in the history and marks it and the entries after it *stale* (an
+//! O(log n) search and an index move: no filter step on the way); samples that
+//! arrive meanwhile are stepped on from the newest (stale) entry at in-order
+//! cost, and [`Engine::settle_step`] steps the oldest stale entry, one at a
+//! time, where the caller has time (the live loop's idle time, in slices). A
+//! late sample's own outcome (fused or gated, its NIS) is known when the rewind
+//! reaches it ([`Engine::take_first_outcomes`]).
+//! While entries are stale the newest estimate is provisional ([`Engine::correction`]
+//! says how far behind it is); once every stale entry is re-stepped the history
+//! is bit for bit the one of in-order processing, because every step is a pure
+//! function of the state before it and the sample. A stale entry is never handed
+//! out as final: one about to leave the history is re-stepped first.
+//! [`Engine::insert`] is `insert_deferred` followed by settling everything.
 
 use fusion_shared::SampleKind;
 use fusion_shared::snapshot::MAX_SENSORS;
@@ -81,6 +96,14 @@ pub enum Insert {
         replayed: usize,
         /// What processing the sample itself did.
         outcome: StepOutcome,
+    },
+    /// Late, and placed by [`Engine::insert_deferred`]: it is processed, and the
+    /// `replayed` later samples re-processed, when the rewind reaches it
+    /// ([`Engine::settle_step`]); its outcome then comes from
+    /// [`Engine::take_first_outcomes`]. Counted as processed and late at once.
+    Placed {
+        /// Number of later samples to re-process because this one came late.
+        replayed: usize,
     },
     /// Refused by validation.
     Rejected(Rejection),
@@ -166,16 +189,44 @@ pub struct Entry<S> {
     /// What processing did.
     pub outcome: StepOutcome,
     slot: u16,
+    /// Placed late and not yet processed (its state and outcome mean nothing yet).
+    fresh: bool,
+}
+
+/// Late samples' first outcomes the engine keeps until the caller takes them
+/// ([`Engine::take_first_outcomes`]); more are not kept.
+pub const FIRST_OUTCOMES: usize = 64;
+
+/// A correction that has not yet reached the newest estimate: late samples were
+/// inserted, and entries after them still hold states computed without them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Correction {
+    /// History entries still to re-step ([`Engine::settle_step`] takes one).
+    pub steps: usize,
+    /// Time of validity of the oldest sample whose effect has not yet reached
+    /// the newest estimate, ns.
+    pub since_t_ns: u64,
 }
 
 /// The estimation engine for model `M`.
 pub struct Engine<M: Model> {
     model: M,
     config: EngineConfig,
-    history: History<Entry<M::State>>,
+    history: History<Entry<M::State>, SampleKey>,
     /// The model's initial state: the state before `history[0]` until an entry
     /// has left the history (then it is that entry's, [`History::base`]).
     initial: M::State,
+    /// Index of the oldest stale entry: this one and every later one hold states
+    /// computed before a late sample was inserted ahead of them (or are late
+    /// samples not yet processed). `None`: every entry is exact.
+    stale_from: Option<usize>,
+    /// Sensor slot and outcome of late samples processed for the first time,
+    /// the first `first_len` of them, until the caller takes them.
+    first_outcomes: [(u16, StepOutcome); FIRST_OUTCOMES],
+    first_len: usize,
+    /// While entries are stale: the time of the oldest late sample placed since
+    /// the history was last settled.
+    pending_since_t: Option<u64>,
     newest_t: Option<u64>,
     /// Samples refused in a row as a time jump (see [`JUMP_CONFIRMATION`]).
     jumps_in_a_row: u32,
@@ -201,6 +252,7 @@ impl<M: Model> Engine<M> {
             state: initial,
             outcome: StepOutcome::Propagated,
             slot: 0,
+            fresh: false,
         };
         let history = History::new(config.history_capacity, filler);
         Self {
@@ -208,6 +260,10 @@ impl<M: Model> Engine<M> {
             config,
             history,
             initial,
+            stale_from: None,
+            first_outcomes: [(0, StepOutcome::Propagated); FIRST_OUTCOMES],
+            first_len: 0,
+            pending_since_t: None,
             newest_t: None,
             jumps_in_a_row: 0,
             sensors: Vec::with_capacity(MAX_SENSORS),
@@ -239,9 +295,17 @@ impl<M: Model> Engine<M> {
         &self.stats
     }
 
-    /// The newest processed entry: the current estimate.
+    /// The newest processed entry: the current estimate (provisional while a
+    /// [`correction`](Self::correction) is pending).
     pub fn latest(&self) -> Option<&Entry<M::State>> {
         self.history.back()
+    }
+
+    /// The correction not yet in the newest estimate, if one is pending.
+    pub fn correction(&self) -> Option<Correction> {
+        let from = self.stale_from?;
+        let since_t_ns = self.pending_since_t.unwrap_or(self.history.key(from).t_ns);
+        Some(Correction { steps: self.history.len() - from, since_t_ns })
     }
 
     /// Entries still in the history (may still change through a rewind), oldest first.
@@ -249,10 +313,36 @@ impl<M: Model> Engine<M> {
         self.history.iter()
     }
 
-    /// Inserts a sample arriving now. `now_ns` (the daemon's clock) enables the
-    /// future-timestamp check; replay passes `None`. Entries that leave the history
-    /// are final and are handed to `on_final`, in processing order.
+    /// Inserts a sample arriving now and re-processes every later sample if it
+    /// came late: afterwards the newest estimate includes it. `now_ns` (the
+    /// daemon's clock) enables the future-timestamp check; replay passes `None`.
+    /// Entries that leave the history are final and are handed to `on_final`, in
+    /// processing order.
     pub fn insert(
+        &mut self,
+        sample: &Sample,
+        now_ns: Option<u64>,
+        on_final: &mut impl FnMut(&Entry<M::State>),
+    ) -> Insert {
+        let kept = self.first_len;
+        let inserted = self.insert_deferred(sample, now_ns, on_final);
+        self.settle();
+        // Everything before this sample was settled: the only late sample
+        // processed for the first time just now is this one.
+        let first = (self.first_len > kept).then(|| self.first_outcomes[self.first_len - 1].1);
+        self.first_len = kept;
+        match (inserted, first) {
+            (Insert::Placed { replayed }, Some(outcome)) => Insert::Processed { replayed, outcome },
+            (other, _) => other,
+        }
+    }
+
+    /// Inserts a sample arriving now, as [`insert`](Self::insert), but leaves a
+    /// late one to the rewind: it is placed in the history ([`Insert::Placed`]),
+    /// it and every entry after it are stale, and [`settle_step`](Self::settle_step)
+    /// processes them. An in-order sample is stepped at once, from the newest
+    /// entry (stale or not): one step whatever is pending.
+    pub fn insert_deferred(
         &mut self,
         sample: &Sample,
         now_ns: Option<u64>,
@@ -314,7 +404,7 @@ impl<M: Model> Engine<M> {
         let seen = match self.sensors[slot].seen.seen(key.seq) {
             Seen::Yes => true,
             Seen::No if !older => false,
-            Seen::No | Seen::Unknown => self.history.iter().any(|e| e.key == key),
+            Seen::No | Seen::Unknown => self.history.keys().any(|k| *k == key),
         };
         if seen {
             self.sensors[slot].stats.duplicate += 1;
@@ -332,7 +422,7 @@ impl<M: Model> Engine<M> {
         let placement = place(
             &key,
             self.history.len(),
-            |i| self.history[i].key,
+            |i| self.history.key(i),
             self.newest_t,
             self.config.history_ns,
             self.history.base().is_none(),
@@ -356,6 +446,8 @@ impl<M: Model> Engine<M> {
             self.evict_front(on_final);
             index -= 1;
         }
+        // The evictions above may have re-stepped stale entries: `stale_from` is
+        // read only now.
 
         crate::measurement::admit(sample, self.model.frames());
         let sensor = &mut self.sensors[slot];
@@ -363,49 +455,64 @@ impl<M: Model> Engine<M> {
         sensor.last_t_ns = Some(sensor.last_t_ns.map_or(key.t_ns, |t| t.max(key.t_ns)));
         sensor.stats.processed += 1;
 
-        // The new entry is stepped in its own slot from the entry before it (or
-        // the initial state): one copy of the state, no moves.
         let replayed = self.history.len() - index;
-        let (model, initial) = (&self.model, &self.initial);
-        let mut outcome = StepOutcome::Propagated;
-        let inserted = self.history.insert_with(index, |before, entry| {
-            entry.state = match before {
-                Some(b) => b.state,
-                None => *initial,
-            };
-            outcome = model.step(&mut entry.state, sample);
-            (entry.key, entry.sample, entry.outcome, entry.slot) = (key, *sample, outcome, slot as u16);
-        });
-        // Room was made above; the history moves slot indices, not entries, and
-        // never allocates.
-        debug_assert!(inserted, "the history had room");
-        count_outcome(&mut self.sensors[slot].stats, &outcome, 1);
-        self.sensors[slot].last_nis = outcome.nis().or(self.sensors[slot].last_nis);
-        if replayed > 0 {
+        let result = if replayed == 0 {
+            // In order: stepped in its own slot from the entry before it (or the
+            // initial state), one copy of the state, no moves. Exact unless that
+            // entry is stale.
+            let (model, initial) = (&self.model, &self.initial);
+            let mut outcome = StepOutcome::Propagated;
+            let inserted = self.history.insert_with(index, key, |before, entry| {
+                entry.state = match before {
+                    Some(b) => b.state,
+                    None => *initial,
+                };
+                outcome = model.step(&mut entry.state, sample);
+                (entry.key, entry.sample, entry.outcome, entry.slot) = (key, *sample, outcome, slot as u16);
+                entry.fresh = false;
+            });
+            // Room was made above; the history moves slot indices, not entries,
+            // and never allocates.
+            debug_assert!(inserted, "the history had room");
+            count_outcome(&mut self.sensors[slot].stats, &outcome, 1);
+            self.sensors[slot].last_nis = outcome.nis().or(self.sensors[slot].last_nis);
+            Insert::Processed { replayed, outcome }
+        } else {
+            // Late: placed, and stale with everything after it. Its state is
+            // written when the rewind reaches it; its outcome counts from then.
+            let inserted = self.history.insert_with(index, key, |_, entry| {
+                (entry.key, entry.sample, entry.outcome, entry.slot) =
+                    (key, *sample, StepOutcome::Propagated, slot as u16);
+                entry.fresh = true;
+            });
+            debug_assert!(inserted, "the history had room");
             self.sensors[slot].stats.late += 1;
             self.stats.rewinds += 1;
             self.stats.replayed += replayed as u64;
-        }
-        for j in (index + 1)..self.history.len() {
-            let Some((before, entry)) = self.history.pair_mut(j) else { break };
-            entry.state = before.state;
-            let old = entry.outcome;
-            let outcome = self.model.step(&mut entry.state, &entry.sample);
-            entry.outcome = outcome;
-            if old != outcome {
-                let entry_slot = entry.slot as usize;
-                count_outcome(&mut self.sensors[entry_slot].stats, &old, -1);
-                count_outcome(&mut self.sensors[entry_slot].stats, &outcome, 1);
-            }
-        }
+            self.stale_from = Some(self.stale_from.map_or(index, |from| from.min(index)));
+            self.pending_since_t = Some(self.pending_since_t.map_or(key.t_ns, |t| t.min(key.t_ns)));
+            Insert::Placed { replayed }
+        };
 
         let newest = self.newest_t.map_or(key.t_ns, |t| t.max(key.t_ns));
         self.newest_t = Some(newest);
         let horizon = newest.saturating_sub(self.config.history_ns);
-        while self.history.front().is_some_and(|e| e.key.t_ns < horizon) {
+        while self.history.keys().next().is_some_and(|k| k.t_ns < horizon) {
             self.evict_front(on_final);
         }
-        Insert::Processed { replayed, outcome }
+        result
+    }
+
+    /// Hands the sensor slot and outcome of every late sample processed for the
+    /// first time since the last call (by [`settle_step`](Self::settle_step), or
+    /// because it was about to leave the history) to `f`, in the order they were
+    /// processed: what [`Insert::Processed`] says of an in-order sample. At most
+    /// [`FIRST_OUTCOMES`] are kept between calls.
+    pub fn take_first_outcomes(&mut self, mut f: impl FnMut(usize, &StepOutcome)) {
+        for (slot, outcome) in &self.first_outcomes[..self.first_len] {
+            f(usize::from(*slot), outcome);
+        }
+        self.first_len = 0;
     }
 
     /// Brings what the next in-order insert reads and writes into the cache (the
@@ -422,17 +529,83 @@ impl<M: Model> Engine<M> {
         });
     }
 
-    /// Hands every entry still in the history to `on_final` (end of input).
+    /// Re-steps the oldest stale entry from the (exact) entry before it, in the
+    /// live loop's idle time; counted in [`EngineStats::background_steps`].
+    /// Returns whether stale entries remain.
+    pub fn settle_step(&mut self) -> bool {
+        if self.stale_from.is_some() {
+            self.restep_oldest_stale();
+            self.stats.background_steps += 1;
+        }
+        self.stale_from.is_some()
+    }
+
+    /// Re-steps every stale entry: the newest estimate then includes every
+    /// sample inserted. Counted in [`EngineStats::settled_inline`].
+    pub fn settle(&mut self) {
+        while self.stale_from.is_some() {
+            self.restep_oldest_stale();
+            self.stats.settled_inline += 1;
+        }
+    }
+
+    /// Steps entry `stale_from` again from the entry before it (the base or the
+    /// initial state at the front) and moves `stale_from` on. A decision that
+    /// changes (fused, gated, refused) moves its sensor's counts; a late
+    /// sample's first step counts its outcome and keeps it for
+    /// [`take_first_outcomes`](Self::take_first_outcomes).
+    fn restep_oldest_stale(&mut self) {
+        let Some(j) = self.stale_from else { return };
+        let initial = &self.initial;
+        let Some((before, entry)) = self.history.before_mut(j) else {
+            // `stale_from` always indexes an entry; nothing to re-step otherwise.
+            (self.stale_from, self.pending_since_t) = (None, None);
+            return;
+        };
+        entry.state = before.map_or(*initial, |b| b.state);
+        let old = entry.outcome;
+        let outcome = self.model.step(&mut entry.state, &entry.sample);
+        entry.outcome = outcome;
+        let (entry_slot, fresh) = (entry.slot, std::mem::replace(&mut entry.fresh, false));
+        let sensor = &mut self.sensors[usize::from(entry_slot)];
+        if fresh {
+            // A late sample's first step: what an in-order insert counts at once.
+            count_outcome(&mut sensor.stats, &outcome, 1);
+            sensor.last_nis = outcome.nis().or(sensor.last_nis);
+            if let Some(place) = self.first_outcomes.get_mut(self.first_len) {
+                *place = (entry_slot, outcome);
+                self.first_len += 1;
+            }
+        } else if old != outcome {
+            count_outcome(&mut sensor.stats, &old, -1);
+            count_outcome(&mut sensor.stats, &outcome, 1);
+        }
+        self.stale_from = (j + 1 < self.history.len()).then_some(j + 1);
+        if self.stale_from.is_none() {
+            self.pending_since_t = None;
+        }
+    }
+
+    /// Hands every entry still in the history to `on_final` (end of input),
+    /// settling a pending correction first.
     pub fn flush(&mut self, on_final: &mut impl FnMut(&Entry<M::State>)) {
+        self.settle();
         while !self.history.is_empty() {
             self.evict_front(on_final);
         }
     }
 
+    /// Hands the oldest entry to `on_final`; a stale one is re-stepped first, so
+    /// that only exact states become final.
     fn evict_front(&mut self, on_final: &mut impl FnMut(&Entry<M::State>)) {
+        if self.stale_from == Some(0) {
+            self.restep_oldest_stale();
+            self.stats.settled_inline += 1;
+        }
         // The entry stays in its slot as the history's base.
         if let Some(e) = self.history.pop_front() {
             on_final(e);
+            self.stale_from = self.stale_from.map(|from| from - 1);
         }
     }
 

@@ -202,7 +202,17 @@ pub struct IpcSource {
     receive_errors: u64,
     /// Wake-ups with [`service::READER_REFUSED_EVENT`] seen.
     readers_refused: u64,
+    /// In-order samples handed out in a row before a late one that was waiting.
+    passed_over: u32,
+    /// The wake listener was drained since the loop last looked at the
+    /// subscribers: a notification from now on leaves a datagram, and
+    /// [`SampleSource::wait`] may sleep on its socket.
+    armed: bool,
 }
+
+/// In-order samples [`IpcSource::next`] hands out at most before a late one
+/// that waits: under a backlog, a late sample must not wait until it is too late.
+const MAX_PASSED_OVER: u32 = 64;
 
 impl IpcSource {
     fn open(node: &Node<Ipc>, names: &ServiceNames) -> Result<Self, RunError> {
@@ -250,32 +260,55 @@ impl IpcSource {
         open.ports.rotate_left(1);
         let wake = service::event_service(node, &names.wake)?;
         let wake = wake.listener_builder().create().map_err(ipc("wake listener"))?;
-        Ok(Self { ports: open.ports, wake, receive_errors: 0, readers_refused: 0 })
+        Ok(Self { ports: open.ports, wake, receive_errors: 0, readers_refused: 0, passed_over: 0, armed: false })
     }
 }
 
 impl SampleSource for IpcSource {
-    /// The oldest of the subscribers' next samples (at equal time the lower rank):
-    /// under a backlog, taking the oldest keeps fusion in time order instead of
-    /// making one kind artificially late (or too late) behind a batch of another.
-    fn next(&mut self) -> Option<Sample> {
+    /// The oldest of the subscribers' next samples (at equal time the lower
+    /// rank) that comes after `newest` (in order), else the oldest of all (late).
+    ///
+    /// Under a backlog, taking the oldest keeps fusion in time order instead of
+    /// making one kind artificially late (or too late) behind a batch of
+    /// another. A late sample waiting beside an in-order one goes second: it
+    /// costs the engine a placement either way and its snapshot is provisional,
+    /// while the in-order sample's snapshot would otherwise wait for both (the
+    /// IMU sample right behind a late GNSS fix). At most [`MAX_PASSED_OVER`]
+    /// in-order samples go ahead of it.
+    fn next(&mut self, newest: Option<(u64, u8)>) -> Option<Sample> {
         let mut oldest: Option<((u64, u8), usize)> = None;
+        let mut oldest_in_order: Option<((u64, u8), usize)> = None;
         for (i, port) in self.ports.iter_mut().enumerate() {
-            if let Some(key) = port.poll(&mut self.receive_errors)
-                && oldest.is_none_or(|(k, _)| key < k)
-            {
+            let Some(key) = port.poll(&mut self.receive_errors) else { continue };
+            if oldest.is_none_or(|(k, _)| key < k) {
                 oldest = Some((key, i));
             }
+            if newest.is_none_or(|n| key >= n) && oldest_in_order.is_none_or(|(k, _)| key < k) {
+                oldest_in_order = Some((key, i));
+            }
         }
-        self.ports[oldest?.1].take()
+        let (oldest, in_order) = (oldest?, oldest_in_order);
+        let take = match in_order {
+            Some(first) if first.1 != oldest.1 && self.passed_over < MAX_PASSED_OVER => {
+                self.passed_over += 1;
+                first.1
+            }
+            _ => {
+                self.passed_over = 0;
+                oldest.1
+            }
+        };
+        self.ports[take].take()
     }
 
     fn refresh(&mut self) {
         self.ports.iter_mut().for_each(|p| p.refresh());
         // A daemon that spins never waits on the listener: collect here what
-        // the waits would have seen.
+        // the waits would have seen. A notification drained here may be of a
+        // sample not yet taken: the loop looks at the subscribers before it sleeps.
         let refused = &mut self.readers_refused;
         let _ = self.wake.try_wait(|a| count_refused(refused, a));
+        self.armed = false;
     }
 
     fn readers_refused(&self) -> u64 {
@@ -286,16 +319,43 @@ impl SampleSource for IpcSource {
         self.ports.iter_mut().for_each(|p| p.release());
     }
 
+    /// Sleeps on the wake listener's socket (`poll(2)`) until a publisher
+    /// notifies, at most `timeout`.
+    ///
+    /// iceoryx2's `Listener::timed_wait` makes its socket blocking, sets the
+    /// receive timeout, receives, and on waking makes the socket non-blocking
+    /// again and empties it: three system calls between the wake-up and the
+    /// first look at the subscribers, on every sample. Here the loop looks at
+    /// the subscribers as soon as `poll` returns, and the listener is drained
+    /// (non-blocking `try_wait`) on the next call, after the samples were
+    /// fused and their snapshots sent. That call returns without sleeping, so
+    /// that the loop looks at the subscribers once more before it sleeps: a
+    /// sample whose notification was drained with an earlier one is not left
+    /// waiting.
     fn wait(&mut self, timeout: Duration) {
-        let refused = &mut self.readers_refused;
-        match self.wake.timed_wait(|a| count_refused(refused, a), service::listener_timeout(timeout)) {
-            // A signal interrupted the wait: the loop condition looks at it.
-            Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
-            Err(e) => {
-                tracing::warn!("wake listener: {e:?}");
-                std::thread::sleep(timeout);
+        if !self.armed {
+            let refused = &mut self.readers_refused;
+            match self.wake.try_wait(|a| count_refused(refused, a)) {
+                Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
+                Err(e) => {
+                    tracing::warn!("wake listener: {e:?}");
+                    std::thread::sleep(timeout);
+                }
             }
+            self.armed = true;
+            return;
         }
+        // SAFETY: the descriptor is the listener's, which outlives this call.
+        let fd = unsafe { std::os::fd::BorrowedFd::borrow_raw(self.wake.file_descriptor().native_handle()) };
+        let mut fds = [rustix::event::PollFd::new(&fd, rustix::event::PollFlags::IN)];
+        let timeout = rustix::event::Timespec {
+            tv_sec: timeout.as_secs().min(i64::MAX as u64) as i64,
+            tv_nsec: i64::from(timeout.subsec_nanos()),
+        };
+        // Woken (or timed out, or a signal: the loop condition looks at it),
+        // the loop takes the samples; the next call drains the listener.
+        let _ = rustix::event::poll(&mut fds, Some(&timeout));
+        self.armed = false;
     }
 }
 

@@ -17,6 +17,16 @@
 //! warming what the next sample touches every [`WARM_NS`]) or sleeps on the
 //! source ([`WaitMode::Event`]).
 //!
+//! A late sample does not hold up the samples behind it: the engine inserts it
+//! with [`Engine::insert_deferred`] (one step), the samples after it are
+//! published at in-order cost from the provisional head, and the rewind's
+//! re-processing runs in slices of at most [`SLICE_NS`] while no sample waits
+//! (and at least every [`SLICE_GAP_NS`] under a sustained backlog). Snapshots
+//! published meanwhile say they are provisional
+//! ([`StateSnapshot::pending_steps`]); when the correction lands, a settled
+//! snapshot is published at once. At shutdown a pending correction is settled
+//! and published before the loop returns.
+//!
 //! A test drives it in-process with a vector source and a recording sink
 //! (`tests` below); `ipc.rs` plugs in iceoryx2.
 
@@ -40,6 +50,12 @@ pub const HOUSEKEEPING_NS: u64 = 10_000_000;
 pub const WARM_NS: u64 = 100_000;
 /// Samples per turn before housekeeping gets a look in.
 pub const BATCH: usize = 512;
+/// Longest slice of a pending rewind, ns: a sample that arrives while one runs
+/// waits at most this long plus one step (about 0.35 µs for `ins`).
+pub const SLICE_NS: u64 = 2_000;
+/// Under a backlog that leaves no idle turn, a slice of a pending rewind still
+/// runs this often, ns, so that a correction lands within a few milliseconds.
+pub const SLICE_GAP_NS: u64 = 1_000_000;
 
 /// How the daemon waits for samples.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -62,8 +78,12 @@ pub trait LoopObserver {
 
 /// Where samples come from.
 pub trait SampleSource {
-    /// The next waiting sample, if any (never blocks).
-    fn next(&mut self) -> Option<Sample>;
+    /// The next waiting sample, if any (never blocks). `newest` is the
+    /// `(t_ns, rank)` of the newest sample processed: a source that holds
+    /// several samples may hand out one that comes after it (in order, one
+    /// step) before one that does not (late: its snapshot is provisional
+    /// anyway, and the in-order sample's need not wait for it).
+    fn next(&mut self, newest: Option<(u64, u8)>) -> Option<Sample>;
     /// Sleeps until a sample may be waiting, at most `timeout`.
     fn wait(&mut self, timeout: Duration);
     /// Housekeeping (every [`HOUSEKEEPING_NS`]): look for new or gone senders.
@@ -178,13 +198,19 @@ impl<M: Model> LiveCore<M> {
     pub fn handle(&mut self, sample: Sample, sink: &mut impl SnapshotSink) {
         self.report.received += 1;
         let received_ns = now_ns();
-        let Insert::Processed { replayed, outcome } = self.engine.insert(&sample, Some(received_ns), &mut |_| {})
-        else {
-            return;
+        let replayed = match self.engine.insert_deferred(&sample, Some(received_ns), &mut |_| {}) {
+            Insert::Processed { replayed, outcome } => {
+                if let Some(slot) = self.engine.slot_of(sample.kind(), sample.sensor()) {
+                    self.health.record(slot, &outcome);
+                }
+                replayed
+            }
+            // Late: its outcome comes with the rewind (`record_first_outcomes`).
+            Insert::Placed { replayed } => replayed,
+            _ => return,
         };
-        if let Some(slot) = self.engine.slot_of(sample.kind(), sample.sensor()) {
-            self.health.record(slot, &outcome);
-        }
+        // Late samples the insert had to process at once (leaving the history).
+        self.record_first_outcomes();
         self.evaluate_health(received_ns);
         let input = Input { sample: &sample, received_ns, replayed };
         if let Some(published_ns) = self.publish(sink, Some(input))
@@ -226,7 +252,8 @@ impl<M: Model> LiveCore<M> {
         let snapshots_before = self.report.snapshots;
         let mut taken = 0;
         while taken < BATCH {
-            let Some(sample) = source.next() else { break };
+            let newest = self.engine.latest().map(|e| (e.key.t_ns, e.key.rank));
+            let Some(sample) = source.next(newest) else { break };
             self.handle(sample, sink);
             taken += 1;
         }
@@ -290,6 +317,56 @@ impl<M: Model> LiveCore<M> {
         Some(summary)
     }
 
+    /// Whether a late sample's correction has not yet reached the estimate.
+    pub fn correction_pending(&self) -> bool {
+        self.engine.correction().is_some()
+    }
+
+    /// Works a pending correction in for at most [`SLICE_NS`] (at least one
+    /// step). When it lands, publishes the settled estimate (a snapshot without
+    /// input) and wakes the readers. Returns whether work remains.
+    pub fn settle_slice(&mut self, sink: &mut impl SnapshotSink) -> bool {
+        let start = now_ns();
+        let mut more = true;
+        while more {
+            more = self.engine.settle_step();
+            if now_ns().saturating_sub(start) >= SLICE_NS {
+                break;
+            }
+        }
+        self.record_first_outcomes();
+        if !more {
+            self.landed(sink);
+        }
+        more
+    }
+
+    /// Settles a pending correction whole and publishes the settled estimate
+    /// (at shutdown).
+    pub fn settle_all(&mut self, sink: &mut impl SnapshotSink) {
+        if self.correction_pending() {
+            while self.engine.settle_step() {}
+            self.record_first_outcomes();
+            self.landed(sink);
+        }
+    }
+
+    /// Hands the outcomes of late samples processed for the first time to the
+    /// health (their NIS), as an in-order sample's is at once.
+    fn record_first_outcomes(&mut self) {
+        let health = &mut self.health;
+        self.engine.take_first_outcomes(|slot, outcome| health.record(slot, outcome));
+    }
+
+    /// A correction landed: the health of the settled estimate, and a snapshot of it.
+    fn landed(&mut self, sink: &mut impl SnapshotSink) {
+        self.evaluate_health(now_ns());
+        if self.publish(sink, None).is_some() {
+            self.published_health = self.health_now;
+            sink.flush();
+        }
+    }
+
     /// When the next housekeeping is due, ns.
     pub fn next_housekeeping(&self) -> u64 {
         self.next_housekeeping
@@ -313,6 +390,8 @@ pub fn run<M: Model>(
     observer: &mut impl LoopObserver,
 ) -> RunReport {
     let mut next_warm = now_ns();
+    // When a slice of a pending rewind is due even if samples keep coming.
+    let mut slice_due = next_warm + SLICE_GAP_NS;
     while !shutdown.load(Ordering::Relaxed) {
         let taken = core.turn(source, sink);
         let now = now_ns();
@@ -321,6 +400,17 @@ pub fn run<M: Model>(
                 observer.summary(summary);
             }
             observer.alive(now, core.report());
+        }
+        if taken == 0 {
+            slice_due = now + SLICE_GAP_NS;
+        }
+        if (taken == 0 || now >= slice_due) && core.correction_pending() {
+            // Nothing waits (or a backlog has gone on for SLICE_GAP_NS): a
+            // slice of the rewind, then look for samples again.
+            core.settle_slice(sink);
+            let after = now_ns();
+            (slice_due, next_warm) = (after + SLICE_GAP_NS, after + WARM_NS);
+            continue;
         }
         if taken > 0 {
             next_warm = now + WARM_NS;
@@ -341,6 +431,7 @@ pub fn run<M: Model>(
             }
         }
     }
+    core.settle_all(sink);
     core.report()
 }
 
@@ -363,7 +454,7 @@ mod tests {
     }
 
     impl SampleSource for QueueSource<'_> {
-        fn next(&mut self) -> Option<Sample> {
+        fn next(&mut self, _: Option<(u64, u8)>) -> Option<Sample> {
             let s = self.queue.pop_front();
             if s.is_none() {
                 self.stop.store(true, Ordering::Relaxed);
@@ -450,23 +541,48 @@ mod tests {
         }
         let mut alive = Alive::default();
         let report = run(&mut core, &mut source, &mut sink, WaitMode::Spin, &stop, &mut alive);
-        assert_eq!(report, RunReport { received: input.len() as u64, snapshots: input.len() as u64 });
+        // One snapshot per sample, and one each time a late fix's correction landed.
+        let with_input: Vec<&StateSnapshot> =
+            sink.sent.iter().filter(|s| s.input_kind != fusion_shared::snapshot::INPUT_NONE).collect();
+        assert_eq!(with_input.len(), input.len());
+        assert_eq!(report, RunReport { received: input.len() as u64, snapshots: sink.sent.len() as u64 });
         // The first housekeeping is due at once: the loop said it turns, with its counts.
         assert!(!alive.0.is_empty());
         assert!(alive.0.windows(2).all(|w| w[0].received <= w[1].received));
-        assert_eq!(sink.sent.len(), input.len());
         assert!(sink.flushes >= 1);
 
+        // Each snapshot is what the engine gives when the rewind steps the loop did
+        // in its idle time before that sample are done at the same points (the rule
+        // of `fusiond replay --compare`); the provisional ones say so.
         let config = Config::default_config();
         let mut engine = Engine::new(LinearModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
-        for (i, (sample, snap)) in input.iter().zip(&sink.sent).enumerate() {
-            engine.insert(sample, None, &mut |_| {});
+        let mut settled = Engine::new(LinearModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
+        let mut provisional = 0;
+        for (i, (sample, snap)) in input.iter().zip(&with_input).enumerate() {
+            while engine.stats().background_steps < snap.background_steps && engine.settle_step() {}
+            assert_eq!(engine.stats().background_steps, snap.background_steps, "snapshot {i}");
+            engine.insert_deferred(sample, None, &mut |_| {});
+            settled.insert(sample, None, &mut |_| {});
             let latest = engine.latest().unwrap();
             assert_eq!(snap.state(), LinearModel::x(&latest.state), "snapshot {i}");
             assert_eq!(snap.covariance(), LinearModel::covariance(&latest.state), "snapshot {i}");
-            assert_eq!((snap.seq, snap.input_seq, snap.input_kind), (i as u64, sample.seq(), sample.kind() as u32));
+            assert_eq!((snap.input_seq, snap.input_kind), (sample.seq(), sample.kind() as u32));
+            let pending = engine.correction().map_or((0, 0), |c| (c.steps as u64, c.since_t_ns));
+            assert_eq!((snap.pending_steps, snap.pending_since_t_ns), pending, "snapshot {i}");
+            if snap.settled() {
+                assert_eq!(snap.state(), LinearModel::x(&settled.latest().unwrap().state), "snapshot {i}");
+            } else {
+                provisional += 1;
+                assert!(snap.pending_since_t_ns <= snap.t_ns);
+            }
         }
+        assert!(provisional >= 15, "every late fix's own snapshot is provisional: {provisional}");
+        assert!(sink.sent.windows(2).all(|w| w[1].seq == w[0].seq + 1));
+        // At the stop, the correction in progress was settled and published.
         let last = sink.sent.last().unwrap();
+        assert!(last.settled() && last.background_steps > 0);
+        assert_eq!(last.state(), LinearModel::x(&settled.latest().unwrap().state));
+        assert_eq!(last.covariance(), LinearModel::covariance(&settled.latest().unwrap().state));
         assert_eq!(last.health, health::OK, "reasons {:?}", last.health_reason_names().collect::<Vec<_>>());
         let velocity = last.sensor_counters().iter().find(|c| c.sample_kind() == Some(SampleKind::Velocity)).unwrap();
         assert_eq!((velocity.counts.received, velocity.counts.fused), (15, 15));

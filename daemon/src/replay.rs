@@ -214,6 +214,15 @@ pub fn jsonl_items(input: impl BufRead) -> impl Iterator<Item = std::io::Result<
 /// Looks at the engine after each sample a replay processed (a comparison
 /// with the live snapshots of a recording).
 pub trait ReplayCheck {
+    /// Whether the replay inserts as the live loop does, leaving a late sample's
+    /// rewind to [`before_insert`](Self::before_insert) ([`Engine::insert_deferred`])
+    /// instead of settling it at once ([`Engine::insert`]).
+    fn deferred(&self) -> bool {
+        false
+    }
+    /// Called before each input is inserted: a deferring check does here the
+    /// rewind steps the live loop did in its idle time before that input.
+    fn before_insert<M: Model>(&mut self, _engine: &mut Engine<M>) {}
     /// Called after `sample`, received at `received_ns`, was processed.
     fn processed<M: Model>(&mut self, engine: &Engine<M>, sample: &Sample, received_ns: Option<u64>, replayed: usize);
 }
@@ -321,9 +330,17 @@ fn replay_model<M: Model>(
                 continue;
             }
         };
-        match engine.insert(&sample, received_ns, &mut |e| sink.take(e)) {
+        check.before_insert(&mut engine);
+        let inserted = if check.deferred() {
+            engine.insert_deferred(&sample, received_ns, &mut |e| sink.take(e))
+        } else {
+            engine.insert(&sample, received_ns, &mut |e| sink.take(e))
+        };
+        match inserted {
             Insert::Rejected(r) => invalid(&mut summary, position, r.reason().to_string()),
-            Insert::Processed { replayed, .. } => check.processed(&engine, &sample, received_ns, replayed),
+            Insert::Processed { replayed, .. } | Insert::Placed { replayed } => {
+                check.processed(&engine, &sample, received_ns, replayed)
+            }
             _ => {}
         }
         let reinitialisations = engine.latest().map_or(0, |e| M::reinitialisations(&e.state));

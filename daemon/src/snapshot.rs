@@ -104,6 +104,9 @@ pub fn fill<M: Model>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Optio
     snap.rewinds = stats.rewinds;
     snap.replayed = stats.replayed;
     snap.unknown_sensor = stats.unknown_sensor;
+    snap.background_steps = stats.background_steps;
+    (snap.pending_steps, snap.pending_since_t_ns) =
+        engine.correction().map_or((0, 0), |c| (c.steps as u64, c.since_t_ns));
 }
 
 #[cfg(test)]

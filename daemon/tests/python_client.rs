@@ -100,7 +100,10 @@ fn rust_layout() -> Value {
             datum_set,
             stale_sensors,
             reinitialisations,
-            readers_refused
+            readers_refused,
+            pending_steps,
+            pending_since_t_ns,
+            background_steps
         }),
     ];
     assert_eq!(types.len(), 4 + SampleKind::COUNT, "a new kind needs its layout here and a Python mirror");
@@ -204,7 +207,9 @@ fn python_reads_the_snapshots_fusionctl_echo_reads() {
 
     let mut fused = 0;
     for (i, (py, rs)) in python_lines.iter().zip(&echo_lines).enumerate() {
-        for key in ["snapshot_seq", "t_ns", "kind", "seq", "model", "health", "health_reasons"] {
+        for key in
+            ["snapshot_seq", "t_ns", "kind", "seq", "model", "health", "health_reasons", "pending", "background_steps"]
+        {
             assert_eq!(py[key], rs[key], "snapshot {i}: {key}");
         }
         // Every double, bit for bit (both print the shortest exact decimal).

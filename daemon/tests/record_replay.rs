@@ -96,6 +96,7 @@ fn replay(dir: &Path, config: &str, mcap: &Path, extra: &[&str]) -> (bool, Strin
 fn check_with_the_mcap_crate(mcap: &Path, samples: &[Sample]) {
     let bytes = std::fs::read(mcap).unwrap();
     let mut per_topic = std::collections::BTreeMap::<String, u64>::new();
+    let (mut provisional, mut landed) = (0, 0);
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let m = m.unwrap();
         let schema = m.channel.schema.as_ref().unwrap_or_else(|| panic!("{} has no schema", m.channel.topic));
@@ -104,7 +105,17 @@ fn check_with_the_mcap_crate(mcap: &Path, samples: &[Sample]) {
         serde_json::from_slice::<serde_json::Value>(&schema.data).unwrap();
         serde_json::from_slice::<serde_json::Value>(&m.data).unwrap();
         *per_topic.entry(m.channel.topic.clone()).or_default() += 1;
+        if m.channel.topic == recording::STATE_TOPIC {
+            let s: recording::SnapshotJson = serde_json::from_slice(&m.data).unwrap();
+            provisional += u64::from(s.has_input() && s.pending.is_some());
+            landed += u64::from(!s.has_input() && s.pending.is_none() && s.background_steps > 0);
+        }
     }
+    // Each late fix's snapshot was provisional, and its correction landed later
+    // in a snapshot of its own: the comparison covered both.
+    let late = samples.iter().filter(|s| s.kind() == SampleKind::Position).count() as u64;
+    assert!(provisional >= late / 2, "{provisional} provisional snapshots, {late} fixes");
+    assert!(landed > 0, "no correction landed in a snapshot of its own");
     let of = |kind| samples.iter().filter(|s| s.kind() == kind).count() as u64;
     assert_eq!(per_topic[&recording::sample_topic(SampleKind::Imu)], of(SampleKind::Imu));
     assert_eq!(per_topic[&recording::sample_topic(SampleKind::Position)], of(SampleKind::Position));

@@ -150,6 +150,23 @@ pub struct SnapshotJson {
     pub reinitialisations: u64,
     /// Readers refused a slot.
     pub readers_refused: u64,
+    /// A late sample's correction not yet in this estimate (`null`: settled,
+    /// the estimate includes every sample received). Absent in recordings of
+    /// fusiond before wire v7.
+    #[serde(default)]
+    pub pending: Option<PendingJson>,
+    /// Samples re-processed in fusiond's idle time since start.
+    #[serde(default)]
+    pub background_steps: u64,
+}
+
+/// A correction still to land ([`StateSnapshot::pending_steps`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct PendingJson {
+    /// Later samples still to re-process.
+    pub steps: u64,
+    /// Time of validity of the oldest sample whose effect is not yet in the estimate, ns.
+    pub since_t_ns: u64,
 }
 
 /// The input of a snapshot.
@@ -273,6 +290,8 @@ impl From<&StateSnapshot> for SnapshotJson {
             unknown_sensor: s.unknown_sensor,
             reinitialisations: s.reinitialisations,
             readers_refused: s.readers_refused,
+            pending: (!s.settled()).then_some(PendingJson { steps: s.pending_steps, since_t_ns: s.pending_since_t_ns }),
+            background_steps: s.background_steps,
         }
     }
 }

@@ -21,9 +21,11 @@ pub const MAX_COV: usize = 15;
 pub const MAX_COV_LEN: usize = MAX_COV * MAX_COV;
 /// Most sensors (of all kinds) a snapshot reports.
 pub const MAX_SENSORS: usize = 16;
-/// [`StateSnapshot::input_kind`] of a snapshot published because the health
-/// changed while no sample arrived (a stream went stale); its other `input_*`
-/// fields are zero. No [`SampleKind`] has this code (theirs start at 1).
+/// [`StateSnapshot::input_kind`] of a snapshot published without a new sample:
+/// the health changed while no sample arrived (a stream went stale), or a late
+/// sample's correction landed (the snapshot is then [settled](StateSnapshot::settled)).
+/// Its other `input_*` fields are zero. No [`SampleKind`] has this code (theirs
+/// start at 1).
 pub const INPUT_NONE: u32 = 0;
 
 /// Model codes of [`StateSnapshot::model`].
@@ -245,7 +247,7 @@ impl SensorCounters {
 /// §5.3.3). Because the quaternion's 4 entries share 3 error states,
 /// covariance row `i` lines up with state entry `i` only for `i < 6`.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("fusion.StateSnapshot.v6")]
+#[type_name("fusion.StateSnapshot.v7")]
 #[repr(C)]
 pub struct StateSnapshot {
     /// Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
@@ -329,6 +331,20 @@ pub struct StateSnapshot {
     /// State readers refused because every reader slot (`[ipc] max_readers`)
     /// was taken, as the refused readers reported it.
     pub readers_refused: u64,
+    /// 0 when this estimate is final for every sample received (settled). More
+    /// while a late sample's correction is being worked in: the estimate then
+    /// lacks that sample's effect, and this many later samples are still to be
+    /// re-processed (in the daemon's idle time, between samples) before a
+    /// snapshot includes it. See [`StateSnapshot::settled`].
+    pub pending_steps: u64,
+    /// While `pending_steps > 0`: the time of validity of the oldest received
+    /// sample whose effect is not yet in this estimate, ns; 0 when settled.
+    pub pending_since_t_ns: u64,
+    /// Samples re-processed for late samples in the daemon's idle time since it
+    /// started (the rewinds' work kept off the latency path). `fusiond replay
+    /// --compare` does the same work at the same points, to reproduce every
+    /// snapshot, provisional ones included.
+    pub background_steps: u64,
 }
 
 impl Default for StateSnapshot {
@@ -368,6 +384,9 @@ impl Default for StateSnapshot {
             stale_sensors: 0,
             reinitialisations: 0,
             readers_refused: 0,
+            pending_steps: 0,
+            pending_since_t_ns: 0,
+            background_steps: 0,
         }
     }
 }
@@ -428,6 +447,16 @@ impl StateSnapshot {
         Some(self.datum()?.to_geodetic([p[0], p[1], p[2]]))
     }
 
+    /// Whether this estimate includes every sample fusiond had received when it
+    /// published it: no late sample's correction is pending. A snapshot that is
+    /// not settled is provisional: it lacks the effect of the sample at
+    /// [`pending_since_t_ns`](Self::pending_since_t_ns), which a later snapshot
+    /// includes (within the daemon's next idle moments; a snapshot with input
+    /// kind [`INPUT_NONE`] is published when it lands).
+    pub fn settled(&self) -> bool {
+        self.pending_steps == 0
+    }
+
     /// The names of the health reason bits that are set.
     pub fn health_reason_names(&self) -> impl Iterator<Item = &'static str> + use<> {
         health::reason_names(self.health_reasons)
@@ -440,6 +469,6 @@ const _: () = {
     assert!(core::mem::align_of::<StateSnapshot>() == 8);
     assert!(
         core::mem::size_of::<StateSnapshot>()
-            == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 128 * MAX_SENSORS + 24 + 32 + 16
+            == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 128 * MAX_SENSORS + 24 + 32 + 16 + 24
     );
 };

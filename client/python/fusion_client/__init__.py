@@ -278,6 +278,14 @@ class Snapshot:
     def model_name(self) -> str:
         return MODEL_NAMES.get(self.raw.model, "unknown")
 
+    @property
+    def settled(self) -> bool:
+        """Whether the estimate includes every sample fusiond had received (no
+        late sample's correction pending, ``pending_steps == 0``). A provisional
+        snapshot lacks the effect of the sample at ``pending_since_t_ns``; a
+        later one includes it."""
+        return self.raw.pending_steps == 0
+
     def sensor_counters(self) -> list:
         """The sensor rows in use."""
         return list(self.raw.sensors[: min(self.raw.sensor_count, len(self.raw.sensors))])

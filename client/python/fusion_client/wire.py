@@ -137,9 +137,9 @@ class SensorCounters(_Wire):
 
 
 class StateSnapshot(_Wire):
-    """The fusion state after one processed sample (``fusion.StateSnapshot.v6``)."""
+    """The fusion state after one processed sample (``fusion.StateSnapshot.v7``)."""
 
-    TYPE_NAME = "fusion.StateSnapshot.v6"
+    TYPE_NAME = "fusion.StateSnapshot.v7"
     _fields_ = [
         ("seq", ctypes.c_uint64),
         ("publish_ns", ctypes.c_uint64),
@@ -175,6 +175,9 @@ class StateSnapshot(_Wire):
         ("stale_sensors", ctypes.c_uint32),
         ("reinitialisations", ctypes.c_uint64),
         ("readers_refused", ctypes.c_uint64),
+        ("pending_steps", ctypes.c_uint64),
+        ("pending_since_t_ns", ctypes.c_uint64),
+        ("background_steps", ctypes.c_uint64),
     ]
 
 

@@ -31,6 +31,8 @@ def main() -> int:
             "health_reasons": s.health_reason_names,
             "received": [c.counts.received for c in s.sensor_counters()],
             "fused": [c.counts.fused for c in s.sensor_counters()],
+            "pending": None if s.settled else {"steps": s.pending_steps, "since_t_ns": s.pending_since_t_ns},
+            "background_steps": s.background_steps,
         }
         print(json.dumps(line), flush=True)
     return 0

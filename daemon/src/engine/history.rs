@@ -12,14 +12,21 @@ use std::collections::VecDeque;
 use std::ops::{Index, IndexMut};
 
 /// A bounded sequence of entries with O(1) access by position and cheap
-/// insertion anywhere.
-pub(super) struct History<E> {
+/// insertion anywhere, and each entry's ordering key `K` in an array of its own.
+///
+/// The keys are searched when a late sample is placed: a binary search over
+/// the entries themselves would read one cache line in each of a dozen entries
+/// kilobytes apart (cold when a fix comes every 100 ms), over the keys a few
+/// lines of one small array.
+pub(super) struct History<E, K> {
     /// Every slot, written at construction: the kernel maps pages on first write,
     /// so no page fault is left for the live path. One more than the capacity,
     /// for the base.
     slots: Vec<E>,
     /// Slot of each entry, in processing order.
     order: VecDeque<u32>,
+    /// Key of each entry, in processing order (beside `order`).
+    keys: VecDeque<K>,
     /// Free slots; the one freed last is reused first (the most recently touched).
     free: Vec<u32>,
     /// Slot of the entry that left the front last, kept until the next one leaves.
@@ -28,13 +35,14 @@ pub(super) struct History<E> {
     capacity: usize,
 }
 
-impl<E: Copy> History<E> {
+impl<E: Copy, K: Copy> History<E, K> {
     /// Room for `capacity` entries (and the base); every slot starts as `filler`.
     pub fn new(capacity: usize, filler: E) -> Self {
         let capacity = capacity.min(u32::MAX as usize - 1);
         Self {
             slots: vec![filler; capacity + 1],
             order: VecDeque::with_capacity(capacity),
+            keys: VecDeque::with_capacity(capacity),
             free: (0..=capacity as u32).rev().collect(),
             base: None,
             capacity,
@@ -49,11 +57,6 @@ impl<E: Copy> History<E> {
     /// Whether no entry is held.
     pub fn is_empty(&self) -> bool {
         self.order.is_empty()
-    }
-
-    /// The oldest entry.
-    pub fn front(&self) -> Option<&E> {
-        self.order.front().map(|&s| &self.slots[s as usize])
     }
 
     /// The newest entry.
@@ -71,11 +74,21 @@ impl<E: Copy> History<E> {
         self.order.iter().map(|&s| &self.slots[s as usize])
     }
 
-    /// Inserts an entry at position `index` (`0..=len`), written in its slot by
-    /// `write(before, slot)`: `before` is the entry before it (the base when
-    /// `index` is 0, if there is one), `slot` holds a stale entry to overwrite.
-    /// Returns false, writing nothing, when the history is full.
-    pub fn insert_with(&mut self, index: usize, write: impl FnOnce(Option<&E>, &mut E)) -> bool {
+    /// The key of entry `index`.
+    pub fn key(&self, index: usize) -> K {
+        self.keys[index]
+    }
+
+    /// The keys in order.
+    pub fn keys(&self) -> impl Iterator<Item = &K> {
+        self.keys.iter()
+    }
+
+    /// Inserts an entry with `key` at position `index` (`0..=len`), written in
+    /// its slot by `write(before, slot)`: `before` is the entry before it (the
+    /// base when `index` is 0, if there is one), `slot` holds a stale entry to
+    /// overwrite. Returns false, writing nothing, when the history is full.
+    pub fn insert_with(&mut self, index: usize, key: K, write: impl FnOnce(Option<&E>, &mut E)) -> bool {
         if self.order.len() >= self.capacity {
             return false;
         }
@@ -87,15 +100,24 @@ impl<E: Copy> History<E> {
             None => write(None, &mut self.slots[slot as usize]),
         }
         self.order.insert(index, slot);
+        self.keys.insert(index, key);
         true
     }
 
-    /// Entries `index - 1` and `index` (`1..len`), the second one mutable: for
-    /// re-stepping an entry from the one before it.
-    pub fn pair_mut(&mut self, index: usize) -> Option<(&E, &mut E)> {
-        let (a, b) = (*self.order.get(index.checked_sub(1)?)?, *self.order.get(index)?);
-        let [before, entry] = self.slots.get_disjoint_mut([a as usize, b as usize]).ok()?;
-        Some((before, entry))
+    /// Entry `index` (`0..len`), mutable, and the entry before it (the base when
+    /// `index` is 0, if there is one): for re-stepping an entry from the one
+    /// before it.
+    pub fn before_mut(&mut self, index: usize) -> Option<(Option<&E>, &mut E)> {
+        let slot = *self.order.get(index)? as usize;
+        let before = if index == 0 { self.base } else { self.order.get(index - 1).copied() };
+        match before {
+            // A base is never in `order`, and `order` holds distinct slots.
+            Some(b) => {
+                let [before, entry] = self.slots.get_disjoint_mut([b as usize, slot]).ok()?;
+                Some((Some(before), entry))
+            }
+            None => Some((None, &mut self.slots[slot])),
+        }
     }
 
     /// Reads the slots the next in-order insert touches: the newest entry (copied
@@ -112,6 +134,7 @@ impl<E: Copy> History<E> {
     /// Removes the oldest entry, which becomes the base, and returns it.
     pub fn pop_front(&mut self) -> Option<&E> {
         let slot = self.order.pop_front()?;
+        self.keys.pop_front();
         if let Some(old) = self.base.replace(slot) {
             self.free.push(old);
         }
@@ -119,14 +142,14 @@ impl<E: Copy> History<E> {
     }
 }
 
-impl<E> Index<usize> for History<E> {
+impl<E, K> Index<usize> for History<E, K> {
     type Output = E;
     fn index(&self, i: usize) -> &E {
         &self.slots[self.order[i] as usize]
     }
 }
 
-impl<E> IndexMut<usize> for History<E> {
+impl<E, K> IndexMut<usize> for History<E, K> {
     fn index_mut(&mut self, i: usize) -> &mut E {
         &mut self.slots[self.order[i] as usize]
     }
@@ -139,17 +162,19 @@ mod tests {
     #[test]
     fn behaves_like_a_deque_with_insertion() {
         let mut h = History::new(4, 0u64);
-        let put = |h: &mut History<u64>, i, v| h.insert_with(i, |_, e| *e = v);
+        let put = |h: &mut History<u64, u64>, i, v| h.insert_with(i, v, |_, e| *e = v);
         assert!(put(&mut h, 0, 10) && put(&mut h, 1, 30) && put(&mut h, 1, 20));
         assert_eq!(h.iter().copied().collect::<Vec<_>>(), [10, 20, 30]);
+        assert_eq!(h.keys().copied().collect::<Vec<_>>(), [10, 20, 30], "the keys beside the entries");
         assert!(put(&mut h, 0, 5));
         assert!(!put(&mut h, 4, 40), "full: refused");
         assert_eq!(h.pop_front().copied(), Some(5));
         assert_eq!(h.base().copied(), Some(5), "the entry that left is the base");
+        assert_eq!(h.key(0), 10);
         assert!(put(&mut h, 3, 40));
         h[1] += 1;
         assert_eq!(h.iter().copied().collect::<Vec<_>>(), [10, 21, 30, 40]);
-        assert_eq!((h.front().copied(), h.back().copied(), h.len()), (Some(10), Some(40), 4));
+        assert_eq!((h.iter().next().copied(), h.back().copied(), h.len()), (Some(10), Some(40), 4));
         assert_eq!(h.base().copied(), Some(5), "a full history keeps its base");
         while h.pop_front().is_some() {}
         assert!(h.is_empty());
@@ -160,17 +185,23 @@ mod tests {
     fn a_new_entry_is_written_from_the_one_before_it() {
         let mut h = History::new(3, 0u64);
         // The first entry has nothing before it.
-        assert!(h.insert_with(0, |before, e| *e = before.map_or(1, |b| b + 1)));
-        assert!(h.insert_with(1, |before, e| *e = before.map_or(1, |b| b + 1)));
-        assert!(h.insert_with(1, |before, e| *e = 10 * before.copied().unwrap_or(0)));
+        assert!(h.insert_with(0, (), |before, e| *e = before.map_or(1, |b| b + 1)));
+        assert!(h.insert_with(1, (), |before, e| *e = before.map_or(1, |b| b + 1)));
+        assert!(h.insert_with(1, (), |before, e| *e = 10 * before.copied().unwrap_or(0)));
         assert_eq!(h.iter().copied().collect::<Vec<_>>(), [1, 10, 2]);
         h.pop_front();
         // At the front, the base (the entry that left) is the one before.
-        assert!(h.insert_with(0, |before, e| *e = 100 + before.copied().unwrap_or(0)));
+        assert!(h.insert_with(0, (), |before, e| *e = 100 + before.copied().unwrap_or(0)));
         assert_eq!(h.iter().copied().collect::<Vec<_>>(), [101, 10, 2]);
-        let (before, entry) = h.pair_mut(2).unwrap();
-        *entry += *before;
+        let (before, entry) = h.before_mut(2).unwrap();
+        *entry += *before.unwrap();
         assert_eq!(h.iter().copied().collect::<Vec<_>>(), [101, 10, 12]);
-        assert!(h.pair_mut(0).is_none() && h.pair_mut(3).is_none());
+        // At the front, the one before is the base.
+        let (before, entry) = h.before_mut(0).unwrap();
+        assert_eq!((before.copied(), *entry), (Some(1), 101));
+        assert!(h.before_mut(3).is_none());
+        let mut fresh = History::new(2, 0u64);
+        assert!(fresh.insert_with(0, (), |_, e| *e = 7));
+        assert!(matches!(fresh.before_mut(0), Some((None, 7))), "nothing before the first entry of all");
     }
 }

@@ -16,4 +16,11 @@ pub struct EngineStats {
     pub replayed: u64,
     /// Entries evicted because the history was full before the window passed.
     pub evicted_by_capacity: u64,
+    /// Stale entries re-stepped by [`Engine::settle_step`](super::Engine::settle_step):
+    /// the part of the rewinds done off the latency path, in the live loop's idle time.
+    pub background_steps: u64,
+    /// Stale entries re-stepped inline: by [`Engine::insert`](super::Engine::insert)
+    /// and [`Engine::settle`](super::Engine::settle), or because they were about to
+    /// leave the history.
+    pub settled_inline: u64,
 }

@@ -404,3 +404,155 @@ fn without_a_clock_a_time_jump_is_refused_until_a_run_confirms_it() {
     assert!(matches!(outcomes[JUMP_CONFIRMATION as usize], Insert::Processed { .. }));
     assert_accounted(&e);
 }
+
+/// Whether two inserts placed the sample alike (processed or placed with as
+/// many later samples, or refused for the same reason). Appended after stale
+/// entries, a measurement's own outcome is provisional: its NIS, and even its
+/// gate decision, may differ until the correction has settled.
+fn same_decision(a: &Insert, b: &Insert) -> bool {
+    match (a, b) {
+        (
+            Insert::Processed { replayed: x, .. },
+            Insert::Processed { replayed: y, .. } | Insert::Placed { replayed: y },
+        ) => x == y,
+        _ => a == b,
+    }
+}
+
+/// Feeds `arrivals` to one engine that settles every late sample at once
+/// ([`Engine::insert`]) and to one that defers the rewinds
+/// ([`Engine::insert_deferred`]), re-stepping `slices[i]` stale entries before
+/// arrival `i`. Checks that both decide the same for every sample, that the
+/// deferred engine's estimate equals the other's whenever no correction is
+/// pending, and that the final estimates (flush) are equal bit for bit.
+/// Returns the deferred engine.
+fn deferred_equals_settled(config: EngineConfig, arrivals: &[Sample], slices: &[usize]) -> Engine<LinearModel> {
+    let model = || LinearModel::new(0.3, [0.0; 6], [100.0, 100.0, 100.0, 10.0, 10.0, 10.0], None).unwrap();
+    let (mut settled, mut deferred) = (Engine::new(model(), config), Engine::new(model(), config));
+    let (mut want, mut got) = (Vec::new(), Vec::new());
+    let record = |out: &mut Vec<_>, e: &Entry<crate::model::linear::LinearState>| {
+        out.push((e.key, e.outcome, LinearModel::x(&e.state).to_vec(), LinearModel::covariance(&e.state)));
+    };
+    for (i, s) in arrivals.iter().enumerate() {
+        for _ in 0..slices.get(i).copied().unwrap_or(0) {
+            deferred.settle_step();
+        }
+        let stale_key = deferred.correction().map(|c| deferred.history[deferred.history.len() - c.steps].key);
+        let exact = stale_key.is_none_or(|k| key_of(s) < k);
+        let a = settled.insert(s, None, &mut |e| record(&mut want, e));
+        let b = deferred.insert_deferred(s, None, &mut |e| record(&mut got, e));
+        assert!(same_decision(&a, &b), "arrival {i}: {a:?} {b:?}");
+        if exact && matches!(b, Insert::Processed { .. }) {
+            // Stepped from an exact state, the sample's own outcome is final.
+            assert_eq!(a, b, "arrival {i}");
+        }
+        if deferred.correction().is_none() {
+            assert_eq!(latest(&deferred), latest(&settled), "arrival {i}: settled means exact");
+        }
+        assert!(settled.correction().is_none());
+    }
+    settled.flush(&mut |e| record(&mut want, e));
+    deferred.flush(&mut |e| record(&mut got, e));
+    assert_eq!(got, want, "final estimates");
+    for (a, b) in settled.sensors().iter().zip(deferred.sensors()) {
+        assert_eq!(a.stats, b.stats, "counters once settled");
+    }
+    deferred
+}
+
+#[test]
+fn a_late_fix_leaves_the_samples_behind_it_stale_until_settled() {
+    let mut e = engine(None);
+    let mut sink = |_: &Entry<_>| {};
+    for i in 0..100 {
+        e.insert_deferred(&imu(i, i), None, &mut sink);
+    }
+    let before = latest(&e);
+    // 30 ms late: placed before 30 IMU entries, not yet processed.
+    let r = e.insert_deferred(&pos(69, 0, 1.0), None, &mut sink);
+    assert_eq!(r, Insert::Placed { replayed: 30 });
+    assert_eq!(e.correction(), Some(Correction { steps: 31, since_t_ns: 69_000_000 }));
+    assert_eq!(latest(&e), before, "the head is not yet corrected");
+    let p = e.sensors()[1].stats;
+    assert_eq!((p.processed, p.late, p.fused), (1, 1, 0), "fused once the rewind reaches it");
+    // The IMU sample behind it is stepped once, from the provisional head.
+    e.insert_deferred(&imu(100, 100), None, &mut sink);
+    assert_eq!(e.correction(), Some(Correction { steps: 32, since_t_ns: 69_000_000 }));
+    assert_eq!(e.stats().settled_inline, 0, "nothing re-stepped on the way");
+    assert!(e.settle_step());
+    let mut first = Vec::new();
+    e.take_first_outcomes(|slot, o| first.push((slot, *o)));
+    assert!(matches!(first[..], [(1, StepOutcome::Fused { .. })]), "{first:?}");
+    assert_eq!(e.sensors()[1].stats.fused, 1);
+    assert_eq!(
+        e.correction(),
+        Some(Correction { steps: 31, since_t_ns: 69_000_000 }),
+        "the fix's effect is not at the head yet"
+    );
+    // Each call steps one entry and says whether more are stale: 31 to go.
+    let mut calls = 0;
+    while e.settle_step() {
+        calls += 1;
+    }
+    assert_eq!((calls + 1, e.stats().background_steps, e.correction()), (31, 32, None));
+    e.take_first_outcomes(|_, _| panic!("taken already"));
+    // Now exactly what settling at once gives.
+    let mut reference = engine(None);
+    for i in 0..100 {
+        reference.insert(&imu(i, i), None, &mut sink);
+    }
+    reference.insert(&pos(69, 0, 1.0), None, &mut sink);
+    reference.insert(&imu(100, 100), None, &mut sink);
+    assert_eq!(latest(&e), latest(&reference));
+    assert_ne!(latest(&e), before);
+}
+
+/// A late fix that lands among stale entries, one older than the entries being
+/// re-stepped, one at the front of the history, a duplicate of a stale entry,
+/// and flushing mid-rewind: all end in the settled estimate.
+#[test]
+fn late_samples_in_every_position_of_a_pending_rewind_give_the_settled_estimate() {
+    let mut arrivals: Vec<Sample> = (0..200).map(|i| imu(i * 2, i)).collect();
+    // A fix 100 ms late; then, while its rewind is half done, one 20 ms late
+    // (inside the stale run), one 150 ms late (before the first fix, older than
+    // the entries being re-stepped), and the oldest sample of all (front).
+    arrivals.push(pos(300, 0, 1.0));
+    arrivals.extend((200..205).map(|i| imu(i * 2, i)));
+    arrivals.push(pos(390, 1, 1.5));
+    arrivals.push(pos(250, 2, 0.5));
+    arrivals.extend((205..210).map(|i| imu(i * 2, i)));
+    arrivals.push(pos(1, 3, 0.0));
+    arrivals.push(imu(2 * 150, 150)); // a duplicate of an entry that is stale
+    arrivals.extend((210..220).map(|i| imu(i * 2, i)));
+    arrivals.push(pos(435, 4, 2.0)); // flushed before its rewind ran
+    let mut slices = vec![0; arrivals.len()];
+    slices[206] = 20; // half of the first rewind, before the 20 ms late fix
+    slices[208] = 3;
+    slices[215] = 1;
+    let mut e = deferred_equals_settled(cfg(), &arrivals, &slices);
+    assert_eq!(e.stats().background_steps, 24);
+    assert!(e.stats().settled_inline > 0, "the flush settled the last rewind");
+    let mut first = 0;
+    e.take_first_outcomes(|_, _| first += 1);
+    assert_eq!(first, 5, "each late fix's outcome, once");
+    assert_eq!(e.sensors()[0].stats.duplicate, 1);
+    assert_eq!(e.sensors()[1].stats.late, 5);
+}
+
+/// The window moves on and the capacity fills while entries are stale: an
+/// entry that leaves the history is re-stepped first, so every final estimate
+/// is exact, and a sample before the front is too late as before.
+#[test]
+fn the_history_filling_during_a_rewind_settles_what_leaves_it() {
+    for config in [EngineConfig { history_ns: 50_000_000, ..cfg() }, EngineConfig { history_capacity: 40, ..cfg() }] {
+        let mut arrivals: Vec<Sample> = (0..100).map(|i| imu(i * 2, i)).collect();
+        arrivals.push(pos(160, 0, 1.0)); // 38 ms late
+        // 60 more IMU samples with no time to settle: the stale entries leave.
+        arrivals.extend((100..160).map(|i| imu(i * 2, i)));
+        arrivals.push(pos(100, 1, 1.0)); // too late by then
+        arrivals.push(pos(300, 2, 1.0));
+        let e = deferred_equals_settled(config, &arrivals, &[]);
+        assert_eq!(e.stats().background_steps, 0);
+        assert_eq!(e.sensors()[1].stats.too_late, 1);
+    }
+}

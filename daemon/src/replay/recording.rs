@@ -223,8 +223,16 @@ impl std::fmt::Display for ComparisonReport {
 }
 
 /// Compares each processed sample of a replay with the next live snapshot.
-pub struct LiveComparison<I> {
-    live: I,
+///
+/// The replay inserts as the live loop did ([`Engine::insert_deferred`]), and
+/// before each input it re-steps stale entries until its count of idle-time
+/// steps equals the one of the next live snapshot
+/// ([`StateSnapshot::background_steps`](fusion_shared::StateSnapshot::background_steps)):
+/// the live loop did those steps between samples, so the replay lands each
+/// slice of a rewind where live did, and provisional snapshots compare bit for
+/// bit like settled ones.
+pub struct LiveComparison<I: Iterator> {
+    live: std::iter::Peekable<I>,
     report: ComparisonReport,
     error: Option<std::io::Error>,
 }
@@ -232,7 +240,7 @@ pub struct LiveComparison<I> {
 impl<I: Iterator<Item = std::io::Result<SnapshotJson>>> LiveComparison<I> {
     /// Compares with the snapshots of `live` (those with an input, in order).
     pub fn new(live: I) -> Self {
-        Self { live, report: ComparisonReport::default(), error: None }
+        Self { live: live.peekable(), report: ComparisonReport::default(), error: None }
     }
 
     /// The report, once the replay ended (counting the live snapshots left).
@@ -288,12 +296,23 @@ fn differences(live: &SnapshotJson, replay: &SnapshotJson) -> Vec<(String, Strin
         }
     }
     field("rewinds", live.rewinds.to_string(), replay.rewinds.to_string());
+    field("pending", format!("{:?}", live.pending), format!("{:?}", replay.pending));
+    field("background_steps", live.background_steps.to_string(), replay.background_steps.to_string());
     field("unknown_sensor", live.unknown_sensor.to_string(), replay.unknown_sensor.to_string());
     field("reinitialisations", live.reinitialisations.to_string(), replay.reinitialisations.to_string());
     out
 }
 
 impl<I: Iterator<Item = std::io::Result<SnapshotJson>>> ReplayCheck for LiveComparison<I> {
+    fn deferred(&self) -> bool {
+        true
+    }
+
+    fn before_insert<M: Model>(&mut self, engine: &mut Engine<M>) {
+        let Some(Ok(live)) = self.live.peek() else { return };
+        while engine.stats().background_steps < live.background_steps && engine.settle_step() {}
+    }
+
     fn processed<M: Model>(&mut self, engine: &Engine<M>, sample: &Sample, received_ns: Option<u64>, replayed: usize) {
         if self.error.is_some() {
             return;

@@ -247,6 +247,20 @@ fn health_reasons(s: &StateSnapshot) -> Vec<String> {
     reasons
 }
 
+/// Whether the estimate includes every sample received, or which late sample's
+/// correction it still lacks.
+fn settledness(s: &StateSnapshot) -> String {
+    if s.settled() {
+        format!("settled: includes every sample received ({} rewinds so far)\n", s.rewinds)
+    } else {
+        format!(
+            "provisional: lacks the late sample at t = {:.6} s ({} later samples still to re-process)\n",
+            s.pending_since_t_ns as f64 * 1e-9,
+            s.pending_steps
+        )
+    }
+}
+
 fn describe(s: &StateSnapshot) -> String {
     let mut o = String::new();
     let age_ms = now_ns().saturating_sub(s.publish_ns) as f64 * 1e-6;
@@ -258,10 +272,12 @@ fn describe(s: &StateSnapshot) -> String {
         s.t_ns as f64 * 1e-9
     );
     o += &format!(
-        "health: {}{}\n\n",
+        "health: {}{}\n",
         health::name(s.health),
         if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) }
     );
+    o += &settledness(s);
+    o += "\n";
     let layout = state_layout(s);
     let sd: Vec<f64> = s.std_devs().collect();
     o += &format!("  {:<12} {:>14} {:>12}\n", "state", "value", "1-sigma");

@@ -32,6 +32,8 @@ pub struct View {
     pub latest: Option<StateSnapshot>,
     /// Snapshots read.
     pub snapshots: u64,
+    /// Of them, provisional ones (a late sample's correction still to land).
+    pub provisional: u64,
     /// Per sensor (kind code, id): samples received per second.
     pub rates: HashMap<(u32, u32), f64>,
     /// Recent end-to-end latencies (sample sent → snapshot published), ns.
@@ -49,6 +51,7 @@ impl View {
     /// Takes in one snapshot, read at `now`.
     pub fn add(&mut self, s: &StateSnapshot, now: Instant) {
         self.snapshots += 1;
+        self.provisional += u64::from(!s.settled());
         if s.input_kind != INPUT_NONE && s.input_replayed == 0 && s.input_sent_ns > 0 {
             if self.latencies.len() == LATENCY_WINDOW {
                 self.latencies.pop_front();
@@ -83,7 +86,7 @@ impl View {
 /// Draws the dashboard of `view` into `frame`.
 pub fn draw(frame: &mut Frame, view: &View) {
     let [header, sensors, lower, footer] =
-        Layout::vertical([Constraint::Length(3), Constraint::Min(6), Constraint::Length(12), Constraint::Length(1)])
+        Layout::vertical([Constraint::Length(4), Constraint::Min(6), Constraint::Length(12), Constraint::Length(1)])
             .areas(frame.area());
     let title = format!(" fusiond · namespace {} ", view.namespace);
     let Some(s) = &view.latest else {
@@ -113,7 +116,19 @@ pub fn draw(frame: &mut Frame, view: &View) {
             s.reinitialisations
         )),
     ]);
-    frame.render_widget(Paragraph::new(line).block(Block::bordered().title(title)), header);
+    let settled = Line::from(if s.settled() {
+        format!(
+            "estimate settled (includes every sample received); {} of {} snapshots read were provisional",
+            view.provisional, view.snapshots
+        )
+    } else {
+        format!(
+            "estimate provisional: lacks the late sample at t {:.3} s, {} later samples to re-process",
+            s.pending_since_t_ns as f64 * 1e-9,
+            s.pending_steps
+        )
+    });
+    frame.render_widget(Paragraph::new(vec![line, settled]).block(Block::bordered().title(title)), header);
 
     let head = [
         "sensor", "rate Hz", "received", "fused", "gated", "late", "too late", "dup", "invalid", "lost", "limited",
@@ -258,6 +273,11 @@ mod tests {
         s.sensors[0].counts.received = 1200;
         view.add(&s, start + RATE_WINDOW);
         let text = screen(&view);
+        assert!(text.contains("estimate settled (includes every sample received); 0 of 2"), "{text}");
+        (s.pending_steps, s.pending_since_t_ns) = (12, 1_500_000_000);
+        view.add(&s, start + RATE_WINDOW);
+        let text = screen(&view);
+        assert!(text.contains("provisional: lacks the late sample at t 1.500 s, 12 later samples"), "{text}");
         for needle in [
             "namespace test-ns",
             "health degraded (imu stale)",
