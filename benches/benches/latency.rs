@@ -4,7 +4,9 @@
 //! `FUSION_BENCH_QUICK=1` takes a short sample; `FUSION_BENCH_IMU_HZ` sets the IMU
 //! rate of the end-to-end rows (default 1000); `FUSION_BENCH_SAMPLES` the samples per
 //! latency row (default 10 000, quick 1 000); `FUSION_BENCH_FUSIOND=PATH` runs that
-//! fusiond binary instead of building one. See the README's performance section.
+//! fusiond binary instead of building one; `FUSION_BENCH_ONLY=late,e2e` runs only
+//! the sections named (of `e2e`, `late`, `throughput`, `alloc`, `record`) after
+//! the raw floor. See docs/performance.md.
 
 #![allow(missing_docs)]
 
@@ -17,8 +19,8 @@ use anyhow::Context;
 use fusion_benches::alloc::{Counting, Scenario, Window, steady_state};
 use fusion_benches::latency::{
     ChildGuard, EndToEnd, INS_CONFIG, LINEAR_CONFIG, LateCost, Mode, Pinger, Prober, PublisherPlan, Trial,
-    VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST, fan_out_reader, histogram, late_data, ping, pong, publisher, start_daemon,
-    throughput,
+    VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST, VEHICLE_LATE_CONFIG, fan_out_reader, histogram, late_data, ping, pong,
+    publisher, start_daemon, throughput,
 };
 use fusion_client::{Client, ImuSample, StateSnapshot};
 use fusion_daemon::ipc::WaitMode;
@@ -48,12 +50,14 @@ fn imu_value(model: &str) -> ([f64; 3], [f64; 3]) {
     if model == "ins" { ([0.0, 0.0, 9.80665], [0.0; 3]) } else { ([0.0; 3], [0.0; 3]) }
 }
 
-/// The config of a row set: `linear`, `ins`, or `vehicle` (`ins` with two IMUs,
-/// geodetic GNSS with a lever arm and odometry).
+/// The config of a row set: `linear`, `ins`, `vehicle` (`ins` with two IMUs,
+/// geodetic GNSS with a lever arm and odometry) or `vehicle-late` (the same with
+/// GNSS velocity, the GNSS samples 80–120 ms late and the odometry 10–30 ms).
 fn config_of(model: &str) -> &'static str {
     match model {
         "ins" => INS_CONFIG,
         "vehicle" => VEHICLE_CONFIG,
+        "vehicle-late" => VEHICLE_LATE_CONFIG,
         _ => LINEAR_CONFIG,
     }
 }
@@ -168,6 +172,9 @@ fn main() -> anyhow::Result<()> {
         10_000
     });
     let imu_hz: f64 = std::env::var("FUSION_BENCH_IMU_HZ").ok().and_then(|v| v.parse().ok()).unwrap_or(1000.0);
+    // The sections to run besides the raw floor (all unless named).
+    let sections = std::env::var("FUSION_BENCH_ONLY").ok();
+    let only = |section: &str| sections.as_deref().is_none_or(|list| list.split(',').any(|s| s.trim() == section));
     let started = Instant::now();
 
     // The daemon binary, built as cargo bench builds (release), or the one
@@ -248,7 +255,8 @@ fn main() -> anyhow::Result<()> {
     // 2. End to end, publisher and reader in one process, in blocks that take
     //    turns with blocks of raw ping-pong (the other side paused); then the
     //    fan-out case with the publisher in a process of its own.
-    for model in ["linear", "ins", "vehicle"] {
+    let e2e_models: &[&str] = if only("e2e") { &["linear", "ins", "vehicle", "vehicle-late"] } else { &[] };
+    for &model in e2e_models {
         for mode in [Mode::Spin, Mode::Event] {
             let namespace = format!("fusion-bench-{pid}-{model}-{}", mode.name());
             let rig = start_rig(&fusiond, &namespace, model, mode)?;
@@ -257,6 +265,7 @@ fn main() -> anyhow::Result<()> {
             let mut pinger = Pinger::<ImuSample>::connect(&base, mode)?;
             let mut prober = match model {
                 "vehicle" => Prober::vehicle(&rig.client, mode)?,
+                "vehicle-late" => Prober::vehicle_late(&rig.client, mode)?,
                 _ => Prober::new(&rig.client, mode, imu_value(model))?,
             };
             let (mut e2e, mut raw_rtt, mut block_ratios) = (EndToEnd::new(), histogram(), Vec::new());
@@ -276,8 +285,12 @@ fn main() -> anyhow::Result<()> {
             }
             pong.resume()?;
             pinger.finish()?;
+            let name = match model {
+                "vehicle-late" => "fusiond vehicle, late GNSS/odometry".to_string(),
+                _ => format!("fusiond {model}"),
+            };
             rows.push(Row {
-                name: format!("fusiond {model}, --wait {}", mode.name()),
+                name: format!("{name}, --wait {}", mode.name()),
                 mode,
                 one_way: false,
                 h: e2e.latency.clone(),
@@ -285,7 +298,7 @@ fn main() -> anyhow::Result<()> {
                 raw_rtt: Some(raw_rtt),
                 block_ratios,
             });
-            if model == "vehicle" {
+            if model.starts_with("vehicle") {
                 continue; // the fan-out rows are of one IMU
             }
             let warmup = count / 10;
@@ -311,12 +324,16 @@ fn main() -> anyhow::Result<()> {
     let rates: &[f64] =
         if quick { &[100e3, 300e3, 600e3] } else { &[100e3, 200e3, 300e3, 400e3, 600e3, 800e3, 1000e3] };
     for model in ["linear", "ins"] {
-        let namespace = format!("fusion-bench-{pid}-{model}-late");
-        let rig = start_rig(&fusiond, &namespace, model, Mode::Spin)?;
-        let cost = late_data(&rig.client, Mode::Spin, late_count, 1000.0, 100_000_000, imu_value(model))?;
-        late_rows.push((model, cost));
-        drop(rig);
+        for mode in [Mode::Spin, Mode::Event].into_iter().filter(|_| only("late")) {
+            let namespace = format!("fusion-bench-{pid}-{model}-late-{}", mode.name());
+            let rig = start_rig(&fusiond, &namespace, model, mode)?;
+            let cost = late_data(&rig.client, mode, late_count, 1000.0, 100_000_000, imu_value(model))?;
+            late_rows.push((model, mode, cost));
+        }
 
+        if !only("throughput") {
+            continue;
+        }
         let namespace = format!("fusion-bench-{pid}-{model}-throughput");
         let config = format!("{}{UNLIMITED_RATE}", config_of(model));
         let rig = start_rig_with(&fusiond, &namespace, &config, Mode::Spin)?;
@@ -338,7 +355,8 @@ fn main() -> anyhow::Result<()> {
     // 6. Allocations of the daemon loop per processed sample, in this process.
     let mut alloc_rows = Vec::new();
     let (warm, measured) = if quick { (500, 1000) } else { (1000, 2000) };
-    for model in ["linear", "ins", "vehicle"] {
+    let alloc_models: &[&str] = if only("alloc") { &["linear", "ins", "vehicle"] } else { &[] };
+    for &model in alloc_models {
         for (mode, wait) in [(Mode::Spin, WaitMode::Spin), (Mode::Event, WaitMode::Event)] {
             let namespace = format!("fusion-bench-{pid}-{model}-{}-alloc", mode.name());
             let vehicle = model == "vehicle";
@@ -366,7 +384,8 @@ fn main() -> anyhow::Result<()> {
         }
     };
     let mut record_rows = Vec::new();
-    for model in ["linear", "ins"] {
+    let record_models: &[&str] = if only("record") { &["linear", "ins"] } else { &[] };
+    for &model in record_models {
         let namespace = format!("fusion-bench-{pid}-{model}-record");
         let rig = start_rig(&fusiond, &namespace, model, Mode::Spin)?;
         let mut prober = Prober::new(&rig.client, Mode::Spin, imu_value(model))?;
@@ -410,7 +429,7 @@ fn main() -> anyhow::Result<()> {
 
 fn print_report(
     rows: &[Row],
-    late_rows: &[(&str, LateCost)],
+    late_rows: &[(&str, Mode, LateCost)],
     throughput_rows: &[(&str, f64, Trial)],
     alloc_rows: &[(&str, Mode, Window)],
     quick: bool,
@@ -496,43 +515,74 @@ fn print_report(
     }
 
     println!(
-        "\nlate position fix, 100 ms late at 1 kHz IMU (spin; daemon time = snapshot published - sample received)"
+        "\nlate position fix, 100 ms late at 1 kHz IMU (daemon time = snapshot published - sample received; \
+         landed = late fix received -> settled snapshot published)"
     );
     println!(
-        "{:<8} {:>9} {:>14} {:>14} {:>14} {:>16} {:>16}",
-        "model", "replayed", "late fix p50", "IMU step p50", "per replayed", "next IMU e2e p50", "other IMU e2e p50"
+        "{:<8} {:<6} {:>9} {:>13} {:>13} {:>17} {:>18} {:>10} {:>13} {:>12}",
+        "model",
+        "wait",
+        "replayed",
+        "late fix p50",
+        "IMU step p50",
+        "next IMU e2e p50",
+        "other IMU e2e p50",
+        "next/other",
+        "next IMU p99",
+        "landed p50"
     );
-    for (model, c) in late_rows {
+    for (model, mode, c) in late_rows {
         let replayed = c.replayed.value_at_quantile(0.5);
         let late = c.late_processing.value_at_quantile(0.5);
         let imu = c.imu_processing.value_at_quantile(0.5);
-        let per_step = late.saturating_sub(imu) as f64 / replayed.max(1) as f64;
+        let (next, other) = (c.next_after_late.value_at_quantile(0.5), c.normal.value_at_quantile(0.5));
+        let landed = (!c.landed.is_empty()).then(|| c.landed.value_at_quantile(0.5));
         println!(
-            "{:<8} {:>9} {:>14} {:>14} {:>14} {:>16} {:>16}",
+            "{:<8} {:<6} {:>9} {:>13} {:>13} {:>17} {:>18} {:>10} {:>13} {:>12}",
             model,
+            mode.name(),
             replayed,
             us(late),
             us(imu),
-            format!("{:.3} us", per_step / 1e3),
-            us(c.next_after_late.value_at_quantile(0.5)),
-            us(c.normal.value_at_quantile(0.5)),
+            us(next),
+            us(other),
+            format!("{:.2}x", next as f64 / other.max(1) as f64),
+            us(c.next_after_late.value_at_quantile(0.99)),
+            landed.map_or_else(|| "-".into(), us),
         );
         json.push(serde_json::json!({
-            "name": format!("late fix 100 ms at 1 kHz, {model}"), "replayed_p50": replayed,
+            "name": format!("late fix 100 ms at 1 kHz, {model}, {}", mode.name()), "replayed_p50": replayed,
             "late_fix_daemon_p50": late, "late_fix_daemon_p99": c.late_processing.value_at_quantile(0.99),
-            "imu_daemon_p50": imu, "per_replayed_step": per_step,
-            "next_imu_e2e_p50": c.next_after_late.value_at_quantile(0.5),
-            "next_imu_e2e_p99": c.next_after_late.value_at_quantile(0.99),
-            "other_imu_e2e_p50": c.normal.value_at_quantile(0.5), "count": c.late_processing.len(),
+            "imu_daemon_p50": imu,
+            "next_imu_e2e_p50": next, "next_imu_e2e_p99": c.next_after_late.value_at_quantile(0.99),
+            "other_imu_e2e_p50": other, "next_over_other_p50": next as f64 / other.max(1) as f64,
+            "landed_p50": landed, "landed_p99": landed.map(|_| c.landed.value_at_quantile(0.99)),
+            "next_imu_provisional": c.next_provisional, "count": c.late_processing.len(),
             "overtaken": c.overtaken,
         }));
     }
-    let overtaken: u64 = late_rows.iter().map(|(_, c)| c.overtaken).sum();
-    if overtaken > 0 {
+    println!("where the next IMU sample's time goes (p50 of each leg; IMU first: its snapshot came before the fix's)");
+    println!(
+        "{:<8} {:<6} {:>12} {:>12} {:>12} {:>14} {:>10}",
+        "model", "wait", "trip in", "daemon", "trip out", "provisional", "IMU first"
+    );
+    for (model, mode, c) in late_rows {
+        let [to, daemon, from] = &c.next_legs;
+        let p50 = |h: &Histogram<u64>| us(h.value_at_quantile(0.5));
         println!(
-            "({overtaken} late fixes reached the daemon after the IMU sample sent behind them: their IMU \
-             sample is not in \"next IMU\")"
+            "{:<8} {:<6} {:>12} {:>12} {:>12} {:>14} {:>10}",
+            model,
+            mode.name(),
+            p50(to),
+            p50(daemon),
+            p50(from),
+            format!("{} of {}", c.next_provisional, c.next_after_late.len()),
+            c.overtaken
         );
+    }
+    let overtaken: u64 = late_rows.iter().map(|(_, _, c)| c.overtaken).sum();
+    if overtaken > 0 {
+        println!("({overtaken} IMU samples sent behind a late fix were published before the fix's snapshot)");
     }
 
     println!(

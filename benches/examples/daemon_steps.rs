@@ -16,7 +16,11 @@
 //! Models: `linear` and `ins` (one IMU at 1 kHz), and `vehicle`: the latency
 //! bench's vehicle set ([`fusion_benches::latency::VEHICLE_CONFIG`]: two IMUs at
 //! the same 1 kHz instants, a geodetic fix every 100th instant, an odometry
-//! speed every 20th).
+//! speed every 20th). `linear-late` and `ins-late`: one IMU at 1 kHz and, every
+//! 100th instant, a position fix 100 ms old arriving just before the IMU sample
+//! (the latency bench's late-data rows). Samples are inserted as the live loop
+//! does ([`Engine::insert_deferred`]); a pending rewind is settled after each
+//! instant, untimed, as the loop does in its idle time.
 
 use std::hint::black_box;
 
@@ -28,7 +32,7 @@ use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::InsModel;
 use fusion_daemon::model::linear::LinearModel;
 use fusion_daemon::snapshot::{self, Input};
-use fusion_shared::{GeodeticSample, ImuSample, OdometrySample, Sample, StateSnapshot};
+use fusion_shared::{GeodeticSample, ImuSample, OdometrySample, PositionSample, Sample, StateSnapshot};
 
 fn main() {
     let model = std::env::args().nth(1).unwrap_or_else(|| "linear".into());
@@ -40,6 +44,14 @@ fn main() {
             let imus = |t, k| vec![Sample::Imu(ImuSample::new(t, 0, k, [0.0, 0.0, 9.80665], [0.0; 3]))];
             run(InsModel::from_config(&config).expect("ins"), &config, n, time, imus);
         }
+        "linear-late" => {
+            let config = fusion_benches::linear_config();
+            run(LinearModel::from_config(&config).expect("linear"), &config, n, time, |t, k| late_instant(t, k, 0.0));
+        }
+        "ins-late" => {
+            let config = Config::parse(&fusion_benches::ins_config_text()).expect("valid");
+            run(InsModel::from_config(&config).expect("ins"), &config, n, time, |t, k| late_instant(t, k, 9.80665));
+        }
         "vehicle" => {
             let config = Config::parse(VEHICLE_CONFIG).expect("valid");
             run(InsModel::from_config(&config).expect("ins"), &config, n, time, vehicle_instant);
@@ -50,6 +62,18 @@ fn main() {
             run(LinearModel::from_config(&config).expect("linear"), &config, n, time, imus);
         }
     }
+}
+
+/// One IMU sample at `t` (specific force `g` up), after a fix 100 ms old every
+/// 100th instant (from 200 on, once the history reaches back that far).
+fn late_instant(t: u64, k: u64, g: f64) -> Vec<Sample> {
+    let mut out = Vec::with_capacity(2);
+    if k >= 200 && k % 100 == 0 {
+        let cov = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64];
+        out.push(Sample::Position(PositionSample::new(t - 100_000_000, 1, k / 100, [0.0; 3], cov)));
+    }
+    out.push(Sample::Imu(ImuSample::new(t, 0, k, [0.0, 0.0, g], [0.0; 3])));
+    out
 }
 
 /// The samples of instant `k` at `t`, in the order the latency bench's vehicle
@@ -88,9 +112,16 @@ fn run<M: Model>(model: M, config: &Config, n: u64, time: bool, instant: impl Fn
     // Per sample: its name (kind, and for an IMU whether it is the first of its
     // instant) and ns.
     let mut times: Vec<(&str, u64)> = Vec::with_capacity(if time { samples.len() } else { 0 });
-    let mut last_imu_t = None;
+    let (mut last_imu_t, mut prev_was_imu) = (None, false);
     for sample in &samples {
         let t = sample.t_ns();
+        let imu = matches!(sample, Sample::Imu(_));
+        // An instant ends with its IMU samples: before the next one, the loop's
+        // idle time settles what is pending.
+        if prev_was_imu && !(imu && last_imu_t == Some(t)) {
+            while engine.settle_step() {}
+            engine.take_first_outcomes(|slot, outcome| health.record(slot, outcome));
+        }
         let start = std::time::Instant::now();
         handle(&mut engine, &mut health, black_box(&mut chunk), sample, t + 500);
         if time {
@@ -100,11 +131,12 @@ fn run<M: Model>(model: M, config: &Config, n: u64, time: bool, instant: impl Fn
                 Sample::Imu(_) => "imu, first of its instant",
                 other => other.kind().name(),
             };
-            if matches!(sample, Sample::Imu(_)) {
-                last_imu_t = Some(t);
-            }
             times.push((name, ns));
         }
+        if imu {
+            last_imu_t = Some(t);
+        }
+        prev_was_imu = imu;
     }
     if time {
         report(times);
@@ -137,12 +169,17 @@ fn handle<M: Model>(
     sample: &Sample,
     received_ns: u64,
 ) {
-    let Insert::Processed { replayed, outcome } = engine.insert(sample, Some(received_ns), &mut |_| {}) else {
-        return;
+    let replayed = match engine.insert_deferred(sample, Some(received_ns), &mut |_| {}) {
+        Insert::Processed { replayed, outcome } => {
+            if let Some(slot) = engine.slot_of(sample.kind(), sample.sensor()) {
+                health.record(slot, &outcome);
+            }
+            replayed
+        }
+        Insert::Placed { replayed } => replayed,
+        _ => return,
     };
-    if let Some(slot) = engine.slot_of(sample.kind(), sample.sensor()) {
-        health.record(slot, &outcome);
-    }
+    engine.take_first_outcomes(|slot, outcome| health.record(slot, outcome));
     let initialised = engine.latest().is_some_and(|e| M::initialised(&e.state));
     let reinitialisations = engine.latest().map_or(0, |e| M::reinitialisations(&e.state));
     let now = health.evaluate(engine.sensors(), received_ns, initialised, reinitialisations);

@@ -35,6 +35,19 @@ pub const VEHICLE_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_d
     [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [1.0, 0.5, 1.0]\n\
     [[sensor]]\nname = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\nlever_arm_m = [-1.3, 0.0, -0.3]\n";
 
+/// The config of the late vehicle stream: [`VEHICLE_CONFIG`] with the GNSS
+/// receiver's Doppler velocity (same antenna) as well.
+pub const VEHICLE_LATE_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+    accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n\
+    initial_state = [0,0,0, 0,0,0, 1,0,0,0, 0,0,0, 0,0,0]\n\
+    initial_covariance_diagonal = [1,1,1, 1,1,1, 0.01,0.01,0.01, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n\
+    [gating]\nprobability = 0.999\n\
+    [datum]\nlatitude_deg = 48.1316\nlongitude_deg = 11.5494\nheight_m = 519.0\n\
+    [[sensor]]\nname = \"imu-a\"\nid = 0\nkinds = [\"imu\"]\naxes = \"frd\"\nrotation_rpy_deg = [0, 0, 90]\n\
+    [[sensor]]\nname = \"imu-b\"\nid = 1\nkinds = [\"imu\"]\n\
+    [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\", \"velocity\"]\nlever_arm_m = [1.0, 0.5, 1.0]\n\
+    [[sensor]]\nname = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\nlever_arm_m = [-1.3, 0.0, -0.3]\n";
+
 /// What the two IMUs of [`VEHICLE_CONFIG`] read at rest, level: IMU 0 (FRD, turned
 /// 90°) sees gravity along its −z, IMU 1 along its +z.
 pub const VEHICLE_IMUS_AT_REST: [[f64; 3]; 2] = [[0.0, 0.0, -9.80665], [0.0, 0.0, 9.80665]];
@@ -171,12 +184,21 @@ pub struct EndToEnd {
     pub daemon: Histogram<u64>,
     /// Snapshot received − snapshot published: the trip out (the send included), ns.
     pub from_daemon: Histogram<u64>,
+    /// Timed snapshots that were provisional (a late sample's correction still
+    /// to land, [`fusion_client::StateSnapshot::settled`]).
+    pub provisional: u64,
 }
 
 impl EndToEnd {
     /// Empty histograms.
     pub fn new() -> Self {
-        Self { latency: histogram(), to_daemon: histogram(), daemon: histogram(), from_daemon: histogram() }
+        Self {
+            latency: histogram(),
+            to_daemon: histogram(),
+            daemon: histogram(),
+            from_daemon: histogram(),
+            provisional: 0,
+        }
     }
 
     /// Adds `other`'s recordings to these.
@@ -185,6 +207,7 @@ impl EndToEnd {
         self.to_daemon.add(&other.to_daemon)?;
         self.daemon.add(&other.daemon)?;
         self.from_daemon.add(&other.from_daemon)?;
+        self.provisional += other.provisional;
         Ok(())
     }
 }
@@ -201,6 +224,10 @@ impl Default for EndToEnd {
 /// [`Prober::vehicle`], the sensor set of [`VEHICLE_CONFIG`] instead: two IMUs at
 /// the same instants, a geodetic fix every 100th instant (10 Hz at 1 kHz) and an
 /// odometry speed every 20th (50 Hz); both IMU samples of an instant are timed.
+/// With [`Prober::vehicle_late`], a real vehicle's stream ([`VEHICLE_LATE_CONFIG`]):
+/// the GNSS fix and Doppler velocity arrive 80–120 ms after their time of
+/// validity and the odometry 10–30 ms after, each published just before the IMU
+/// samples of the instant it arrives at.
 pub struct Prober {
     imu: fusion_client::ImuPublisher,
     pos: fusion_client::PositionPublisher,
@@ -216,6 +243,15 @@ struct VehiclePublishers {
     imu_b: fusion_client::ImuPublisher,
     geodetic: fusion_client::SamplePublisher<fusion_shared::GeodeticSample>,
     odometry: fusion_client::SamplePublisher<fusion_shared::OdometrySample>,
+    /// The late stream: the GNSS velocity publisher, and the samples arrive late.
+    late: Option<fusion_client::SamplePublisher<fusion_shared::VelocitySample>>,
+}
+
+/// How late a late-stream sample arrives: `min_ms..=max_ms`, spread evenly
+/// and deterministically over the sequence numbers.
+fn lateness_ns(seq: u64, min_ms: u64, max_ms: u64) -> u64 {
+    let span = max_ms - min_ms + 1;
+    (min_ms + (seq.wrapping_mul(7919) ^ (seq >> 3)) % span) * 1_000_000
 }
 
 impl Prober {
@@ -237,11 +273,24 @@ impl Prober {
             imu_b: client.imu_publisher(1)?,
             geodetic: client.publisher(3)?,
             odometry: client.publisher(0)?,
+            late: None,
         };
         v.imu_b.set_wake(mode == Mode::Event);
         v.geodetic.set_wake(mode == Mode::Event);
         v.odometry.set_wake(mode == Mode::Event);
         p.vehicle = Some(v);
+        Ok(p)
+    }
+
+    /// The late vehicle prober (see the type's docs; the daemon runs
+    /// [`VEHICLE_LATE_CONFIG`]).
+    pub fn vehicle_late(client: &Client, mode: Mode) -> anyhow::Result<Self> {
+        let mut p = Self::vehicle(client, mode)?;
+        let mut velocity = client.publisher(3)?;
+        velocity.set_wake(mode == Mode::Event);
+        if let Some(v) = &mut p.vehicle {
+            v.late = Some(velocity);
+        }
         Ok(p)
     }
 
@@ -260,12 +309,24 @@ impl Prober {
                 }
                 None => {}
                 Some(v) => {
+                    // In the late stream, what arrives now was valid that long ago.
+                    let (gnss_t, odometry_t) = match v.late {
+                        Some(_) => (t - lateness_ns(seq / 100, 80, 120), t - lateness_ns(seq / 20, 10, 30)),
+                        None => (t, t),
+                    };
                     if seq % 100 == 50 {
-                        let fix = fusion_shared::GeodeticSample::new(t, 3, seq / 100, 48.1316, 11.5494, 519.0, cov);
+                        let fix =
+                            fusion_shared::GeodeticSample::new(gnss_t, 3, seq / 100, 48.1316, 11.5494, 519.0, cov);
                         v.geodetic.publish_next(fix)?;
+                        if let Some(velocity) = &mut v.late {
+                            let vel_cov = [0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.04];
+                            velocity
+                                .publish_next(fusion_shared::VelocitySample::new(gnss_t, 3, 0, [0.0; 3], vel_cov))?;
+                        }
                     }
                     if seq % 20 == 10 {
-                        v.odometry.publish_next(fusion_shared::OdometrySample::new(t, 0, seq / 20, 0.0, 0.01))?;
+                        let speed = fusion_shared::OdometrySample::new(odometry_t, 0, seq / 20, 0.0, 0.01);
+                        v.odometry.publish_next(speed)?;
                     }
                 }
             }
@@ -292,6 +353,7 @@ impl Prober {
                         out.to_daemon.record(s.input_received_ns.saturating_sub(s.input_sent_ns))?;
                         out.daemon.record(s.publish_ns.saturating_sub(s.input_received_ns))?;
                         out.from_daemon.record(received.saturating_sub(s.publish_ns))?;
+                        out.provisional += u64::from(!s.settled());
                     }
                     if last {
                         break;
@@ -426,13 +488,21 @@ pub struct LateCost {
     pub late_processing: Histogram<u64>,
     /// IMU samples replayed per late fix.
     pub replayed: Histogram<u64>,
+    /// From a late fix's arrival to the publication of the first settled
+    /// snapshot that includes it (its own, when the rewind runs inline), ns.
+    pub landed: Histogram<u64>,
     /// End-to-end latency of the IMU sample sent right behind each late fix, ns.
     pub next_after_late: Histogram<u64>,
+    /// Of those IMU samples' snapshots, the provisional ones.
+    pub next_provisional: u64,
+    /// The legs of those IMU samples' end-to-end times: trip in, daemon, trip
+    /// out (as [`EndToEnd`]), ns.
+    pub next_legs: [Histogram<u64>; 3],
     /// End-to-end latency of the other IMU samples, ns.
     pub normal: Histogram<u64>,
-    /// Late fixes whose IMU sample reached the daemon first (the daemon looked
-    /// at the fixes' subscriber just before the fix was published, and at the
-    /// IMU's just after): not measured, the fix being processed after the IMU.
+    /// Late fixes whose IMU sample's snapshot came first: the daemon took the
+    /// IMU sample first (it had both, or looked at the fixes' subscriber just
+    /// before the fix was published). Counted in `next_after_late` too.
     pub overtaken: u64,
 }
 
@@ -457,7 +527,10 @@ pub fn late_data(
         imu_processing: histogram(),
         late_processing: histogram(),
         replayed: histogram(),
+        landed: histogram(),
         next_after_late: histogram(),
+        next_provisional: 0,
+        next_legs: [histogram(), histogram(), histogram()],
         normal: histogram(),
         overtaken: 0,
     };
@@ -475,27 +548,47 @@ pub fn late_data(
         imu.publish(t, imu_value.0, imu_value.1)?;
         let deadline = Instant::now() + Duration::from_secs(2);
         let mut late_seen = !with_late;
+        // When the late fix arrived, until the snapshot that settles it is seen.
+        let mut landing: Option<u64> = None;
+        let mut imu_seen = false;
         loop {
             let Some(s) = next_snapshot(&mut state, mode, deadline, seq)? else { continue };
             let received = now_ns();
             let processing = s.publish_ns.saturating_sub(s.input_received_ns);
             if s.input_kind == SampleKind::Position as u32 && with_late && s.input_seq == late_seq {
                 late_seen = true;
+                landing = Some(s.input_received_ns);
                 cost.late_processing.record(processing)?;
                 cost.replayed.record(u64::from(s.input_replayed).max(1))?;
             }
+            if let Some(arrived) = landing
+                && s.settled()
+            {
+                cost.landed.record(s.publish_ns.saturating_sub(arrived))?;
+                landing = None;
+            }
             if s.input_kind == SampleKind::Imu as u32 && s.input_seq == seq {
+                imu_seen = true;
                 if seq >= warmup {
                     let e2e = received.saturating_sub(s.input_sent_ns);
-                    if with_late && !late_seen {
-                        cost.overtaken += 1;
-                    } else if with_late {
+                    if with_late {
+                        // The IMU sample's snapshot came before the fix's: the
+                        // daemon took the IMU sample first.
+                        cost.overtaken += u64::from(!late_seen);
                         cost.next_after_late.record(e2e)?;
+                        cost.next_provisional += u64::from(!s.settled());
+                        cost.next_legs[0].record(s.input_received_ns.saturating_sub(s.input_sent_ns))?;
+                        cost.next_legs[1].record(processing)?;
+                        cost.next_legs[2].record(received.saturating_sub(s.publish_ns))?;
                     } else {
                         cost.normal.record(e2e)?;
                         cost.imu_processing.record(processing)?;
                     }
                 }
+            }
+            // Read on past the IMU sample's snapshot until the late fix's
+            // correction has landed.
+            if imu_seen && late_seen && landing.is_none() {
                 break;
             }
         }
