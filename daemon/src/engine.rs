@@ -324,7 +324,10 @@ impl<M: Model> Engine<M> {
         now_ns: Option<u64>,
         on_final: &mut impl FnMut(&Entry<M::State>),
     ) -> Insert {
-        let kept = self.first_len;
+        // Room for this sample's own first outcome (a caller that mixes in
+        // `insert_deferred` and never takes them loses one of its kept ones).
+        let kept = self.first_len.min(FIRST_OUTCOMES - 1);
+        self.first_len = kept;
         let inserted = self.insert_deferred(sample, now_ns, on_final);
         self.settle();
         // Everything before this sample was settled: the only late sample

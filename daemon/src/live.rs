@@ -17,9 +17,10 @@
 //! warming what the next sample touches every [`WARM_NS`]) or sleeps on the
 //! source ([`WaitMode::Event`]).
 //!
-//! A late sample does not hold up the samples behind it: the engine inserts it
-//! with [`Engine::insert_deferred`] (one step), the samples after it are
-//! published at in-order cost from the provisional head, and the rewind's
+//! A late sample does not hold up the samples behind it: the engine only
+//! places it ([`Engine::insert_deferred`], no filter step), an in-order sample
+//! waiting beside it is taken first, the samples after it are published at
+//! in-order cost from the provisional head, and the rewind's
 //! re-processing runs in slices of at most [`SLICE_NS`] while no sample waits
 //! (and at least every [`SLICE_GAP_NS`] under a sustained backlog). Snapshots
 //! published meanwhile say they are provisional
@@ -330,11 +331,11 @@ impl<M: Model> LiveCore<M> {
         let mut more = true;
         while more {
             more = self.engine.settle_step();
+            self.record_first_outcomes();
             if now_ns().saturating_sub(start) >= SLICE_NS {
                 break;
             }
         }
-        self.record_first_outcomes();
         if !more {
             self.landed(sink);
         }
@@ -345,7 +346,9 @@ impl<M: Model> LiveCore<M> {
     /// (at shutdown).
     pub fn settle_all(&mut self, sink: &mut impl SnapshotSink) {
         if self.correction_pending() {
-            while self.engine.settle_step() {}
+            while self.engine.settle_step() {
+                self.record_first_outcomes();
+            }
             self.record_first_outcomes();
             self.landed(sink);
         }

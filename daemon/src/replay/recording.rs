@@ -311,6 +311,9 @@ impl<I: Iterator<Item = std::io::Result<SnapshotJson>>> ReplayCheck for LiveComp
     fn before_insert<M: Model>(&mut self, engine: &mut Engine<M>) {
         let Some(Ok(live)) = self.live.peek() else { return };
         while engine.stats().background_steps < live.background_steps && engine.settle_step() {}
+        // The late samples' outcomes are in the counters compared; the health
+        // they feed live is not.
+        engine.take_first_outcomes(|_, _| {});
     }
 
     fn processed<M: Model>(&mut self, engine: &Engine<M>, sample: &Sample, received_ns: Option<u64>, replayed: usize) {
