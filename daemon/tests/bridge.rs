@@ -15,7 +15,7 @@ use common::live::{Daemon, Running, TestDomain};
 use fusion_client::Client;
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_shared::service::DOMAIN_ENV;
-use fusion_shared::{Sample, StateSnapshot};
+use fusion_shared::{Sample, StateSnapshot, snapshot};
 
 /// A free TCP port on loopback.
 fn free_port() -> u16 {
@@ -50,6 +50,20 @@ fn read_all(reader: &mut fusion_client::StateSubscriber, n: usize) -> Vec<StateS
     let mut out = Vec::new();
     let deadline = Instant::now() + Duration::from_secs(30);
     while out.len() < n && Instant::now() < deadline {
+        if let Some(s) = reader.wait_next(Duration::from_millis(100)).unwrap() {
+            out.push(*s);
+        }
+    }
+    out
+}
+
+/// Reads A's snapshots until one for each of `n` samples has come and the last
+/// is settled: a late sample's correction lands in a snapshot of its own.
+fn read_run(reader: &mut fusion_client::StateSubscriber, n: usize) -> Vec<StateSnapshot> {
+    let mut out: Vec<StateSnapshot> = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let inputs = |out: &[StateSnapshot]| out.iter().filter(|s| s.input_kind != snapshot::INPUT_NONE).count();
+    while (inputs(&out) < n || out.last().is_some_and(|s| !s.settled())) && Instant::now() < deadline {
         if let Some(s) = reader.wait_next(Duration::from_millis(100)).unwrap() {
             out.push(*s);
         }
@@ -103,9 +117,11 @@ fn two_hosts_joined_by_zenoh_see_every_snapshot_bit_for_bit() {
         std::thread::sleep(Duration::from_micros(300));
     }
 
-    let on_a = read_all(&mut reader_a, samples.len());
-    let on_b = read_all(&mut reader_b, samples.len());
-    assert_eq!(on_a.len(), samples.len(), "fusiond on A processed every sample sent on B");
+    let on_a = read_run(&mut reader_a, samples.len());
+    let on_b = read_all(&mut reader_b, on_a.len());
+    let inputs = on_a.iter().filter(|s| s.input_kind != snapshot::INPUT_NONE).count();
+    assert_eq!(inputs, samples.len(), "fusiond on A processed every sample sent on B");
+    assert!(on_a.last().unwrap().settled(), "the last correction landed");
     assert_eq!(on_b.len(), on_a.len(), "B received every snapshot of A");
     for (i, (a, b)) in on_a.iter().zip(&on_b).enumerate() {
         assert!(
@@ -125,8 +141,8 @@ fn two_hosts_joined_by_zenoh_see_every_snapshot_bit_for_bit() {
         assert!(status.is_some_and(|s| s.success()), "{}", std::fs::read_to_string(log).unwrap());
     }
     let log_b = std::fs::read_to_string(&log_b).unwrap();
-    let n = samples.len();
-    assert!(log_b.contains(&format!("state in: forwarded {n}, refused 0, gaps 0")), "{log_b}");
+    let (n, snapshots) = (samples.len(), on_b.len());
+    assert!(log_b.contains(&format!("state in: forwarded {snapshots}, refused 0, gaps 0")), "{log_b}");
     assert!(log_b.contains(&format!("samples out: forwarded {n}, refused 0")), "{log_b}");
     assert!(daemon.terminate().success());
     drop(daemon);

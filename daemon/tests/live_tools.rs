@@ -27,7 +27,7 @@ fn sim_into_daemon_with_echo(
 
     let echo_out = dir.path().join("echo.jsonl");
     let mut echo = Command::new(workspace_bin("fusionctl"))
-        .args(["echo", "--namespace", &domain.namespace, "--count", &samples.len().to_string(), "--idle-timeout", "10"])
+        .args(["echo", "--namespace", &domain.namespace, "--idle-timeout", "30"])
         .env(DOMAIN_ENV, &domain.domain)
         .stdout(std::fs::File::create(&echo_out).unwrap())
         .stderr(Stdio::inherit())
@@ -36,10 +36,30 @@ fn sim_into_daemon_with_echo(
     // Start publishing only once echo has subscribed.
     common::live::wait_for_state_reader(&domain, "fusionctl echo");
     common::live::publish_file(&domain, &input, samples);
+    // Every sample has its snapshot and the last correction has landed (a late
+    // sample's lands in a snapshot of its own): then echo is stopped.
+    let read = || -> Vec<serde_json::Value> {
+        let text = std::fs::read_to_string(&echo_out).unwrap();
+        text.lines().map_while(|l| serde_json::from_str(l).ok()).collect()
+    };
+    let done = |lines: &[serde_json::Value]| {
+        lines.iter().filter(|e| e["input"]["kind"] != "none").count() == samples.len()
+            && lines.last().is_some_and(|e| e["pending"].is_null())
+    };
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(30);
+    while !done(&read()) && std::time::Instant::now() < deadline {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    assert!(Command::new("kill").args(["-INT", &echo.id().to_string()]).status().unwrap().success());
     assert!(echo.wait().unwrap().success());
     assert!(daemon.terminate().success());
-    let echoed =
-        std::fs::read_to_string(&echo_out).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let echoed = read();
+    assert!(
+        done(&echoed),
+        "echo saw a snapshot of every sample and a settled last one: {} lines, last {:?}",
+        echoed.len(),
+        echoed.last()
+    );
     (echoed, common::run_replay(dir.path(), &config(), &input, false).0)
 }
 
@@ -68,6 +88,8 @@ fn sim_input_with_echo_reproduces_every_replay_estimate_of_a_sorted_file() {
     let mut samples = drive((0, 0));
     samples.sort_by_key(|s| (s.t_ns(), s.kind(), s.sensor(), s.seq()));
     let (echoed, replayed) = sim_into_daemon_with_echo("echo-sorted", &samples);
+    assert!(echoed.iter().all(|e| e["pending"].is_null()), "in order: no snapshot waits for a correction");
+    let echoed: Vec<_> = echoed.into_iter().filter(|e| e["input"]["kind"] != "none").collect();
     assert_eq!(echoed.len(), replayed.len());
     for (i, (e, r)) in echoed.iter().zip(&replayed).enumerate() {
         assert!(same(e, r), "snapshot {i} differs from replay:\n{e}\n{r:?}");
@@ -80,7 +102,12 @@ fn sim_input_with_echo_reproduces_every_replay_estimate_of_a_sorted_file() {
 fn sim_input_with_echo_reproduces_the_replay_final_state_of_a_late_file() {
     let samples = drive((20, 120));
     let (echoed, replayed) = sim_into_daemon_with_echo("echo-late", &samples);
-    assert_eq!(echoed.len(), samples.len());
+    let landed = echoed
+        .windows(2)
+        .filter(|w| !w[0]["pending"].is_null() && w[1]["pending"].is_null() && w[1]["input"]["kind"] == "none")
+        .count();
+    assert!(landed > 0, "corrections landed in snapshots of their own");
     assert!(same(echoed.last().unwrap(), replayed.last().unwrap()), "final state differs");
     assert!(echoed.iter().any(|e| e["input"]["replayed"].as_u64() > Some(0)), "positions were late");
+    assert!(echoed.iter().any(|e| !e["pending"].is_null()), "and were corrected in the background");
 }
