@@ -68,7 +68,7 @@ fn main() {
 /// 100th instant (from 200 on, once the history reaches back that far).
 fn late_instant(t: u64, k: u64, g: f64) -> Vec<Sample> {
     let mut out = Vec::with_capacity(2);
-    if k >= 200 && k % 100 == 0 {
+    if k >= 200 && k.is_multiple_of(100) {
         let cov = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64];
         out.push(Sample::Position(PositionSample::new(t - 100_000_000, 1, k / 100, [0.0; 3], cov)));
     }
