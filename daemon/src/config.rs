@@ -23,6 +23,10 @@ use crate::model::ins::InsParams;
 use crate::model::linear::LinearParams;
 use crate::validate::Limits;
 
+mod build;
+pub use crate::setting::{ConfigError, invalid, positive};
+pub use build::{check, initial_values, with_model};
+
 /// The default configuration with comments, as printed by `fusiond print-config`
 /// ([`default_config_text`] fills in the per-kind lines).
 const DEFAULT_CONFIG_TEMPLATE: &str = r#"# fusiond configuration. Units are SI; frames: world ENU, body forward-left-up.
@@ -175,41 +179,6 @@ fn grouped(n: u64) -> String {
         out.push(c);
     }
     out
-}
-
-/// A configuration problem found at start-up.
-#[derive(Debug, thiserror::Error)]
-pub enum ConfigError {
-    /// The file could not be read.
-    #[error("cannot read config {path}")]
-    Io {
-        /// The file.
-        path: String,
-        /// The OS error.
-        #[source]
-        source: std::io::Error,
-    },
-    /// Not TOML, an unknown key, or a value of the wrong type (the message names the key).
-    #[error("config: {0}")]
-    Parse(#[from] toml::de::Error),
-    /// A value out of its range or inconsistent with another.
-    #[error("config: {key}: {problem}")]
-    Invalid {
-        /// Dotted key, e.g. `filter.initial_state`.
-        key: String,
-        /// What is wrong.
-        problem: String,
-    },
-}
-
-/// A [`ConfigError::Invalid`].
-pub fn invalid(key: impl Into<String>, problem: impl Into<String>) -> ConfigError {
-    ConfigError::Invalid { key: key.into(), problem: problem.into() }
-}
-
-/// Checks that a parameter is finite and > 0.
-pub fn positive(key: &str, v: f64) -> Result<f64, ConfigError> {
-    if v.is_finite() && v > 0.0 { Ok(v) } else { Err(invalid(key, format!("must be finite and > 0, got {v}"))) }
 }
 
 /// Which process model the filter runs, with its own parameters (`[model]`,
@@ -508,7 +477,7 @@ impl Config {
             imu: raw.imu,
             ipc: raw.ipc,
         };
-        crate::model::check(&config)?;
+        check(&config)?;
         Ok(config)
     }
 }

@@ -63,30 +63,6 @@ pub struct EngineConfig {
     pub limits: Limits,
 }
 
-impl Default for EngineConfig {
-    /// The limits of the default config.
-    fn default() -> Self {
-        Self::from_config(&crate::config::Config::default())
-    }
-}
-
-impl EngineConfig {
-    /// The limits of a validated config.
-    pub fn from_config(c: &crate::config::Config) -> Self {
-        Self {
-            history_ns: c.filter.history_ns,
-            history_capacity: c.filter.history_capacity,
-            max_sensors: c.validation.max_sensors,
-            max_future_ns: c.validation.max_future_ns,
-            max_past_ns: c.validation.max_past_ns,
-            max_jump_ns: c.validation.max_jump_ns,
-            max_rate_hz: c.validation.max_rate_hz,
-            max_burst: c.validation.max_burst,
-            limits: c.validation.limits(),
-        }
-    }
-}
-
 /// What became of an inserted sample. Every outcome is counted.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Insert {

@@ -27,7 +27,7 @@ use fusion_shared::geodesy::Datum;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 
-use crate::config::{ConfigError, invalid};
+use crate::setting::{ConfigError, invalid};
 
 /// Most IMUs combined ([`ImuSet`]).
 pub const MAX_IMUS: usize = 8;

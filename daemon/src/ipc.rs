@@ -21,12 +21,12 @@ use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::{PortFactory, publish_subscribe};
 
-use crate::config::{Config, ConfigError};
+use crate::config::{Config, ConfigError, with_model};
 use crate::engine::{Engine, EngineConfig};
 use crate::live::{LiveCore, LoopObserver, SampleSource, SnapshotSink};
 pub use crate::live::{RunReport, WaitMode};
 use crate::measurement;
-use crate::model::{Model, WithModel, with_model};
+use crate::model::{Model, WithModel};
 use crate::summary::SummaryLogger;
 use crate::systemd::Watchdog;
 
@@ -273,7 +273,7 @@ impl SampleSource for IpcSource {
     /// another. A late sample waiting beside an in-order one goes second: it
     /// costs the engine a placement either way and its snapshot is provisional,
     /// while the in-order sample's snapshot would otherwise wait for both (the
-    /// IMU sample right behind a late GNSS fix). At most [`MAX_PASSED_OVER`]
+    /// IMU sample right behind a late GNSS fix). At most `MAX_PASSED_OVER`
     /// in-order samples go ahead of it.
     fn next(&mut self, newest: Option<(u64, u8)>) -> Option<Sample> {
         let mut oldest: Option<((u64, u8), usize)> = None;

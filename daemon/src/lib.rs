@@ -28,6 +28,7 @@ pub mod measurement;
 pub mod model;
 pub mod reorder;
 pub mod replay;
+pub mod setting;
 pub mod snapshot;
 pub mod summary;
 pub mod systemd;

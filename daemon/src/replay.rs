@@ -28,9 +28,9 @@ use serde::{Deserialize, Serialize};
 
 use fusion_shared::Counters;
 
-use crate::config::{Config, ConfigError};
+use crate::config::{Config, ConfigError, with_model};
 use crate::engine::{Engine, EngineConfig, Entry, Insert};
-use crate::model::{Model, StepOutcome, WithModel, with_model};
+use crate::model::{Model, StepOutcome, WithModel};
 use crate::reorder::{Sample, SampleKey};
 
 /// How many invalid lines the summary describes one by one.

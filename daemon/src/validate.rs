@@ -2,8 +2,7 @@
 //!
 //! A rejected sample is counted with its [`Rejection`] reason; it never changes the
 //! estimate. The same checks run live and in replay. Each kind's checks live in its
-//! measurement module ([`crate::measurement`]); this file names the reasons and
-//! the limits they use.
+//! measurement module; this file names the reasons and the limits they use.
 
 /// Why a sample was refused.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -29,7 +29,7 @@
 //! nominal state is held and only the covariance grows.
 //!
 //! Measurements are fused by their kinds' modules ([`crate::measurement`]), with
-//! [`InsModel::update_block`] for those that observe a 3-vector of the nominal
+//! `InsModel::update_block` for those that observe a 3-vector of the nominal
 //! state; the optional land-vehicle motion constraint
 //! ([`crate::measurement::nonholonomic`]) is fused after IMU samples.
 //!
@@ -68,7 +68,6 @@ pub(crate) use error_state::inject_and_reset;
 use error_state::{ProcessNoise, inject};
 
 use super::{Model, StepOutcome, advance_time};
-use crate::config::{Config, ConfigError, ModelConfig, invalid, positive};
 use crate::filter::{
     ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, UpdateOptions,
     rts_smooth,
@@ -77,7 +76,7 @@ use crate::frames::Frames;
 use crate::measurement::imu::{Held, HeldImu};
 use crate::measurement::lockout::{Lockout, LockoutConfig};
 pub use crate::measurement::nonholonomic::Nonholonomic;
-use crate::reorder::Sample;
+use fusion_shared::Sample;
 
 /// Error-state dimension.
 pub const N: usize = 15;
@@ -295,43 +294,6 @@ impl InsModel {
     pub fn with_nonholonomic(mut self, constraint: Option<Nonholonomic>) -> Self {
         self.nonholonomic = constraint;
         self
-    }
-
-    /// The model of a config with `kind = "ins"`.
-    pub fn from_config(config: &Config) -> Result<Self, ConfigError> {
-        let ModelConfig::Ins(p) = &config.model else {
-            return Err(invalid("model.kind", "not \"ins\""));
-        };
-        let noise = ImuNoise {
-            accelerometer_noise_density: positive("model.accelerometer_noise_density", p.accelerometer_noise_density)?,
-            gyroscope_noise_density: positive("model.gyroscope_noise_density", p.gyroscope_noise_density)?,
-            accelerometer_random_walk: positive("model.accelerometer_random_walk", p.accelerometer_random_walk)?,
-            gyroscope_random_walk: positive("model.gyroscope_random_walk", p.gyroscope_random_walk)?,
-        };
-        let gravity = positive("model.gravity_mps2", p.gravity_mps2)?;
-        if let Some(c) = &p.constraints {
-            positive("model.constraints.nonholonomic_std_mps", c.std_mps)?;
-            if !(c.min_speed_mps.is_finite() && c.min_speed_mps >= 0.0) {
-                return Err(invalid(
-                    "model.constraints.nonholonomic_min_speed_mps",
-                    format!("must be a finite number >= 0, got {}", c.min_speed_mps),
-                ));
-            }
-        }
-        let (x0, p0) = super::initial_values::<NOMINAL, N>(config)?;
-        let norm = x0[6..10].iter().map(|v| v * v).sum::<f64>().sqrt();
-        if (norm - 1.0).abs() > 1e-3 {
-            return Err(invalid(
-                "filter.initial_state",
-                format!("entries 6..10 are the attitude quaternion [w, x, y, z] and must have norm 1, got {norm}"),
-            ));
-        }
-        let alignment = p.alignment.map_or(0, |a| a.static_samples);
-        let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
-        Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)
-            .and_then(|m| m.with_form(config.filter.form))
-            .map(|m| m.with_nonholonomic(p.constraints).with_frames(frames).with_lockout(config.lockout))
-            .map_err(|e| invalid("filter.initial_state", e.to_string()))
     }
 
     fn g(&self) -> Vector3<f64> {

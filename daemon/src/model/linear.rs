@@ -25,16 +25,14 @@
 
 #![allow(non_snake_case)]
 
-use fusion_shared::SampleKind;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use super::{Model, StepOutcome, advance_time};
-use crate::config::{Config, ConfigError, ModelConfig, invalid, positive};
 use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, rts_smooth};
-use crate::frames::{Frames, MountedSensor};
+use crate::frames::Frames;
 use crate::measurement::imu::HeldImu;
 use crate::measurement::lockout::{Lockout, LockoutConfig};
-use crate::reorder::Sample;
+use fusion_shared::Sample;
 
 /// State dimension.
 pub const N: usize = 6;
@@ -116,39 +114,6 @@ impl LinearModel {
     pub fn with_frames(mut self, frames: Frames) -> Self {
         self.frames = frames;
         self
-    }
-
-    /// The model of a config with `kind = "linear"`.
-    pub fn from_config(config: &Config) -> Result<Self, ConfigError> {
-        let ModelConfig::Linear(params) = &config.model else {
-            return Err(invalid("model.kind", "not \"linear\""));
-        };
-        let sigma_a = positive("model.accel_noise_std", params.accel_noise_std)?;
-        let (x0, p0) = super::initial_values::<N, N>(config)?;
-        let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
-        for MountedSensor { kind, name, mount, .. } in frames.sensors() {
-            if !matches!(kind, SampleKind::Imu | SampleKind::Position | SampleKind::Velocity | SampleKind::Geodetic) {
-                return Err(invalid(
-                    "sensor",
-                    format!(
-                        "{name:?}: the linear model cannot fuse {} (it has no attitude); use kind = \"ins\"",
-                        kind.name()
-                    ),
-                ));
-            }
-            if !(mount.unrotated && mount.at_origin) {
-                return Err(invalid(
-                    "sensor",
-                    format!(
-                        "{name:?}: the linear model has no attitude, so no rotation or lever arm; use kind = \"ins\""
-                    ),
-                ));
-            }
-        }
-        Self::new(sigma_a, x0, p0, config.gating.clone())
-            .and_then(|m| m.with_form(config.filter.form))
-            .map(|m| m.with_frames(frames).with_lockout(config.lockout))
-            .map_err(|e| invalid("filter.initial_covariance_diagonal", e.to_string()))
     }
 
     /// `F` and `Q = G σₐ² Gᵀ` for a step of `dt` seconds, with `Q` in closed form:

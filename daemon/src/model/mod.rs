@@ -10,8 +10,7 @@
 pub mod ins;
 pub mod linear;
 
-use crate::config::{Config, ConfigError, ModelConfig, invalid};
-use crate::reorder::Sample;
+use fusion_shared::Sample;
 
 /// Runs something generic over the model type with the configured model.
 pub trait WithModel {
@@ -19,49 +18,6 @@ pub trait WithModel {
     type Output;
     /// Runs with `model`.
     fn run<M: Model>(self, model: M) -> Self::Output;
-}
-
-/// Builds the configured model and hands it to `f`: the one place that maps
-/// `[model] kind` to a model type.
-pub fn with_model<F: WithModel>(config: &Config, f: F) -> Result<F::Output, ConfigError> {
-    Ok(match &config.model {
-        ModelConfig::Linear(_) => f.run(linear::LinearModel::from_config(config)?),
-        ModelConfig::Ins(_) => f.run(ins::InsModel::from_config(config)?),
-    })
-}
-
-/// Checks that the configured model can be built from the config.
-pub fn check(config: &Config) -> Result<(), ConfigError> {
-    struct Build;
-    impl WithModel for Build {
-        type Output = ();
-        fn run<M: Model>(self, _: M) {}
-    }
-    with_model(config, Build)
-}
-
-/// `[filter] initial_state` and `initial_covariance_diagonal` as the arrays of a
-/// model with `N` states and `C` error states: right lengths, finite values, and
-/// variances > 0.
-pub fn initial_values<const N: usize, const C: usize>(config: &Config) -> Result<([f64; N], [f64; C]), ConfigError> {
-    let (f, kind) = (&config.filter, config.model.kind());
-    let x0: [f64; N] = f.initial_state.as_slice().try_into().map_err(|_| {
-        invalid("filter.initial_state", format!("model {kind:?} needs {N} values, got {}", f.initial_state.len()))
-    })?;
-    if let Some(v) = x0.iter().find(|v| !v.is_finite()) {
-        return Err(invalid("filter.initial_state", format!("non-finite value {v}")));
-    }
-    let p0: [f64; C] = f.initial_covariance_diagonal.as_slice().try_into().map_err(|_| {
-        let got = f.initial_covariance_diagonal.len();
-        invalid("filter.initial_covariance_diagonal", format!("model {kind:?} needs {C} values, got {got}"))
-    })?;
-    if let Some(v) = p0.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
-        return Err(invalid(
-            "filter.initial_covariance_diagonal",
-            format!("variances must be finite and > 0, got {v}"),
-        ));
-    }
-    Ok((x0, p0))
 }
 
 /// The time rule every model follows: the filter starts at the time of the first

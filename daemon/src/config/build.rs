@@ -1,0 +1,153 @@
+//! Builds the daemon's parts from a validated [`Config`]: the model (and its
+//! frames), the engine's limits. The only place that maps `[model] kind` to a
+//! model type; the parts themselves know nothing of the file.
+
+use fusion_shared::SampleKind;
+
+use super::{Config, ConfigError, ModelConfig, invalid, positive};
+use crate::engine::EngineConfig;
+use crate::frames::{Frames, MountedSensor};
+use crate::model::ins::{self, ImuNoise, InsModel};
+use crate::model::linear::{self, LinearModel};
+use crate::model::{Model, WithModel};
+
+/// Builds the configured model and hands it to `f`: the one place that maps
+/// `[model] kind` to a model type.
+pub fn with_model<F: WithModel>(config: &Config, f: F) -> Result<F::Output, ConfigError> {
+    Ok(match &config.model {
+        ModelConfig::Linear(_) => f.run(LinearModel::from_config(config)?),
+        ModelConfig::Ins(_) => f.run(InsModel::from_config(config)?),
+    })
+}
+
+/// Checks that the configured model can be built from the config.
+pub fn check(config: &Config) -> Result<(), ConfigError> {
+    struct Build;
+    impl WithModel for Build {
+        type Output = ();
+        fn run<M: Model>(self, _: M) {}
+    }
+    with_model(config, Build)
+}
+
+/// `[filter] initial_state` and `initial_covariance_diagonal` as the arrays of a
+/// model with `N` states and `C` error states: right lengths, finite values, and
+/// variances > 0.
+pub fn initial_values<const N: usize, const C: usize>(config: &Config) -> Result<([f64; N], [f64; C]), ConfigError> {
+    let (f, kind) = (&config.filter, config.model.kind());
+    let x0: [f64; N] = f.initial_state.as_slice().try_into().map_err(|_| {
+        invalid("filter.initial_state", format!("model {kind:?} needs {N} values, got {}", f.initial_state.len()))
+    })?;
+    if let Some(v) = x0.iter().find(|v| !v.is_finite()) {
+        return Err(invalid("filter.initial_state", format!("non-finite value {v}")));
+    }
+    let p0: [f64; C] = f.initial_covariance_diagonal.as_slice().try_into().map_err(|_| {
+        let got = f.initial_covariance_diagonal.len();
+        invalid("filter.initial_covariance_diagonal", format!("model {kind:?} needs {C} values, got {got}"))
+    })?;
+    if let Some(v) = p0.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+        return Err(invalid(
+            "filter.initial_covariance_diagonal",
+            format!("variances must be finite and > 0, got {v}"),
+        ));
+    }
+    Ok((x0, p0))
+}
+
+impl LinearModel {
+    /// The model of a config with `kind = "linear"`.
+    pub fn from_config(config: &Config) -> Result<Self, ConfigError> {
+        let ModelConfig::Linear(params) = &config.model else {
+            return Err(invalid("model.kind", "not \"linear\""));
+        };
+        let sigma_a = positive("model.accel_noise_std", params.accel_noise_std)?;
+        let (x0, p0) = initial_values::<{ linear::N }, { linear::N }>(config)?;
+        let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
+        for MountedSensor { kind, name, mount, .. } in frames.sensors() {
+            if !matches!(kind, SampleKind::Imu | SampleKind::Position | SampleKind::Velocity | SampleKind::Geodetic) {
+                return Err(invalid(
+                    "sensor",
+                    format!(
+                        "{name:?}: the linear model cannot fuse {} (it has no attitude); use kind = \"ins\"",
+                        kind.name()
+                    ),
+                ));
+            }
+            if !(mount.unrotated && mount.at_origin) {
+                return Err(invalid(
+                    "sensor",
+                    format!(
+                        "{name:?}: the linear model has no attitude, so no rotation or lever arm; use kind = \"ins\""
+                    ),
+                ));
+            }
+        }
+        Self::new(sigma_a, x0, p0, config.gating.clone())
+            .and_then(|m| m.with_form(config.filter.form))
+            .map(|m| m.with_frames(frames).with_lockout(config.lockout))
+            .map_err(|e| invalid("filter.initial_covariance_diagonal", e.to_string()))
+    }
+}
+
+impl InsModel {
+    /// The model of a config with `kind = "ins"`.
+    pub fn from_config(config: &Config) -> Result<Self, ConfigError> {
+        let ModelConfig::Ins(p) = &config.model else {
+            return Err(invalid("model.kind", "not \"ins\""));
+        };
+        let noise = ImuNoise {
+            accelerometer_noise_density: positive("model.accelerometer_noise_density", p.accelerometer_noise_density)?,
+            gyroscope_noise_density: positive("model.gyroscope_noise_density", p.gyroscope_noise_density)?,
+            accelerometer_random_walk: positive("model.accelerometer_random_walk", p.accelerometer_random_walk)?,
+            gyroscope_random_walk: positive("model.gyroscope_random_walk", p.gyroscope_random_walk)?,
+        };
+        let gravity = positive("model.gravity_mps2", p.gravity_mps2)?;
+        if let Some(c) = &p.constraints {
+            positive("model.constraints.nonholonomic_std_mps", c.std_mps)?;
+            if !(c.min_speed_mps.is_finite() && c.min_speed_mps >= 0.0) {
+                return Err(invalid(
+                    "model.constraints.nonholonomic_min_speed_mps",
+                    format!("must be a finite number >= 0, got {}", c.min_speed_mps),
+                ));
+            }
+        }
+        let (x0, p0) = initial_values::<{ ins::NOMINAL }, { ins::N }>(config)?;
+        let norm = x0[6..10].iter().map(|v| v * v).sum::<f64>().sqrt();
+        if (norm - 1.0).abs() > 1e-3 {
+            return Err(invalid(
+                "filter.initial_state",
+                format!("entries 6..10 are the attitude quaternion [w, x, y, z] and must have norm 1, got {norm}"),
+            ));
+        }
+        let alignment = p.alignment.map_or(0, |a| a.static_samples);
+        let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
+        Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)
+            .and_then(|m| m.with_form(config.filter.form))
+            .map(|m| m.with_nonholonomic(p.constraints).with_frames(frames).with_lockout(config.lockout))
+            .map_err(|e| invalid("filter.initial_state", e.to_string()))
+    }
+}
+
+impl Default for EngineConfig {
+    /// The limits of the default config.
+    fn default() -> Self {
+        Self::from_config(&Config::default())
+    }
+}
+
+impl EngineConfig {
+    /// The limits of a validated config.
+    pub fn from_config(c: &Config) -> Self {
+        Self {
+            history_ns: c.filter.history_ns,
+            history_capacity: c.filter.history_capacity,
+            max_sensors: c.validation.max_sensors,
+            max_future_ns: c.validation.max_future_ns,
+            max_past_ns: c.validation.max_past_ns,
+            max_jump_ns: c.validation.max_jump_ns,
+            max_rate_hz: c.validation.max_rate_hz,
+            max_burst: c.validation.max_burst,
+            limits: c.validation.limits(),
+        }
+    }
+}
