@@ -18,9 +18,9 @@ use crate::filter::ChiSquareGate;
 use crate::frames::{ImuConfig, SensorConfig};
 use crate::health::{HealthConfig, MAX_NIS_WINDOW};
 use crate::measurement::Needed;
-use crate::measurement::lockout::LockoutConfig;
 use crate::model::ins::InsParams;
 use crate::model::linear::LinearParams;
+use crate::model::lockout::LockoutConfig;
 use crate::validate::Limits;
 
 mod build;

@@ -15,7 +15,7 @@
 //!   leaves the sum alone.
 //! - Samples are lost when a sensor's sequence numbers had a gap recently.
 //! - The filter re-initialised itself from the fixes recently, after a lock-out
-//!   ([`crate::measurement::lockout`]).
+//!   ([`crate::model::lockout`]).
 //!
 //! Pure and allocation-free after construction; the daemon evaluates it on every
 //! snapshot and on a timer while nothing arrives.

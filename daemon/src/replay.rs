@@ -64,7 +64,7 @@ pub struct ReplaySummary {
     /// Line number (1-based) and reason of the first invalid lines.
     pub invalid_lines: Vec<(u64, String)>,
     /// Times the filter re-initialised itself from the fixes after a lock-out
-    /// ([`crate::measurement::lockout`]), at the end of the run.
+    /// ([`crate::model::lockout`]), at the end of the run.
     pub reinitialisations: u64,
     /// Line numbers of the first fixes after which it did.
     pub reinitialised_at: Vec<u64>,

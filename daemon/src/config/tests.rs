@@ -91,7 +91,7 @@ fn ins_config_uses_kalibr_names() {
 
 #[test]
 fn lockout_recovery_is_on_with_the_gate_and_can_be_tuned_or_turned_off() {
-    use crate::measurement::lockout::LockoutConfig;
+    use crate::model::lockout::LockoutConfig;
     assert_eq!(Config::parse(MIN).unwrap().lockout, None, "no gate, nothing to be locked out by");
     let gated = |extra: &str| Config::parse(&format!("{MIN}[gating]\nprobability = 0.99\n{extra}"));
     assert_eq!(gated("").unwrap().lockout, Some(LockoutConfig::default()));

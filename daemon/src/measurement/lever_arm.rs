@@ -54,7 +54,7 @@ pub fn velocity(s: &InsState, l: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3
 
 /// Fuses a position `z` (covariance `R`) of the point of `mount`; at the origin,
 /// the plain position update on δp. After a lock-out the filter re-initialises
-/// from the fixes ([`super::lockout`]), taken to the body origin as `z − R l`
+/// from the fixes ([`crate::model::lockout`]), taken to the body origin as `z − R l`
 /// with the attitude held.
 pub fn fuse_position(
     model: &InsModel,

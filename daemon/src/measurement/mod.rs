@@ -11,13 +11,11 @@
 //! file is generated from `fusion_shared::for_each_sample_kind!`, declaring each
 //! kind's module (`measurement/<module>.rs`) and the dispatch from a [`Sample`] to
 //! it. Adding a kind is its wire type and one line in `fusion-shared`, and its
-//! module here (see `docs/architecture.md`). [`nonholonomic`] is a
-//! pseudo-measurement: the land-vehicle motion constraint, fused by the `ins` model
-//! after IMU samples.
+//! module here (see `docs/architecture.md`). The land-vehicle motion constraint, a
+//! pseudo-measurement without a wire type, belongs to the `ins` model
+//! ([`crate::model::ins::nonholonomic`]) and is fused after IMU samples.
 
 pub mod lever_arm;
-pub mod lockout;
-pub mod nonholonomic;
 
 use fusion_shared::{Sample, SampleKind, WireSample};
 use nalgebra::Matrix3;

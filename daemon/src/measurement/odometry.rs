@@ -13,7 +13,7 @@
 //! `ω_true = ω − δb_g`, so `δ(ω × l) = [l]× δb_g`; Groves 2013, §16.2.1 and
 //! eq. 14.121 for the lever arm.) Through the attitude it observes heading and
 //! pitch together with the velocity; the sideways and vertical components are the
-//! motion constraint's ([`super::nonholonomic`]).
+//! motion constraint's ([`crate::model::ins::nonholonomic`]).
 //!
 //! - `ins`: the update above, Joseph form, gated, injected and reset; refused
 //!   until the attitude is known to [`nonholonomic::MAX_ATTITUDE_SD`] (as the
@@ -31,7 +31,8 @@
 use fusion_shared::{OdometrySample, SampleKind};
 use nalgebra::{Matrix1, SMatrix, SVector, Vector1, Vector3};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, finite, nonholonomic};
+use super::{Fuse, Limits, Measurement, Needed, Rejection, finite};
+use crate::model::ins::nonholonomic;
 use crate::model::ins::{InsModel, InsState, N};
 use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};

@@ -7,7 +7,7 @@
 //!   antenna off the IMU) measures `p + R l` ([`super::lever_arm`]).
 //!
 //! In both models a long enough run of gated fixes re-initialises the filter from
-//! the fixes ([`super::lockout`]).
+//! the fixes ([`crate::model::lockout`]).
 //!
 //! Validation: finite, covariance symmetric positive definite.
 

@@ -31,7 +31,7 @@
 //! Measurements are fused by their kinds' modules ([`crate::measurement`]), with
 //! `InsModel::update_block` for those that observe a 3-vector of the nominal
 //! state; the optional land-vehicle motion constraint
-//! ([`crate::measurement::nonholonomic`]) is fused after IMU samples.
+//! ([`crate::model::ins::nonholonomic`]) is fused after IMU samples.
 //!
 //! Discretisation over `dt` with `f = f_m − b_a`, `ω = ω_m − b_g` held (Solà eq. 260, 269–271):
 //!
@@ -62,6 +62,7 @@ use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 mod error_state;
 mod linearised;
+pub mod nonholonomic;
 mod reinit;
 
 pub(crate) use error_state::inject_and_reset;
@@ -73,10 +74,10 @@ use crate::filter::{
     rts_smooth,
 };
 use crate::frames::Frames;
-use crate::measurement::imu::{Held, HeldImu};
-use crate::measurement::lockout::{Lockout, LockoutConfig};
-pub use crate::measurement::nonholonomic::Nonholonomic;
+use crate::model::held_imu::{Held, HeldImu};
+use crate::model::lockout::{Lockout, LockoutConfig};
 use fusion_shared::Sample;
+pub use nonholonomic::Nonholonomic;
 
 /// Error-state dimension.
 pub const N: usize = 15;
@@ -173,7 +174,7 @@ pub struct InsState {
     pub(crate) ready: bool,
     /// Time of the last motion-constraint update.
     pub(crate) constrained_ns: Option<u64>,
-    /// The run of gated fixes ([`crate::measurement::lockout`]).
+    /// The run of gated fixes ([`crate::model::lockout`]).
     lockout: Lockout,
 }
 

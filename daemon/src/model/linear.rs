@@ -30,8 +30,8 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use super::{Model, StepOutcome, advance_time};
 use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, rts_smooth};
 use crate::frames::Frames;
-use crate::measurement::imu::HeldImu;
-use crate::measurement::lockout::{Lockout, LockoutConfig};
+use crate::model::held_imu::HeldImu;
+use crate::model::lockout::{Lockout, LockoutConfig};
 use fusion_shared::Sample;
 
 /// State dimension.
@@ -69,7 +69,7 @@ pub struct LinearState {
     /// Held IMU acceleration (the input of the next propagations), combined
     /// over the IMUs.
     pub(crate) imu: HeldImu,
-    /// The run of gated fixes ([`crate::measurement::lockout`]).
+    /// The run of gated fixes ([`crate::model::lockout`]).
     lockout: Lockout,
 }
 
@@ -104,7 +104,7 @@ impl LinearModel {
         Ok(self)
     }
 
-    /// The same model with lock-out recovery ([`crate::measurement::lockout`]).
+    /// The same model with lock-out recovery ([`crate::model::lockout`]).
     pub fn with_lockout(mut self, lockout: Option<LockoutConfig>) -> Self {
         self.lockout = lockout;
         self
@@ -174,7 +174,7 @@ impl LinearModel {
 
     /// Fuses a position fix `z` (covariance `R`) on the position states
     /// ([`update_block`](Self::update_block)), re-initialising position and
-    /// velocity from the fixes after a lock-out ([`crate::measurement::lockout`]):
+    /// velocity from the fixes after a lock-out ([`crate::model::lockout`]):
     /// `x = [p, v]`, `P = blockdiag(P_pp, P_vv + P₀,vv)`.
     pub(crate) fn fuse_fix(&self, s: &mut LinearState, z: &Vector3<f64>, R: &Matrix3<f64>) -> StepOutcome {
         let outcome = self.update_block(s, z, 0, R);

@@ -7,8 +7,10 @@
 //! it, so a model may keep anything it needs for time handling (the filter time,
 //! held IMU values) inside that state.
 
+pub mod held_imu;
 pub mod ins;
 pub mod linear;
+pub mod lockout;
 
 use fusion_shared::Sample;
 
@@ -103,7 +105,7 @@ pub trait Model {
     fn step(&self, state: &mut Self::State, sample: &Sample) -> StepOutcome;
 
     /// Times the filter re-initialised itself from the fixes after a lock-out
-    /// ([`crate::measurement::lockout`]) up to this state.
+    /// ([`crate::model::lockout`]) up to this state.
     fn reinitialisations(_state: &Self::State) -> u64 {
         0
     }

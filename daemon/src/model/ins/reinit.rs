@@ -1,12 +1,12 @@
-//! Lock-out recovery of the `ins` model ([`crate::measurement::lockout`]).
+//! Lock-out recovery of the `ins` model ([`crate::model::lockout`]).
 
 #![allow(non_snake_case)]
 
 use nalgebra::{Matrix3, Vector3};
 
 use super::{InsModel, InsState};
-use crate::measurement::lockout::LockoutConfig;
 use crate::model::StepOutcome;
+use crate::model::lockout::LockoutConfig;
 
 impl InsModel {
     /// The same model with lock-out recovery.
@@ -23,7 +23,7 @@ impl InsModel {
     /// Takes the outcome of a position fix, `origin` being the fix taken to the
     /// body origin, and re-initialises after a lock-out: nominal `p`, `v` from
     /// the fixes, attitude and biases held; the error covariance of
-    /// [`Reinit::covariance`](crate::measurement::lockout::Reinit::covariance).
+    /// [`Reinit::covariance`](crate::model::lockout::Reinit::covariance).
     pub(crate) fn observe_fix(&self, s: &mut InsState, outcome: &StepOutcome, origin: &Vector3<f64>, R: &Matrix3<f64>) {
         let t = s.t_ns.unwrap_or(0);
         let Some(r) = s.lockout.observe(self.lockout.as_ref(), outcome, t, origin, R) else { return };
