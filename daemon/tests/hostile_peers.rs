@@ -83,21 +83,23 @@ fn invalid_samples_from_many_ids_do_not_lock_out_the_real_imu() {
     let mut imu = client.imu_publisher(0).unwrap();
     bad.set_wake(true);
     imu.set_wake(true);
-    // 20 NaN samples from 20 new ids, and one with an absurd sequence number
-    // from the real IMU's id.
+    // 20 NaN samples from 20 new ids; then, once the real IMU has its row, one
+    // with an absurd sequence number from the real IMU's id.
     for id in 1..=20u32 {
         let mut s = ImuSample::new(1_000_000, id, u64::from(id), [f64::NAN, 0.0, 0.0], [0.0; 3]);
         s.header.sensor = id;
         bad.publish_sample(s).unwrap();
     }
-    let mut s = ImuSample::new(1_000_000, 0, u64::MAX, [f64::NAN, 0.0, 0.0], [0.0; 3]);
-    s.header.sensor = 0;
-    bad.publish_sample(s).unwrap();
     let mut last = None;
     for k in 0..50u64 {
         let s = ImuSample::new(2_000_000 + k * 5_000_000, 0, k, [0.1, 0.0, 0.0], [0.0; 3]);
         imu.publish_sample(s).unwrap();
         last = Some(snapshot_of(&mut reader, &Sample::Imu(s)));
+        if k == 0 {
+            let mut s = ImuSample::new(1_000_000, 0, u64::MAX, [f64::NAN, 0.0, 0.0], [0.0; 3]);
+            s.header.sensor = 0;
+            bad.publish_sample(s).unwrap();
+        }
     }
     let last = last.unwrap();
     let rows = last.sensor_counters();
