@@ -21,10 +21,13 @@ pub const INS_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_densi
     initial_covariance_diagonal = [1,1,1, 1,1,1, 0.01,0.01,0.01, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n\
     [gating]\nprobability = 0.999\n";
 
-/// The `ins` config of the vehicle rows: [`INS_CONFIG`] with a datum, two IMUs
-/// averaged (one in FRD axes turned 90° in yaw), a GNSS antenna 1.5 m from them
-/// and wheel odometry on the rear axle.
-pub const VEHICLE_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+/// The `ins` config of the vehicle rows with the GNSS antenna's kinds (a TOML
+/// array): [`INS_CONFIG`] with a datum, two IMUs averaged (one in FRD axes turned
+/// 90° in yaw), a GNSS antenna 1.5 m from them and wheel odometry on the rear axle.
+macro_rules! vehicle_config {
+    ($gnss_kinds:literal) => {
+        concat!(
+            "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
     accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n\
     initial_state = [0,0,0, 0,0,0, 1,0,0,0, 0,0,0, 0,0,0]\n\
     initial_covariance_diagonal = [1,1,1, 1,1,1, 0.01,0.01,0.01, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n\
@@ -32,21 +35,20 @@ pub const VEHICLE_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_d
     [datum]\nlatitude_deg = 48.1316\nlongitude_deg = 11.5494\nheight_m = 519.0\n\
     [[sensor]]\nname = \"imu-a\"\nid = 0\nkinds = [\"imu\"]\naxes = \"frd\"\nrotation_rpy_deg = [0, 0, 90]\n\
     [[sensor]]\nname = \"imu-b\"\nid = 1\nkinds = [\"imu\"]\n\
-    [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [1.0, 0.5, 1.0]\n\
-    [[sensor]]\nname = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\nlever_arm_m = [-1.3, 0.0, -0.3]\n";
+    [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = ",
+            $gnss_kinds,
+            "\nlever_arm_m = [1.0, 0.5, 1.0]\n\
+    [[sensor]]\nname = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\nlever_arm_m = [-1.3, 0.0, -0.3]\n"
+        )
+    };
+}
+
+/// The `ins` config of the vehicle rows (see `vehicle_config!`), GNSS positions only.
+pub const VEHICLE_CONFIG: &str = vehicle_config!("[\"geodetic\"]");
 
 /// The config of the late vehicle stream: [`VEHICLE_CONFIG`] with the GNSS
 /// receiver's Doppler velocity (same antenna) as well.
-pub const VEHICLE_LATE_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
-    accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n\
-    initial_state = [0,0,0, 0,0,0, 1,0,0,0, 0,0,0, 0,0,0]\n\
-    initial_covariance_diagonal = [1,1,1, 1,1,1, 0.01,0.01,0.01, 0.01,0.01,0.01, 1e-6,1e-6,1e-6]\n\
-    [gating]\nprobability = 0.999\n\
-    [datum]\nlatitude_deg = 48.1316\nlongitude_deg = 11.5494\nheight_m = 519.0\n\
-    [[sensor]]\nname = \"imu-a\"\nid = 0\nkinds = [\"imu\"]\naxes = \"frd\"\nrotation_rpy_deg = [0, 0, 90]\n\
-    [[sensor]]\nname = \"imu-b\"\nid = 1\nkinds = [\"imu\"]\n\
-    [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\", \"velocity\"]\nlever_arm_m = [1.0, 0.5, 1.0]\n\
-    [[sensor]]\nname = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\nlever_arm_m = [-1.3, 0.0, -0.3]\n";
+pub const VEHICLE_LATE_CONFIG: &str = vehicle_config!("[\"geodetic\", \"velocity\"]");
 
 /// What the two IMUs of [`VEHICLE_CONFIG`] read at rest, level: IMU 0 (FRD, turned
 /// 90°) sees gravity along its −z, IMU 1 along its +z.
