@@ -10,6 +10,7 @@ use fusion_benches::{bench_drive, ins_config_text, ins_fix, ins_imu, ins_model, 
 use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig};
 use fusion_daemon::filter::Form;
+use fusion_daemon::measurement::Steps;
 use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::InsModel;
 use fusion_daemon::model::linear::LinearModel;

@@ -28,7 +28,7 @@ use fusion_benches::latency::{VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST};
 use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig, Insert};
 use fusion_daemon::health::HealthMonitor;
-use fusion_daemon::model::Model;
+use fusion_daemon::measurement::Steps;
 use fusion_daemon::model::ins::InsModel;
 use fusion_daemon::model::linear::LinearModel;
 use fusion_daemon::snapshot::{self, Input};
@@ -93,7 +93,7 @@ fn vehicle_instant(t: u64, k: u64) -> Vec<Sample> {
 }
 
 #[inline(never)]
-fn run<M: Model>(model: M, config: &Config, n: u64, time: bool, instant: impl Fn(u64, u64) -> Vec<Sample>) {
+fn run<M: Steps>(model: M, config: &Config, n: u64, time: bool, instant: impl Fn(u64, u64) -> Vec<Sample>) {
     let mut engine = Engine::new(model, EngineConfig::from_config(config));
     let mut health = HealthMonitor::new(config.health);
     let mut chunk = Box::new(StateSnapshot::default());
@@ -162,7 +162,7 @@ fn report(times: Vec<(&str, u64)>) {
 }
 
 #[inline(never)]
-fn handle<M: Model>(
+fn handle<M: Steps>(
     engine: &mut Engine<M>,
     health: &mut HealthMonitor,
     snap: &mut StateSnapshot,

@@ -11,6 +11,7 @@ use std::hint::black_box;
 
 use fusion_benches::{ins_fix, ins_imu, ins_model};
 use fusion_daemon::filter::ChiSquareGate;
+use fusion_daemon::measurement::Steps;
 use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::InsModel;
 use fusion_shared::Sample;

@@ -7,7 +7,7 @@ use fusion_benches::alloc::{Counting, count_this_thread, sizes};
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig, Entry, Insert};
-use fusion_daemon::model::Model;
+use fusion_daemon::measurement::Steps;
 use fusion_daemon::model::ins::InsModel;
 use fusion_daemon::model::linear::LinearModel;
 use fusion_shared::Sample;
@@ -17,7 +17,7 @@ static GLOBAL: Counting = Counting;
 
 /// Inserts `samples` into an engine of `model` (a fifth to warm up, then counted)
 /// and checks that the counted stretch allocated nothing and held rewinds.
-fn steady_state_allocates_nothing<M: Model>(model: M, config: &Config, samples: &[Sample]) {
+fn steady_state_allocates_nothing<M: Steps>(model: M, config: &Config, samples: &[Sample]) {
     let mut engine = Engine::new(model, EngineConfig::from_config(config));
     let mut finals = 0u64;
     let mut sink = |_: &Entry<_>| finals += 1;

@@ -25,7 +25,7 @@ use crate::validate::Limits;
 
 mod build;
 pub use crate::setting::{ConfigError, invalid, positive};
-pub use build::{check, initial_values, with_model};
+pub use build::{WithModel, check, initial_values, with_model};
 
 /// The default configuration with comments, as printed by `fusiond print-config`
 /// ([`default_config_text`] fills in the per-kind lines).

@@ -34,7 +34,8 @@ mod stats;
 
 pub use stats::{EngineStats, SensorStats};
 
-use crate::model::{Model, StepOutcome};
+use crate::measurement::Steps;
+use crate::model::StepOutcome;
 use crate::reorder::{Placement, Sample, SampleKey, Seen, SeqWindow, key_of, place};
 use crate::validate::{Limits, Rejection};
 use history::History;
@@ -185,7 +186,7 @@ pub struct Correction {
 }
 
 /// The estimation engine for model `M`.
-pub struct Engine<M: Model> {
+pub struct Engine<M: Steps> {
     model: M,
     config: EngineConfig,
     history: History<Entry<M::State>, SampleKey>,
@@ -215,7 +216,7 @@ pub struct Engine<M: Model> {
 /// gap in the recording, and time moves on.
 pub const JUMP_CONFIRMATION: u32 = 100;
 
-impl<M: Model> Engine<M> {
+impl<M: Steps> Engine<M> {
     /// An engine running `model` within `config`'s limits.
     pub fn new(model: M, config: EngineConfig) -> Self {
         let initial = model.initial_state();

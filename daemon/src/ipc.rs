@@ -21,12 +21,12 @@ use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::{PortFactory, publish_subscribe};
 
-use crate::config::{Config, ConfigError, with_model};
+use crate::config::{Config, ConfigError, WithModel, with_model};
 use crate::engine::{Engine, EngineConfig};
 use crate::live::{LiveCore, LoopObserver, SampleSource, SnapshotSink};
 pub use crate::live::{RunReport, WaitMode};
 use crate::measurement;
-use crate::model::{Model, WithModel};
+use crate::measurement::Steps;
 use crate::summary::SummaryLogger;
 use crate::systemd::Watchdog;
 
@@ -111,7 +111,7 @@ pub fn run(config: &Config, options: &RunOptions, shutdown: &AtomicBool) -> Resu
     struct Run<'a>(&'a Config, &'a RunOptions, &'a AtomicBool);
     impl WithModel for Run<'_> {
         type Output = Result<RunReport, RunError>;
-        fn run<M: Model>(self, model: M) -> Self::Output {
+        fn run<M: Steps>(self, model: M) -> Self::Output {
             run_model(model, self.0, self.1, self.2)
         }
     }
@@ -483,7 +483,7 @@ impl LoopObserver for Observer<'_> {
     }
 }
 
-fn run_model<M: Model>(
+fn run_model<M: Steps>(
     model: M,
     config: &Config,
     options: &RunOptions,

@@ -39,7 +39,7 @@ use hdrhistogram::Histogram;
 
 use crate::engine::{Engine, Insert};
 use crate::health::{HealthConfig, HealthMonitor, HealthNow};
-use crate::model::Model;
+use crate::measurement::Steps;
 use crate::snapshot::{self, Input};
 use crate::summary::Summary;
 
@@ -120,7 +120,7 @@ pub struct RunReport {
 }
 
 /// The live state of the daemon besides its transport.
-pub struct LiveCore<M: Model> {
+pub struct LiveCore<M: Steps> {
     engine: Engine<M>,
     health: HealthMonitor,
     health_now: HealthNow,
@@ -137,7 +137,7 @@ pub struct LiveCore<M: Model> {
     reinitialisations_logged: u64,
 }
 
-impl<M: Model> LiveCore<M> {
+impl<M: Steps> LiveCore<M> {
     /// A core around `engine`, with a summary every `summary_interval` from `now_ns`.
     pub fn new(engine: Engine<M>, health: HealthConfig, summary_interval: Duration, now_ns: u64) -> Self {
         let initialising = HealthNow::INITIALISING;
@@ -384,7 +384,7 @@ impl<M: Model> LiveCore<M> {
 
 /// Runs `core` on `source` and `sink` until `shutdown` becomes true, telling
 /// `observer` that it turns and handing it each interval's summary.
-pub fn run<M: Model>(
+pub fn run<M: Steps>(
     core: &mut LiveCore<M>,
     source: &mut impl SampleSource,
     sink: &mut impl SnapshotSink,
@@ -448,6 +448,7 @@ mod tests {
     use super::*;
     use crate::config::Config;
     use crate::engine::EngineConfig;
+    use crate::model::Model;
     use crate::model::linear::LinearModel;
 
     /// Hands out queued samples; once empty, asks for a stop.

@@ -28,9 +28,10 @@ use serde::{Deserialize, Serialize};
 
 use fusion_shared::Counters;
 
-use crate::config::{Config, ConfigError, with_model};
+use crate::config::{Config, ConfigError, WithModel, with_model};
 use crate::engine::{Engine, EngineConfig, Entry, Insert};
-use crate::model::{Model, StepOutcome, WithModel};
+use crate::measurement::Steps;
+use crate::model::StepOutcome;
 use crate::reorder::{Sample, SampleKey};
 
 /// How many invalid lines the summary describes one by one.
@@ -222,16 +223,16 @@ pub trait ReplayCheck {
     }
     /// Called before each input is inserted: a deferring check does here the
     /// rewind steps the live loop did in its idle time before that input.
-    fn before_insert<M: Model>(&mut self, _engine: &mut Engine<M>) {}
+    fn before_insert<M: Steps>(&mut self, _engine: &mut Engine<M>) {}
     /// Called after `sample`, received at `received_ns`, was processed.
-    fn processed<M: Model>(&mut self, engine: &Engine<M>, sample: &Sample, received_ns: Option<u64>, replayed: usize);
+    fn processed<M: Steps>(&mut self, engine: &Engine<M>, sample: &Sample, received_ns: Option<u64>, replayed: usize);
 }
 
 /// No check.
 pub struct NoCheck;
 
 impl ReplayCheck for NoCheck {
-    fn processed<M: Model>(&mut self, _: &Engine<M>, _: &Sample, _: Option<u64>, _: usize) {}
+    fn processed<M: Steps>(&mut self, _: &Engine<M>, _: &Sample, _: Option<u64>, _: usize) {}
 }
 
 /// Replays `items` through the engine configured by `config`, writing
@@ -247,7 +248,7 @@ pub fn replay_items(
     struct Replay<'a, I, W, C>(&'a Config, I, Option<W>, bool, &'a mut C);
     impl<I: Iterator<Item = std::io::Result<InputItem>>, W: Write, C: ReplayCheck> WithModel for Replay<'_, I, W, C> {
         type Output = Result<ReplaySummary, ReplayError>;
-        fn run<M: Model>(self, model: M) -> Self::Output {
+        fn run<M: Steps>(self, model: M) -> Self::Output {
             replay_model(model, self.0, self.1, self.2, self.3, self.4)
         }
     }
@@ -261,7 +262,7 @@ pub fn replay_items(
 /// are kept instead and re-run through [`Model::step_recorded`] from the initial
 /// state after the stream: every step is a pure function of the state before it
 /// and the sample, so the re-run reproduces the engine's states bit for bit.
-struct Sink<M: Model, W: Write> {
+struct Sink<M: Steps, W: Write> {
     output: Option<W>,
     finals: Option<Vec<(SampleKey, StepOutcome, Sample)>>,
     error: Option<std::io::Error>,
@@ -270,7 +271,7 @@ struct Sink<M: Model, W: Write> {
     _model: std::marker::PhantomData<M>,
 }
 
-impl<M: Model, W: Write> Sink<M, W> {
+impl<M: Steps, W: Write> Sink<M, W> {
     fn take(&mut self, e: &Entry<M::State>) {
         match &mut self.finals {
             Some(finals) => finals.push((e.key, e.outcome, e.sample)),
@@ -292,7 +293,7 @@ impl<M: Model, W: Write> Sink<M, W> {
     }
 }
 
-fn replay_model<M: Model>(
+fn replay_model<M: Steps>(
     model: M,
     config: &Config,
     items: impl Iterator<Item = std::io::Result<InputItem>>,

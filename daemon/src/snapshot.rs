@@ -5,7 +5,8 @@ use fusion_shared::{Sample, SensorCounters, StateSnapshot};
 
 use crate::engine::{Engine, SensorSlot};
 use crate::health::HealthNow;
-use crate::model::{Model, StepOutcome};
+use crate::measurement::Steps;
+use crate::model::StepOutcome;
 use crate::reorder::key_of;
 
 pub use fusion_shared::snapshot::INPUT_NONE;
@@ -49,7 +50,7 @@ fn counters(s: &SensorSlot) -> SensorCounters {
 /// the sensors seen (which only grow), and the estimate fields before the first
 /// processed sample. So filling a default snapshot, as the live loop does in a
 /// fresh shared-memory chunk, gives the same as refilling one snapshot.
-pub fn fill<M: Model>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Option<Input<'_>>, health: HealthNow) {
+pub fn fill<M: Steps>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Option<Input<'_>>, health: HealthNow) {
     snap.model = M::CODE;
     if let Some(d) = engine.model().frames().datum() {
         (snap.datum_lat_deg, snap.datum_lon_deg, snap.datum_height_m) = (d.latitude_deg, d.longitude_deg, d.height_m);
@@ -113,6 +114,7 @@ pub fn fill<M: Model>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Optio
 mod tests {
     use super::*;
     use crate::engine::{EngineConfig, Entry};
+    use crate::model::Model;
     use crate::model::linear::LinearModel;
     use fusion_shared::snapshot::health;
     use fusion_shared::{ImuSample, PositionSample};

@@ -17,6 +17,7 @@ mod common;
 use fusion_client::sim::{ImuConfig, ImuOutput, Scenario, ScenarioConfig};
 use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig, Entry};
+use fusion_daemon::measurement::Steps;
 use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::InsModel;
 use fusion_shared::Sample;

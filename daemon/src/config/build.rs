@@ -7,9 +7,17 @@ use fusion_shared::SampleKind;
 use super::{Config, ConfigError, ModelConfig, invalid, positive};
 use crate::engine::EngineConfig;
 use crate::frames::{Frames, MountedSensor};
+use crate::measurement::Steps;
 use crate::model::ins::{self, ImuNoise, InsModel};
 use crate::model::linear::{self, LinearModel};
-use crate::model::{Model, WithModel};
+
+/// Runs something generic over the model type with the configured model.
+pub trait WithModel {
+    /// What it gives.
+    type Output;
+    /// Runs with `model`.
+    fn run<M: Steps>(self, model: M) -> Self::Output;
+}
 
 /// Builds the configured model and hands it to `f`: the one place that maps
 /// `[model] kind` to a model type.
@@ -25,7 +33,7 @@ pub fn check(config: &Config) -> Result<(), ConfigError> {
     struct Build;
     impl WithModel for Build {
         type Output = ();
-        fn run<M: Model>(self, _: M) {}
+        fn run<M: Steps>(self, _: M) {}
     }
     with_model(config, Build)
 }

@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::filter::ChiSquareGate;
+use crate::model::Model;
 use crate::model::linear::LinearModel;
 use fusion_shared::{ImuSample, PositionSample};
 

@@ -1,7 +1,7 @@
 //! What an update works on and reports: the decision, the fault-detection hook
 //! and its view of the measurement, the diagnostics, the options.
 //!
-//! The update itself (Joseph form, gating) is in [`super::kalman`].
+//! The update itself (Joseph form, gating) is in the `kalman` module, which re-exports these types.
 
 #![allow(non_snake_case)]
 

@@ -64,6 +64,20 @@ pub trait Fuse<M: Model> {
     fn fuse(&self, model: &M, state: &mut M::State) -> (StepOutcome, M::Correction);
 }
 
+/// A model with the fusion of every sample kind: what the engine runs. One step
+/// propagates the state to the sample's time ([`Model::propagate_to`]) and fuses
+/// the sample through its kind's module ([`fuse`]). Every model whose state every
+/// kind can fuse into (`Fuse<M>` for each kind) has it.
+pub trait Steps: Model {
+    /// Processes one sample.
+    fn step(&self, state: &mut Self::State, sample: &Sample) -> StepOutcome;
+
+    /// [`step`](Self::step), also returning the smoother's record of the step. The
+    /// state it leaves is bit for bit the one `step` leaves: a smoother re-runs the
+    /// final samples through this after the fact, so the history stays compact.
+    fn step_recorded(&self, state: &mut Self::State, sample: &Sample) -> (StepOutcome, Self::Record);
+}
+
 /// Checks that every value is finite.
 pub fn finite(values: &[f64]) -> Result<(), Rejection> {
     if values.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(Rejection::NonFinite) }
@@ -136,6 +150,23 @@ macro_rules! registry {
             }
             match sample {
                 $(Sample::$variant(s) => s.validate(limits),)*
+            }
+        }
+
+        impl<M: Model> Steps for M
+        where
+            $(fusion_shared::$ty: Fuse<M>,)*
+        {
+            fn step(&self, state: &mut M::State, sample: &Sample) -> StepOutcome {
+                self.propagate_to(state, sample.t_ns(), None);
+                fuse(sample, self, state).0
+            }
+
+            fn step_recorded(&self, state: &mut M::State, sample: &Sample) -> (StepOutcome, M::Record) {
+                let mut log = M::begin_record(state);
+                self.propagate_to(state, sample.t_ns(), Some(&mut log));
+                let (outcome, correction) = fuse(sample, self, state);
+                (outcome, M::finish_record(log, state, correction))
             }
         }
 

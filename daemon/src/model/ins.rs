@@ -28,10 +28,10 @@
 //! error reset. Before the first IMU sample (and during static alignment) the
 //! nominal state is held and only the covariance grows.
 //!
-//! Measurements are fused by their kinds' modules ([`crate::measurement`]), with
-//! `InsModel::update_block` for those that observe a 3-vector of the nominal
-//! state; the optional land-vehicle motion constraint
-//! ([`crate::model::ins::nonholonomic`]) is fused after IMU samples.
+//! Measurements are fused by their kinds' modules in the layer above (the
+//! daemon's `measurement` module), with `InsModel::update_block` for those that
+//! observe a 3-vector of the nominal state; the optional land-vehicle motion
+//! constraint ([`nonholonomic`]) is fused after IMU samples.
 //!
 //! Discretisation over `dt` with `f = f_m − b_a`, `ω = ω_m − b_g` held (Solà eq. 260, 269–271):
 //!
@@ -76,7 +76,6 @@ use crate::filter::{
 use crate::frames::Frames;
 use crate::model::held_imu::{Held, HeldImu};
 use crate::model::lockout::{Lockout, LockoutConfig};
-use fusion_shared::Sample;
 pub use nonholonomic::Nonholonomic;
 
 /// Error-state dimension.
@@ -147,7 +146,7 @@ pub struct InsModel {
     frames: Frames,
 }
 
-/// The smoother's record of one `ins` step (see [`InsModel::step_recorded`](Model::step_recorded)).
+/// The smoother's record of one `ins` step (see [`Model::finish_record`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct InsRecord {
     /// The error-state step, about the nominal state after it.
@@ -346,21 +345,6 @@ impl InsModel {
         }
     }
 
-    /// One step (see [`Model::step`]), logging the transition for the smoother when
-    /// `log` is given.
-    /// Also returns the error injected into the nominal state, if any.
-    fn step_logged(
-        &self,
-        s: &mut InsState,
-        sample: &Sample,
-        log: Option<&mut StepLog<f64, N>>,
-    ) -> (StepOutcome, Option<SVector<f64, N>>) {
-        if let Some(dt) = advance_time(&mut s.t_ns, sample.t_ns()) {
-            self.propagate(s, dt, log);
-        }
-        crate::measurement::fuse(sample, self, s)
-    }
-
     /// Holds IMU `sensor`'s specific force `f` and rate `w` (body frame) at `t_ns`
     /// for the next propagations, combined with the other IMUs' as configured
     /// ([`HeldImu`]), summing them during the static alignment (aligning at its
@@ -474,6 +458,7 @@ impl Model for InsModel {
     type State = InsState;
     type Record = InsRecord;
     type Correction = Option<SVector<f64, N>>;
+    type Log = StepLog<f64, N>;
     const KIND: &'static str = "ins";
     const CODE: u32 = fusion_shared::snapshot::model::INS;
 
@@ -485,22 +470,26 @@ impl Model for InsModel {
         &self.frames
     }
 
-    fn step(&self, s: &mut InsState, sample: &Sample) -> StepOutcome {
-        self.step_logged(s, sample, None).0
+    fn propagate_to(&self, s: &mut InsState, t_ns: u64, log: Option<&mut StepLog<f64, N>>) {
+        if let Some(dt) = advance_time(&mut s.t_ns, t_ns) {
+            self.propagate(s, dt, log);
+        }
+    }
+
+    fn begin_record(s: &InsState) -> StepLog<f64, N> {
+        StepLog::begin(&s.kf)
     }
 
     /// The record of an error-state step, in the frame of the nominal state after
     /// it (see [`smooth`](Model::smooth)): prior mean `−dx` (the correction the
     /// step injected, 0 if none), posterior mean 0, `P⁻`, `P⁺` after the reset,
     /// the step's `F`, and that nominal state.
-    fn step_recorded(&self, s: &mut InsState, sample: &Sample) -> (StepOutcome, InsRecord) {
-        let mut log = StepLog::begin(&s.kf);
-        let (outcome, injected) = self.step_logged(s, sample, Some(&mut log));
+    fn finish_record(log: StepLog<f64, N>, s: &InsState, injected: Option<SVector<f64, N>>) -> InsRecord {
         let mut step = log.finish(&s.kf);
         if let Some(dx) = injected {
             step.x_prior = -dx;
         }
-        (outcome, InsRecord { step, nominal: s.nominal })
+        InsRecord { step, nominal: s.nominal }
     }
 
     fn time_ns(s: &InsState) -> Option<u64> {

@@ -32,7 +32,6 @@ use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, StepLog
 use crate::frames::Frames;
 use crate::model::held_imu::HeldImu;
 use crate::model::lockout::{Lockout, LockoutConfig};
-use fusion_shared::Sample;
 
 /// State dimension.
 pub const N: usize = 6;
@@ -133,10 +132,9 @@ impl LinearModel {
         (F, Q)
     }
 
-    /// One step (see [`Model::step`]), logging the predict's transition for the
-    /// smoother when `log` is given.
-    fn step_logged(&self, s: &mut LinearState, sample: &Sample, log: Option<&mut StepLog<f64, N>>) -> StepOutcome {
-        let t = sample.t_ns();
+    /// Propagates to `t` ([`advance_time`]), logging the predict's transition for
+    /// the smoother when `log` is given.
+    fn propagate(&self, s: &mut LinearState, t: u64, log: Option<&mut StepLog<f64, N>>) {
         if let Some(dt) = advance_time(&mut s.t_ns, t) {
             let (F, Q) = self.transition_and_noise(dt);
             let a = s.imu.mean().map_or_else(Vector3::zeros, |(a, _, _)| a);
@@ -150,7 +148,6 @@ impl LinearModel {
                 log.predicted(&s.kf, &F);
             }
         }
-        crate::measurement::fuse(sample, self, s).0
     }
 
     /// Fuses `z = x[offset..offset+3] + v`, `v ~ N(0, R)`: `H` selects three
@@ -237,6 +234,7 @@ impl Model for LinearModel {
     type State = LinearState;
     type Record = RtsStep<f64, N>;
     type Correction = ();
+    type Log = StepLog<f64, N>;
     const KIND: &'static str = "linear";
     const CODE: u32 = fusion_shared::snapshot::model::LINEAR;
 
@@ -248,14 +246,16 @@ impl Model for LinearModel {
         &self.frames
     }
 
-    fn step(&self, s: &mut LinearState, sample: &Sample) -> StepOutcome {
-        self.step_logged(s, sample, None)
+    fn propagate_to(&self, s: &mut LinearState, t_ns: u64, log: Option<&mut StepLog<f64, N>>) {
+        self.propagate(s, t_ns, log)
     }
 
-    fn step_recorded(&self, s: &mut LinearState, sample: &Sample) -> (StepOutcome, RtsStep<f64, N>) {
-        let mut log = StepLog::begin(&s.kf);
-        let outcome = self.step_logged(s, sample, Some(&mut log));
-        (outcome, log.finish(&s.kf))
+    fn begin_record(s: &LinearState) -> StepLog<f64, N> {
+        StepLog::begin(&s.kf)
+    }
+
+    fn finish_record(log: StepLog<f64, N>, s: &LinearState, _: ()) -> RtsStep<f64, N> {
+        log.finish(&s.kf)
     }
 
     fn reinitialisations(s: &LinearState) -> u64 {
@@ -288,7 +288,8 @@ impl Model for LinearModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fusion_shared::{ImuSample, PositionSample};
+    use crate::measurement::Steps;
+    use fusion_shared::{ImuSample, PositionSample, Sample};
 
     fn model() -> LinearModel {
         LinearModel::new(0.5, [0.0; 6], [1.0; 6], None).unwrap()

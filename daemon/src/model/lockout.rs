@@ -173,7 +173,7 @@ mod tests {
 
     use crate::engine::{Engine, EngineConfig, Entry, Insert};
     use crate::filter::ChiSquareGate;
-    use crate::model::Model;
+    use crate::measurement::Steps;
     use crate::model::ins::{InsModel, tests_support};
     use crate::model::linear::LinearModel;
     use fusion_shared::{ImuSample, PositionSample, Sample};
@@ -198,7 +198,7 @@ mod tests {
 
     /// Runs the stream; returns the final x, the re-initialisations, and the
     /// outcome of every fix after the jump.
-    fn run<M: Model>(model: M, f: [f64; 3]) -> (Vec<f64>, u64, Vec<bool>) {
+    fn run<M: Steps>(model: M, f: [f64; 3]) -> (Vec<f64>, u64, Vec<bool>) {
         let config = EngineConfig { max_future_ns: u64::MAX, ..EngineConfig::default() };
         let mut engine = Engine::new(model, config);
         let mut after = Vec::new();

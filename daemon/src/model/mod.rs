@@ -5,22 +5,15 @@
 //!
 //! A model owns its filter state type; the engine only stores, copies and replays
 //! it, so a model may keep anything it needs for time handling (the filter time,
-//! held IMU values) inside that state.
+//! held IMU values) inside that state. A model knows no sample kinds: it
+//! propagates to a time ([`Model::propagate_to`]); each kind's module above it
+//! fuses its samples into the model's state, and `measurement::Steps` composes the
+//! two into one step.
 
 pub mod held_imu;
 pub mod ins;
 pub mod linear;
 pub mod lockout;
-
-use fusion_shared::Sample;
-
-/// Runs something generic over the model type with the configured model.
-pub trait WithModel {
-    /// What it gives.
-    type Output;
-    /// Runs with `model`.
-    fn run<M: Model>(self, model: M) -> Self::Output;
-}
 
 /// The time rule every model follows: the filter starts at the time of the first
 /// sample it processes (no propagation before it); after that, a sample newer than
@@ -86,8 +79,11 @@ pub trait Model {
     type State: Copy;
     /// What the smoother needs of one step.
     type Record: Copy;
-    /// What a measurement update leaves the model to know ([`crate::measurement::Fuse`]).
+    /// What a measurement update leaves the model to know (the `ins` model: the
+    /// error injected, for its smoother).
     type Correction: Copy;
+    /// The smoother's record of a step while the step runs.
+    type Log;
 
     /// Name as in the config: `"linear"`.
     const KIND: &'static str;
@@ -100,9 +96,17 @@ pub trait Model {
     /// The frames its measurements may be given in (the datum of geodetic fixes).
     fn frames(&self) -> &crate::frames::Frames;
 
-    /// Processes one sample: propagate to its time, then fuse it through its kind's
-    /// module ([`crate::measurement::fuse`]).
-    fn step(&self, state: &mut Self::State, sample: &Sample) -> StepOutcome;
+    /// Propagates `state` to `t_ns` by the time rule of [`advance_time`] (nothing
+    /// for the first sample or an equal time), noting the transition in `log` when
+    /// a record of the step is kept.
+    fn propagate_to(&self, state: &mut Self::State, t_ns: u64, log: Option<&mut Self::Log>);
+
+    /// Starts the record of a step at the state before it.
+    fn begin_record(state: &Self::State) -> Self::Log;
+
+    /// Ends the record of a step at the state after it, given what its
+    /// measurement update left ([`Correction`](Self::Correction)).
+    fn finish_record(log: Self::Log, state: &Self::State, correction: Self::Correction) -> Self::Record;
 
     /// Times the filter re-initialised itself from the fixes after a lock-out
     /// ([`crate::model::lockout`]) up to this state.
@@ -137,11 +141,6 @@ pub trait Model {
         Self::write_covariance(state, &mut out);
         out
     }
-
-    /// [`step`](Self::step), also returning the smoother's record of the step. The
-    /// state it leaves is bit for bit the one `step` leaves: a smoother re-runs the
-    /// final samples through this after the fact, so the history stays compact.
-    fn step_recorded(&self, state: &mut Self::State, sample: &Sample) -> (StepOutcome, Self::Record);
 
     /// Smooths a complete run of records in place (RTS).
     fn smooth(records: &mut [Self::Record]) -> Result<(), crate::filter::SmootherError>;

@@ -20,7 +20,7 @@ use super::{InputItem, ReplayCheck, ReplayError, ReplaySummary, replay_items};
 use crate::config::Config;
 use crate::engine::Engine;
 use crate::health::HealthNow;
-use crate::model::Model;
+use crate::measurement::Steps;
 use crate::reorder::Sample;
 use crate::snapshot::{self, Input};
 
@@ -308,7 +308,7 @@ impl<I: Iterator<Item = std::io::Result<SnapshotJson>>> ReplayCheck for LiveComp
         true
     }
 
-    fn before_insert<M: Model>(&mut self, engine: &mut Engine<M>) {
+    fn before_insert<M: Steps>(&mut self, engine: &mut Engine<M>) {
         let Some(Ok(live)) = self.live.peek() else { return };
         while engine.stats().background_steps < live.background_steps && engine.settle_step() {}
         // The late samples' outcomes are in the counters compared; the health
@@ -316,7 +316,7 @@ impl<I: Iterator<Item = std::io::Result<SnapshotJson>>> ReplayCheck for LiveComp
         engine.take_first_outcomes(|_, _| {});
     }
 
-    fn processed<M: Model>(&mut self, engine: &Engine<M>, sample: &Sample, received_ns: Option<u64>, replayed: usize) {
+    fn processed<M: Steps>(&mut self, engine: &Engine<M>, sample: &Sample, received_ns: Option<u64>, replayed: usize) {
         if self.error.is_some() {
             return;
         }

@@ -1,7 +1,8 @@
 //! Tests of the `ins` model: mechanisation, alignment, constraint, propagation.
 
 use super::*;
-use fusion_shared::{ImuSample, PositionSample};
+use crate::measurement::Steps;
+use fusion_shared::{ImuSample, PositionSample, Sample};
 
 const G: f64 = 9.80665;
 
