@@ -106,10 +106,13 @@ fn the_header_compiles_and_links_as_cpp() {
 }
 
 #[test]
-fn the_readme_shows_the_tested_c_example() {
-    let readme = std::fs::read_to_string(client_dir().join("../README.md")).unwrap();
+fn the_guide_shows_the_tested_c_example() {
+    let guide = std::fs::read_to_string(client_dir().join("../docs/clients.md")).unwrap();
     let example = std::fs::read_to_string(client_dir().join("examples/c/example.c")).unwrap();
-    assert!(readme.contains(&format!("```c\n{example}```\n")), "README's C example differs from examples/c/example.c");
+    assert!(
+        guide.contains(&format!("```c\n{example}```\n")),
+        "docs/clients.md's C example differs from examples/c/example.c"
+    );
 }
 
 #[test]

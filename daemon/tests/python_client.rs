@@ -272,12 +272,12 @@ fn the_python_example_reads_a_live_snapshot() {
     drop(daemon);
     assert!(domain.files().is_empty(), "{:?}", domain.files());
 
-    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md")).unwrap();
+    let guide = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/clients.md")).unwrap();
     let example =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../client/python/examples/example.py")).unwrap();
     assert!(
-        readme.contains(&format!("```python\n{example}```\n")),
-        "README's Python example differs from the tested one"
+        guide.contains(&format!("```python\n{example}```\n")),
+        "docs/clients.md's Python example differs from the tested one"
     );
 }
 
