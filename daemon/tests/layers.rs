@@ -1,5 +1,5 @@
-//! The daemon's modules form layers: no module imports, directly or through
-//! others, a module that imports it back.
+//! The daemon's modules form layers (and so do the shared and client crates'):
+//! no module imports, directly or through others, a module that imports it back.
 //!
 //! A module is a file of `daemon/src` (a folder's `mod.rs`, or `x.rs` beside a
 //! folder `x/`, is the folder's module); an import is any `crate::a::b` path in
@@ -122,6 +122,16 @@ fn the_daemon_modules_import_each_other_in_no_circle() {
     let mut expected: Vec<Vec<String>> = REMAINING.iter().map(|c| c.iter().map(|m| m.to_string()).collect()).collect();
     expected.sort();
     assert_eq!(found, expected, "import circles between the daemon's modules");
+}
+
+/// The same rule for the crates below and beside the daemon.
+#[test]
+fn the_shared_and_client_modules_import_each_other_in_no_circle() {
+    for krate in ["shared", "client"] {
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(krate).join("src");
+        let found = circles(&imports(&modules(&src)));
+        assert!(found.is_empty(), "import circles between the modules of {krate}: {found:?}");
+    }
 }
 
 #[test]

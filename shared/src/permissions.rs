@@ -3,12 +3,12 @@
 //! iceoryx2 0.10 creates every shared-memory segment, socket and file of a
 //! service with owner-only permissions (0600, directories 0750), with two gaps
 //! this module closes for every fusion process, before its node is created
-//! ([`crate::service::create_node`]):
+//! (`service::create_node`):
 //!
 //! - **The node-id counter** of a domain (`/dev/shm/<prefix>…_node.<version>.global_mgmt`),
 //!   which every new node increments, is created for everyone (0666). Another user
 //!   who truncated it made every new fusion process hang. [`OwnerOnly`], the
-//!   persistent storage of [`crate::transport::Ipc`], creates it 0600, repairs one
+//!   persistent storage of `transport::Ipc`, creates it 0600, repairs one
 //!   of this user's that is wider, and refuses one that belongs to another user
 //!   (named in the error) instead of waiting on it.
 //! - **The root directory** (`/tmp/iceoryx2`, the services' static configs, node
@@ -46,7 +46,7 @@ use iceoryx2_cal::named_concept::{
 /// Where POSIX shared memory lives.
 const SHM_DIR: &str = "/dev/shm";
 
-/// Why the last persistent segment was refused, for [`crate::service::create_node`]
+/// Why the last persistent segment was refused, for `service::create_node`
 /// to report (iceoryx2 turns the refusal into `UnableToGenerateUniqueNodeId`).
 static REFUSED: Mutex<Option<String>> = Mutex::new(None);
 

@@ -253,7 +253,7 @@ impl Sample {
 /// followed by the payload's fields (see [`crate::jsonl`]), and, only where
 /// they say something, the header's `sent_ns` (not 0: a live sample) and `kind`
 /// (not the payload's kind: a faulty sender, which the daemon refuses). With
-/// its JSON Schema, for recordings ([`crate::recording`]).
+/// its JSON Schema, for recordings (the `recording` module).
 #[cfg(feature = "json")]
 macro_rules! json_form {
     ($ty:ident, $line:ident { $($(#[$doc:meta])* $json:ident: $jty:ty => $field:ident),* $(,)? }) => {
