@@ -27,16 +27,16 @@
 //! [`Engine::insert`] is `insert_deferred` followed by settling everything.
 
 use fusion_shared::SampleKind;
-use fusion_shared::snapshot::MAX_SENSORS;
 
 mod history;
 mod stats;
 
-pub use stats::{EngineStats, SensorStats};
+pub use stats::EngineStats;
 
 use crate::measurement::Steps;
 use crate::model::StepOutcome;
-use crate::reorder::{Placement, Sample, SampleKey, Seen, SeqWindow, key_of, place};
+use crate::reorder::{Placement, Sample, SampleKey, key_of, place};
+use crate::sensor_table::{Refusal, SensorRow, SensorStats, SensorTable, TableLimits};
 use crate::validate::{Limits, Rejection};
 use history::History;
 
@@ -92,68 +92,6 @@ pub enum Insert {
     RateLimited,
 }
 
-/// One sensor's identity, counters and duplicate window.
-#[derive(Debug, Clone)]
-pub struct SensorSlot {
-    /// Kind of the sensor.
-    pub kind: SampleKind,
-    /// Sensor id.
-    pub sensor: u32,
-    /// Counters.
-    pub stats: SensorStats,
-    /// NIS of the measurement of this sensor processed last (in order or late).
-    pub last_nis: Option<f64>,
-    /// Largest timestamp received.
-    pub last_t_ns: Option<u64>,
-    /// When the latest sample arrived (the `now_ns` given to `insert`).
-    pub last_arrival_ns: Option<u64>,
-    highest_seq: Option<u64>,
-    seen: SeqWindow,
-    /// Token bucket of the rate limit: tokens left, and the timestamp they were
-    /// counted at.
-    tokens: f64,
-    tokens_t_ns: Option<u64>,
-}
-
-impl SensorSlot {
-    /// Whether the sensor's sequence started again with `key`: a sequence number
-    /// at or below the highest seen, on a sample newer than any seen. A duplicate
-    /// or a late sample is never newer; a restarted driver counts from 0 again
-    /// while its clock goes on.
-    fn restarted(&self, key: &SampleKey) -> bool {
-        self.highest_seq.is_some_and(|h| key.seq <= h) && self.last_t_ns.is_some_and(|t| key.t_ns > t)
-    }
-
-    /// Counts the gap a newly arrived sequence number opens (or fills: a number
-    /// below the highest takes one back).
-    fn track_seq(&mut self, seq: u64) {
-        match self.highest_seq {
-            Some(h) if seq > h => {
-                self.stats.lost = self.stats.lost.saturating_add(seq - h - 1);
-                self.highest_seq = Some(seq);
-            }
-            Some(_) => self.stats.lost = self.stats.lost.saturating_sub(1),
-            None => self.highest_seq = Some(seq),
-        }
-    }
-
-    /// Takes a token of the rate limit for a sample stamped `t_ns`; false when
-    /// none is left. Tokens accrue at `rate_hz` on the sample timestamps (a late
-    /// sample adds none) up to `burst`: deterministic, so replay decides as live did.
-    fn take_token(&mut self, t_ns: u64, rate_hz: f64, burst: u32) -> bool {
-        let burst = f64::from(burst);
-        let accrued = self.tokens_t_ns.map_or(burst, |t0| t_ns.saturating_sub(t0) as f64 * rate_hz / 1e9);
-        self.tokens = (self.tokens + accrued).min(burst);
-        self.tokens_t_ns = Some(self.tokens_t_ns.map_or(t_ns, |t0| t0.max(t_ns)));
-        if self.tokens >= 1.0 {
-            self.tokens -= 1.0;
-            true
-        } else {
-            false
-        }
-    }
-}
-
 /// A processed sample and the filter state after it.
 #[derive(Debug, Clone, Copy)]
 pub struct Entry<S> {
@@ -207,7 +145,7 @@ pub struct Engine<M: Steps> {
     newest_t: Option<u64>,
     /// Samples refused in a row as a time jump (see [`JUMP_CONFIRMATION`]).
     jumps_in_a_row: u32,
-    sensors: Vec<SensorSlot>,
+    sensors: SensorTable,
     stats: EngineStats,
 }
 
@@ -243,7 +181,11 @@ impl<M: Steps> Engine<M> {
             pending_since_t: None,
             newest_t: None,
             jumps_in_a_row: 0,
-            sensors: Vec::with_capacity(MAX_SENSORS),
+            sensors: SensorTable::new(TableLimits {
+                max_sensors: config.max_sensors,
+                max_rate_hz: config.max_rate_hz,
+                max_burst: config.max_burst,
+            }),
             stats: EngineStats::default(),
         }
     }
@@ -253,18 +195,19 @@ impl<M: Steps> Engine<M> {
         &self.model
     }
 
-    /// Per-sensor slots in order of first arrival.
-    pub fn sensors(&self) -> &[SensorSlot] {
+    /// The rows of the sensor table, in order of first arrival.
+    pub fn sensors(&self) -> &[SensorRow] {
+        self.sensors.rows()
+    }
+
+    /// The sensor table.
+    pub fn sensor_table(&self) -> &SensorTable {
         &self.sensors
     }
 
     /// The counters of every sensor of `kind` (all sensors for `None`) added up.
     pub fn totals(&self, kind: Option<SampleKind>) -> SensorStats {
-        let mut total = SensorStats::default();
-        for s in self.sensors.iter().filter(|s| kind.is_none_or(|k| k == s.kind)) {
-            total.add(&s.stats);
-        }
-        total
+        self.sensors.totals(kind)
     }
 
     /// Engine-wide counters.
@@ -331,149 +274,34 @@ impl<M: Steps> Engine<M> {
         let key = key_of(sample);
         // Validation comes before anything a sample can change: an invalid sample
         // takes no sensor row and moves no sequence tracking.
-        let valid = crate::measurement::validate(sample, &self.config.limits).and_then(|()| match now_ns {
-            Some(now) if key.t_ns > now.saturating_add(self.config.max_future_ns) => Err(Rejection::FutureTimestamp),
-            Some(now) if key.t_ns < now.saturating_sub(self.config.max_past_ns) => Err(Rejection::PastTimestamp),
-            Some(_) => Ok(()),
-            // Without a clock (replay), a sample far ahead of everything processed
-            // is refused, or it would make every later sample too late. Only a
-            // run of such samples moves time on (a real gap in a recording).
-            None => match self.newest_t {
-                Some(newest) if key.t_ns > newest.saturating_add(self.config.max_jump_ns) => {
-                    self.jumps_in_a_row += 1;
-                    if self.jumps_in_a_row > JUMP_CONFIRMATION { Ok(()) } else { Err(Rejection::TimeJump) }
-                }
-                _ => Ok(()),
-            },
-        });
-        if let Err(r) = valid {
-            match self.slot_of(key.kind, key.sensor) {
-                Some(slot) => {
-                    let sensor = &mut self.sensors[slot];
-                    sensor.stats.received += 1;
-                    sensor.stats.invalid += 1;
-                    // It arrived, so its sequence number is no gap; but only a
-                    // number just after the highest seen is trusted from it.
-                    if sensor.highest_seq.is_some_and(|h| key.seq > h && key.seq - h <= SeqWindow::SPAN) {
-                        sensor.track_seq(key.seq);
-                    }
-                }
-                None => self.stats.unknown_sensor += 1,
+        if let Err(r) = self.check(sample, &key, now_ns) {
+            if !self.sensors.count_invalid(&key) {
+                self.stats.unknown_sensor += 1;
             }
             return Insert::Rejected(r);
         }
         self.jumps_in_a_row = 0;
-        let Some(slot) = self.slot(key.kind, key.sensor) else {
-            self.stats.unknown_sensor += 1;
-            return Insert::Rejected(Rejection::TooManySensors);
-        };
-        let sensor = &mut self.sensors[slot];
-        sensor.stats.received += 1;
-        if now_ns.is_some() {
-            sensor.last_arrival_ns = now_ns;
-        }
-        if sensor.restarted(&key) {
-            sensor.stats.restarts += 1;
-            sensor.seen = SeqWindow::default();
-            sensor.highest_seq = None;
-        }
-        // A sample no newer than the sensor's newest, with a sequence number
-        // older than the window or from before a restart, is a duplicate only if
-        // that very sample (same time and sequence number) is in the history.
-        let older = self.sensors[slot].last_t_ns.is_some_and(|t| key.t_ns <= t);
-        let seen = match self.sensors[slot].seen.seen(key.seq) {
-            Seen::Yes => true,
-            Seen::No if !older => false,
-            Seen::No | Seen::Unknown => self.history.keys().any(|k| *k == key),
-        };
-        if seen {
-            self.sensors[slot].stats.duplicate += 1;
-            return Insert::Duplicate;
-        }
-
-        let sensor = &mut self.sensors[slot];
-        sensor.track_seq(key.seq);
-        if !sensor.take_token(key.t_ns, self.config.max_rate_hz, self.config.max_burst) {
-            sensor.seen.mark(key.seq);
-            sensor.stats.rate_limited += 1;
-            return Insert::RateLimited;
-        }
-
-        let placement = place(
-            &key,
-            self.history.len(),
-            |i| self.history.key(i),
-            self.newest_t,
-            self.config.history_ns,
-            self.history.base().is_none(),
-        );
-        let mut index = match placement {
-            Placement::Append => self.history.len(),
-            Placement::Insert(i) => i,
-            Placement::TooLate => {
-                self.sensors[slot].stats.too_late += 1;
-                return Insert::TooLate;
+        let history = &self.history;
+        let slot = match self.sensors.admit(&key, now_ns, |key| history.keys().any(|k| k == key)) {
+            Ok(slot) => slot,
+            Err(Refusal::NoRow) => {
+                self.stats.unknown_sensor += 1;
+                return Insert::Rejected(Rejection::TooManySensors);
             }
+            Err(Refusal::Duplicate) => return Insert::Duplicate,
+            Err(Refusal::RateLimited) => return Insert::RateLimited,
         };
-        if self.history.len() == self.config.history_capacity {
-            // Full before the window passed: the oldest entry becomes final. A sample
-            // that would go before it can no longer be placed.
-            if index == 0 {
-                self.sensors[slot].stats.too_late += 1;
-                return Insert::TooLate;
-            }
-            self.stats.evicted_by_capacity += 1;
-            self.evict_front(on_final);
-            index -= 1;
-        }
-        // The evictions above may have re-stepped stale entries: `stale_from` is
-        // read only now.
-
+        let Some(index) = self.make_place(&key, on_final) else {
+            self.sensors.row_mut(slot).stats.too_late += 1;
+            return Insert::TooLate;
+        };
         crate::measurement::admit(sample, self.model.frames());
-        let sensor = &mut self.sensors[slot];
-        sensor.seen.mark(key.seq);
-        sensor.last_t_ns = Some(sensor.last_t_ns.map_or(key.t_ns, |t| t.max(key.t_ns)));
-        sensor.stats.processed += 1;
-
-        let replayed = self.history.len() - index;
-        let result = if replayed == 0 {
-            // In order: stepped in its own slot from the entry before it (or the
-            // initial state), one copy of the state, no moves. Exact unless that
-            // entry is stale.
-            let (model, initial) = (&self.model, &self.initial);
-            let mut outcome = StepOutcome::Propagated;
-            let inserted = self.history.insert_with(index, key, |before, entry| {
-                entry.state = match before {
-                    Some(b) => b.state,
-                    None => *initial,
-                };
-                outcome = model.step(&mut entry.state, sample);
-                (entry.key, entry.sample, entry.outcome, entry.slot) = (key, *sample, outcome, slot as u16);
-                entry.fresh = false;
-            });
-            // Room was made above; the history moves slot indices, not entries,
-            // and never allocates.
-            debug_assert!(inserted, "the history had room");
-            count_outcome(&mut self.sensors[slot].stats, &outcome, 1);
-            self.sensors[slot].last_nis = outcome.nis().or(self.sensors[slot].last_nis);
-            Insert::Processed { replayed, outcome }
+        self.sensors.accept(slot, &key);
+        let result = if index == self.history.len() {
+            self.step_in_order(sample, &key, slot)
         } else {
-            // Late: placed, and stale with everything after it. Its state is
-            // written when the rewind reaches it; its outcome counts from then.
-            let inserted = self.history.insert_with(index, key, |_, entry| {
-                (entry.key, entry.sample, entry.outcome, entry.slot) =
-                    (key, *sample, StepOutcome::Propagated, slot as u16);
-                entry.fresh = true;
-            });
-            debug_assert!(inserted, "the history had room");
-            self.sensors[slot].stats.late += 1;
-            self.stats.rewinds += 1;
-            self.stats.replayed += replayed as u64;
-            self.stale_from = Some(self.stale_from.map_or(index, |from| from.min(index)));
-            self.pending_since_t = Some(self.pending_since_t.map_or(key.t_ns, |t| t.min(key.t_ns)));
-            Insert::Placed { replayed }
+            self.place_late(sample, &key, slot, index)
         };
-
         let newest = self.newest_t.map_or(key.t_ns, |t| t.max(key.t_ns));
         self.newest_t = Some(newest);
         let horizon = newest.saturating_sub(self.config.history_ns);
@@ -481,6 +309,100 @@ impl<M: Steps> Engine<M> {
             self.evict_front(on_final);
         }
         result
+    }
+
+    /// The checks of a sample's own content and of its timestamp against the
+    /// clock (`now_ns`), or, without one (replay), against the newest processed
+    /// time: a sample far ahead of everything processed is refused, or it would
+    /// make every later sample too late; only a run of such samples
+    /// ([`JUMP_CONFIRMATION`]) moves time on (a real gap in a recording).
+    fn check(&mut self, sample: &Sample, key: &SampleKey, now_ns: Option<u64>) -> Result<(), Rejection> {
+        crate::measurement::validate(sample, &self.config.limits)?;
+        match now_ns {
+            Some(now) if key.t_ns > now.saturating_add(self.config.max_future_ns) => Err(Rejection::FutureTimestamp),
+            Some(now) if key.t_ns < now.saturating_sub(self.config.max_past_ns) => Err(Rejection::PastTimestamp),
+            Some(_) => Ok(()),
+            None => match self.newest_t {
+                Some(newest) if key.t_ns > newest.saturating_add(self.config.max_jump_ns) => {
+                    self.jumps_in_a_row += 1;
+                    if self.jumps_in_a_row > JUMP_CONFIRMATION { Ok(()) } else { Err(Rejection::TimeJump) }
+                }
+                _ => Ok(()),
+            },
+        }
+    }
+
+    /// The index `key` goes to in the history (its length: appended), with room
+    /// made for it: a full history hands its oldest entry to `on_final` first.
+    /// `None`: older than the history can restore.
+    fn make_place(&mut self, key: &SampleKey, on_final: &mut impl FnMut(&Entry<M::State>)) -> Option<usize> {
+        let placement = place(
+            key,
+            self.history.len(),
+            |i| self.history.key(i),
+            self.newest_t,
+            self.config.history_ns,
+            self.history.base().is_none(),
+        );
+        let index = match placement {
+            Placement::Append => self.history.len(),
+            Placement::Insert(i) => i,
+            Placement::TooLate => return None,
+        };
+        if self.history.len() < self.config.history_capacity {
+            return Some(index);
+        }
+        // Full before the window passed: the oldest entry becomes final. A sample
+        // that would go before it can no longer be placed. The eviction may
+        // re-step stale entries: `stale_from` is read only after it.
+        if index == 0 {
+            return None;
+        }
+        self.stats.evicted_by_capacity += 1;
+        self.evict_front(on_final);
+        Some(index - 1)
+    }
+
+    /// Steps an in-order sample in its own slot at the end of the history from
+    /// the entry before it (or the initial state): one copy of the state, no
+    /// moves. Exact unless that entry is stale.
+    fn step_in_order(&mut self, sample: &Sample, key: &SampleKey, slot: usize) -> Insert {
+        let (model, initial, index) = (&self.model, &self.initial, self.history.len());
+        let mut outcome = StepOutcome::Propagated;
+        let inserted = self.history.insert_with(index, *key, |before, entry| {
+            entry.state = match before {
+                Some(b) => b.state,
+                None => *initial,
+            };
+            outcome = model.step(&mut entry.state, sample);
+            (entry.key, entry.sample, entry.outcome, entry.slot) = (*key, *sample, outcome, slot as u16);
+            entry.fresh = false;
+        });
+        // Room was made by `make_place`; the history moves slot indices, not
+        // entries, and never allocates.
+        debug_assert!(inserted, "the history had room");
+        let row = self.sensors.row_mut(slot);
+        count_outcome(&mut row.stats, &outcome, 1);
+        row.last_nis = outcome.nis().or(row.last_nis);
+        Insert::Processed { replayed: 0, outcome }
+    }
+
+    /// Places a late sample at `index`, stale with everything after it: its state
+    /// is written when the rewind reaches it, and its outcome counts from then.
+    fn place_late(&mut self, sample: &Sample, key: &SampleKey, slot: usize, index: usize) -> Insert {
+        let replayed = self.history.len() - index;
+        let inserted = self.history.insert_with(index, *key, |_, entry| {
+            (entry.key, entry.sample, entry.outcome, entry.slot) =
+                (*key, *sample, StepOutcome::Propagated, slot as u16);
+            entry.fresh = true;
+        });
+        debug_assert!(inserted, "the history had room");
+        self.sensors.row_mut(slot).stats.late += 1;
+        self.stats.rewinds += 1;
+        self.stats.replayed += replayed as u64;
+        self.stale_from = Some(self.stale_from.map_or(index, |from| from.min(index)));
+        self.pending_since_t = Some(self.pending_since_t.map_or(key.t_ns, |t| t.min(key.t_ns)));
+        Insert::Placed { replayed }
     }
 
     /// Hands the sensor slot and outcome of every late sample processed for the
@@ -504,9 +426,7 @@ impl<M: Steps> Engine<M> {
         if self.history.base().is_none() {
             std::hint::black_box(self.initial);
         }
-        std::hint::black_box(&self.sensors[..]).iter().for_each(|s| {
-            std::hint::black_box(s.stats);
-        });
+        self.sensors.warm();
     }
 
     /// Re-steps the oldest stale entry from the (exact) entry before it, in the
@@ -547,7 +467,7 @@ impl<M: Steps> Engine<M> {
         let outcome = self.model.step(&mut entry.state, &entry.sample);
         entry.outcome = outcome;
         let (entry_slot, fresh) = (entry.slot, std::mem::replace(&mut entry.fresh, false));
-        let sensor = &mut self.sensors[usize::from(entry_slot)];
+        let sensor = self.sensors.row_mut(usize::from(entry_slot));
         if fresh {
             // A late sample's first step: what an in-order insert counts at once.
             count_outcome(&mut sensor.stats, &outcome, 1);
@@ -589,34 +509,9 @@ impl<M: Steps> Engine<M> {
         }
     }
 
-    /// The index of a sensor's slot in [`sensors`](Self::sensors), if it has one.
+    /// The index of a sensor's row in [`sensors`](Self::sensors), if it has one.
     pub fn slot_of(&self, kind: SampleKind, sensor: u32) -> Option<usize> {
-        self.sensors.iter().position(|s| s.kind == kind && s.sensor == sensor)
-    }
-
-    /// The slot of a sensor, created on first sight; `None` when the table is full.
-    fn slot(&mut self, kind: SampleKind, sensor: u32) -> Option<usize> {
-        if let Some(i) = self.slot_of(kind, sensor) {
-            return Some(i);
-        }
-        let of_kind = self.sensors.iter().filter(|s| s.kind == kind).count();
-        if of_kind >= self.config.max_sensors || self.sensors.len() >= MAX_SENSORS {
-            return None;
-        }
-        // Within the capacity reserved in `new`: no reallocation.
-        self.sensors.push(SensorSlot {
-            kind,
-            sensor,
-            stats: SensorStats::default(),
-            last_nis: None,
-            last_t_ns: None,
-            last_arrival_ns: None,
-            highest_seq: None,
-            seen: SeqWindow::default(),
-            tokens: 0.0,
-            tokens_t_ns: None,
-        });
-        Some(self.sensors.len() - 1)
+        self.sensors.find(kind, sensor)
     }
 }
 

@@ -24,9 +24,9 @@ use fusion_shared::SampleKind;
 use fusion_shared::snapshot::{MAX_SENSORS, health};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
-use crate::engine::SensorSlot;
 use crate::measurement::{self, MAX_INNOVATION_DIM};
 use crate::model::StepOutcome;
+use crate::sensor_table::SensorRow;
 
 /// Number of sample kinds.
 const KINDS: usize = SampleKind::COUNT;
@@ -181,7 +181,7 @@ impl HealthMonitor {
     /// ([`crate::model::Model::reinitialisations`]).
     pub fn evaluate(
         &mut self,
-        sensors: &[SensorSlot],
+        sensors: &[SensorRow],
         now_ns: u64,
         initialised: bool,
         reinitialisations: u64,

@@ -3,11 +3,12 @@
 use fusion_shared::snapshot::{MAX_COV, MAX_SENSORS, MAX_STATE, outcome};
 use fusion_shared::{Sample, SensorCounters, StateSnapshot};
 
-use crate::engine::{Engine, SensorSlot};
+use crate::engine::Engine;
 use crate::health::HealthNow;
 use crate::measurement::Steps;
 use crate::model::StepOutcome;
 use crate::reorder::key_of;
+use crate::sensor_table::SensorRow;
 
 pub use fusion_shared::snapshot::INPUT_NONE;
 
@@ -31,7 +32,7 @@ fn outcome_code(o: &StepOutcome) -> u32 {
     }
 }
 
-fn counters(s: &SensorSlot) -> SensorCounters {
+fn counters(s: &SensorRow) -> SensorCounters {
     SensorCounters {
         kind: s.kind as u32,
         sensor: s.sensor,

@@ -1,8 +1,5 @@
-//! The engine's counters: per sensor ([`fusion_shared::Counters`], the one
-//! counters type of engine, snapshot and replay summary) and engine-wide.
-
-/// Counters of one sensor (or of several, added up).
-pub type SensorStats = fusion_shared::Counters;
+//! The engine's engine-wide counters (a sensor's own are in its row of the
+//! [`crate::sensor_table`]).
 
 /// Counters of the engine as a whole.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
