@@ -128,6 +128,9 @@ typedef struct FusionImuSample {
   // Angular rate, rad/s, body frame.
   double gyro_radps[3];
 } FusionImuSample;
+// None: the IMU drives the propagation; it is no measurement update (and has
+// no NIS).
+#define FusionImuSample_INNOVATION_DIM 0
 
 // One position fix with its covariance.
 typedef struct FusionPositionSample {
@@ -138,6 +141,9 @@ typedef struct FusionPositionSample {
   // Covariance of `pos_m`, m², row-major 3×3; must be symmetric positive definite.
   double cov_m2[9];
 } FusionPositionSample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionPositionSample_INNOVATION_DIM 3
 
 // One velocity measurement in the world frame with its covariance, as a GNSS
 // receiver derives it from Doppler shifts (for example u-blox `NAV-PVT`
@@ -150,6 +156,9 @@ typedef struct FusionVelocitySample {
   // Covariance of `vel_mps`, m²/s², row-major 3×3; must be symmetric positive definite.
   double cov_m2ps2[9];
 } FusionVelocitySample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionVelocitySample_INNOVATION_DIM 3
 
 // One GNSS position fix in WGS-84 geodetic coordinates, as a receiver reports it
 // (for example u-blox `NAV-PVT` `lat`/`lon`/`height`, NMEA `GGA` with the geoid
@@ -170,6 +179,9 @@ typedef struct FusionGeodeticSample {
   // be symmetric positive definite.
   double cov_enu_m2[9];
 } FusionGeodeticSample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionGeodeticSample_INNOVATION_DIM 3
 
 // The forward speed of the vehicle at the odometry's reference point (for
 // example the middle of the rear axle, whose position in the body frame is the
@@ -185,6 +197,9 @@ typedef struct FusionOdometrySample {
   // Variance of `speed_mps`, m²/s²; must be > 0.
   double var_m2ps2;
 } FusionOdometrySample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionOdometrySample_INNOVATION_DIM 1
 
 // The yaw of the body frame in the world frame, as a dual-antenna GNSS receiver
 // or a tilt-compensated magnetometer (declination applied) gives it, with its
@@ -201,6 +216,9 @@ typedef struct FusionHeadingSample {
   // Variance of `yaw_rad`, rad²; must be > 0.
   double var_rad2;
 } FusionHeadingSample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionHeadingSample_INNOVATION_DIM 1
 
 // What became of the samples of one sensor (or of several, added up): the one
 // counters type of the engine, the snapshot and the replay summary.

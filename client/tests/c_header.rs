@@ -25,8 +25,22 @@ fn the_c_header_is_fresh() {
         "{} is stale: run `FUSION_UPDATE_HEADER=1 cargo test -p fusion-client --test c_header` and commit it",
         path.display()
     );
-    // Every sample kind can be published from C.
-    for kind in fusion_shared::SampleKind::ALL {
-        assert!(generated.contains(&format!("fusion_publish_{}(", kind.name())), "no C publish function for {kind:?}");
+    // Every sample kind can be published from C: its code, its struct under
+    // the C API's name (a rename in cbindgen.toml), its publish function.
+    struct Kinds<'a>(&'a str);
+    impl fusion_shared::KindVisitor for Kinds<'_> {
+        fn visit<T: fusion_shared::WireSample>(&mut self) {
+            let (kind, header) = (T::KIND, self.0);
+            let name = kind.name();
+            let code = format!("#define FUSION_KIND_{} {}\n", name.to_uppercase(), kind as u8);
+            assert!(header.contains(&code), "no `{}` in the C header", code.trim());
+            let rust = std::any::type_name::<T>().rsplit("::").next().unwrap();
+            assert!(
+                header.contains(&format!("typedef struct Fusion{rust} {{")),
+                "no struct Fusion{rust} in the C header (a rename in cbindgen.toml)"
+            );
+            assert!(header.contains(&format!("fusion_publish_{name}(")), "no C publish function for {kind:?}");
+        }
     }
+    fusion_shared::SampleKind::visit_all(&mut Kinds(&generated));
 }

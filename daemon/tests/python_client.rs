@@ -127,6 +127,19 @@ fn rust_layout() -> Value {
     for &kind in SampleKind::ALL {
         constants[format!("KIND_{}", kind.name().to_uppercase())] = json!(kind as u32);
     }
+    // Every kind's wire type is in the list above (and so checked against its
+    // Python mirror).
+    struct Listed<'a>(&'a [(&'a str, Value)]);
+    impl fusion_shared::KindVisitor for Listed<'_> {
+        fn visit<T: fusion_shared::WireSample>(&mut self) {
+            let rust = std::any::type_name::<T>().rsplit("::").next().unwrap();
+            assert!(
+                self.0.iter().any(|(name, _)| *name == rust),
+                "{rust} is not in rust_layout's list: add it, and its mirror to client/python/fusion_client/wire.py"
+            );
+        }
+    }
+    SampleKind::visit_all(&mut Listed(&types));
     json!({ "types": types.into_iter().map(|(n, l)| (n.to_string(), l)).collect::<serde_json::Map<_, _>>(), "constants": constants })
 }
 

@@ -48,6 +48,10 @@ impl SampleHeader {
 pub trait WireSample: Copy + Default + PartialEq + std::fmt::Debug + ZeroCopySend + 'static {
     /// The kind of the payload.
     const KIND: SampleKind;
+    /// Values one sample gives a measurement update: the χ² degrees of freedom
+    /// of its NIS (0: a kind that drives the propagation, the IMU). Each kind's
+    /// file states it.
+    const INNOVATION_DIM: usize;
     /// The header.
     fn header(&self) -> &SampleHeader;
     /// The header, to stamp.
@@ -62,6 +66,24 @@ pub trait WireSample: Copy + Default + PartialEq + std::fmt::Debug + ZeroCopySen
 pub trait KindVisitor {
     /// Called with each wire type.
     fn visit<T: WireSample>(&mut self);
+}
+
+/// Something done with the wire type of one kind, chosen at run time (see
+/// [`SampleKind::with_wire_type`]): decoding bytes of a kind named in a message.
+pub trait KindFn {
+    /// What the call gives.
+    type Output;
+    /// Called with the kind's wire type.
+    fn call<T: WireSample>(self) -> Self::Output;
+}
+
+/// Something done with the payload of a [`Sample`] as its wire type (see
+/// [`Sample::with_payload`]): encoding it, publishing it.
+pub trait PayloadFn {
+    /// What the call gives.
+    type Output;
+    /// Called with the payload.
+    fn call<T: WireSample>(self, payload: &T) -> Self::Output;
 }
 
 /// The list of sample kinds: the only place a kind is registered.
@@ -138,6 +160,14 @@ macro_rules! sample_kinds {
                 }
             }
 
+            /// Values one sample of this kind gives a measurement update (the χ²
+            /// degrees of freedom of its NIS; [`WireSample::INNOVATION_DIM`]).
+            pub const fn innovation_dim(self) -> usize {
+                match self {
+                    $(SampleKind::$variant => $ty::INNOVATION_DIM,)*
+                }
+            }
+
             /// The health reason of a stale stream of this kind.
             pub const fn stale_reason(self) -> &'static str {
                 match self {
@@ -161,6 +191,13 @@ macro_rules! sample_kinds {
             /// Calls `visitor` with each wire type, in code order.
             pub fn visit_all(visitor: &mut impl KindVisitor) {
                 $(visitor.visit::<$ty>();)*
+            }
+
+            /// Calls `f` with this kind's wire type.
+            pub fn with_wire_type<F: KindFn>(self, f: F) -> F::Output {
+                match self {
+                    $(SampleKind::$variant => f.call::<$ty>(),)*
+                }
             }
         }
 
@@ -187,6 +224,13 @@ macro_rules! sample_kinds {
                 }
             }
 
+            /// Calls `f` with the payload as its wire type.
+            pub fn with_payload<F: PayloadFn>(&self, f: F) -> F::Output {
+                match self {
+                    $(Sample::$variant(s) => f.call(s),)*
+                }
+            }
+
             /// The kind of the payload (whatever the header says).
             pub fn kind(&self) -> SampleKind {
                 match self {
@@ -198,6 +242,7 @@ macro_rules! sample_kinds {
         $(
             impl WireSample for $ty {
                 const KIND: SampleKind = SampleKind::$variant;
+                const INNOVATION_DIM: usize = $ty::INNOVATION_DIM;
                 fn header(&self) -> &SampleHeader {
                     &self.header
                 }

@@ -2,8 +2,6 @@
 //! frames), the engine's limits. The only place that maps `[model] kind` to a
 //! model type; the parts themselves know nothing of the file.
 
-use fusion_shared::SampleKind;
-
 use super::{Config, ConfigError, ModelConfig, invalid, positive};
 use crate::engine::EngineConfig;
 use crate::frames::{Frames, MountedSensor};
@@ -72,7 +70,7 @@ impl LinearModel {
         let (x0, p0) = initial_values::<{ linear::N }, { linear::N }>(config)?;
         let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
         for MountedSensor { kind, name, mount, .. } in frames.sensors() {
-            if !matches!(kind, SampleKind::Imu | SampleKind::Position | SampleKind::Velocity | SampleKind::Geodetic) {
+            if !crate::measurement::accepts::<LinearModel>(*kind) {
                 return Err(invalid(
                     "sensor",
                     format!(
@@ -129,6 +127,9 @@ impl InsModel {
         }
         let alignment = p.alignment.map_or(0, |a| a.static_samples);
         let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
+        if let Some(m) = frames.sensors().iter().find(|m| !crate::measurement::accepts::<InsModel>(m.kind)) {
+            return Err(invalid("sensor", format!("{:?}: the ins model cannot fuse {}", m.name, m.kind.name())));
+        }
         Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)
             .and_then(|m| m.with_form(config.filter.form))
             .map(|m| m.with_nonholonomic(p.constraints).with_frames(frames).with_lockout(config.lockout))

@@ -33,7 +33,6 @@ use crate::model::{Model, StepOutcome};
 impl Measurement for GeodeticSample {
     const RANK: u8 = 1;
     const TIMEOUT_NS: u64 = 1_000_000_000;
-    const INNOVATION_DIM: usize = 3;
     const NEEDED: Option<Needed> = Some(Needed::Position);
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {

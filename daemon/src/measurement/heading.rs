@@ -42,7 +42,6 @@ const MIN_HORIZONTAL: f64 = 1e-6;
 impl Measurement for HeadingSample {
     const RANK: u8 = 2;
     const TIMEOUT_NS: u64 = 1_000_000_000;
-    const INNOVATION_DIM: usize = 1;
     const NEEDED: Option<Needed> = None;
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
@@ -80,6 +79,10 @@ pub fn yaw(s: &InsState) -> Option<(f64, SMatrix<f64, 1, N>)> {
 }
 
 impl Fuse<LinearModel> for HeadingSample {
+    /// The linear model has no attitude: a configured sensor of this kind is an
+    /// error at start-up, and a sample of an unconfigured one is refused.
+    const ACCEPTS: bool = false;
+
     fn fuse(&self, _: &LinearModel, _: &mut LinearState) -> (StepOutcome, ()) {
         (StepOutcome::Refused, ())
     }

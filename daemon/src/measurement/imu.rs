@@ -28,7 +28,6 @@ fn body_values<M: Model>(imu: &ImuSample, model: &M) -> (Vector3<f64>, Vector3<f
 impl Measurement for ImuSample {
     const RANK: u8 = 0;
     const TIMEOUT_NS: u64 = 100_000_000;
-    const INNOVATION_DIM: usize = 0;
     const NEEDED: Option<Needed> = Some(Needed::Propagation);
 
     fn validate(&self, limits: &Limits) -> Result<(), Rejection> {

@@ -3,8 +3,9 @@
 //! Each module gives, for its wire type ([`fusion_shared::sample`]):
 //!
 //! - [`Measurement`]: its validation, its processing rank at equal time, its
-//!   default health timeout, its innovation dimension (the NIS band of the
-//!   health), and whether the health waits for it;
+//!   default health timeout, and whether the health waits for it (its
+//!   innovation dimension, the NIS band of the health, is the wire type's own:
+//!   [`WireSample::INNOVATION_DIM`]);
 //! - [`Fuse`]: how each model fuses it (h(x), H, R, or a model-specific step).
 //!
 //! The daemon keeps no list of kinds of its own: the registry at the end of this
@@ -42,9 +43,6 @@ pub trait Measurement: WireSample {
     /// Health: a stream of this kind is stale after this long without a sample
     /// (the default of `[health] <kind>_timeout_ns`), ns.
     const TIMEOUT_NS: u64;
-    /// Innovation dimension (the χ² degrees of freedom of one NIS), 0 for a kind
-    /// that is not a measurement update (the IMU drives the propagation).
-    const INNOVATION_DIM: usize;
     /// The group of kinds of which the health waits for one ([`Needed`]), if any.
     const NEEDED: Option<Needed>;
 
@@ -60,6 +58,11 @@ pub trait Measurement: WireSample {
 /// propagated to the sample's time; `M::Correction` is what a model needs to know
 /// of the update afterwards (the `ins` model: the error injected, for its smoother).
 pub trait Fuse<M: Model> {
+    /// Whether the model can use this kind at all. A configured sensor of a kind
+    /// the model does not accept fails the start-up (the model's `from_config`);
+    /// its `fuse` refuses every sample ([`StepOutcome::Refused`]).
+    const ACCEPTS: bool = true;
+
     /// Fuses the sample into `state`.
     fn fuse(&self, model: &M, state: &mut M::State) -> (StepOutcome, M::Correction);
 }
@@ -120,11 +123,9 @@ macro_rules! registry {
             }
         }
 
-        /// Innovation dimension of a kind ([`Measurement::INNOVATION_DIM`]).
+        /// Innovation dimension of a kind ([`WireSample::INNOVATION_DIM`]).
         pub const fn innovation_dim(kind: SampleKind) -> usize {
-            match kind {
-                $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::INNOVATION_DIM,)*
-            }
+            kind.innovation_dim()
         }
 
         /// The group the health waits for a kind of ([`Measurement::NEEDED`]).
@@ -167,6 +168,16 @@ macro_rules! registry {
                 self.propagate_to(state, sample.t_ns(), Some(&mut log));
                 let (outcome, correction) = fuse(sample, self, state);
                 (outcome, M::finish_record(log, state, correction))
+            }
+        }
+
+        /// Whether model `M` can use `kind` at all ([`Fuse::ACCEPTS`]).
+        pub const fn accepts<M: Model>(kind: SampleKind) -> bool
+        where
+            $(fusion_shared::$ty: Fuse<M>,)*
+        {
+            match kind {
+                $(SampleKind::$variant => <fusion_shared::$ty as Fuse<M>>::ACCEPTS,)*
             }
         }
 

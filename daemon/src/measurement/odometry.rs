@@ -43,7 +43,6 @@ pub const MAX_SPEED_MPS: f64 = 150.0;
 impl Measurement for OdometrySample {
     const RANK: u8 = 2;
     const TIMEOUT_NS: u64 = 1_000_000_000;
-    const INNOVATION_DIM: usize = 1;
     const NEEDED: Option<Needed> = None;
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
@@ -75,6 +74,10 @@ pub fn forward_speed(s: &InsState, l: &Vector3<f64>) -> (f64, SMatrix<f64, 1, N>
 }
 
 impl Fuse<LinearModel> for OdometrySample {
+    /// The linear model has no attitude: a configured sensor of this kind is an
+    /// error at start-up, and a sample of an unconfigured one is refused.
+    const ACCEPTS: bool = false;
+
     fn fuse(&self, _: &LinearModel, _: &mut LinearState) -> (StepOutcome, ()) {
         (StepOutcome::Refused, ())
     }

@@ -25,7 +25,6 @@ use crate::model::linear::{LinearModel, LinearState};
 impl Measurement for VelocitySample {
     const RANK: u8 = 2;
     const TIMEOUT_NS: u64 = 1_000_000_000;
-    const INNOVATION_DIM: usize = 3;
     const NEEDED: Option<Needed> = None;
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {

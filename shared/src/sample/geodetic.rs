@@ -30,6 +30,10 @@ pub struct GeodeticSample {
 }
 
 impl GeodeticSample {
+    /// Values one sample gives a measurement update: the χ² degrees of freedom of
+    /// its NIS.
+    pub const INNOVATION_DIM: usize = 3;
+
     /// A fix of sensor `sensor` with sequence number `seq` at `t_ns`: latitude and
     /// longitude (degrees), height above the ellipsoid (m), ENU covariance (m²).
     pub const fn new(

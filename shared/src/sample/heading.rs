@@ -26,6 +26,10 @@ pub struct HeadingSample {
 }
 
 impl HeadingSample {
+    /// Values one sample gives a measurement update: the χ² degrees of freedom of
+    /// its NIS.
+    pub const INNOVATION_DIM: usize = 1;
+
     /// A yaw (rad, ENU) of sensor `sensor` with sequence number `seq` at `t_ns`.
     pub const fn new(t_ns: u64, sensor: u32, seq: u64, yaw_rad: f64, var_rad2: f64) -> Self {
         Self { header: SampleHeader::new(SampleKind::Heading, t_ns, sensor, seq), yaw_rad, var_rad2 }

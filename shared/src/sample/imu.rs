@@ -25,6 +25,10 @@ pub struct ImuSample {
 }
 
 impl ImuSample {
+    /// None: the IMU drives the propagation; it is no measurement update (and has
+    /// no NIS).
+    pub const INNOVATION_DIM: usize = 0;
+
     /// A sample of sensor `sensor` with sequence number `seq` at `t_ns`.
     pub const fn new(t_ns: u64, sensor: u32, seq: u64, accel_mps2: [f64; 3], gyro_radps: [f64; 3]) -> Self {
         Self { header: SampleHeader::new(SampleKind::Imu, t_ns, sensor, seq), accel_mps2, gyro_radps }

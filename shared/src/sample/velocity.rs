@@ -22,6 +22,10 @@ pub struct VelocitySample {
 }
 
 impl VelocitySample {
+    /// Values one sample gives a measurement update: the χ² degrees of freedom of
+    /// its NIS.
+    pub const INNOVATION_DIM: usize = 3;
+
     /// A measurement of sensor `sensor` with sequence number `seq` at `t_ns`.
     pub const fn new(t_ns: u64, sensor: u32, seq: u64, vel_mps: [f64; 3], cov_m2ps2: [f64; 9]) -> Self {
         Self { header: SampleHeader::new(SampleKind::Velocity, t_ns, sensor, seq), vel_mps, cov_m2ps2 }

@@ -61,11 +61,9 @@ struct Data {
     latency_us: Vec<f64>,
 }
 
+/// The χ² degrees of freedom of a kind's NIS.
 fn dimension(kind: SampleKind) -> usize {
-    match kind {
-        SampleKind::Odometry | SampleKind::Heading => 1,
-        _ => 3,
-    }
+    kind.innovation_dim()
 }
 
 fn kind_of(name: &str) -> Option<SampleKind> {
