@@ -78,40 +78,62 @@ impl Drop for TestDomain {
     }
 }
 
-/// Path of a tool of the client crate (`fusion-sim`, `fusionctl`, `fusion-demo`)
-/// next to fusiond.
+/// The fusiond binary: this package's own, or, in another package's tests
+/// (the bridge's), the workspace's (see [`workspace_bin`]).
+pub fn fusiond() -> PathBuf {
+    match option_env!("CARGO_BIN_EXE_fusiond") {
+        Some(path) => PathBuf::from(path),
+        None => workspace_bin("fusiond"),
+    }
+}
+
+/// Path of a workspace binary of another package than the test's (the client's
+/// `fusion-sim`, `fusionctl`, `fusion-demo`, the bridge's `fusion-bridge`, or
+/// fusiond from the bridge's tests), in the directory of the test's own build.
 ///
-/// `cargo test --workspace` builds them with the tests (this package's
-/// dev-dependency on `fusion-client` turns on its `cli` feature). Run otherwise
-/// (`cargo test -p fusion-daemon`), a tool may be missing or older than the
-/// sources: then it is built here once per test binary, with cargo's progress
-/// on the terminal rather than captured, so the wait is visible.
+/// `cargo test --workspace` builds them with the tests (the dev-dependency on
+/// `fusion-client` turns on its `cli` feature). Run otherwise (`cargo test -p
+/// fusion-daemon`), a binary may be missing or older than the sources: then its
+/// package is built here once per test binary, with cargo's progress on the
+/// terminal rather than captured, so the wait is visible.
 pub fn workspace_bin(name: &str) -> PathBuf {
-    let path = PathBuf::from(env!("CARGO_BIN_EXE_fusiond")).with_file_name(name);
-    static BUILD: std::sync::Once = std::sync::Once::new();
-    BUILD.call_once(|| {
-        if built_after_sources(&path) {
-            return;
+    let (package, features, sources): (&str, &[&str], &[&str]) = match name {
+        "fusiond" => ("fusion-daemon", &[], &["daemon/src", "daemon/Cargo.toml"]),
+        "fusion-bridge" => {
+            ("fusion-bridge", &[], &["bridge/src", "bridge/Cargo.toml", "client/src", "client/Cargo.toml"])
         }
-        let args = ["build", "-p", "fusion-client", "--features", "cli", "--bins"];
-        // Straight to the terminal: the test harness captures only `eprintln!`.
-        let _ = writeln!(std::io::stderr(), "{name} is missing or older than its sources: cargo {}", args.join(" "));
-        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        let mut cmd = Command::new(cargo);
-        cmd.args(args);
-        if !cfg!(debug_assertions) {
-            cmd.arg("--release");
+        _ => ("fusion-client", &["--features", "cli"], &["client/src", "client/Cargo.toml"]),
+    };
+    // target/<profile>/deps/<test> → target/<profile>/<name>
+    let exe = std::env::current_exe().unwrap();
+    let path = exe.parent().and_then(Path::parent).unwrap().join(name);
+    static BUILT: std::sync::Mutex<Vec<&str>> = std::sync::Mutex::new(Vec::new());
+    let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
+    if !built.contains(&package) {
+        built.push(package);
+        if !built_after_sources(&path, sources) {
+            let mut args = vec!["build", "-p", package, "--bins"];
+            args.extend_from_slice(features);
+            // Straight to the terminal: the test harness captures only `eprintln!`.
+            let _ =
+                writeln!(std::io::stderr(), "{name} is missing or older than its sources: cargo {}", args.join(" "));
+            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+            let mut cmd = Command::new(cargo);
+            cmd.args(args);
+            if !cfg!(debug_assertions) {
+                cmd.arg("--release");
+            }
+            let status = cmd.current_dir(env!("CARGO_MANIFEST_DIR")).status().expect("run cargo build");
+            assert!(status.success(), "building {package} failed");
         }
-        let status = cmd.current_dir(env!("CARGO_MANIFEST_DIR")).status().expect("run cargo build");
-        assert!(status.success(), "building the client tools failed");
-    });
+    }
     assert!(path.exists(), "{} is not built", path.display());
     path
 }
 
-/// Whether `binary` exists and is newer than every source file of the client
-/// and shared crates.
-fn built_after_sources(binary: &Path) -> bool {
+/// Whether `binary` exists and is newer than every file of `sources` (paths
+/// from the workspace root) and of the shared crate.
+fn built_after_sources(binary: &Path, sources: &[&str]) -> bool {
     fn newest(dir: &Path) -> std::time::SystemTime {
         let mut latest = std::time::SystemTime::UNIX_EPOCH;
         for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
@@ -127,7 +149,7 @@ fn built_after_sources(binary: &Path) -> bool {
     }
     let Ok(built) = std::fs::metadata(binary).and_then(|m| m.modified()) else { return false };
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-    ["client/src", "client/Cargo.toml", "shared/src", "shared/Cargo.toml"].iter().all(|p| {
+    sources.iter().chain(&["shared/src", "shared/Cargo.toml"]).all(|p| {
         let p = root.join(p);
         let t = if p.is_dir() { newest(&p) } else { std::fs::metadata(&p).and_then(|m| m.modified()).unwrap_or(built) };
         t <= built
@@ -167,7 +189,7 @@ impl Daemon {
             if config.contains("[validation]") { config.to_string() } else { format!("{config}\n{RECORDED_TIME}") };
         std::fs::write(&config_path, config).unwrap();
         let stderr = dir.path().join("stderr.log");
-        let child = Command::new(env!("CARGO_BIN_EXE_fusiond"))
+        let child = Command::new(fusiond())
             .args(["run", "--namespace", &domain.namespace, "--config"])
             .arg(&config_path)
             .args(args)

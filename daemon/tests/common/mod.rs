@@ -62,7 +62,7 @@ pub fn run_replay(dir: &Path, config: &str, input: &Path, smooth: bool) -> (Vec<
     let config_path = dir.join("config.toml");
     std::fs::write(&config_path, config).unwrap();
     let output: PathBuf = dir.join(if smooth { "smoothed.jsonl" } else { "filtered.jsonl" });
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_fusiond"));
+    let mut cmd = Command::new(live::fusiond());
     cmd.arg("replay").arg("--config").arg(&config_path).arg("--input").arg(input).arg("--output").arg(&output);
     if smooth {
         cmd.arg("--smooth");

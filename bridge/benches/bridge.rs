@@ -8,7 +8,7 @@
 //! in domain B (behind `--state out` and `--state in` bridges) each wait on the
 //! state event and take `now − publish_ns` of every snapshot.
 //!
-//! `cargo bench -p fusion-daemon --features zenoh --bench bridge`;
+//! `cargo bench -p fusion-bridge --bench bridge`;
 //! `FUSION_BENCH_SECONDS` sets the seconds per rate (default 5);
 //! `FUSION_BENCH_BRIDGE=PATH` runs that fusion-bridge binary (for A/B runs).
 

@@ -31,7 +31,7 @@ use anyhow::Context;
 use clap::{CommandFactory, Parser, ValueEnum};
 use fusion_client::{Client, SampleSubscriber, SensorPublishers};
 use fusion_shared::service::{self, ServiceNames};
-use fusion_shared::{KindVisitor, Sample, SampleKind, StateSnapshot, WireSample};
+use fusion_shared::{KindFn, KindVisitor, PayloadFn, Sample, SampleKind, StateSnapshot, WireSample};
 use iceoryx2::prelude::ZeroCopySend;
 use zenoh::Wait;
 use zenoh::bytes::Encoding;
@@ -470,15 +470,16 @@ fn samples_out(
     while !stop.load(Ordering::Relaxed) {
         while let Some(sample) = reader.try_next()? {
             let Some(publisher) = declare.publishers.get(&sample.kind()) else { continue };
-            let put = match &sample {
-                Sample::Imu(s) => publisher.put(bytes_of(s)),
-                Sample::Position(s) => publisher.put(bytes_of(s)),
-                Sample::Velocity(s) => publisher.put(bytes_of(s)),
-                Sample::Geodetic(s) => publisher.put(bytes_of(s)),
-                Sample::Odometry(s) => publisher.put(bytes_of(s)),
-                Sample::Heading(s) => publisher.put(bytes_of(s)),
-            };
-            put.wait().map_err(|e| anyhow::anyhow!("Zenoh put {}: {e}", keys.samples(sample.kind())))?;
+            struct Put<'a>(&'a zenoh::pubsub::Publisher<'static>);
+            impl PayloadFn for Put<'_> {
+                type Output = zenoh::Result<()>;
+                fn call<T: WireSample>(self, payload: &T) -> zenoh::Result<()> {
+                    self.0.put(bytes_of(payload)).wait()
+                }
+            }
+            sample
+                .with_payload(Put(publisher))
+                .map_err(|e| anyhow::anyhow!("Zenoh put {}: {e}", keys.samples(sample.kind())))?;
             counts.forwarded.fetch_add(1, Ordering::Relaxed);
         }
         // Sensors notify <ns>/wake after each sample; the timeout bounds the
@@ -513,15 +514,14 @@ fn samples_in(
             refuse(counts, &mut logged, &key, "not a forwarded sample kind".into());
             continue;
         };
-        let sample = match kind {
-            SampleKind::Imu => decode(&message).map(Sample::Imu),
-            SampleKind::Position => decode(&message).map(Sample::Position),
-            SampleKind::Velocity => decode(&message).map(Sample::Velocity),
-            SampleKind::Geodetic => decode(&message).map(Sample::Geodetic),
-            SampleKind::Odometry => decode(&message).map(Sample::Odometry),
-            SampleKind::Heading => decode(&message).map(Sample::Heading),
-        };
-        match sample {
+        struct Decode<'a>(&'a zenoh::sample::Sample);
+        impl KindFn for Decode<'_> {
+            type Output = Result<Sample, String>;
+            fn call<T: WireSample>(self) -> Result<Sample, String> {
+                decode::<T>(self.0).map(T::into_sample)
+            }
+        }
+        match kind.with_wire_type(Decode(&message)) {
             Ok(sample) => {
                 publishers.publish(sample)?;
                 counts.forwarded.fetch_add(1, Ordering::Relaxed);
