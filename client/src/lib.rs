@@ -1,5 +1,10 @@
 //! fusion-client: what other processes link to talk to fusiond.
 //!
+//! This is the API reference. The [user guide](../../book/index.html) (getting
+//! started, frames and time, configuration, sensor kinds, the C and Python
+//! clients, tools, deployment) is the book in the repository's `docs/`;
+//! `mdbook build docs` writes it to `target/book/`, beside these pages.
+//!
 //! - [`Client`]: this process's connection to one namespace (one iceoryx2 node).
 //! - [`SamplePublisher`] (from [`Client::publisher`], for any kind; aliases
 //!   [`ImuPublisher`], [`PositionPublisher`]): publish samples of one sensor zero-copy
