@@ -43,4 +43,9 @@ fn the_c_header_is_fresh() {
         }
     }
     fusion_shared::SampleKind::visit_all(&mut Kinds(&generated));
+    // And every model's snapshot code.
+    for m in fusion_shared::snapshot::Model::ALL {
+        let code = format!("#define FUSION_MODEL_{} {}\n", m.name().to_uppercase(), m.code());
+        assert!(generated.contains(&code), "no `{}` in the C header", code.trim());
+    }
 }

@@ -2,7 +2,7 @@
 //!
 //! Unknown keys are errors; every validation error names the key and the problem.
 //! Each table is read into the struct of its owner: `[model]` into the model's own
-//! parameters through the tagged [`ModelConfig`] ([`LinearParams`], [`InsParams`]),
+//! parameters through the tagged [`ModelConfig`] ([`LinearParams`], [`InsParams`](crate::model::ins::InsParams)),
 //! `[health]` into [`HealthConfig`], and so on. Defaults are written once, in the
 //! `Default` impls; `fusiond print-config` prints [`default_config_text`], which a test
 //! checks against them, and which is also what an empty file means.
@@ -18,7 +18,6 @@ use crate::filter::ChiSquareGate;
 use crate::frames::{ImuConfig, SensorConfig};
 use crate::health::{HealthConfig, MAX_NIS_WINDOW};
 use crate::measurement::Needed;
-use crate::model::ins::InsParams;
 use crate::model::linear::LinearParams;
 use crate::model::lockout::LockoutConfig;
 use crate::validate::Limits;
@@ -182,25 +181,28 @@ fn grouped(n: u64) -> String {
 }
 
 /// Which process model the filter runs, with its own parameters (`[model]`,
-/// selected by `kind`).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(tag = "kind", rename_all = "lowercase")]
-pub enum ModelConfig {
-    /// Constant velocity driven by world-frame acceleration ([`crate::model::linear`]).
-    Linear(LinearParams),
-    /// Error-state INS ([`crate::model::ins`]).
-    Ins(InsParams),
+/// selected by `kind`), generated from [`fusion_shared::for_each_model!`].
+macro_rules! model_config {
+    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident, $params:ident;)*) => {
+        /// The `[model]` table: the model named by `kind`, with its own parameters.
+        #[derive(Debug, Clone, PartialEq, Deserialize)]
+        #[serde(tag = "kind")]
+        pub enum ModelConfig {
+            $($(#[$doc])* #[serde(rename = $name)] $variant(crate::model::$module::$params),)*
+        }
+
+        impl ModelConfig {
+            /// The model's name as in the config and snapshots.
+            pub fn kind(&self) -> &'static str {
+                match self {
+                    $(ModelConfig::$variant(_) => $name,)*
+                }
+            }
+        }
+    };
 }
 
-impl ModelConfig {
-    /// The model's name as in the config and snapshots.
-    pub fn kind(&self) -> &'static str {
-        match self {
-            ModelConfig::Linear(_) => "linear",
-            ModelConfig::Ins(_) => "ins",
-        }
-    }
-}
+fusion_shared::for_each_model!(model_config);
 
 impl Default for ModelConfig {
     fn default() -> Self {

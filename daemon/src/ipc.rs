@@ -504,7 +504,7 @@ fn run_model<M: Steps>(
     let kinds: Vec<String> = SampleKind::ALL.iter().map(|&k| names.samples(k)).collect();
     tracing::info!(
         namespace = %names.namespace,
-        model = M::KIND,
+        model = fusion_shared::snapshot::model::name(M::CODE),
         form = config.filter.form.name(),
         wait = ?options.wait,
         cpu = ?options.cpu,
@@ -516,7 +516,11 @@ fn run_model<M: Steps>(
     let engine = Engine::new(model, EngineConfig::from_config(config));
     let mut core = LiveCore::new(engine, config.health, options.summary_interval, fusion_shared::now_ns());
     let mut observer = Observer { summary, watchdog: Watchdog::from_env(), stall: options.stall, shutdown };
-    crate::systemd::ready(&format!("fusing in namespace {} ({})", names.namespace, M::KIND));
+    crate::systemd::ready(&format!(
+        "fusing in namespace {} ({})",
+        names.namespace,
+        fusion_shared::snapshot::model::name(M::CODE)
+    ));
     let report = crate::live::run(&mut core, &mut source, &mut sink, options.wait, shutdown, &mut observer);
     crate::systemd::stopping();
 

@@ -127,6 +127,13 @@ fn rust_layout() -> Value {
     for &kind in SampleKind::ALL {
         constants[format!("KIND_{}", kind.name().to_uppercase())] = json!(kind as u32);
     }
+    // The code -> name tables of kinds and models, whole.
+    let kinds: serde_json::Map<_, _> =
+        SampleKind::ALL.iter().map(|&k| ((k as u32).to_string(), json!(k.name()))).collect();
+    constants["KIND_NAMES"] = Value::Object(kinds);
+    let models: serde_json::Map<_, _> =
+        fusion_shared::snapshot::Model::ALL.iter().map(|m| (m.code().to_string(), json!(m.name()))).collect();
+    constants["MODEL_NAMES"] = Value::Object(models);
     // Every kind's wire type is in the list above (and so checked against its
     // Python mirror).
     struct Listed<'a>(&'a [(&'a str, Value)]);
@@ -151,7 +158,7 @@ fn the_python_mirrors_have_the_rust_layout() {
     let out = common::python_command("unused", "tests/check_layout.py", &[path.to_str().unwrap()]).output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
-    assert!(said.contains("10 types, 19 constants: 0 differences"), "{said}");
+    assert!(said.contains("10 types, 21 constants: 0 differences"), "{said}");
 
     // The check sees a difference: a layout with one offset moved fails it.
     let mut broken = rust_layout();

@@ -28,19 +28,41 @@ pub const MAX_SENSORS: usize = 16;
 /// start at 1).
 pub const INPUT_NONE: u32 = 0;
 
-/// Model codes of [`StateSnapshot::model`].
+/// The list of filter models: the only place a model is registered.
+///
+/// Each line is `Variant = code, "name", module, ModelType, ParamsType;`: the
+/// [`Model`] variant, its code in snapshots ([`StateSnapshot::model`], from 1,
+/// never reused), its name (`[model] kind` in the config), and, for the daemon,
+/// its module (`daemon/src/model/<module>.rs`), its model type and the type of its
+/// `[model]` parameters. `for_each_model!(callback)` expands to `callback! { <the
+/// list> }`: this crate generates [`Model`] from it, the daemon its `[model]`
+/// table and the mapping from a config to a model type.
+#[macro_export]
+macro_rules! for_each_model {
+    ($callback:ident) => {
+        $callback! {
+            /// Constant velocity: state `[p, v]`, covariance 6×6 over the same.
+            Linear = 1, "linear", linear, LinearModel, LinearParams;
+            /// Error-state INS: state `[p, v, q_wxyz, b_a, b_g]` (16), covariance 15×15
+            /// over `[δp, δv, δθ, δb_a, δb_g]`.
+            Ins = 2, "ins", ins, InsModel, InsParams;
+        }
+    };
+}
+
+/// Model codes of [`StateSnapshot::model`], as constants (for C: `FUSION_MODEL_*`;
+/// `client/tests/c_header.rs` checks them against [`for_each_model!`](crate::for_each_model)).
 pub mod model {
     /// The `linear` constant-velocity model (6 states).
     pub const LINEAR: u32 = 1;
     /// The error-state INS model (16 states, 15×15 covariance).
     pub const INS: u32 = 2;
 
-    /// The name of a model code.
+    /// The name of a model code ("unknown" for none).
     pub const fn name(code: u32) -> &'static str {
-        match code {
-            LINEAR => "linear",
-            INS => "ins",
-            _ => "unknown",
+        match super::Model::from_code(code) {
+            Some(m) => m.name(),
+            None => "unknown",
         }
     }
 }

@@ -35,6 +35,9 @@ def main() -> int:
                 problems.append(f"{name}.{key}: Python {mine[key]} vs Rust {layout[key]}")
     for key, value in rust["constants"].items():
         mine = getattr(fusion_client, key, getattr(wire, key, None))
+        if isinstance(mine, dict):
+            # Code -> name tables: JSON has text keys.
+            mine = {str(k): v for k, v in mine.items()}
         if mine != value:
             problems.append(f"{key}: Python {mine} vs Rust {value}")
     # Path-like namespaces are refused, as by the Rust client and every binary.

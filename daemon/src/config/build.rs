@@ -17,14 +17,26 @@ pub trait WithModel {
     fn run<M: Steps>(self, model: M) -> Self::Output;
 }
 
-/// Builds the configured model and hands it to `f`: the one place that maps
-/// `[model] kind` to a model type.
-pub fn with_model<F: WithModel>(config: &Config, f: F) -> Result<F::Output, ConfigError> {
-    Ok(match &config.model {
-        ModelConfig::Linear(_) => f.run(LinearModel::from_config(config)?),
-        ModelConfig::Ins(_) => f.run(InsModel::from_config(config)?),
-    })
+/// Generates [`with_model`] from [`fusion_shared::for_each_model!`], and checks
+/// that each model type's snapshot code is its line's.
+macro_rules! dispatch {
+    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident, $params:ident;)*) => {
+        /// Builds the configured model and hands it to `f`: the one place that maps
+        /// `[model] kind` to a model type (each type's `from_config`).
+        pub fn with_model<F: WithModel>(config: &Config, f: F) -> Result<F::Output, ConfigError> {
+            Ok(match &config.model {
+                $(ModelConfig::$variant(_) => f.run(<crate::model::$module::$ty>::from_config(config)?),)*
+            })
+        }
+
+        $(const _: () = assert!(
+            <crate::model::$module::$ty as crate::model::Model>::CODE == $code,
+            concat!("the snapshot code of ", $name, " is not its line's in for_each_model!")
+        );)*
+    };
 }
+
+fusion_shared::for_each_model!(dispatch);
 
 /// Checks that the configured model can be built from the config.
 pub fn check(config: &Config) -> Result<(), ConfigError> {

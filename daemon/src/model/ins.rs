@@ -459,7 +459,6 @@ impl Model for InsModel {
     type Record = InsRecord;
     type Correction = Option<SVector<f64, N>>;
     type Log = StepLog<f64, N>;
-    const KIND: &'static str = "ins";
     const CODE: u32 = fusion_shared::snapshot::model::INS;
 
     fn initial_state(&self) -> InsState {

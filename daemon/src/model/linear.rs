@@ -235,7 +235,6 @@ impl Model for LinearModel {
     type Record = RtsStep<f64, N>;
     type Correction = ();
     type Log = StepLog<f64, N>;
-    const KIND: &'static str = "linear";
     const CODE: u32 = fusion_shared::snapshot::model::LINEAR;
 
     fn initial_state(&self) -> LinearState {

@@ -85,9 +85,9 @@ pub trait Model {
     /// The smoother's record of a step while the step runs.
     type Log;
 
-    /// Name as in the config: `"linear"`.
-    const KIND: &'static str;
-    /// Code in snapshots ([`fusion_shared::snapshot::model`]).
+    /// Code in snapshots, and through it the name in the config: the model's
+    /// line of [`fusion_shared::for_each_model!`] (checked where the config layer
+    /// maps names to model types).
     const CODE: u32;
 
     /// The state before the first sample.

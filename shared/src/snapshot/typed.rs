@@ -3,42 +3,50 @@
 //!
 //! The layout of each model is in [`StateSnapshot`]'s documentation.
 
-use super::{StateSnapshot, health, model, outcome};
+use super::{StateSnapshot, health, outcome};
 use crate::SampleKind;
 
-/// The filter model that produced a snapshot ([`StateSnapshot::model`] code).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Model {
-    /// Constant velocity: state `[p, v]`, covariance 6×6 over the same.
-    Linear,
-    /// Error-state INS: state `[p, v, q_wxyz, b_a, b_g]` (16), covariance 15×15
-    /// over `[δp, δv, δθ, δb_a, δb_g]`.
-    Ins,
+/// Generates [`Model`] from [`for_each_model!`](crate::for_each_model).
+macro_rules! models {
+    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident, $params:ident;)*) => {
+        /// The filter model that produced a snapshot ([`StateSnapshot::model`] code).
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        pub enum Model {
+            $($(#[$doc])* $variant,)*
+        }
+
+        impl Model {
+            /// Every model, in code order.
+            pub const ALL: &'static [Model] = &[$(Model::$variant),*];
+
+            /// The model of a wire code ([`model`]), if it is one.
+            pub const fn from_code(code: u32) -> Option<Self> {
+                match code {
+                    $($code => Some(Self::$variant),)*
+                    _ => None,
+                }
+            }
+
+            /// Its wire code.
+            pub const fn code(self) -> u32 {
+                match self {
+                    $(Self::$variant => $code,)*
+                }
+            }
+
+            /// Its name, as in the config's `[model] kind`.
+            pub const fn name(self) -> &'static str {
+                match self {
+                    $(Self::$variant => $name,)*
+                }
+            }
+        }
+    };
 }
 
+crate::for_each_model!(models);
+
 impl Model {
-    /// The model of a wire code ([`model`]), if it is one.
-    pub const fn from_code(code: u32) -> Option<Self> {
-        match code {
-            model::LINEAR => Some(Self::Linear),
-            model::INS => Some(Self::Ins),
-            _ => None,
-        }
-    }
-
-    /// Its wire code.
-    pub const fn code(self) -> u32 {
-        match self {
-            Self::Linear => model::LINEAR,
-            Self::Ins => model::INS,
-        }
-    }
-
-    /// Its name, as in the config's `[model] kind`.
-    pub const fn name(self) -> &'static str {
-        model::name(self.code())
-    }
-
     /// Every entry of its state vector: name (with unit) and the index of its
     /// standard deviation in the covariance (`None` for the quaternion, whose
     /// uncertainty is the 3 attitude errors).
