@@ -19,7 +19,8 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::time::Duration;
 
 use fusion_shared::{
-    GeodeticSample, HeadingSample, ImuSample, OdometrySample, PositionSample, StateSnapshot, VelocitySample, WireSample,
+    GeodeticSample, HeadingSample, ImuSample, KindFn, OdometrySample, PositionSample, SampleKind, StateSnapshot,
+    VelocitySample, WireSample,
 };
 
 use crate::{Client, ClientError, SamplePublisher, StateSubscriber};
@@ -91,7 +92,6 @@ pub const MAX_COV_LEN: usize = 225;
 pub const MAX_SENSORS: usize = 16;
 
 const _: () = {
-    use fusion_shared::SampleKind;
     use fusion_shared::snapshot as s;
     assert!(MAX_STATE == s::MAX_STATE && MAX_COV == s::MAX_COV);
     assert!(MAX_COV_LEN == s::MAX_COV_LEN && MAX_SENSORS == s::MAX_SENSORS);
@@ -264,20 +264,18 @@ pub unsafe extern "C" fn fusion_publisher_new(
         }
         // SAFETY: null or a live client, by the caller's contract.
         let client = &unsafe { client.as_ref() }.ok_or_else(|| null("client"))?.0;
-        fn open<T: WireSample>(client: &Client, sensor: u32) -> Result<Box<dyn std::any::Any>, Failure> {
-            Ok(Box::new(client.publisher::<T>(sensor)?))
-        }
-        let publisher = match kind {
-            FUSION_KIND_IMU => open::<ImuSample>(client, sensor)?,
-            FUSION_KIND_POSITION => open::<PositionSample>(client, sensor)?,
-            FUSION_KIND_VELOCITY => open::<VelocitySample>(client, sensor)?,
-            FUSION_KIND_GEODETIC => open::<GeodeticSample>(client, sensor)?,
-            FUSION_KIND_ODOMETRY => open::<OdometrySample>(client, sensor)?,
-            FUSION_KIND_HEADING => open::<HeadingSample>(client, sensor)?,
-            other => {
-                return Err(Failure(FusionStatus::FusionErrorInvalidArgument, format!("unknown sample kind {other}")));
+        /// A publisher of the kind's wire type.
+        struct Open<'a>(&'a Client, u32);
+        impl KindFn for Open<'_> {
+            type Output = Result<Box<dyn std::any::Any>, Failure>;
+            fn call<T: WireSample>(self) -> Self::Output {
+                Ok(Box::new(self.0.publisher::<T>(self.1)?))
             }
+        }
+        let Some(sample_kind) = SampleKind::from_code(kind) else {
+            return Err(Failure(FusionStatus::FusionErrorInvalidArgument, format!("unknown sample kind {kind}")));
         };
+        let publisher = sample_kind.with_wire_type(Open(client, sensor))?;
         // SAFETY: `out` is not null and writable by the caller's contract.
         unsafe { *out = Box::into_raw(Box::new(FusionPublisher { kind, publisher })) };
         Ok(FusionStatus::FusionOk)
