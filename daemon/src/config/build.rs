@@ -86,7 +86,7 @@ impl LinearModel {
                 return Err(invalid(
                     "sensor",
                     format!(
-                        "{name:?}: the linear model cannot fuse {} (it has no attitude); use kind = \"ins\"",
+                        "{name:?}: the linear model cannot fuse {}; use kind = \"ins\"",
                         kind.name()
                     ),
                 ));
