@@ -1,26 +1,34 @@
-//! TOML configuration, validated at start-up.
+//! TOML configuration, validated at start-up: the top of the daemon's layers.
 //!
 //! Unknown keys are errors; every validation error names the key and the problem.
-//! Each table is read into the struct of its owner: `[model]` into the model's own
-//! parameters through the tagged [`ModelConfig`] ([`LinearParams`], [`InsParams`](crate::model::ins::InsParams)),
-//! `[health]` into [`HealthConfig`], and so on. Defaults are written once, in the
-//! `Default` impls; `fusiond print-config` prints [`default_config_text`], which a test
+//! Each table is read into the type of its owner, which checks it: `[model]` into
+//! the model's own parameters through [`ModelConfig`] (generated from
+//! `fusion_shared::for_each_model!`: [`LinearParams`],
+//! [`InsParams`](crate::model::ins::InsParams)), `[health]` by
+//! [`HealthConfig::from_table`](crate::health::HealthConfig::from_table),
+//! `[validation]` by [`ValidationConfig`] (`crate::validate`), `[datum]` by
+//! [`DatumTable`], `[[sensor]]` and `[imu]` by
+//! `crate::frames`, the lock-out keys of `[gating]` by
+//! [`LockoutConfig::from_keys`](crate::model::lockout::LockoutConfig::from_keys).
+//! This file assembles them, and holds the tables that several parts share
+//! (`[filter]`: the model's start, the engine's history, the filter's form;
+//! `[gating]`; `[ipc]`). Defaults are written once, in the owners' `Default`
+//! impls; `fusiond print-config` prints [`default_config_text`], which a test
 //! checks against them, and which is also what an empty file means.
 
 use std::path::Path;
 
 use fusion_shared::SampleKind;
 use fusion_shared::geodesy::Datum;
-use fusion_shared::snapshot::MAX_SENSORS;
 use serde::Deserialize;
 
 use crate::filter::ChiSquareGate;
-use crate::frames::{ImuConfig, SensorConfig};
-use crate::health::{HealthConfig, MAX_NIS_WINDOW};
+use crate::frames::{DatumTable, ImuConfig, SensorConfig};
+use crate::health::{HealthConfig, HealthTable};
 use crate::measurement::Needed;
 use crate::model::linear::LinearParams;
 use crate::model::lockout::LockoutConfig;
-use crate::validate::Limits;
+pub use crate::validate::ValidationConfig;
 
 mod build;
 pub use crate::setting::{ConfigError, invalid, positive};
@@ -250,60 +258,6 @@ impl Default for FilterConfig {
     }
 }
 
-/// Input validation settings (`[validation]`).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ValidationConfig {
-    /// Largest accepted lead of a sample timestamp over the daemon's clock, ns.
-    pub max_future_ns: u64,
-    /// Largest accepted lag of a sample timestamp behind the daemon's clock, ns.
-    pub max_past_ns: u64,
-    /// Replay: largest accepted lead of a sample timestamp over the newest one
-    /// processed, ns.
-    pub max_jump_ns: u64,
-    /// Distinct sensor ids tracked per kind (at most [`MAX_SENSORS`] in all).
-    pub max_sensors: usize,
-    /// Largest sustained sample rate of one sensor, Hz (on sample timestamps).
-    pub max_rate_hz: f64,
-    /// Samples one sensor may send at once beyond `max_rate_hz`.
-    pub max_burst: u32,
-    /// Largest accepted magnitude of an IMU's acceleration or specific force, m/s².
-    pub accel_range_mps2: f64,
-    /// Largest accepted magnitude of an IMU's angular rate, rad/s.
-    pub gyro_range_radps: f64,
-}
-
-impl Default for ValidationConfig {
-    fn default() -> Self {
-        Self {
-            max_future_ns: 50_000_000,
-            max_past_ns: 5_000_000_000,
-            max_jump_ns: 600_000_000_000,
-            max_sensors: 8,
-            max_rate_hz: 10_000.0,
-            max_burst: 100,
-            accel_range_mps2: 160.0,
-            gyro_range_radps: 35.0,
-        }
-    }
-}
-
-impl ValidationConfig {
-    /// The value limits of the payload checks.
-    pub fn limits(&self) -> Limits {
-        Limits { accel_range_mps2: self.accel_range_mps2, gyro_range_radps: self.gyro_range_radps }
-    }
-}
-
-/// `[datum]`: the origin of the world frame.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawDatum {
-    latitude_deg: f64,
-    longitude_deg: f64,
-    height_m: f64,
-}
-
 /// `[gating]`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -313,15 +267,6 @@ struct RawGating {
     lockout_fixes: Option<u32>,
 }
 
-/// `[health]`: the timeouts are keyed by kind name, so they are checked by hand.
-#[derive(Debug, Default, Deserialize)]
-struct RawHealth {
-    nis_window: Option<usize>,
-    nis_probability: Option<f64>,
-    #[serde(flatten)]
-    timeouts: std::collections::BTreeMap<String, u64>,
-}
-
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawConfig {
@@ -329,10 +274,10 @@ struct RawConfig {
     filter: FilterConfig,
     gating: Option<RawGating>,
     #[serde(default)]
-    health: RawHealth,
+    health: HealthTable,
     #[serde(default)]
     validation: ValidationConfig,
-    datum: Option<RawDatum>,
+    datum: Option<DatumTable>,
     #[serde(default)]
     sensor: Vec<SensorConfig>,
     #[serde(default)]
@@ -438,35 +383,15 @@ impl Config {
             None => (None, None),
             Some(g) => (
                 Some(ChiSquareGate::new(g.probability).map_err(|e| invalid("gating.probability", e.to_string()))?),
-                lockout_config(g)?,
+                LockoutConfig::from_keys(g.lockout_ns, g.lockout_fixes)?,
             ),
         };
-        let health = health_config(raw.health)?;
-        let v = &raw.validation;
-        positive("validation.accel_range_mps2", v.accel_range_mps2)?;
-        positive("validation.gyro_range_radps", v.gyro_range_radps)?;
-        positive("validation.max_rate_hz", v.max_rate_hz)?;
-        if !(1..=MAX_SENSORS).contains(&v.max_sensors) {
-            return Err(invalid(
-                "validation.max_sensors",
-                format!("must be in 1..={MAX_SENSORS} (the sensor rows of a snapshot), got {}", v.max_sensors),
-            ));
-        }
+        let health = HealthConfig::from_table(raw.health)?;
+        raw.validation.check()?;
         if !(1..=1024).contains(&raw.ipc.max_readers) {
             return Err(invalid("ipc.max_readers", format!("must be in 1..=1024, got {}", raw.ipc.max_readers)));
         }
-        if v.max_burst == 0 {
-            return Err(invalid("validation.max_burst", "must be at least 1"));
-        }
-        if v.max_past_ns == 0 {
-            return Err(invalid("validation.max_past_ns", "must be > 0"));
-        }
-        let datum = match raw.datum {
-            None => None,
-            Some(d) => Some(
-                Datum::new(d.latitude_deg, d.longitude_deg, d.height_m).map_err(|e| invalid("datum", e.to_string()))?,
-            ),
-        };
+        let datum = raw.datum.map(DatumTable::datum).transpose()?;
         let config = Self {
             model: raw.model,
             filter: raw.filter,
@@ -482,45 +407,6 @@ impl Config {
         check(&config)?;
         Ok(config)
     }
-}
-
-fn lockout_config(g: &RawGating) -> Result<Option<LockoutConfig>, ConfigError> {
-    let default = LockoutConfig::default();
-    let after_ns = g.lockout_ns.unwrap_or(default.after_ns);
-    let fixes = g.lockout_fixes.unwrap_or(default.fixes);
-    if fixes < 2 {
-        return Err(invalid("gating.lockout_fixes", format!("must be at least 2, got {fixes}")));
-    }
-    Ok((after_ns > 0).then_some(LockoutConfig { after_ns, fixes }))
-}
-
-fn health_config(raw: RawHealth) -> Result<HealthConfig, ConfigError> {
-    let mut health = HealthConfig::default();
-    for (key, value) in raw.timeouts {
-        let kind = key.strip_suffix("_timeout_ns").and_then(SampleKind::from_name).ok_or_else(|| {
-            let known: Vec<String> = SampleKind::ALL.iter().map(|k| format!("{}_timeout_ns", k.name())).collect();
-            invalid(
-                format!("health.{key}"),
-                format!("unknown key; known: nis_window, nis_probability, {}", known.join(", ")),
-            )
-        })?;
-        if value == 0 {
-            return Err(invalid(format!("health.{key}"), "must be > 0"));
-        }
-        health.timeouts_ns[kind.index()] = value;
-    }
-    health.nis_window = raw.nis_window.unwrap_or(health.nis_window);
-    health.nis_probability = raw.nis_probability.unwrap_or(health.nis_probability);
-    if !(1..=MAX_NIS_WINDOW).contains(&health.nis_window) {
-        return Err(invalid(
-            "health.nis_window",
-            format!("must be in 1..={MAX_NIS_WINDOW}, got {}", health.nis_window),
-        ));
-    }
-    if !(health.nis_probability > 0.0 && health.nis_probability < 1.0) {
-        return Err(invalid("health.nis_probability", format!("must be in (0, 1), got {}", health.nis_probability)));
-    }
-    Ok(health)
 }
 
 #[cfg(test)]

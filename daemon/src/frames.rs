@@ -29,6 +29,22 @@ use serde::Deserialize;
 
 use crate::setting::{ConfigError, invalid};
 
+/// The `[datum]` table: the origin of the world frame, checked by [`Datum::new`].
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DatumTable {
+    latitude_deg: f64,
+    longitude_deg: f64,
+    height_m: f64,
+}
+
+impl DatumTable {
+    /// The datum, or the error that names `datum`.
+    pub fn datum(self) -> Result<Datum, ConfigError> {
+        Datum::new(self.latitude_deg, self.longitude_deg, self.height_m).map_err(|e| invalid("datum", e.to_string()))
+    }
+}
+
 /// Most IMUs combined ([`ImuSet`]).
 pub const MAX_IMUS: usize = 8;
 

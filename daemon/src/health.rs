@@ -27,6 +27,7 @@ use statrs::distribution::{ChiSquared, ContinuousCDF};
 use crate::measurement::{self, MAX_INNOVATION_DIM};
 use crate::model::StepOutcome;
 use crate::sensor_table::SensorRow;
+use crate::setting::{ConfigError, invalid};
 
 /// Number of sample kinds.
 const KINDS: usize = SampleKind::COUNT;
@@ -69,6 +70,53 @@ impl Default for HealthConfig {
             timeouts_ns[k.index()] = measurement::default_timeout_ns(k);
         }
         Self { timeouts_ns, nis_window: 20, nis_probability: 0.999 }
+    }
+}
+
+/// The `[health]` table as written: the timeouts are keyed by kind name
+/// (`<kind>_timeout_ns`), so they are checked by [`HealthConfig::from_table`].
+#[derive(Debug, Default, serde::Deserialize)]
+pub struct HealthTable {
+    nis_window: Option<usize>,
+    nis_probability: Option<f64>,
+    #[serde(flatten)]
+    timeouts: std::collections::BTreeMap<String, u64>,
+}
+
+impl HealthConfig {
+    /// The settings of a `[health]` table: each kind's timeout by its name (an
+    /// unknown name is an error that lists the known ones), the NIS window and
+    /// band; what the table leaves out keeps its default.
+    pub fn from_table(table: HealthTable) -> Result<Self, ConfigError> {
+        let mut health = HealthConfig::default();
+        for (key, value) in table.timeouts {
+            let kind = key.strip_suffix("_timeout_ns").and_then(SampleKind::from_name).ok_or_else(|| {
+                let known: Vec<String> = SampleKind::ALL.iter().map(|k| format!("{}_timeout_ns", k.name())).collect();
+                invalid(
+                    format!("health.{key}"),
+                    format!("unknown key; known: nis_window, nis_probability, {}", known.join(", ")),
+                )
+            })?;
+            if value == 0 {
+                return Err(invalid(format!("health.{key}"), "must be > 0"));
+            }
+            health.timeouts_ns[kind.index()] = value;
+        }
+        health.nis_window = table.nis_window.unwrap_or(health.nis_window);
+        health.nis_probability = table.nis_probability.unwrap_or(health.nis_probability);
+        if !(1..=MAX_NIS_WINDOW).contains(&health.nis_window) {
+            return Err(invalid(
+                "health.nis_window",
+                format!("must be in 1..={MAX_NIS_WINDOW}, got {}", health.nis_window),
+            ));
+        }
+        if !(health.nis_probability > 0.0 && health.nis_probability < 1.0) {
+            return Err(invalid(
+                "health.nis_probability",
+                format!("must be in (0, 1), got {}", health.nis_probability),
+            ));
+        }
+        Ok(health)
     }
 }
 

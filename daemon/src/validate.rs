@@ -2,7 +2,12 @@
 //!
 //! A rejected sample is counted with its [`Rejection`] reason; it never changes the
 //! estimate. The same checks run live and in replay. Each kind's checks live in its
-//! measurement module; this file names the reasons and the limits they use.
+//! measurement module; this file names the reasons and the limits they use, and
+//! reads the `[validation]` table ([`ValidationConfig`]).
+
+use fusion_shared::snapshot::MAX_SENSORS;
+
+use crate::setting::{ConfigError, invalid, positive};
 
 /// Why a sample was refused.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -66,4 +71,70 @@ pub struct Limits {
     pub accel_range_mps2: f64,
     /// Largest accepted magnitude of an IMU's angular rate, rad/s.
     pub gyro_range_radps: f64,
+}
+
+/// Input validation settings (`[validation]`).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ValidationConfig {
+    /// Largest accepted lead of a sample timestamp over the daemon's clock, ns.
+    pub max_future_ns: u64,
+    /// Largest accepted lag of a sample timestamp behind the daemon's clock, ns.
+    pub max_past_ns: u64,
+    /// Replay: largest accepted lead of a sample timestamp over the newest one
+    /// processed, ns.
+    pub max_jump_ns: u64,
+    /// Distinct sensor ids tracked per kind (at most [`MAX_SENSORS`] in all).
+    pub max_sensors: usize,
+    /// Largest sustained sample rate of one sensor, Hz (on sample timestamps).
+    pub max_rate_hz: f64,
+    /// Samples one sensor may send at once beyond `max_rate_hz`.
+    pub max_burst: u32,
+    /// Largest accepted magnitude of an IMU's acceleration or specific force, m/s².
+    pub accel_range_mps2: f64,
+    /// Largest accepted magnitude of an IMU's angular rate, rad/s.
+    pub gyro_range_radps: f64,
+}
+
+impl Default for ValidationConfig {
+    fn default() -> Self {
+        Self {
+            max_future_ns: 50_000_000,
+            max_past_ns: 5_000_000_000,
+            max_jump_ns: 600_000_000_000,
+            max_sensors: 8,
+            max_rate_hz: 10_000.0,
+            max_burst: 100,
+            accel_range_mps2: 160.0,
+            gyro_range_radps: 35.0,
+        }
+    }
+}
+
+impl ValidationConfig {
+    /// The value limits of the payload checks.
+    pub fn limits(&self) -> Limits {
+        Limits { accel_range_mps2: self.accel_range_mps2, gyro_range_radps: self.gyro_range_radps }
+    }
+
+    /// Checks the values: ranges and rates > 0, at least one sensor per kind and
+    /// at most a snapshot's rows, a burst of at least 1, a past window > 0.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        positive("validation.accel_range_mps2", self.accel_range_mps2)?;
+        positive("validation.gyro_range_radps", self.gyro_range_radps)?;
+        positive("validation.max_rate_hz", self.max_rate_hz)?;
+        if !(1..=MAX_SENSORS).contains(&self.max_sensors) {
+            return Err(invalid(
+                "validation.max_sensors",
+                format!("must be in 1..={MAX_SENSORS} (the sensor rows of a snapshot), got {}", self.max_sensors),
+            ));
+        }
+        if self.max_burst == 0 {
+            return Err(invalid("validation.max_burst", "must be at least 1"));
+        }
+        if self.max_past_ns == 0 {
+            return Err(invalid("validation.max_past_ns", "must be > 0"));
+        }
+        Ok(())
+    }
 }

@@ -85,10 +85,7 @@ impl LinearModel {
             if !crate::measurement::accepts::<LinearModel>(*kind) {
                 return Err(invalid(
                     "sensor",
-                    format!(
-                        "{name:?}: the linear model cannot fuse {}; use kind = \"ins\"",
-                        kind.name()
-                    ),
+                    format!("{name:?}: the linear model cannot fuse {}; use kind = \"ins\"", kind.name()),
                 ));
             }
             if !(mount.unrotated && mount.at_origin) {

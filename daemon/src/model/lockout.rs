@@ -33,6 +33,7 @@
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
 use crate::model::StepOutcome;
+use crate::setting::{ConfigError, invalid};
 
 /// When a run of gated fixes re-initialises the filter (`[gating] lockout_ns`
 /// and `lockout_fixes`).
@@ -48,6 +49,21 @@ impl Default for LockoutConfig {
     /// 5 s and 5 fixes.
     fn default() -> Self {
         Self { after_ns: 5_000_000_000, fixes: 5 }
+    }
+}
+
+impl LockoutConfig {
+    /// The settings of `[gating] lockout_ns` and `lockout_fixes` (the defaults
+    /// where absent); `None` when `lockout_ns` is 0 (recovery off). At least 2
+    /// fixes.
+    pub fn from_keys(lockout_ns: Option<u64>, lockout_fixes: Option<u32>) -> Result<Option<Self>, ConfigError> {
+        let default = Self::default();
+        let after_ns = lockout_ns.unwrap_or(default.after_ns);
+        let fixes = lockout_fixes.unwrap_or(default.fixes);
+        if fixes < 2 {
+            return Err(invalid("gating.lockout_fixes", format!("must be at least 2, got {fixes}")));
+        }
+        Ok((after_ns > 0).then_some(Self { after_ns, fixes }))
     }
 }
 
