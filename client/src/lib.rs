@@ -12,7 +12,8 @@
 //! - [`StateSubscriber`]: read the fused state: [`latest`](StateSubscriber::latest),
 //!   [`wait_next`](StateSubscriber::wait_next) (blocking on an event) and
 //!   [`spin_next`](StateSubscriber::spin_next) (busy-polling, lowest latency).
-//! - [`sim`]: a simulated sensor of every kind on a ground-truth trajectory.
+//! - `sim` (feature `sim`): a simulated sensor of every kind on a ground-truth
+//!   trajectory, for tests, demos and benchmarks.
 //! - [`capi`]: the same as a C library (`libfusion_client.so`/`.a`, header
 //!   `client/include/fusion_client.h`).
 //!
@@ -33,6 +34,7 @@
 pub mod capi;
 mod error;
 mod publisher;
+#[cfg(feature = "sim")]
 pub mod sim;
 mod subscriber;
 
@@ -43,7 +45,9 @@ pub use fusion_shared::sample::*;
 pub use fusion_shared::snapshot::{Health, HealthReason, Model, Outcome};
 pub use fusion_shared::{StateSnapshot, now_ns};
 // The wire contract's modules, documented with the client.
-pub use fusion_shared::{for_each_sample_kind, geodesy, permissions, sample, service, snapshot, time, transport};
+pub use fusion_shared::{
+    for_each_model, for_each_sample_kind, geodesy, permissions, sample, service, snapshot, time, transport,
+};
 pub use publisher::{ImuPublisher, PositionPublisher, SamplePublisher, SensorPublishers};
 pub use subscriber::{SampleSubscriber, StateSubscriber};
 

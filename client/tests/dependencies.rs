@@ -1,5 +1,6 @@
-//! Linking fusion-client must not pull command-line or logging-backend crates into
-//! the user's process: its normal dependency tree (default features) has none.
+//! Linking fusion-client must not pull command-line or logging-backend crates, nor
+//! the simulators' random-number crates, into the user's process: its normal
+//! dependency tree (default features) has none.
 
 #[test]
 fn the_library_pulls_no_cli_or_subscriber_crates() {
@@ -12,7 +13,7 @@ fn the_library_pulls_no_cli_or_subscriber_crates() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let tree = String::from_utf8(out.stdout).unwrap();
     assert!(tree.contains("iceoryx2 "), "the tree was read: {tree}");
-    for forbidden in ["clap ", "anyhow ", "tracing-subscriber ", "signal-hook "] {
+    for forbidden in ["clap ", "anyhow ", "tracing-subscriber ", "signal-hook ", "rand_distr ", "rand_chacha "] {
         assert!(!tree.lines().any(|l| l.starts_with(forbidden)), "fusion-client depends on {forbidden}");
     }
 }

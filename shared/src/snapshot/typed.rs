@@ -19,7 +19,7 @@ macro_rules! models {
             /// Every model, in code order.
             pub const ALL: &'static [Model] = &[$(Model::$variant),*];
 
-            /// The model of a wire code ([`model`]), if it is one.
+            /// The model of a wire code ([`model`](crate::snapshot::model)), if it is one.
             pub const fn from_code(code: u32) -> Option<Self> {
                 match code {
                     $($code => Some(Self::$variant),)*
