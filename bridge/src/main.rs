@@ -325,6 +325,26 @@ fn bytes_of<T: ZeroCopySend + Copy>(value: &T) -> &[u8] {
     unsafe { std::slice::from_raw_parts((value as *const T).cast::<u8>(), std::mem::size_of::<T>()) }
 }
 
+/// Puts a sample's payload, as its wire type's bytes, on a Zenoh publisher.
+struct Put<'a>(&'a zenoh::pubsub::Publisher<'static>);
+
+impl PayloadFn for Put<'_> {
+    type Output = zenoh::Result<()>;
+    fn call<T: WireSample>(self, payload: &T) -> zenoh::Result<()> {
+        self.0.put(bytes_of(payload)).wait()
+    }
+}
+
+/// Decodes a message as the wire type of the kind its key names.
+struct Decode<'a>(&'a zenoh::sample::Sample);
+
+impl KindFn for Decode<'_> {
+    type Output = Result<Sample, String>;
+    fn call<T: WireSample>(self) -> Result<Sample, String> {
+        decode::<T>(self.0).map(T::into_sample)
+    }
+}
+
 /// A wire value from a message, or why it is refused.
 fn decode<T: ZeroCopySend + Copy + Default>(sample: &zenoh::sample::Sample) -> Result<T, String> {
     if *sample.encoding() != encoding::<T>() {
@@ -470,13 +490,6 @@ fn samples_out(
     while !stop.load(Ordering::Relaxed) {
         while let Some(sample) = reader.try_next()? {
             let Some(publisher) = declare.publishers.get(&sample.kind()) else { continue };
-            struct Put<'a>(&'a zenoh::pubsub::Publisher<'static>);
-            impl PayloadFn for Put<'_> {
-                type Output = zenoh::Result<()>;
-                fn call<T: WireSample>(self, payload: &T) -> zenoh::Result<()> {
-                    self.0.put(bytes_of(payload)).wait()
-                }
-            }
             sample
                 .with_payload(Put(publisher))
                 .map_err(|e| anyhow::anyhow!("Zenoh put {}: {e}", keys.samples(sample.kind())))?;
@@ -514,13 +527,6 @@ fn samples_in(
             refuse(counts, &mut logged, &key, "not a forwarded sample kind".into());
             continue;
         };
-        struct Decode<'a>(&'a zenoh::sample::Sample);
-        impl KindFn for Decode<'_> {
-            type Output = Result<Sample, String>;
-            fn call<T: WireSample>(self) -> Result<Sample, String> {
-                decode::<T>(self.0).map(T::into_sample)
-            }
-        }
         match kind.with_wire_type(Decode(&message)) {
             Ok(sample) => {
                 publishers.publish(sample)?;

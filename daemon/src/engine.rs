@@ -200,11 +200,6 @@ impl<M: Steps> Engine<M> {
         self.sensors.rows()
     }
 
-    /// The sensor table.
-    pub fn sensor_table(&self) -> &SensorTable {
-        &self.sensors
-    }
-
     /// The counters of every sensor of `kind` (all sensors for `None`) added up.
     pub fn totals(&self, kind: Option<SampleKind>) -> SensorStats {
         self.sensors.totals(kind)

@@ -252,7 +252,7 @@ impl HealthMonitor {
             let w = &self.windows[i];
             if w.len == self.config.nis_window {
                 let (k, sum) = (w.fused, w.sum);
-                let (lo, hi) = self.nis_band(measurement::innovation_dim(s.kind), k);
+                let (lo, hi) = self.nis_band(s.kind.innovation_dim(), k);
                 if 2 * k < w.len || sum < lo || sum > hi {
                     reasons |= health::NIS_OUT_OF_BOUNDS;
                 }

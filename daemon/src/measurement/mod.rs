@@ -123,11 +123,6 @@ macro_rules! registry {
             }
         }
 
-        /// Innovation dimension of a kind ([`WireSample::INNOVATION_DIM`]).
-        pub const fn innovation_dim(kind: SampleKind) -> usize {
-            kind.innovation_dim()
-        }
-
         /// The group the health waits for a kind of ([`Measurement::NEEDED`]).
         pub const fn needed(kind: SampleKind) -> Option<Needed> {
             match kind {
@@ -201,7 +196,7 @@ pub const MAX_INNOVATION_DIM: usize = 3;
 const _: () = {
     let mut i = 0;
     while i < SampleKind::COUNT {
-        assert!(innovation_dim(SampleKind::ALL[i]) <= MAX_INNOVATION_DIM);
+        assert!(SampleKind::ALL[i].innovation_dim() <= MAX_INNOVATION_DIM);
         i += 1;
     }
 };
