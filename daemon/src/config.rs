@@ -32,7 +32,7 @@ pub use crate::validate::ValidationConfig;
 
 mod build;
 pub use crate::setting::{ConfigError, invalid, positive};
-pub use build::{WithModel, check, initial_values, with_model};
+pub use build::{BuiltModel, WithModel, initial_values, with_model};
 
 /// The default configuration with comments, as printed by `fusiond print-config`
 /// ([`default_config_text`] fills in the per-kind lines).
@@ -290,9 +290,10 @@ struct RawConfig {
     constraints: Option<toml::Value>,
 }
 
-/// A validated configuration.
+/// The tables of a configuration file, each checked by its owner: the data a
+/// [`Config`] was made of (read through it).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Config {
+pub struct Tables {
     /// The model and its parameters.
     pub model: ModelConfig,
     /// Filter start and history.
@@ -329,7 +330,38 @@ impl Default for IpcConfig {
     }
 }
 
+/// A valid configuration: its [`Tables`] (read through `Deref`: `config.filter`)
+/// and the model built from them, once, when the file was read: every error of
+/// the file shows at load time, and [`with_model`] hands out that model.
+/// Read-only: a changed value is a changed text, parsed again.
+#[derive(Debug, Clone)]
+pub struct Config {
+    tables: Tables,
+    built: BuiltModel,
+}
+
+impl std::ops::Deref for Config {
+    type Target = Tables;
+    fn deref(&self) -> &Tables {
+        &self.tables
+    }
+}
+
+impl PartialEq for Config {
+    /// Equal tables (the model is built from them).
+    fn eq(&self, other: &Self) -> bool {
+        self.tables == other.tables
+    }
+}
+
 impl Default for Config {
+    /// What an empty file means ([`Tables::default`]).
+    fn default() -> Self {
+        Self::from_tables(Tables::default()).expect("the default tables are valid")
+    }
+}
+
+impl Default for Tables {
     /// The defaults of every table, as [`default_config_text`] writes them out.
     fn default() -> Self {
         Self {
@@ -361,7 +393,19 @@ impl Config {
         Self::parse(&default_config_text()).expect("the default config is valid")
     }
 
-    /// Parses and validates TOML text; the model is built once to check its parameters.
+    /// Builds the model of checked tables (which checks the model's parameters,
+    /// the frames of the sensors and which kinds the model takes).
+    pub fn from_tables(tables: Tables) -> Result<Self, ConfigError> {
+        let built = BuiltModel::build(&tables)?;
+        Ok(Self { tables, built })
+    }
+
+    /// The model [`from_tables`](Self::from_tables) built.
+    pub fn built(&self) -> &BuiltModel {
+        &self.built
+    }
+
+    /// Parses and validates TOML text, and builds the model ([`from_tables`](Self::from_tables)).
     pub fn parse(text: &str) -> Result<Self, ConfigError> {
         let raw: RawConfig = toml::from_str(text)?;
         for (table, present) in [("alignment", raw.alignment.is_some()), ("constraints", raw.constraints.is_some())] {
@@ -392,7 +436,7 @@ impl Config {
             return Err(invalid("ipc.max_readers", format!("must be in 1..=1024, got {}", raw.ipc.max_readers)));
         }
         let datum = raw.datum.map(DatumTable::datum).transpose()?;
-        let config = Self {
+        Self::from_tables(Tables {
             model: raw.model,
             filter: raw.filter,
             gating,
@@ -403,9 +447,7 @@ impl Config {
             sensors: raw.sensor,
             imu: raw.imu,
             ipc: raw.ipc,
-        };
-        check(&config)?;
-        Ok(config)
+        })
     }
 }
 

@@ -115,7 +115,7 @@ pub fn run(config: &Config, options: &RunOptions, shutdown: &AtomicBool) -> Resu
             run_model(model, self.0, self.1, self.2)
         }
     }
-    with_model(config, Run(config, options, shutdown))?
+    with_model(config, Run(config, options, shutdown))
 }
 
 /// One sample subscriber and the sample it holds back for the merge.

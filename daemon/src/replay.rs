@@ -252,7 +252,7 @@ pub fn replay_items(
             replay_model(model, self.0, self.1, self.2, self.3, self.4)
         }
     }
-    with_model(config, Replay(config, items, output, smooth, check))?
+    with_model(config, Replay(config, items, output, smooth, check))
 }
 
 /// Where final entries go: straight to the output, or kept for the smoother.

@@ -260,7 +260,7 @@ class Snapshot:
     @property
     def P(self) -> np.ndarray:  # noqa: N802 (the usual name of the covariance)
         """The covariance in use, ``cov_dim × cov_dim``."""
-        n = min(self.raw.cov_dim, 15)
+        n = min(self.raw.cov_dim, MAX_COV)
         return np.array(self.raw.cov[: n * n], dtype=np.float64).reshape(n, n)
 
     @property

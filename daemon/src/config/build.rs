@@ -2,7 +2,7 @@
 //! frames), the engine's limits. The only place that maps `[model] kind` to a
 //! model type; the parts themselves know nothing of the file.
 
-use super::{Config, ConfigError, ModelConfig, invalid, positive};
+use super::{Config, ConfigError, ModelConfig, Tables, invalid, positive};
 use crate::engine::EngineConfig;
 use crate::frames::{Frames, MountedSensor};
 use crate::measurement::Steps;
@@ -17,16 +17,31 @@ pub trait WithModel {
     fn run<M: Steps>(self, model: M) -> Self::Output;
 }
 
-/// Generates [`with_model`] from [`fusion_shared::for_each_model!`], and checks
+/// Generates [`BuiltModel`] from [`fusion_shared::for_each_model!`], and checks
 /// that each model type's snapshot code is its line's.
 macro_rules! dispatch {
     ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident, $params:ident;)*) => {
-        /// Builds the configured model and hands it to `f`: the one place that maps
-        /// `[model] kind` to a model type (each type's `from_config`).
-        pub fn with_model<F: WithModel>(config: &Config, f: F) -> Result<F::Output, ConfigError> {
-            Ok(match &config.model {
-                $(ModelConfig::$variant(_) => f.run(<crate::model::$module::$ty>::from_config(config)?),)*
-            })
+        /// The configured model, built: one variant per model type.
+        #[derive(Debug, Clone)]
+        pub enum BuiltModel {
+            $($(#[$doc])* $variant(crate::model::$module::$ty),)*
+        }
+
+        impl BuiltModel {
+            /// Builds the model `[model] kind` names: the one place that maps
+            /// it to a model type (each type's `from_config`).
+            pub fn build(tables: &Tables) -> Result<Self, ConfigError> {
+                Ok(match &tables.model {
+                    $(ModelConfig::$variant(_) => Self::$variant(<crate::model::$module::$ty>::from_config(tables)?),)*
+                })
+            }
+
+            /// Hands the model, as its own type, to `f`.
+            pub fn run<F: WithModel>(self, f: F) -> F::Output {
+                match self {
+                    $(Self::$variant(model) => f.run(model),)*
+                }
+            }
         }
 
         $(const _: () = assert!(
@@ -38,20 +53,16 @@ macro_rules! dispatch {
 
 fusion_shared::for_each_model!(dispatch);
 
-/// Checks that the configured model can be built from the config.
-pub fn check(config: &Config) -> Result<(), ConfigError> {
-    struct Build;
-    impl WithModel for Build {
-        type Output = ();
-        fn run<M: Steps>(self, _: M) {}
-    }
-    with_model(config, Build)
+/// Hands a copy of the model built when `config` was read to `f` (the frames
+/// and the model are not built again).
+pub fn with_model<F: WithModel>(config: &Config, f: F) -> F::Output {
+    config.built().clone().run(f)
 }
 
 /// `[filter] initial_state` and `initial_covariance_diagonal` as the arrays of a
 /// model with `N` states and `C` error states: right lengths, finite values, and
 /// variances > 0.
-pub fn initial_values<const N: usize, const C: usize>(config: &Config) -> Result<([f64; N], [f64; C]), ConfigError> {
+pub fn initial_values<const N: usize, const C: usize>(config: &Tables) -> Result<([f64; N], [f64; C]), ConfigError> {
     let (f, kind) = (&config.filter, config.model.kind());
     let x0: [f64; N] = f.initial_state.as_slice().try_into().map_err(|_| {
         invalid("filter.initial_state", format!("model {kind:?} needs {N} values, got {}", f.initial_state.len()))
@@ -74,7 +85,7 @@ pub fn initial_values<const N: usize, const C: usize>(config: &Config) -> Result
 
 impl LinearModel {
     /// The model of a config with `kind = "linear"`.
-    pub fn from_config(config: &Config) -> Result<Self, ConfigError> {
+    pub fn from_config(config: &Tables) -> Result<Self, ConfigError> {
         let ModelConfig::Linear(params) = &config.model else {
             return Err(invalid("model.kind", "not \"linear\""));
         };
@@ -106,7 +117,7 @@ impl LinearModel {
 
 impl InsModel {
     /// The model of a config with `kind = "ins"`.
-    pub fn from_config(config: &Config) -> Result<Self, ConfigError> {
+    pub fn from_config(config: &Tables) -> Result<Self, ConfigError> {
         let ModelConfig::Ins(p) = &config.model else {
             return Err(invalid("model.kind", "not \"ins\""));
         };
@@ -149,13 +160,13 @@ impl InsModel {
 impl Default for EngineConfig {
     /// The limits of the default config.
     fn default() -> Self {
-        Self::from_config(&Config::default())
+        Self::from_config(&Tables::default())
     }
 }
 
 impl EngineConfig {
     /// The limits of a validated config.
-    pub fn from_config(c: &Config) -> Self {
+    pub fn from_config(c: &Tables) -> Self {
         Self {
             history_ns: c.filter.history_ns,
             history_capacity: c.filter.history_capacity,

@@ -78,7 +78,7 @@ fn ins_config_uses_kalibr_names() {
     assert!(err(&INS.replace("1e-6,1e-6,1e-6]", "1e-6,1e-6]")).contains("needs 15 values"));
     assert_eq!(p.constraints, None, "the motion constraint is opt-in");
     let with = |table: &str| Config::parse(&INS.replace("[filter]", &format!("[model.constraints]\n{table}[filter]")));
-    let ModelConfig::Ins(p) = with("nonholonomic_std_mps = 0.2\n").unwrap().model else { panic!() };
+    let ModelConfig::Ins(p) = with("nonholonomic_std_mps = 0.2\n").unwrap().model.clone() else { panic!() };
     let nhc = p.constraints.unwrap();
     assert_eq!((nhc.std_mps, nhc.interval_ns, nhc.min_speed_mps), (0.2, 50_000_000, 1.0));
     let bad = |table: &str| with(table).unwrap_err().to_string();

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use fusion_shared::StateSnapshot;
-use fusion_shared::snapshot::model;
+use fusion_shared::snapshot::{Model, model};
 use serde_json::Value;
 
 /// A tilted ins snapshot: roll, pitch, yaw (rad) as its attitude (the
@@ -40,29 +40,62 @@ fn ins_snapshot(rpy: [f64; 3], quaternion_scale: f64) -> StateSnapshot {
     s
 }
 
-/// Two tilted ins snapshots (the second with a quaternion of norm 2), a linear
+/// A snapshot of `model` as fusiond would publish it: its state length and
+/// covariance side, distinct values in every entry (a unit quaternion where the
+/// layout has one) and distinct variances.
+fn model_snapshot(model: Model) -> StateSnapshot {
+    let mut s = StateSnapshot {
+        model: model.code(),
+        state_len: model.state_len() as u32,
+        cov_dim: model.cov_dim() as u32,
+        ..Default::default()
+    };
+    for (i, (name, _)) in model.state_layout().iter().enumerate() {
+        s.x[i] = match name.split(' ').next() {
+            Some("q_w") => 0.5,
+            Some("q_x" | "q_y" | "q_z") => -0.5,
+            _ => 0.25 * (i as f64 + 1.0) - 1.5,
+        };
+    }
+    let n = model.cov_dim();
+    (0..n).for_each(|i| s.cov[i * n + i] = 0.01 * (i + 1) as f64);
+    s
+}
+
+/// The snapshots the accessors are compared on, each with how many of the 12
+/// accessors must give a value (both languages agreeing on `None` for the rest).
+///
+/// One snapshot of every model in the model list (so a new model's layout is
+/// compared without a line here; it must at least have a position and its σ),
+/// two tilted ins snapshots (the second with a quaternion of norm 2), a linear
 /// one, and what must read as missing: an unknown model, a short state, a
 /// garbled covariance side, a default (never published) snapshot.
-pub fn cases() -> Vec<StateSnapshot> {
+pub fn cases() -> Vec<(StateSnapshot, Option<usize>)> {
     let ins = ins_snapshot([0.3, -0.2, 2.0], 1.0);
     let mut linear = StateSnapshot { model: model::LINEAR, state_len: 6, cov_dim: 6, ..Default::default() };
     linear.x[..6].copy_from_slice(&[4.0, 5.0, 6.0, 0.1, 0.2, 0.3]);
     (0..6).for_each(|i| linear.cov[i * 6 + i] = 0.5 + i as f64);
-    vec![
-        ins,
-        ins_snapshot([-1.2, 0.7, -2.9], 2.0),
-        linear,
-        StateSnapshot { model: 9, ..ins },
-        StateSnapshot { state_len: 5, ..ins },
-        StateSnapshot { cov_dim: 20, ..ins },
-        StateSnapshot::default(),
-    ]
+    let mut cases: Vec<_> = Model::ALL.iter().map(|&m| (model_snapshot(m), None)).collect();
+    cases.extend([
+        // Every accessor of both ins snapshots; position to velocity_std of the
+        // linear one; of the short state its position and the five standard
+        // deviations its covariance has (not roll/pitch/yaw: no attitude); of the
+        // garbled side the six state accessors.
+        (ins, Some(12)),
+        (ins_snapshot([-1.2, 0.7, -2.9], 2.0), Some(12)),
+        (linear, Some(4)),
+        (StateSnapshot { model: 9, ..ins }, Some(0)),
+        (StateSnapshot { state_len: 5, ..ins }, Some(6)),
+        (StateSnapshot { cov_dim: 20, ..ins }, Some(6)),
+        (StateSnapshot::default(), Some(0)),
+    ]);
+    cases
 }
 
 /// Writes [`cases`] raw, one `StateSnapshot` after another, to `dir/snapshots.bin`.
 pub fn write_cases(dir: &Path) -> PathBuf {
     let path = dir.join("snapshots.bin");
-    let bytes: Vec<u8> = cases().iter().flat_map(|s| super::snapshot_bytes(s).to_vec()).collect();
+    let bytes: Vec<u8> = cases().iter().flat_map(|(s, _)| super::snapshot_bytes(s).to_vec()).collect();
     std::fs::write(&path, bytes).unwrap();
     path
 }
@@ -91,8 +124,8 @@ pub fn assert_agree(printed: &str) {
     let lines: Vec<Value> = printed.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
     let cases = cases();
     assert_eq!(lines.len(), cases.len(), "{printed}");
-    let mut compared = 0;
-    for (i, (case, line)) in cases.iter().zip(&lines).enumerate() {
+    for (i, ((case, expected), line)) in cases.iter().zip(&lines).enumerate() {
+        let mut compared = 0;
         for (name, accessor) in ACCESSORS {
             match (accessor(case), &line[name]) {
                 (None, Value::Null) => {}
@@ -110,10 +143,13 @@ pub fn assert_agree(printed: &str) {
                 (rust, v) => panic!("case {i}: {name}: printed {v}, rust {rust:?}"),
             }
         }
+        match expected {
+            Some(n) => assert_eq!(compared, *n, "case {i}: accessors with a value\n{printed}"),
+            None => {
+                let model = case.model().expect("a listed model");
+                assert!(case.position().is_some() && case.position_std().is_some(), "{model}: no position");
+                assert!(compared >= 2, "{model}: {compared} accessors with a value\n{printed}");
+            }
+        }
     }
-    // Every accessor of both ins snapshots; position to velocity_std of the
-    // linear one; of the short state its position and the five standard
-    // deviations its covariance has (not roll/pitch/yaw: no attitude); of the
-    // garbled side the six state accessors.
-    assert_eq!(compared, 12 + 12 + 4 + 6 + 6, "{printed}");
 }
