@@ -2,7 +2,7 @@
 //! snapshots that cross Zenoh (two iceoryx2 domains, two bridges on loopback TCP)
 //! beside the same snapshots read over shared memory in the publisher's domain.
 //!
-//! A stand-in for fusiond publishes `StateSnapshot`s (4192 B) on `<ns>/state` of
+//! A stand-in for fusiond publishes `StateSnapshot`s (4208 B) on `<ns>/state` of
 //! domain A, stamped with `publish_ns`, at 1 kHz and 10 kHz (10 kHz as bursts of
 //! 10 every millisecond), and as fast as it can; a reader in domain A and a reader
 //! in domain B (behind `--state out` and `--state in` bridges) each wait on the

@@ -58,6 +58,9 @@
 // Entries of `FusionStateSnapshot.sensors` (the first `sensor_count` are in use).
 #define FUSION_MAX_SENSORS 16
 
+// Braking to a stop, and pulling away after it, each take this long, s.
+#define STOP_RAMP_S 4.0
+
 // What a C API call did.
 typedef enum FusionStatus {
   // Done.
@@ -376,6 +379,14 @@ typedef struct FusionStateSnapshot {
   // --compare` does the same work at the same points, to reproduce every
   // snapshot, provisional ones included.
   uint64_t background_steps;
+  // Standstill updates (zero velocity and zero rate) fused since the start
+  // (`ins` with `[model.standstill]`; 0 otherwise).
+  uint64_t standstill_updates;
+  // 1 while the vehicle is detected standing still (`[model.standstill]`: the
+  // attitude is held and standstill updates are fused), 0 otherwise.
+  uint32_t standing;
+  // 0 (keeps the layout free of padding in every language).
+  uint32_t reserved;
 } FusionStateSnapshot;
 
 #ifdef __cplusplus

@@ -152,6 +152,12 @@ max_readers = 8
 #   nonholonomic_std_mps = 0.1             # how far the vehicle violates it (slip, suspension), 1 sigma
 #   nonholonomic_interval_ns = 50_000_000  # applied at most this often
 #   nonholonomic_min_speed_mps = 1.0       # and only above this forward speed
+#   [model.standstill]                     # optional: detect standing still (IMU and speed), then
+#   window_ns = 200_000_000                #   zero-velocity and zero-rate updates every window, attitude held
+#   imu_threshold = 3.0                    # quiet window: variance <= this x the noise densities' at rest
+#   max_speed_mps = 0.3                    # estimated speed at most this (without recent odometry)
+#   odometry_speed_mps = 0.01              # odometry speed at most this (when odometry came)
+#   velocity_std_mps = 0.01                # sigma of the zero-velocity update
 #   [filter]
 #   initial_state = [px, py, pz, vx, vy, vz, qw, qx, qy, qz, bax, bay, baz, bgx, bgy, bgz]
 #   initial_covariance_diagonal = [15 values: dp(3), dv(3), dtheta(3), dba(3), dbg(3)]

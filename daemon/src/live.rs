@@ -312,6 +312,7 @@ impl<M: Steps> LiveCore<M> {
             snapshots: self.report.snapshots - snapshots,
             latency_ns,
             health: self.health_now.pair(),
+            standing: self.engine.latest().map(|e| M::standstill(&e.state)),
         };
         self.latency.reset();
         self.last_summary = (now, kinds, self.report.snapshots);

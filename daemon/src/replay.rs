@@ -69,6 +69,13 @@ pub struct ReplaySummary {
     pub reinitialisations: u64,
     /// Line numbers of the first fixes after which it did.
     pub reinitialised_at: Vec<u64>,
+    /// Times the vehicle was found standing still (`[model.standstill]`), and
+    /// the standstill updates fused, at the end of the run.
+    pub standstills: u64,
+    /// Standstill updates fused.
+    pub standstill_updates: u64,
+    /// Whether the newest estimate so far stands still.
+    standing: bool,
 }
 
 impl std::fmt::Display for ReplaySummary {
@@ -95,6 +102,14 @@ impl std::fmt::Display for ReplaySummary {
         }
         if c.invalid > self.invalid_lines.len() as u64 {
             writeln!(f, "  … and {} more invalid lines", c.invalid - self.invalid_lines.len() as u64)?;
+        }
+        if self.standstills > 0 {
+            writeln!(
+                f,
+                "stood still {} ({} standstill updates: zero velocity and rate, attitude held)",
+                if self.standstills == 1 { "once".to_string() } else { format!("{} times", self.standstills) },
+                self.standstill_updates
+            )?;
         }
         if self.reinitialisations > 0 {
             let lines: Vec<String> = self.reinitialised_at.iter().map(u64::to_string).collect();
@@ -349,6 +364,9 @@ fn replay_model<M: Steps>(
             summary.reinitialised_at.push(position);
         }
         summary.reinitialisations = reinitialisations;
+        let (standing, updates) = engine.latest().map_or((false, 0), |e| M::standstill(&e.state));
+        summary.standstills += u64::from(standing && !summary.standing);
+        (summary.standing, summary.standstill_updates) = (standing, updates);
         sink.check()?;
     }
     engine.flush(&mut |e| sink.take(e));

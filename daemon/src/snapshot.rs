@@ -73,6 +73,9 @@ pub fn fill<M: Steps>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Optio
         M::write_covariance(&latest.state, &mut snap.cov[..M::COV_DIM * M::COV_DIM]);
         snap.cov_dim = M::COV_DIM as u32;
         snap.reinitialisations = M::reinitialisations(&latest.state);
+        let (standing, updates) = M::standstill(&latest.state);
+        snap.standing = u32::from(standing);
+        snap.standstill_updates = updates;
     }
     match input {
         Some(i) => {

@@ -24,6 +24,9 @@ pub struct Summary {
     pub latency_ns: Option<(u64, u64, u64)>,
     /// Health state and reasons at the end of the interval.
     pub health: (u32, u32),
+    /// Standing still at the end of the interval, and the standstill updates
+    /// so far (`None` before any sample).
+    pub standing: Option<(bool, u64)>,
 }
 
 /// The summary thread and the sending half of its channel.
@@ -79,7 +82,7 @@ pub fn format(s: &Summary) -> String {
     };
     format!(
         "{}: fused {}, gated {}, late {}, too late {}, duplicate {}, invalid {}, lost {}, rate-limited {}, restarts {}; \
-         {} snapshots; publish latency p50/p99/max {}; health {}{}",
+         {} snapshots; publish latency p50/p99/max {}; health {}{}{}",
         rates.join(", "),
         total.fused,
         total.gated,
@@ -94,6 +97,10 @@ pub fn format(s: &Summary) -> String {
         latency,
         health::name(s.health.0),
         if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) },
+        match s.standing {
+            Some((true, updates)) => format!("; standing still ({updates} standstill updates)"),
+            _ => String::new(),
+        },
     )
 }
 

@@ -103,7 +103,10 @@ fn rust_layout() -> Value {
             readers_refused,
             pending_steps,
             pending_since_t_ns,
-            background_steps
+            background_steps,
+            standstill_updates,
+            standing,
+            reserved
         }),
     ];
     assert_eq!(types.len(), 4 + SampleKind::COUNT, "a new kind needs its layout here and a Python mirror");

@@ -158,6 +158,13 @@ pub struct SnapshotJson {
     /// Samples re-processed in fusiond's idle time since start.
     #[serde(default)]
     pub background_steps: u64,
+    /// The vehicle was detected standing still (`[model.standstill]`). Absent in
+    /// recordings of fusiond before wire v8.
+    #[serde(default)]
+    pub standing: bool,
+    /// Standstill updates fused since start.
+    #[serde(default)]
+    pub standstill_updates: u64,
 }
 
 /// A correction still to land ([`StateSnapshot::pending_steps`]).
@@ -292,6 +299,8 @@ impl From<&StateSnapshot> for SnapshotJson {
             readers_refused: s.readers_refused,
             pending: (!s.settled()).then_some(PendingJson { steps: s.pending_steps, since_t_ns: s.pending_since_t_ns }),
             background_steps: s.background_steps,
+            standing: s.standing(),
+            standstill_updates: s.standstill_updates,
         }
     }
 }

@@ -269,7 +269,7 @@ impl SensorCounters {
 /// §5.3.3). Because the quaternion's 4 entries share 3 error states,
 /// covariance row `i` lines up with state entry `i` only for `i < 6`.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("fusion.StateSnapshot.v7")]
+#[type_name("fusion.StateSnapshot.v8")]
 #[repr(C)]
 pub struct StateSnapshot {
     /// Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
@@ -367,6 +367,14 @@ pub struct StateSnapshot {
     /// --compare` does the same work at the same points, to reproduce every
     /// snapshot, provisional ones included.
     pub background_steps: u64,
+    /// Standstill updates (zero velocity and zero rate) fused since the start
+    /// (`ins` with `[model.standstill]`; 0 otherwise).
+    pub standstill_updates: u64,
+    /// 1 while the vehicle is detected standing still (`[model.standstill]`: the
+    /// attitude is held and standstill updates are fused), 0 otherwise.
+    pub standing: u32,
+    /// 0 (keeps the layout free of padding in every language).
+    pub reserved: u32,
 }
 
 impl Default for StateSnapshot {
@@ -409,11 +417,20 @@ impl Default for StateSnapshot {
             pending_steps: 0,
             pending_since_t_ns: 0,
             background_steps: 0,
+            standstill_updates: 0,
+            standing: 0,
+            reserved: 0,
         }
     }
 }
 
 impl StateSnapshot {
+    /// Whether the vehicle was detected standing still at this estimate's time
+    /// (the field `standing`).
+    pub const fn standing(&self) -> bool {
+        self.standing != 0
+    }
+
     /// The sensors that are stale ([`StateSnapshot::stale_sensors`]).
     pub fn stale_sensor_counters(&self) -> impl Iterator<Item = &SensorCounters> {
         let stale = self.stale_sensors;
@@ -491,6 +508,6 @@ const _: () = {
     assert!(core::mem::align_of::<StateSnapshot>() == 8);
     assert!(
         core::mem::size_of::<StateSnapshot>()
-            == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 128 * MAX_SENSORS + 24 + 32 + 16 + 24
+            == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 128 * MAX_SENSORS + 24 + 32 + 16 + 24 + 16
     );
 };

@@ -279,6 +279,12 @@ class Snapshot:
         return MODEL_NAMES.get(self.raw.model, "unknown")
 
     @property
+    def standing(self) -> bool:
+        """Whether the vehicle was detected standing still (``[model.standstill]``:
+        the attitude is held, zero-velocity and zero-rate updates are fused)."""
+        return self.raw.standing != 0
+
+    @property
     def settled(self) -> bool:
         """Whether the estimate includes every sample fusiond had received (no
         late sample's correction pending, ``pending_steps == 0``). A provisional

@@ -137,9 +137,9 @@ class SensorCounters(_Wire):
 
 
 class StateSnapshot(_Wire):
-    """The fusion state after one processed sample (``fusion.StateSnapshot.v7``)."""
+    """The fusion state after one processed sample (``fusion.StateSnapshot.v8``)."""
 
-    TYPE_NAME = "fusion.StateSnapshot.v7"
+    TYPE_NAME = "fusion.StateSnapshot.v8"
     _fields_ = [
         ("seq", ctypes.c_uint64),
         ("publish_ns", ctypes.c_uint64),
@@ -178,6 +178,9 @@ class StateSnapshot(_Wire):
         ("pending_steps", ctypes.c_uint64),
         ("pending_since_t_ns", ctypes.c_uint64),
         ("background_steps", ctypes.c_uint64),
+        ("standstill_updates", ctypes.c_uint64),
+        ("standing", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
     ]
 
 

@@ -24,8 +24,8 @@ use std::time::Duration;
 
 use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
 use fusion_client::sim::{
-    Arrival, CarTrajectory, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, ImuSim, OdometryConfig,
-    PositionConfig, Scenario, ScenarioConfig, VelocityConfig,
+    Arrival, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, ImuSim, OdometryConfig, PositionConfig, Scenario,
+    ScenarioConfig, Stop, VelocityConfig,
 };
 use fusion_client::{Client, SampleKind, SensorPublishers, now_ns};
 use fusion_shared::geodesy::Datum;
@@ -184,6 +184,11 @@ struct SimArgs {
     /// linear model) or `body` specific force and angular rate (a real IMU).
     #[arg(long, value_enum, default_value_t = ImuKind::World)]
     imu_output: ImuKind,
+    /// A stop of the car, `AT:SECONDS`: it brakes from AT s into the drive, stands
+    /// still for SECONDS (4 s after braking starts) and drives off (4 s to full
+    /// speed). Repeat for more stops, in order.
+    #[arg(long, value_name = "AT:SECONDS")]
+    stop: Vec<String>,
     /// Trajectory time 0 as a sample timestamp, ns (record only).
     #[arg(long, default_value_t = 1_000_000_000)]
     start_ns: u64,
@@ -201,8 +206,10 @@ impl SimArgs {
             seed: self.seed,
             duration_s: self.duration,
             start_ns: self.start_ns,
+            stops: self.stop.iter().map(|s| parse_stop(s)).collect::<anyhow::Result<_>>()?,
             ..Default::default()
         };
+        c.trajectory().map_err(|e| anyhow::anyhow!("--stop: {e}"))?;
         c.imu.rate_hz = self.imu_rate;
         c.imu.jitter_ns = self.imu_jitter_us * 1000;
         c.imu.accel_noise_std = self.accel_noise;
@@ -296,6 +303,18 @@ fn triple(name: &str, values: Option<&[f64]>) -> anyhow::Result<Option<[f64; 3]>
         .transpose()
 }
 
+/// A stop, `AT:SECONDS`.
+fn parse_stop(text: &str) -> anyhow::Result<Stop> {
+    let bad = || anyhow::anyhow!("--stop {text:?}: expected AT:SECONDS, e.g. 20:60");
+    let (at, duration) = text.split_once(':').ok_or_else(bad)?;
+    let (at_s, duration_s) =
+        (at.trim().parse::<f64>().map_err(|_| bad())?, duration.trim().parse::<f64>().map_err(|_| bad())?);
+    if !(at_s.is_finite() && at_s >= 0.0 && duration_s.is_finite() && duration_s >= 0.0) {
+        return Err(bad());
+    }
+    Ok(Stop { at_s, duration_s })
+}
+
 /// An IMU mount, `AXES:ROLL,PITCH,YAW` (degrees), as the rotation body ← IMU.
 fn parse_mount(text: &str) -> anyhow::Result<Matrix3<f64>> {
     let bad = || anyhow::anyhow!("--imu-mount {text:?}: expected AXES:ROLL,PITCH,YAW, e.g. frd:3,-2,90");
@@ -355,7 +374,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 return publish_file(&client, &path, realtime, allow_no_daemon, &stop);
             }
             let start = start_at_ns.unwrap_or_else(|| now_ns() + 100_000_000);
-            let trajectory = CarTrajectory::new(config.seed);
+            let trajectory = config.trajectory().map_err(|e| anyhow::anyhow!("--stop: {e}"))?;
             let end_ns = start + (config.duration_s * 1e9) as u64;
             let mut publishers = SensorPublishers::default();
             let mut imus = Vec::new();

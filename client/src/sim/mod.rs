@@ -27,7 +27,7 @@ macro_rules! kind_modules {
 fusion_shared::for_each_sample_kind!(kind_modules);
 
 pub use scenario::{Arrival, Scenario, ScenarioConfig};
-pub use trajectory::{CarTrajectory, TruthState};
+pub use trajectory::{CarTrajectory, Stop, TruthState};
 
 /// A simulated sensor besides the IMU (whose stream drives time): its settings,
 /// from which it makes its stream of [`Arrival`]s on a trajectory. A [`Scenario`]

@@ -1,6 +1,7 @@
 //! Simulated wheel odometry: the true forward speed of the body at the
 //! odometry's reference point (the rear axle), with a wheel-radius scale error
-//! and white noise, arriving after a short delay.
+//! and white noise, arriving after a short delay; 0 while the car stands (no
+//! encoder ticks).
 
 use fusion_shared::{OdometrySample, Sample, SampleKind};
 use nalgebra::Vector3;
@@ -74,7 +75,9 @@ impl Iterator for OdometrySim {
         let noise: f64 = StandardNormal.sample(&mut self.rng);
         let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
         let true_speed = truth.body_velocity(&Vector3::from(c.lever_arm_m)).x;
-        let speed = true_speed * (1.0 + c.scale_error) + noise * c.noise_std_mps;
+        // A wheel that does not turn gives no encoder ticks: exactly 0.
+        let standing = truth.vel_mps == Vector3::zeros() && truth.omega_body_radps == Vector3::zeros();
+        let speed = if standing { 0.0 } else { true_speed * (1.0 + c.scale_error) + noise * c.noise_std_mps };
         // What a calibrated odometry reports: its noise and its scale uncertainty.
         let var = c.noise_std_mps.powi(2) + (c.scale_error * true_speed).powi(2);
         let t_ns = self.start_ns + offset_ns;

@@ -17,7 +17,7 @@ use rand_distr::{Distribution, StandardNormal};
 use super::AidingSim;
 use super::imu::{ImuConfig, ImuOutput, ImuSim};
 use super::position::PositionConfig;
-use super::trajectory::{CarTrajectory, TruthState};
+use super::trajectory::{CarTrajectory, Stop, TruthState};
 
 /// A sample with the time it reaches the daemon.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -84,6 +84,8 @@ pub struct ScenarioConfig {
     pub position: PositionConfig,
     /// Further sensors (velocity, …), each with its own settings.
     pub aiding: Vec<Arc<dyn AidingSim>>,
+    /// Stops of the drive, in order (see [`CarTrajectory::with_stops`]).
+    pub stops: Vec<Stop>,
 }
 
 impl Default for ScenarioConfig {
@@ -97,6 +99,7 @@ impl Default for ScenarioConfig {
             imu_output: ImuOutput::WorldAcceleration,
             position: PositionConfig::default(),
             aiding: Vec::new(),
+            stops: Vec::new(),
         }
     }
 }
@@ -110,6 +113,12 @@ impl ScenarioConfig {
         position.into_iter().chain(self.aiding.iter().map(|a| &**a))
     }
 
+    /// The drive's truth: the trajectory of `seed` with `stops`, or why the
+    /// stops are not valid.
+    pub fn trajectory(&self) -> Result<CarTrajectory, String> {
+        CarTrajectory::new(self.seed).with_stops(&self.stops)
+    }
+
     /// Every IMU: `imu`, then `extra_imus`.
     pub fn imus(&self) -> impl Iterator<Item = &ImuConfig> {
         std::iter::once(&self.imu).chain(&self.extra_imus)
@@ -118,8 +127,12 @@ impl ScenarioConfig {
 
 impl Scenario {
     /// Simulates a drive.
+    ///
+    /// # Panics
+    /// If `config.stops` are out of order or not finite: check them first with
+    /// [`ScenarioConfig::trajectory`] (as `fusion-sim` does).
     pub fn generate(config: &ScenarioConfig) -> Self {
-        let trajectory = CarTrajectory::new(config.seed);
+        let trajectory = config.trajectory().unwrap_or_else(|e| panic!("ScenarioConfig::stops: {e}"));
         let end_ns = config.start_ns + to_ns(config.duration_s);
         let imu = config.imus().flat_map(|imu| {
             ImuSim::new(trajectory.clone(), imu.clone(), config.imu_output, config.start_ns, config.seed)

@@ -2,9 +2,16 @@
 //!
 //! Each axis is `p(t) = v₀ t + Σ aᵢ sin(ωᵢ t + φᵢ)`, so position, velocity,
 //! acceleration and jerk are exact at any time. Forward speed stays within about
-//! 3–15 m/s and never reaches zero; the heading swings by up to ±70° (turns); the
-//! height changes gently (small pitch). Phases come from a seed, so Monte-Carlo
-//! runs drive different roads. Every drive starts at the world origin.
+//! 3–15 m/s; the heading swings by up to ±70° (turns); the height changes gently
+//! (small pitch). Phases come from a seed, so Monte-Carlo runs drive different
+//! roads. Every drive starts at the world origin.
+//!
+//! Stops ([`CarTrajectory::with_stops`]) slow the same road down: the car is at
+//! road time `τ(t) = ∫ s dt` with a speed factor `s(t)` that falls from 1 to 0 over
+//! [`STOP_RAMP_S`] (`s = ½(1 + cos(π u / T))`), stays 0 while the car stands and
+//! rises back. With `′` the derivative by `τ`: `v = p′ s`,
+//! `a = p″ s² + p′ ṡ`, `j = p‴ s³ + 3 p″ s ṡ + p′ s̈`, `ω = ω_τ s`, and the
+//! attitude is the road's at `τ` (it does not change while the car stands).
 //!
 //! Attitude (body forward-left-up to world ENU, `R = Rz(ψ) Ry(θ) Rx(φ)`): the
 //! nose points along the velocity (yaw `ψ = atan2(v_y, v_x)`, pitch
@@ -71,6 +78,52 @@ struct Term {
     phase: f64,
 }
 
+/// A stop of a drive: the car brakes to a standstill, stands, and drives off.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stop {
+    /// When the braking starts, s since the start of the drive.
+    pub at_s: f64,
+    /// How long the car stands still, s.
+    pub duration_s: f64,
+}
+
+/// Braking to a stop, and pulling away after it, each take this long, s.
+pub const STOP_RAMP_S: f64 = 4.0;
+
+impl Stop {
+    /// When the car drives at full speed again, s.
+    pub fn end_s(&self) -> f64 {
+        self.at_s + 2.0 * STOP_RAMP_S + self.duration_s
+    }
+
+    /// Whether the car stands still at `t_s`.
+    pub fn standing(&self, t_s: f64) -> bool {
+        t_s >= self.at_s + STOP_RAMP_S && t_s <= self.at_s + STOP_RAMP_S + self.duration_s
+    }
+
+    /// Road time lost by `t_s` (`∫ (1 − s)`), and `s`, `ṡ`, `s̈` at `t_s`.
+    fn warp(&self, t_s: f64) -> (f64, f64, f64, f64) {
+        use std::f64::consts::PI;
+        let (ramp, stand) = (STOP_RAMP_S, self.duration_s);
+        let u = t_s - self.at_s;
+        let k = PI / ramp;
+        if u <= 0.0 {
+            (0.0, 1.0, 0.0, 0.0)
+        } else if u < ramp {
+            let (sin, cos) = (k * u).sin_cos();
+            (0.5 * u - sin / (2.0 * k), 0.5 * (1.0 + cos), -0.5 * k * sin, -0.5 * k * k * cos)
+        } else if u <= ramp + stand {
+            (0.5 * ramp + (u - ramp), 0.0, 0.0, 0.0)
+        } else if u < 2.0 * ramp + stand {
+            let w = u - ramp - stand;
+            let (sin, cos) = (k * w).sin_cos();
+            (0.5 * ramp + stand + 0.5 * w + sin / (2.0 * k), 0.5 * (1.0 - cos), 0.5 * k * sin, 0.5 * k * k * cos)
+        } else {
+            (ramp + stand, 1.0, 0.0, 0.0)
+        }
+    }
+}
+
 /// A car-like trajectory (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
 pub struct CarTrajectory {
@@ -78,6 +131,7 @@ pub struct CarTrajectory {
     origin_m: [f64; 3],
     drift_mps: [f64; 3],
     axes: [[Term; 2]; 3],
+    stops: Vec<Stop>,
 }
 
 impl CarTrajectory {
@@ -95,15 +149,63 @@ impl CarTrajectory {
             [Term { amplitude: 3.0, omega: 0.05, phase: phase() }, Term { amplitude: 0.4, omega: 0.3, phase: phase() }],
         ];
         let roll_phase = phase();
-        let mut traj = Self { roll_phase, origin_m: [0.0; 3], drift_mps: [9.0, 0.0, 0.0], axes };
+        let mut traj = Self { roll_phase, origin_m: [0.0; 3], drift_mps: [9.0, 0.0, 0.0], axes, stops: Vec::new() };
         // The drive starts at the world origin.
         let start = traj.at(0.0).pos_m;
         traj.origin_m = [-start.x, -start.y, -start.z];
         traj
     }
 
+    /// The same road with `stops` (each after the end of the one before, the
+    /// first at or after 0), or why not.
+    pub fn with_stops(mut self, stops: &[Stop]) -> Result<Self, String> {
+        let mut end = 0.0;
+        for stop in stops {
+            if !(stop.at_s.is_finite() && stop.duration_s.is_finite() && stop.duration_s >= 0.0) {
+                return Err(format!("stop at {} s for {} s: not finite, or negative", stop.at_s, stop.duration_s));
+            }
+            if stop.at_s < end {
+                return Err(format!("stop at {} s starts before the one before it has ended ({end} s)", stop.at_s));
+            }
+            end = stop.end_s();
+        }
+        self.stops = stops.to_vec();
+        Ok(self)
+    }
+
+    /// The stops of this drive.
+    pub fn stops(&self) -> &[Stop] {
+        &self.stops
+    }
+
+    /// Whether the car stands still at `t_s`.
+    pub fn standing(&self, t_s: f64) -> bool {
+        self.stops.iter().any(|s| s.standing(t_s))
+    }
+
     /// The truth at `t_s` seconds.
     pub fn at(&self, t_s: f64) -> TruthState {
+        let Some(stop) = self.stops.iter().rev().find(|s| t_s > s.at_s) else {
+            return self.road(t_s);
+        };
+        let lost_before: f64 = self.stops.iter().take_while(|s| s.at_s < stop.at_s).map(|s| s.warp(f64::MAX).0).sum();
+        let (lost, s, s1, s2) = stop.warp(t_s);
+        let road = self.road(t_s - lost_before - lost);
+        if s == 1.0 {
+            return TruthState { t_s, ..road };
+        }
+        TruthState {
+            t_s,
+            vel_mps: road.vel_mps * s,
+            acc_mps2: road.acc_mps2 * (s * s) + road.vel_mps * s1,
+            jerk_mps3: road.jerk_mps3 * (s * s * s) + road.acc_mps2 * (3.0 * s * s1) + road.vel_mps * s2,
+            omega_body_radps: road.omega_body_radps * s,
+            ..road
+        }
+    }
+
+    /// The truth at road time `t_s` (the trajectory without stops).
+    fn road(&self, t_s: f64) -> TruthState {
         let mut s = TruthState {
             t_s,
             pos_m: Vector3::zeros(),
@@ -190,6 +292,36 @@ mod tests {
             assert!((f.z - 9.80665).abs() < 0.5, "{f}");
             assert!((s.attitude * f - (s.acc_mps2 + Vector3::new(0.0, 0.0, 9.80665))).norm() < 1e-12);
         }
+    }
+
+    #[test]
+    fn stops_keep_the_derivatives_consistent_and_stand_still() {
+        let stop = Stop { at_s: 5.0, duration_s: 10.0 };
+        let traj = CarTrajectory::new(3).with_stops(&[stop, Stop { at_s: 30.0, duration_s: 2.0 }]).unwrap();
+        let h = 1e-4;
+        for t in [2.0, 5.5, 7.9, 12.0, 19.2, 22.0, 31.0, 36.5, 45.0] {
+            let (a, b, c) = (traj.at(t - h), traj.at(t), traj.at(t + h));
+            assert!(((c.pos_m - a.pos_m) / (2.0 * h) - b.vel_mps).amax() < 1e-6, "t {t}");
+            assert!(((c.vel_mps - a.vel_mps) / (2.0 * h) - b.acc_mps2).amax() < 1e-6, "t {t}");
+            assert!(((c.acc_mps2 - a.acc_mps2) / (2.0 * h) - b.jerk_mps3).amax() < 1e-5, "t {t}");
+            let r = |t: f64| traj.at(t).attitude.to_rotation_matrix().into_inner();
+            let r_dot = (r(t + h) - r(t - h)) / (2.0 * h);
+            assert!((r_dot - r(t) * b.omega_body_radps.cross_matrix()).amax() < 1e-6, "t {t}");
+        }
+        // Standing: the same pose from the end of the braking to the start of pulling away.
+        let (first, last) = (traj.at(5.0 + STOP_RAMP_S), traj.at(5.0 + STOP_RAMP_S + 10.0));
+        assert_eq!(first.pos_m, last.pos_m);
+        assert_eq!(first.attitude, last.attitude);
+        assert!(traj.at(12.0).vel_mps.norm() == 0.0 && traj.at(12.0).omega_body_radps.norm() == 0.0);
+        assert!(traj.standing(12.0) && !traj.standing(20.0));
+        // After the stops the road goes on where it was, late by the time stood and braked.
+        let lost = STOP_RAMP_S + 10.0 + STOP_RAMP_S + 2.0;
+        assert!((traj.at(60.0).pos_m - CarTrajectory::new(3).at(60.0 - lost).pos_m).norm() < 1e-9);
+        // Without stops the trajectory is the road's, bit for bit.
+        let plain = CarTrajectory::new(3);
+        assert_eq!(plain.clone().with_stops(&[]).unwrap().at(7.0), plain.at(7.0));
+        assert!(CarTrajectory::new(3).with_stops(&[stop, Stop { at_s: 10.0, duration_s: 1.0 }]).is_err());
+        assert!(CarTrajectory::new(3).with_stops(&[Stop { at_s: 1.0, duration_s: f64::NAN }]).is_err());
     }
 
     #[test]

@@ -137,6 +137,24 @@ impl InsModel {
                 ));
             }
         }
+        if let Some(c) = &p.standstill {
+            if !(c.window_ns >= 10_000_000 && c.window_ns <= 10_000_000_000) {
+                return Err(invalid(
+                    "model.standstill.window_ns",
+                    format!("must be in 10_000_000..=10_000_000_000 (10 ms to 10 s), got {}", c.window_ns),
+                ));
+            }
+            positive("model.standstill.imu_threshold", c.imu_threshold)?;
+            positive("model.standstill.velocity_std_mps", c.velocity_std_mps)?;
+            for (key, v) in [
+                ("model.standstill.max_speed_mps", c.max_speed_mps),
+                ("model.standstill.odometry_speed_mps", c.odometry_speed_mps),
+            ] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(invalid(key, format!("must be a finite number >= 0, got {v}")));
+                }
+            }
+        }
         let (x0, p0) = initial_values::<{ ins::NOMINAL }, { ins::N }>(config)?;
         let norm = x0[6..10].iter().map(|v| v * v).sum::<f64>().sqrt();
         if (norm - 1.0).abs() > 1e-3 {
@@ -152,7 +170,10 @@ impl InsModel {
         }
         Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)
             .and_then(|m| m.with_form(config.filter.form))
-            .map(|m| m.with_nonholonomic(p.constraints).with_frames(frames).with_lockout(config.lockout))
+            .map(|m| {
+                let m = m.with_nonholonomic(p.constraints).with_standstill(p.standstill);
+                m.with_frames(frames).with_lockout(config.lockout)
+            })
             .map_err(|e| invalid("filter.initial_state", e.to_string()))
     }
 }

@@ -90,6 +90,30 @@ fn ins_config_uses_kalibr_names() {
 }
 
 #[test]
+fn standstill_is_opt_in_with_defaults_and_refuses_absurd_values() {
+    use crate::model::ins::Standstill;
+    let ModelConfig::Ins(p) = &Config::parse(INS).unwrap().model else { panic!() };
+    assert_eq!(p.standstill, None, "standstill is opt-in");
+    let with = |table: &str| Config::parse(&INS.replace("[filter]", &format!("[model.standstill]\n{table}[filter]")));
+    let ModelConfig::Ins(p) = with("").unwrap().model.clone() else { panic!() };
+    assert_eq!(p.standstill, Some(Standstill::default()));
+    let ModelConfig::Ins(p) = with("window_ns = 500_000_000\nvelocity_std_mps = 0.02\n").unwrap().model.clone() else {
+        panic!()
+    };
+    let tuned = p.standstill.unwrap();
+    assert_eq!((tuned.window_ns, tuned.velocity_std_mps, tuned.imu_threshold), (500_000_000, 0.02, 3.0));
+    let bad = |table: &str| with(table).unwrap_err().to_string();
+    assert!(bad("window_ns = 1000\n").contains("model.standstill.window_ns"));
+    assert!(bad("window_ns = 100_000_000_000\n").contains("model.standstill.window_ns"));
+    assert!(bad("imu_threshold = 0\n").contains("model.standstill.imu_threshold"));
+    assert!(bad("imu_threshold = nan\n").contains("model.standstill.imu_threshold"));
+    assert!(bad("velocity_std_mps = -0.1\n").contains("model.standstill.velocity_std_mps"));
+    assert!(bad("max_speed_mps = -1\n").contains("model.standstill.max_speed_mps"));
+    assert!(bad("odometry_speed_mps = inf\n").contains("model.standstill.odometry_speed_mps"));
+    assert!(bad("zupt = true\n").contains("zupt"), "unknown keys are errors");
+}
+
+#[test]
 fn lockout_recovery_is_on_with_the_gate_and_can_be_tuned_or_turned_off() {
     use crate::model::lockout::LockoutConfig;
     assert_eq!(Config::parse(MIN).unwrap().lockout, None, "no gate, nothing to be locked out by");

@@ -13,7 +13,7 @@ use nalgebra::Vector3;
 
 use super::{Fuse, Limits, Measurement, Needed, Rejection, finite};
 use crate::model::held_imu::Held;
-use crate::model::ins::nonholonomic;
+use crate::model::ins::{nonholonomic, standstill};
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
@@ -54,9 +54,10 @@ impl Fuse<LinearModel> for ImuSample {
 }
 
 /// `ins`: specific force and rate, rotated into the body frame, are held
-/// (combined over the IMUs, and summed during the static alignment); then the
-/// motion constraint, if configured, is due at most every `interval`
-/// ([`nonholonomic`]).
+/// (combined over the IMUs, and summed during the static alignment); then, if
+/// configured, standstill detection and its updates ([`standstill`]), and while
+/// the vehicle does not stand the motion constraint, due at most every
+/// `interval` ([`nonholonomic`]). One update at most per sample.
 impl Fuse<InsModel> for ImuSample {
     fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<nalgebra::SVector<f64, 15>>) {
         let (f, w) = body_values(self, model);
@@ -67,8 +68,15 @@ impl Fuse<InsModel> for ImuSample {
         }
         let t = self.header.t_ns;
         let mut injected = None;
+        if let Some(c) = model.standstill()
+            && s.ready
+        {
+            injected = standstill::observe(c, model, s, t, f, w);
+        }
         if let Some(c) = model.nonholonomic()
             && s.ready
+            && injected.is_none()
+            && !s.standing()
             && s.constrained_ns.is_none_or(|last| t >= last.saturating_add(c.interval_ns))
         {
             s.constrained_ns = Some(t);

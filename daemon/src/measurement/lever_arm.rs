@@ -48,7 +48,10 @@ pub fn velocity(s: &InsState, l: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3
     let mut H = SMatrix::<f64, 3, N>::zeros();
     H.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
     H.fixed_view_mut::<3, 3>(0, 6).copy_from(&(-R * wl.cross_matrix()));
-    H.fixed_view_mut::<3, 3>(0, 12).copy_from(&(R * l.cross_matrix()));
+    // While standing `ω` is 0 whatever `b_g` is ([`InsModel::body_rate`]).
+    if !s.standing() {
+        H.fixed_view_mut::<3, 3>(0, 12).copy_from(&(R * l.cross_matrix()));
+    }
     (s.v() + R * wl, H)
 }
 

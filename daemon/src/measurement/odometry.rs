@@ -68,7 +68,10 @@ pub fn forward_speed(s: &InsState, l: &Vector3<f64>) -> (f64, SMatrix<f64, 1, N>
     for k in 0..3 {
         H[(0, 3 + k)] = R[(k, 0)]; // (Rᵀ)[0][k]
         H[(0, 6 + k)] = vx[(0, k)];
-        H[(0, 12 + k)] = lx[(0, k)];
+        // While standing `ω` is 0 whatever `b_g` is ([`InsModel::body_rate`]).
+        if !s.standing() {
+            H[(0, 12 + k)] = lx[(0, k)];
+        }
     }
     (v_b.x + w.cross(l).x, H)
 }
@@ -85,6 +88,9 @@ impl Fuse<LinearModel> for OdometrySample {
 
 impl Fuse<InsModel> for OdometrySample {
     fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, N>>) {
+        if let Some(c) = model.standstill() {
+            s.still.odometry(c, self.header.t_ns, self.speed_mps);
+        }
         if !nonholonomic::attitude_known(s) {
             return (StepOutcome::Refused, None);
         }

@@ -31,7 +31,10 @@
 //! Measurements are fused by their kinds' modules in the layer above (the
 //! daemon's `measurement` module), with `InsModel::update_block` for those that
 //! observe a 3-vector of the nominal state; the optional land-vehicle motion
-//! constraint ([`nonholonomic`]) is fused after IMU samples.
+//! constraint ([`nonholonomic`]) and standstill detection with its zero-velocity
+//! and zero-rate updates ([`standstill`]) are fused after IMU samples. While the
+//! vehicle stands the attitude is held: `ω = 0`, no `δθ` noise, no `δθ`–`δb_g`
+//! coupling.
 //!
 //! Discretisation over `dt` with `f = f_m − b_a`, `ω = ω_m − b_g` held (Solà eq. 260, 269–271):
 //!
@@ -64,6 +67,7 @@ mod error_state;
 mod linearised;
 pub mod nonholonomic;
 mod reinit;
+pub mod standstill;
 
 pub(crate) use error_state::inject_and_reset;
 use error_state::{ProcessNoise, inject};
@@ -77,6 +81,7 @@ use crate::frames::Frames;
 use crate::model::held_imu::{Held, HeldImu};
 use crate::model::lockout::{Lockout, LockoutConfig};
 pub use nonholonomic::Nonholonomic;
+pub use standstill::Standstill;
 
 /// Error-state dimension.
 pub const N: usize = 15;
@@ -116,6 +121,8 @@ pub struct InsParams {
     pub alignment: Option<AlignmentParams>,
     /// Land-vehicle motion constraint (`[model.constraints]`), if any.
     pub constraints: Option<Nonholonomic>,
+    /// Standstill detection and its updates (`[model.standstill]`), if any.
+    pub standstill: Option<Standstill>,
 }
 
 impl InsParams {
@@ -143,6 +150,7 @@ pub struct InsModel {
     lockout: Option<LockoutConfig>,
     alignment_samples: u32,
     nonholonomic: Option<Nonholonomic>,
+    standstill: Option<Standstill>,
     frames: Frames,
 }
 
@@ -175,6 +183,8 @@ pub struct InsState {
     pub(crate) constrained_ns: Option<u64>,
     /// The run of gated fixes ([`crate::model::lockout`]).
     lockout: Lockout,
+    /// Standstill detection ([`standstill`]).
+    pub(crate) still: standstill::Detector,
 }
 
 impl InsState {
@@ -191,6 +201,7 @@ impl InsState {
             ready: false,
             constrained_ns: None,
             lockout: Lockout::default(),
+            still: standstill::Detector::default(),
         }
     }
 
@@ -218,6 +229,14 @@ impl InsState {
     /// The error-state filter.
     pub fn filter(&self) -> &KalmanFilter<f64, N> {
         &self.kf
+    }
+    /// Whether the vehicle stands still (detected; the attitude is held).
+    pub fn standing(&self) -> bool {
+        self.still.standing()
+    }
+    /// Standstill updates fused so far.
+    pub fn standstill_updates(&self) -> u64 {
+        self.still.updates
     }
 
     pub(crate) fn set(
@@ -274,6 +293,7 @@ impl InsModel {
             lockout: None,
             alignment_samples,
             nonholonomic: None,
+            standstill: None,
             frames: Frames::default(),
         })
     }
@@ -294,6 +314,22 @@ impl InsModel {
     pub fn with_nonholonomic(mut self, constraint: Option<Nonholonomic>) -> Self {
         self.nonholonomic = constraint;
         self
+    }
+
+    /// The same model with standstill detection and its updates.
+    pub fn with_standstill(mut self, standstill: Option<Standstill>) -> Self {
+        self.standstill = standstill;
+        self
+    }
+
+    /// Standstill detection, if configured.
+    pub fn standstill(&self) -> Option<&Standstill> {
+        self.standstill.as_ref()
+    }
+
+    /// The IMU noise.
+    pub fn noise(&self) -> &ImuNoise {
+        &self.noise
     }
 
     fn g(&self) -> Vector3<f64> {
@@ -324,7 +360,7 @@ impl InsModel {
     /// values; the transition used (if the filter accepted it) goes to `log`.
     fn propagate(&self, s: &mut InsState, dt: f64, log: Option<&mut StepLog<f64, N>>) {
         let held = s.imu.mean();
-        let Q = self.process_noise(dt, held.map_or(1, |(_, _, n)| n));
+        let mut Q = self.process_noise(dt, held.map_or(1, |(_, _, n)| n));
         let moving = held.filter(|_| s.ready);
         let Some((f_m, w_m, _)) = moving else {
             // Nothing to integrate yet: hold the nominal state, grow the covariance.
@@ -335,7 +371,19 @@ impl InsModel {
             }
             return;
         };
-        let (p_new, v_new, q_new, F) = self.mechanise(s, f_m, w_m, dt);
+        // Standing: the body does not turn ([`standstill`]).
+        let standing = s.still.standing;
+        let w_m = if standing { s.b_g() } else { w_m };
+        let (p_new, v_new, q_new, mut F) = self.mechanise(s, f_m, w_m, dt);
+        if standing {
+            Q.theta = 0.0;
+            F.gyro_dt = 0.0;
+            // Linearised at the specific force of a body at rest, `Rᵀ(−g)`, not at
+            // the noisy sample: `A = −R [Rᵀ(−g)]× = −[−g]× R`, which leaves the
+            // yaw error out of δv (see [`standstill`]).
+            let R = s.q().to_rotation_matrix().into_inner();
+            F.A = -(-self.g()).cross_matrix() * R;
+        }
         if s.kf.predict_structured(|_| {}, |P| F.propagate_covariance(P, &Q), || (F.dense(), Q.dense())).is_ok() {
             let (b_a, b_g) = (s.b_a(), s.b_g());
             s.set(p_new, v_new, q_new, b_a, b_g);
@@ -379,8 +427,11 @@ impl InsModel {
     }
 
     /// The body angular rate `ω = ω_m − b_g` of the held IMU values (zero before
-    /// any), rad/s.
+    /// any, and while the vehicle stands: [`standstill`]), rad/s.
     pub(crate) fn body_rate(s: &InsState) -> Vector3<f64> {
+        if s.still.standing {
+            return Vector3::zeros();
+        }
         s.imu.mean().map_or_else(Vector3::zeros, |(_, w, _)| w - s.b_g())
     }
 
@@ -395,7 +446,20 @@ impl InsModel {
         H: &SMatrix<f64, M, N>,
         R: &SMatrix<f64, M, M>,
     ) -> (StepOutcome, Option<SVector<f64, N>>) {
-        let options = UpdateOptions { gate: self.gate.as_ref(), fault_detector: None };
+        self.update_residual_gated(s, y, H, R, self.gate.as_ref())
+    }
+
+    /// [`update_residual`](Self::update_residual) with `gate` instead of the
+    /// configured one (`None`: not gated).
+    pub(crate) fn update_residual_gated<const M: usize>(
+        &self,
+        s: &mut InsState,
+        y: &SVector<f64, M>,
+        H: &SMatrix<f64, M, N>,
+        R: &SMatrix<f64, M, M>,
+        gate: Option<&ChiSquareGate>,
+    ) -> (StepOutcome, Option<SVector<f64, N>>) {
+        let options = UpdateOptions { gate, fault_detector: None };
         match s.kf.update_nonlinear(y, &SVector::zeros(), H, R, options) {
             Ok(d) if d.decision == UpdateDecision::Accepted => {
                 (StepOutcome::Fused { nis: d.nis }, Some(inject_and_reset(s)))
@@ -501,6 +565,10 @@ impl Model for InsModel {
 
     fn reinitialisations(s: &InsState) -> u64 {
         s.lockout.count()
+    }
+
+    fn standstill(s: &InsState) -> (bool, u64) {
+        (s.standing(), s.standstill_updates())
     }
 
     fn x(s: &InsState) -> &[f64] {

@@ -114,6 +114,13 @@ pub trait Model {
         0
     }
 
+    /// Whether the vehicle stands still at this state (detected by the model's
+    /// standstill detection, if it has one) and the standstill updates fused up
+    /// to it.
+    fn standstill(_state: &Self::State) -> (bool, u64) {
+        (false, 0)
+    }
+
     /// Filter time, ns, or `None` before the first sample.
     fn time_ns(state: &Self::State) -> Option<u64>;
 

@@ -298,6 +298,8 @@ fn differences(live: &SnapshotJson, replay: &SnapshotJson) -> Vec<(String, Strin
     field("rewinds", live.rewinds.to_string(), replay.rewinds.to_string());
     field("pending", format!("{:?}", live.pending), format!("{:?}", replay.pending));
     field("background_steps", live.background_steps.to_string(), replay.background_steps.to_string());
+    field("standing", live.standing.to_string(), replay.standing.to_string());
+    field("standstill_updates", live.standstill_updates.to_string(), replay.standstill_updates.to_string());
     field("unknown_sensor", live.unknown_sensor.to_string(), replay.unknown_sensor.to_string());
     field("reinitialisations", live.reinitialisations.to_string(), replay.reinitialisations.to_string());
     out

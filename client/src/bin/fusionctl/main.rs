@@ -277,6 +277,11 @@ fn describe(s: &StateSnapshot) -> String {
         if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) }
     );
     o += &settledness(s);
+    if s.standing() {
+        o += &format!("standing still: attitude held, {} standstill updates so far\n", s.standstill_updates);
+    } else if s.standstill_updates > 0 {
+        o += &format!("moving ({} standstill updates so far)\n", s.standstill_updates);
+    }
     o += "\n";
     let layout = state_layout(s);
     let sd: Vec<f64> = s.std_devs().collect();

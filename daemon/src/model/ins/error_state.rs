@@ -26,6 +26,9 @@ fn row_major(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Transition {
     pub dt: f64,
+    /// The `δθ`–`δb_g` coupling `G` of `F` (block `−G I`): `dt`, or 0 while the
+    /// attitude is held at a standstill ([`super::standstill`]).
+    pub gyro_dt: f64,
     pub A: Matrix3<f64>,
     pub B: Matrix3<f64>,
     pub C: Matrix3<f64>,
@@ -85,7 +88,7 @@ impl Transition {
         F.fixed_view_mut::<3, 3>(3, 6).copy_from(&(self.A * dt));
         F.fixed_view_mut::<3, 3>(3, 9).copy_from(&(self.B * dt));
         F.fixed_view_mut::<3, 3>(6, 6).copy_from(&self.C);
-        F.fixed_view_mut::<3, 3>(6, 12).copy_from(&(-Matrix3::identity() * dt));
+        F.fixed_view_mut::<3, 3>(6, 12).copy_from(&(-Matrix3::identity() * self.gyro_dt));
         F
     }
 
@@ -109,7 +112,8 @@ impl Transition {
     /// and the bias blocks from `P`. About 800 multiply-adds against 6750 for the
     /// dense `F P Fᵀ`.
     pub fn propagate_covariance(&self, P: &mut SMatrix<f64, N, N>, Q: &ProcessNoise) {
-        propagate_blocks(&mut P.data.0, self.dt, &row_major(&self.A), &row_major(&self.B), &row_major(&self.C));
+        let (a, b, c) = (row_major(&self.A), row_major(&self.B), row_major(&self.C));
+        propagate_blocks(&mut P.data.0, self.dt, self.gyro_dt, &a, &b, &c);
         Q.add_to(P);
     }
 }
@@ -118,7 +122,14 @@ impl Transition {
 /// `p` (`p[c][r]`), in place; `a`, `b`, `c` row-major. Compiled for AVX2 as well,
 /// chosen at run time: the same operations in the same order, so the same bits.
 #[multiversion::multiversion(targets("x86_64+avx2"))]
-fn propagate_blocks(p: &mut [[f64; N]; N], dt: f64, a: &[[f64; 3]; 3], b: &[[f64; 3]; 3], c: &[[f64; 3]; 3]) {
+fn propagate_blocks(
+    p: &mut [[f64; N]; N],
+    dt: f64,
+    gyro_dt: f64,
+    a: &[[f64; 3]; 3],
+    b: &[[f64; 3]; 3],
+    c: &[[f64; 3]; 3],
+) {
     let hdt2 = 0.5 * dt * dt;
     // T = rows 0–8 of F P, column by column.
     let mut t = [[0.0; 9]; N];
@@ -132,7 +143,7 @@ fn propagate_blocks(p: &mut [[f64; N]; N], dt: f64, a: &[[f64; 3]; 3], b: &[[f64
             }
             tc[r] = pc[r] + dt * pc[3 + r] + hdt2 * w;
             tc[3 + r] = pc[3 + r] + dt * w;
-            tc[6 + r] = cr - dt * pc[12 + r];
+            tc[6 + r] = cr - gyro_dt * pc[12 + r];
         }
     }
 
@@ -149,7 +160,7 @@ fn propagate_blocks(p: &mut [[f64; N]; N], dt: f64, a: &[[f64; 3]; 3], b: &[[f64
         for i in 0..9 {
             p[r][i] = t[r][i] + dt * t[3 + r][i] + hdt2 * w[i];
             p[3 + r][i] = t[3 + r][i] + dt * w[i];
-            p[6 + r][i] = cr[i] - dt * t[12 + r][i];
+            p[6 + r][i] = cr[i] - gyro_dt * t[12 + r][i];
         }
     }
     symmetrize_leading(p, 9, Symmetrize::Average);

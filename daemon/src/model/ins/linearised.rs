@@ -32,7 +32,8 @@ impl InsModel {
         let v_new = v + a * dt;
         let mut q_new = q * dq;
         q_new.renormalize();
-        let F = Transition { dt, A: -R * f.cross_matrix(), B: -R, C: dq.to_rotation_matrix().into_inner().transpose() };
+        let C = dq.to_rotation_matrix().into_inner().transpose();
+        let F = Transition { dt, gyro_dt: dt, A: -R * f.cross_matrix(), B: -R, C };
         (p_new, v_new, q_new, F)
     }
 

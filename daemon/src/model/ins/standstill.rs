@@ -1,0 +1,547 @@
+//! Standstill: detected from the IMU and the speed, and while it lasts a
+//! zero-velocity and zero-rate update and a held attitude. A pseudo-measurement
+//! of the `ins` model, like the motion constraint ([`super::nonholonomic`]).
+//!
+//! **Detection** (the moving-variance and angular-rate-energy tests of Skog,
+//! Händel, Nilsson and Rantakokko, "Zero-velocity detection — an algorithm
+//! evaluation", IEEE T-BME 57(11), 2010, normalised by the configured noise):
+//! the IMU samples are summed over windows of `window_ns`. A window of `n`
+//! samples over `D` seconds from `k` IMUs has a per-IMU rate `r = n / (k D)`, so
+//! one sample at rest has the white-noise variance `σ_a² r` per accelerometer
+//! axis and `σ_g² r` per gyro axis (density² × rate). The window is *quiet* when
+//!
+//! ```text
+//! T_f = s_f² / (σ_a² r) ≤ γ,   T_ω = s_ω² / (σ_g² r) ≤ γ,
+//! T_m = Σᵢ (ω̄ᵢ − b_g,ᵢ)² / (σ_g² r / n + P_bg,ii) ≤ χ²₃(1 − 10⁻⁶) = 30.66,
+//! T_a = aᵀ Σ_a⁻¹ a ≤ 30.66,   a = R (f̄ − b_a) + g,   Σ_a = σ_a² r / n I + J P Jᵀ,
+//! J = [R [f̄ − b_a]×, R] on (δθ, δb_a)
+//! ```
+//!
+//! with `s_f²`, `s_ω²` the per-axis sample variances of the body specific force
+//! and rate over the window, `ω̄`, `f̄` their means, `γ` = `imu_threshold` and `P`
+//! the error covariance. The variance tests see vibration and jolts. The mean
+//! tests see what a smooth motion leaves: `T_m` a steady turn (its rate varies
+//! little), `T_a` a smooth acceleration (a car braking to a stop or pulling away
+//! accelerates smoothly, so `s_f²` hardly rises, but `a`, the acceleration the
+//! mean specific force implies, is not zero). At rest each is χ²₃ (a mean of `n`
+//! white samples less estimates whose covariance is `P`), so a standing vehicle
+//! fails one once in about 10⁶ windows; with a 200 Hz MEMS IMU a turn of 0.7°/s
+//! or an acceleration of a few tenths of a m/s² fails them. An IMU alone
+//! cannot tell a stop from a smooth cruise (a simulated one, or a real one on a
+//! smooth road), so standing also needs the speed: every odometry speed of the
+//! window (or, if none came in it, the last one, if it came within the last two
+//! windows) at most `odometry_speed_mps`; else the
+//! estimated speed `|v|` at most `max_speed_mps`.
+//!
+//! **While standing**, at the end of every quiet window, one update of six rows
+//! (Groves, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation
+//! Systems*, 2nd ed. 2013, §15.3.1 zero-velocity and §15.3.2 zero-angular-rate
+//! updates):
+//!
+//! ```text
+//! ZUPT   0 = v + n_v          y = −v            H = [0 I 0 0 0]   R = σ_zv² I
+//! ZARU   ω̄ = b_g + n_ω̄        y = ω̄ − b_g       H = [0 0 0 0 I]   R = (σ_g² r / n) I
+//! ```
+//!
+//! (`σ_zv` = `velocity_std_mps`; the ZARU noise is that of the mean of `n` white
+//! samples). It is not gated: the detection is its evidence, and the velocity
+//! error it must remove is largest when the vehicle has just stopped after a
+//! stretch without GNSS (where a χ² gate would refuse every update, and the
+//! drift would go on). A filter error (a covariance that is not positive
+//! definite) ends the standstill.
+//!
+//! The update does not move the **yaw**: nothing at rest observes it, yet the
+//! correlations the drive left between the yaw and the velocity and the biases
+//! would let every zero-velocity update nudge it (by a few hundredths of a degree
+//! each, zero on average: over 20 simulated stops the RMS yaw error was the same
+//! before and after a minute of such updates, while the yaw wandered by up to
+//! 0.45°). The world yaw error is `ψ = uᵀ δθ` with `u = Rᵀ e_z` (the up axis in the
+//! body frame), so the attitude rows of the gain are projected off `u`,
+//! `K_θ ← (I − u uᵀ) K_θ`, and the covariance takes the Joseph form with that gain,
+//! `P⁺ = (I − K H) P (I − K H)ᵀ + K R Kᵀ`, which is exact for any gain: the yaw is
+//! a *consider* direction of the Schmidt–Kalman filter (Schmidt 1966; Brink,
+//! "Partial-update Schmidt–Kalman filter", J. Guid. Control Dyn. 40(9), 2017).
+//! Its variance and its correlations stay honest; only its value is held.
+//! And the attitude is **held**: a standing vehicle does not turn, so the
+//! propagation uses `ω = 0` (the gyro is not integrated), adds no attitude noise
+//! and no `δθ`–`δb_g` coupling (the `−I dt` block of `F` is 0): the yaw, which
+//! nothing observes at rest, does not wander with the gyro's white noise and bias
+//! error. For the same reason the `δv`–`δθ` block of `F` is linearised at the
+//! specific force of a body at rest, `Rᵀ(−g)`, instead of at the noisy sample:
+//! `A = −R [Rᵀ(−g)]× = −[−g]× R` has no yaw column, while the horizontal noise of
+//! a sample would couple the yaw error into the velocity at random, and the
+//! zero-velocity updates would then "observe" the yaw and move it (the spurious
+//! information of an EKF linearised at noisy values; Huang, Mourikis and
+//! Roumeliotis, "Observability-based rules for designing consistent EKF SLAM
+//! estimators", IJRR 29(5), 2010). So the yaw and its variance stay what they
+//! were when the vehicle stopped.
+//!
+//! **Motion ends it** at once: an odometry speed above `odometry_speed_mps`, or an
+//! IMU sample whose bias-corrected rate exceeds [`EXIT_SIGMAS`] standard
+//! deviations of one sample at rest on any axis (either starts a new window, so a
+//! standstill starts again only after a whole window without motion); otherwise
+//! the next window that is not quiet.
+//!
+//! Everything it keeps is in the filter state ([`Detector`]), so a rewind replays
+//! it exactly.
+
+#![allow(non_snake_case)]
+
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+
+use crate::model::StepOutcome;
+use crate::model::ins::{InsModel, InsState, N, inject_and_reset};
+
+/// Rows of the standstill update: three of velocity, three of gyro bias.
+pub const INNOVATION_DIM: usize = 6;
+
+/// The bound of the mean tests `T_m` and `T_a`: χ²₃ at 1 − 10⁻⁶ (tables: 30.664).
+pub const MEAN_CHI2: f64 = 30.664;
+
+/// Standard deviations of one sample at rest beyond which a gyro axis ends a
+/// standstill at once (a false end, once in about 10⁸ samples, costs one window).
+pub const EXIT_SIGMAS: f64 = 6.0;
+
+/// The detector's and the updates' parameters (`[model.standstill]`).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Standstill {
+    /// Length of a detection window, ns (default 200 ms).
+    #[serde(default = "Standstill::default_window_ns")]
+    pub window_ns: u64,
+    /// `γ`: the most a quiet window's variance may be, as a multiple of the
+    /// variance the noise densities give at rest (default 3).
+    #[serde(default = "Standstill::default_imu_threshold")]
+    pub imu_threshold: f64,
+    /// Estimated speed above which the vehicle is not standing, m/s (default 0.3);
+    /// used when no odometry came in the last two windows.
+    #[serde(default = "Standstill::default_max_speed")]
+    pub max_speed_mps: f64,
+    /// Odometry speed at or below which it says standing, m/s (default 0.01).
+    #[serde(default = "Standstill::default_odometry_speed")]
+    pub odometry_speed_mps: f64,
+    /// `σ_zv`: standard deviation of the zero-velocity update, m/s (default 0.01).
+    #[serde(default = "Standstill::default_velocity_std")]
+    pub velocity_std_mps: f64,
+}
+
+impl Default for Standstill {
+    fn default() -> Self {
+        Self {
+            window_ns: Self::default_window_ns(),
+            imu_threshold: Self::default_imu_threshold(),
+            max_speed_mps: Self::default_max_speed(),
+            odometry_speed_mps: Self::default_odometry_speed(),
+            velocity_std_mps: Self::default_velocity_std(),
+        }
+    }
+}
+
+impl Standstill {
+    fn default_window_ns() -> u64 {
+        200_000_000
+    }
+    fn default_imu_threshold() -> f64 {
+        3.0
+    }
+    fn default_max_speed() -> f64 {
+        0.3
+    }
+    fn default_odometry_speed() -> f64 {
+        0.01
+    }
+    fn default_velocity_std() -> f64 {
+        0.01
+    }
+}
+
+/// The detector's state: the sums of the current window, whether the vehicle
+/// stands, the last odometry speed. Part of [`InsState`].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Detector {
+    /// Time of the window's first sample.
+    start_ns: Option<u64>,
+    /// Time of its last sample.
+    last_ns: u64,
+    /// Samples in it.
+    n: u32,
+    sum_f: [f64; 3],
+    sum_ff: f64,
+    sum_w: [f64; 3],
+    sum_ww: f64,
+    /// Standing: the attitude is held and the updates are due.
+    pub(crate) standing: bool,
+    /// Time and value of the last odometry speed, m/s.
+    odometry: Option<(u64, f64)>,
+    /// The largest odometry speed (magnitude) in the current window, m/s.
+    window_odometry: Option<f64>,
+    /// Standstill updates fused.
+    pub(crate) updates: u64,
+}
+
+impl Detector {
+    /// Whether the vehicle is standing (the attitude is held).
+    pub fn standing(&self) -> bool {
+        self.standing
+    }
+
+    /// Notes an odometry speed at `t_ns`; one above `c.odometry_speed_mps` ends
+    /// a standstill at once, and the window it falls in does not count for a new
+    /// one (so a standstill starts again only after a whole window without motion).
+    pub(crate) fn odometry(&mut self, c: &Standstill, t_ns: u64, speed_mps: f64) {
+        self.odometry = Some((t_ns, speed_mps));
+        self.window_odometry = Some(self.window_odometry.map_or(speed_mps.abs(), |m| m.max(speed_mps.abs())));
+        if speed_mps.abs() > c.odometry_speed_mps && self.standing {
+            self.standing = false;
+            self.clear_window();
+            self.window_odometry = Some(speed_mps.abs());
+        }
+    }
+
+    fn clear_window(&mut self) {
+        let (standing, odometry, updates) = (self.standing, self.odometry, self.updates);
+        *self = Self { standing, odometry, updates, ..Self::default() };
+    }
+}
+
+/// The statistics of a finished window.
+struct Window {
+    /// `T_f`, `T_ω`, `T_m`, `T_a` of the module docs.
+    tests: [f64; 4],
+    /// Mean body rate, rad/s.
+    mean_w: Vector3<f64>,
+    /// Variance of one gyro sample at rest, `σ_g² r`, (rad/s)².
+    sample_var_w: f64,
+    n: f64,
+}
+
+/// The tests of the window summed in `s.still` (`imus` IMUs in it).
+fn window(model: &InsModel, s: &InsState, imus: u32) -> Option<Window> {
+    let d = &s.still;
+    let n = f64::from(d.n);
+    let span_s = d.last_ns.saturating_sub(d.start_ns?) as f64 * 1e-9;
+    if d.n < 3 || span_s <= 0.0 {
+        return None;
+    }
+    // Samples over the span between the first and the last: n − 1 intervals.
+    let rate = (n - 1.0) / (f64::from(imus.max(1)) * span_s);
+    let noise = model.noise();
+    let sample_var_f = noise.accelerometer_noise_density.powi(2) * rate;
+    let sample_var_w = noise.gyroscope_noise_density.powi(2) * rate;
+    let mean = |s: &[f64; 3]| Vector3::new(s[0], s[1], s[2]) / n;
+    let (mean_f, mean_w) = (mean(&d.sum_f), mean(&d.sum_w));
+    // Per-axis sample variance: (Σ|x|² − n |x̄|²) / (3 (n − 1)).
+    let var = |ss: f64, m: &Vector3<f64>| ((ss - n * m.norm_squared()) / (3.0 * (n - 1.0))).max(0.0);
+    let P = s.kf.P();
+    let b_g = s.b_g();
+    let mean_rate: f64 = (0..3).map(|i| (mean_w[i] - b_g[i]).powi(2) / (sample_var_w / n + P[(12 + i, 12 + i)])).sum();
+    // T_a: r = R (f̄ − b_a) + g against Cov(r) = σ_a² r / n I + J P Jᵀ, J = [R [f̄ − b_a]×, R]
+    // on (δθ, δb_a).
+    let R = s.q().to_rotation_matrix().into_inner();
+    let phi = mean_f - s.b_a();
+    let r = R * phi + model.g();
+    let mut J = SMatrix::<f64, 3, 6>::zeros();
+    J.fixed_view_mut::<3, 3>(0, 0).copy_from(&(R * phi.cross_matrix()));
+    J.fixed_view_mut::<3, 3>(0, 3).copy_from(&R);
+    let cov = Matrix3::identity() * (sample_var_f / n) + J * P.fixed_view::<6, 6>(6, 6) * J.transpose();
+    let mean_force = cov.cholesky().map_or(f64::INFINITY, |c| r.dot(&c.solve(&r)));
+    let tests = [var(d.sum_ff, &mean_f) / sample_var_f, var(d.sum_ww, &mean_w) / sample_var_w, mean_rate, mean_force];
+    Some(Window { tests, mean_w, sample_var_w, n })
+}
+
+/// Whether the speed allows standing at `t_ns`: the last odometry speed if it
+/// is recent, else the estimate's.
+fn slow(c: &Standstill, d: &Detector, s: &InsState, t_ns: u64) -> bool {
+    if let Some(max) = d.window_odometry {
+        return max <= c.odometry_speed_mps;
+    }
+    match d.odometry {
+        Some((at, speed)) if t_ns.saturating_sub(at) <= 2 * c.window_ns => speed.abs() <= c.odometry_speed_mps,
+        _ => s.v().norm() <= c.max_speed_mps,
+    }
+}
+
+/// Takes one IMU sample (body specific force `f`, rate `w`, already held) at
+/// `t_ns`; at the end of a window decides whether the vehicle stands and, if
+/// it does, fuses the standstill update, whose correction it returns.
+pub fn observe(
+    c: &Standstill,
+    model: &InsModel,
+    s: &mut InsState,
+    t_ns: u64,
+    f: Vector3<f64>,
+    w: Vector3<f64>,
+) -> Option<SVector<f64, N>> {
+    let b_g = s.b_g();
+    let imus = s.imu.mean().map_or(1, |(_, _, k)| k);
+    let d = &mut s.still;
+    if d.standing {
+        let sample_sd = model.noise().gyroscope_noise_density * (rate_hint(d, imus)).sqrt();
+        if sample_sd > 0.0 && (w - b_g).amax() > EXIT_SIGMAS * sample_sd {
+            d.standing = false;
+            d.clear_window();
+        }
+    }
+    let start = *d.start_ns.get_or_insert(t_ns);
+    d.last_ns = t_ns;
+    d.n += 1;
+    for i in 0..3 {
+        d.sum_f[i] += f[i];
+        d.sum_w[i] += w[i];
+    }
+    d.sum_ff += f.norm_squared();
+    d.sum_ww += w.norm_squared();
+    if t_ns.saturating_sub(start) < c.window_ns {
+        return None;
+    }
+    let stats = window(model, s, imus);
+    let d = s.still;
+    s.still.clear_window();
+    let Some(stats) = stats else {
+        s.still.standing = false;
+        return None;
+    };
+    let [t_f, t_w, t_m, t_a] = stats.tests;
+    let quiet = t_f <= c.imu_threshold && t_w <= c.imu_threshold && t_m <= MEAN_CHI2 && t_a <= MEAN_CHI2;
+    if !(quiet && slow(c, &d, s, t_ns)) {
+        s.still.standing = false;
+        return None;
+    }
+    let entering = !s.still.standing;
+    s.still.standing = true;
+    let (outcome, injected) = fuse(c, model, s, &stats, entering);
+    if matches!(outcome, StepOutcome::Fused { .. }) {
+        s.still.updates += 1;
+    } else {
+        s.still.standing = false;
+    }
+    injected
+}
+
+/// The per-IMU rate of the current window so far, Hz (0 before two samples).
+fn rate_hint(d: &Detector, imus: u32) -> f64 {
+    let span_s = d.start_ns.map_or(0.0, |start| d.last_ns.saturating_sub(start) as f64 * 1e-9);
+    if d.n < 2 || span_s <= 0.0 { 0.0 } else { f64::from(d.n - 1) / (f64::from(imus.max(1)) * span_s) }
+}
+
+/// The ZUPT and ZARU rows of the module docs, as one update: the first of a
+/// standstill (`entering`) a full one, the others with the yaw held.
+fn fuse(
+    c: &Standstill,
+    model: &InsModel,
+    s: &mut InsState,
+    w: &Window,
+    entering: bool,
+) -> (StepOutcome, Option<SVector<f64, N>>) {
+    let mut H = SMatrix::<f64, INNOVATION_DIM, N>::zeros();
+    let mut R = SMatrix::<f64, INNOVATION_DIM, INNOVATION_DIM>::zeros();
+    let (v, b_g) = (s.v(), s.b_g());
+    let mut y = SVector::<f64, INNOVATION_DIM>::zeros();
+    let zaru_var = w.sample_var_w / w.n;
+    for i in 0..3 {
+        H[(i, 3 + i)] = 1.0;
+        H[(3 + i, 12 + i)] = 1.0;
+        R[(i, i)] = c.velocity_std_mps * c.velocity_std_mps;
+        R[(3 + i, 3 + i)] = zaru_var;
+        y[i] = -v[i];
+        y[3 + i] = w.mean_w[i] - b_g[i];
+    }
+    if entering {
+        return model.update_residual_gated(s, &y, &H, &R, None);
+    }
+    consider_yaw_update(s, &y, &H, &R)
+}
+
+/// The update of `y`, `H`, `R` with the yaw as a consider direction (see the
+/// module docs); the correction is injected and returned. Not gated.
+fn consider_yaw_update(
+    s: &mut InsState,
+    y: &SVector<f64, INNOVATION_DIM>,
+    H: &SMatrix<f64, INNOVATION_DIM, N>,
+    R: &SMatrix<f64, INNOVATION_DIM, INNOVATION_DIM>,
+) -> (StepOutcome, Option<SVector<f64, N>>) {
+    let P = s.kf.P();
+    let PHt = P * H.transpose();
+    let S = H * PHt + R;
+    let Some(chol) = S.cholesky() else {
+        return (StepOutcome::Refused, None);
+    };
+    let mut K = chol.solve(&PHt.transpose()).transpose();
+    let u = s.q().to_rotation_matrix().into_inner().transpose() * Vector3::z();
+    for c in 0..INNOVATION_DIM {
+        let k = Vector3::new(K[(6, c)], K[(7, c)], K[(8, c)]);
+        let k = k - u * u.dot(&k);
+        for i in 0..3 {
+            K[(6 + i, c)] = k[i];
+        }
+    }
+    let dx = K * y;
+    let I_KH = SMatrix::<f64, N, N>::identity() - K * H;
+    let P_new = I_KH * P * I_KH.transpose() + K * R * K.transpose();
+    let nis = y.dot(&chol.solve(y));
+    if s.kf.set_state(dx, P_new).is_err() {
+        return (StepOutcome::Refused, None);
+    }
+    (StepOutcome::Fused { nis }, Some(inject_and_reset(s)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Model;
+    use crate::model::ins::tests_support::NOISE;
+    use nalgebra::UnitQuaternion;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    const RATE_HZ: f64 = 200.0;
+    const GRAVITY: f64 = 9.80665;
+
+    /// A model with standstill on and a prior that knows the tilt to 0.01 rad, the
+    /// accelerometer bias to 0.01 m/s² and the gyro bias to 10⁻⁴ rad/s.
+    fn model() -> InsModel {
+        let mut x0 = [0.0; 16];
+        x0[6..10].copy_from_slice(&[1.0, 0.0, 0.0, 0.0]);
+        let mut p0 = [1e-2; N];
+        p0[6..9].copy_from_slice(&[1e-4, 1e-4, 4e-4]);
+        p0[9..12].copy_from_slice(&[1e-4; 3]);
+        p0[12..15].copy_from_slice(&[1e-8; 3]);
+        InsModel::new(NOISE, GRAVITY, x0, p0, None, 0).unwrap().with_standstill(Some(Standstill::default()))
+    }
+
+    fn yaw(s: &InsState) -> f64 {
+        s.q().euler_angles().2
+    }
+
+    /// Runs `seconds` of 200 Hz samples of true specific force `f` and rate `w`
+    /// (body frame) with the configured white noise, as the engine steps them:
+    /// propagate to the sample, hold it, observe it. Returns each sample's
+    /// standing flag.
+    fn drive(m: &InsModel, s: &mut InsState, t0_ns: u64, seconds: f64, f: Vector3<f64>, w: Vector3<f64>) -> Vec<bool> {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(t0_ns);
+        let c = *m.standstill().unwrap();
+        let mut noise =
+            |density: f64| Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut rng)) * density * RATE_HZ.sqrt();
+        let n = (seconds * RATE_HZ) as u64;
+        (0..n)
+            .map(|k| {
+                let t = t0_ns + k * 5_000_000;
+                m.propagate_to(s, t, None);
+                let (f, w) = (f + noise(NOISE.accelerometer_noise_density), w + noise(NOISE.gyroscope_noise_density));
+                m.hold_imu(s, 0, t, f, w);
+                observe(&c, m, s, t, f, w);
+                s.standing()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_vehicle_at_rest_is_found_standing_and_its_yaw_and_attitude_error_are_held() {
+        let m = model();
+        let mut s = m.initial_state();
+        let standing = drive(&m, &mut s, 1_000_000_000, 1.0, Vector3::new(0.0, 0.0, GRAVITY), Vector3::zeros());
+        assert!(standing[100..].iter().all(|&b| b), "standing from the second window on");
+        let (yaw0, updates0) = (yaw(&s), s.standstill_updates());
+        let u = s.q().to_rotation_matrix().into_inner().transpose() * Vector3::z();
+        let yaw_var = |s: &InsState| {
+            let P = s.filter().P();
+            let block = P.fixed_view::<3, 3>(6, 6);
+            (u.transpose() * block * u)[(0, 0)]
+        };
+        let var0 = yaw_var(&s);
+        drive(&m, &mut s, 2_000_000_000, 20.0, Vector3::new(0.0, 0.0, GRAVITY), Vector3::zeros());
+        assert!(s.standing());
+        assert!(s.standstill_updates() >= updates0 + 95, "{} updates", s.standstill_updates());
+        assert!(s.v().norm() < 0.05, "held at rest: {}", s.v());
+        // The yaw neither moves (gyro not integrated, updates consider it; what
+        // is left is the second-order effect of roll and pitch corrections on
+        // the Euler yaw, 10⁻⁶ rad here) nor gains or loses variance.
+        assert!((yaw(&s) - yaw0).abs() < 1e-5, "yaw moved by {}", yaw(&s) - yaw0);
+        assert!((yaw_var(&s) - var0).abs() <= 1e-5 * var0, "yaw variance {var0} -> {}", yaw_var(&s));
+        // Without standstill the same 20 s integrate the gyro's noise into the yaw.
+        let m_off = model().with_standstill(None);
+        let mut off = m_off.initial_state();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for k in 0..4200u64 {
+            let t = 1_000_000_000 + k * 5_000_000;
+            m_off.propagate_to(&mut off, t, None);
+            let n: f64 = StandardNormal.sample(&mut rng);
+            let w = Vector3::new(0.0, 0.0, n * NOISE.gyroscope_noise_density * RATE_HZ.sqrt());
+            m_off.hold_imu(&mut off, 0, t, Vector3::new(0.0, 0.0, GRAVITY), w);
+        }
+        assert!(yaw(&off).abs() > 1e-5, "{}", yaw(&off));
+    }
+
+    #[test]
+    fn a_smooth_acceleration_and_a_steady_turn_are_not_standing() {
+        let m = model();
+        let g = Vector3::new(0.0, 0.0, GRAVITY);
+        let mut s = m.initial_state();
+        let standing = drive(&m, &mut s, 1_000_000_000, 2.0, g + Vector3::new(1.0, 0.0, 0.0), Vector3::zeros());
+        assert!(standing.iter().all(|&b| !b), "1 m/s² forward is not rest");
+        let mut s = m.initial_state();
+        let standing = drive(&m, &mut s, 1_000_000_000, 2.0, g, Vector3::new(0.0, 0.0, 0.05));
+        assert!(standing.iter().all(|&b| !b), "a 3°/s turn is not rest");
+        // Vibration: the variance test.
+        let mut s = m.initial_state();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let c = *m.standstill().unwrap();
+        for k in 0..400u64 {
+            let t = 1_000_000_000 + k * 5_000_000;
+            m.propagate_to(&mut s, t, None);
+            let shake = Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut rng)) * 1.5;
+            m.hold_imu(&mut s, 0, t, g + shake, Vector3::zeros());
+            observe(&c, &m, &mut s, t, g + shake, Vector3::zeros());
+            assert!(!s.standing(), "an engine shaking the body at 1.5 m/s² is not rest");
+        }
+    }
+
+    #[test]
+    fn motion_ends_a_standstill_at_once() {
+        let m = model();
+        let c = *m.standstill().unwrap();
+        let g = Vector3::new(0.0, 0.0, GRAVITY);
+        let mut s = m.initial_state();
+        drive(&m, &mut s, 1_000_000_000, 1.0, g, Vector3::zeros());
+        assert!(s.standing());
+        // The wheels turn.
+        let mut moving = s;
+        moving.still.odometry(&c, 2_000_000_000, 0.2);
+        assert!(!moving.standing());
+        // A turn starts: one sample of 0.5 rad/s, far beyond the gyro's noise.
+        let t = 2_000_000_000;
+        m.propagate_to(&mut s, t, None);
+        let w = Vector3::new(0.0, 0.0, 0.5);
+        m.hold_imu(&mut s, 0, t, g, w);
+        observe(&c, &m, &mut s, t, g, w);
+        assert!(!s.standing());
+        // A vehicle whose estimated speed is above the bound is not standing,
+        // however quiet its IMU.
+        let mut fast = m.initial_state();
+        let q = UnitQuaternion::identity();
+        fast.set(Vector3::zeros(), Vector3::new(2.0, 0.0, 0.0), q, Vector3::zeros(), Vector3::zeros());
+        let standing = drive(&m, &mut fast, 1_000_000_000, 1.0, g, Vector3::zeros());
+        assert!(standing.iter().all(|&b| !b));
+    }
+
+    #[test]
+    fn while_standing_the_propagation_holds_the_attitude() {
+        let m = model();
+        let g = Vector3::new(0.0, 0.0, GRAVITY);
+        let mut s = m.initial_state();
+        drive(&m, &mut s, 1_000_000_000, 1.0, g, Vector3::zeros());
+        assert!(s.standing());
+        let (q0, P0) = (s.q(), s.filter().P());
+        // A gyro sample far off (held for the next step) does not turn the body.
+        m.hold_imu(&mut s, 0, 2_000_000_000, g, Vector3::new(0.0, 0.0, 0.01));
+        m.propagate_to(&mut s, 2_100_000_000, None);
+        assert_eq!(s.q(), q0);
+        let P = s.filter().P();
+        for i in 6..9 {
+            assert_eq!(P[(i, i)], P0[(i, i)], "no attitude noise while standing");
+            for j in 12..15 {
+                assert_eq!(P[(i, j)], P0[(i, j)], "no attitude–gyro bias coupling while standing");
+            }
+        }
+    }
+}
