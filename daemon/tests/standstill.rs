@@ -272,3 +272,80 @@ fn a_minute_standing_still_does_not_drift_short() {
 fn a_minute_standing_still_does_not_drift_full() {
     check(20);
 }
+
+/// The real fusiond, a real `fusion-sim` (IMU, GNSS and wheel odometry of a car
+/// that stops for 4 s) over iceoryx2: the snapshots published while the car
+/// stands say so (`standing`, `standstill_updates`), those of the drive do not,
+/// and `fusionctl state` says "standing still" while it stands.
+#[test]
+fn a_live_fusiond_reports_the_stop_in_its_snapshots() {
+    use std::process::{Command, Stdio};
+    use std::time::{Duration, Instant};
+
+    use common::live::{Daemon, TestDomain, workspace_bin};
+    use fusion_client::sim::CarTrajectory;
+    use fusion_shared::service::DOMAIN_ENV;
+    use fusion_shared::{SampleKind, StateSnapshot, now_ns};
+
+    const SEED: u64 = 5;
+    let stop = Stop { at_s: 1.5, duration_s: 4.0 };
+    let drive_s = stop.end_s() + 1.0;
+    let _heartbeat = common::heartbeat::Heartbeat::start("standstill live", Duration::from_secs(12));
+    let domain = TestDomain::new("standstill-live");
+    let config = format!(
+        "{}{STANDSTILL}[gating]\nprobability = 0.9999\n\
+         [[sensor]]\nname = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\n",
+        common::ins_config_at_truth(SEED)
+    );
+    let mut daemon = Daemon::start(&domain, &config, "event");
+    let mut state = domain.client().state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER).unwrap();
+    let fusionctl = workspace_bin("fusionctl");
+    let start_ns = now_ns() + 700_000_000;
+    let mut sim = Command::new(workspace_bin("fusion-sim"))
+        .args(["run", "--namespace", &domain.namespace, "--seed", &SEED.to_string()])
+        .args(["--duration", &drive_s.to_string(), "--start-at-ns", &start_ns.to_string()])
+        .args(["--imu-output", "body", "--imu-rate", "200", "--accel-noise", "0.283", "--gyro-noise", "0.0141"])
+        .args(["--velocity-rate", "10", "--odometry-rate", "50", "--odometry-lever-arm", "0,0,0"])
+        .args(["--stop", &format!("{}:{}", stop.at_s, stop.duration_s)])
+        .env(DOMAIN_ENV, &domain.domain)
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+
+    // `fusionctl state` in the middle of the stop.
+    let middle_ns = start_ns + ((stop.at_s + STOP_RAMP_S + stop.duration_s / 2.0) * 1e9) as u64;
+    let mut said = None;
+    let mut snaps: Vec<StateSnapshot> = Vec::new();
+    let end = Instant::now() + Duration::from_secs_f64(0.7 + drive_s + 1.0);
+    while Instant::now() < end {
+        if said.is_none() && now_ns() >= middle_ns {
+            let out = Command::new(&fusionctl)
+                .args(["state", "--namespace", &domain.namespace])
+                .env(DOMAIN_ENV, &domain.domain)
+                .output()
+                .unwrap();
+            said = Some(String::from_utf8_lossy(&out.stdout).into_owned());
+        }
+        if let Some(s) = state.wait_next(Duration::from_millis(20)).unwrap()
+            && s.input_kind == SampleKind::Imu as u32
+        {
+            snaps.push(*s);
+        }
+    }
+    let _ = sim.wait();
+    daemon.terminate();
+
+    let truth = CarTrajectory::new(SEED).with_stops(&[stop]).unwrap();
+    let t = |s: &StateSnapshot| (s.t_ns as f64 - start_ns as f64) * 1e-9;
+    // Standing from the second window of the stop to its end; driving well away from it.
+    let standing: Vec<_> = snaps.iter().filter(|s| truth.standing(t(s)) && truth.standing(t(s) - 0.5)).collect();
+    let driving: Vec<_> = snaps.iter().filter(|s| truth.at(t(s)).vel_mps.norm() > 1.0).collect();
+    assert!(standing.len() > 300 && driving.len() > 300, "{} and {} snapshots", standing.len(), driving.len());
+    let found = standing.iter().filter(|s| s.standing()).count();
+    assert!(found * 100 >= standing.len() * 95, "{found} of {} snapshots of the stop say standing", standing.len());
+    assert!(driving.iter().all(|s| !s.standing()), "no snapshot of the drive says standing");
+    let last = snaps.last().unwrap();
+    assert!(last.standstill_updates >= 15, "{} standstill updates", last.standstill_updates);
+    let said = said.expect("fusionctl state ran");
+    assert!(said.contains("standing still: attitude held"), "{said}");
+}

@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
 use clap::{Parser, ValueEnum};
-use fusion_client::sim::CarTrajectory;
+use fusion_client::sim::{CarTrajectory, Stop};
 use fusion_client::{Client, StateSnapshot, now_ns};
 use fusion_shared::snapshot::INPUT_NONE;
 use hdrhistogram::Histogram;
@@ -32,6 +32,11 @@ struct Args {
     /// IMU: body specific force and rates with noise and biases, error-state INS).
     #[arg(long, value_enum, default_value_t = ModelArg::Linear)]
     model: ModelArg,
+    /// A stop of the car, `AT:SECONDS`: it brakes from AT s into the drive, stands
+    /// for SECONDS and drives off (repeat for more stops). With `--model ins`
+    /// fusiond detects it and holds the estimate still.
+    #[arg(long, value_name = "AT:SECONDS")]
+    stop: Vec<Stop>,
 }
 
 /// `fusiond run --wait`.
@@ -83,6 +88,9 @@ probability = 0.999
 [model.constraints]
 # a car: no sideways or vertical body velocity, up to 0.1 m/s
 nonholonomic_std_mps = 0.1
+
+[model.standstill]
+# standing still (a traffic light): zero velocity and rate, the attitude held
 
 [datum]
 # where the drive starts: Theresienwiese, Munich
@@ -205,6 +213,9 @@ fn run(args: Args) -> anyhow::Result<()> {
         }
         Ok(p)
     };
+    let truth = CarTrajectory::new(args.seed).with_stops(&args.stop).map_err(|e| anyhow::anyhow!("--stop: {e}"))?;
+    let stops: Vec<String> =
+        args.stop.iter().flat_map(|s| ["--stop".to_string(), format!("{}:{}", s.at_s, s.duration_s)]).collect();
     let work = bin_dir.join("demo");
     std::fs::create_dir_all(&work)?;
     let ins = args.model == ModelArg::Ins;
@@ -283,6 +294,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             .args(role)
             .args(["--seed", &args.seed.to_string(), "--duration", &args.duration.to_string()])
             .args(["--start-at-ns", &start_ns.to_string()])
+            .args(&stops)
             .args(if imu { imu_args } else { &[] })
             .args(if ins { &INS_IMU_MOUNTS[..] } else { &[] })
             .args(match (imu, ins) {
@@ -319,7 +331,6 @@ fn run(args: Args) -> anyhow::Result<()> {
     // With the recorder and this reader.
     let processes = children.0.len() + 2;
 
-    let truth = CarTrajectory::new(args.seed);
     let truth_path = work.join("demo.truth.jsonl");
     let mut truth_file = std::io::BufWriter::new(std::fs::File::create(&truth_path)?);
     let mut latency = Histogram::<u64>::new_with_bounds(1, 10_000_000_000, 3)?;
@@ -328,6 +339,10 @@ fn run(args: Args) -> anyhow::Result<()> {
     // Health as of the last snapshot a sample triggered (later ones only say the
     // sensors stopped).
     let mut drive_health = None;
+    // While the car stands: snapshots of samples then, how many of them say
+    // standing, the estimate's position when it stopped and its largest move.
+    let (mut stood, mut found_standing) = (0u64, 0u64);
+    let (mut stop_at, mut stop_drift) = (None::<[f64; 3]>, 0.0f64);
     let mut next_status = Instant::now();
     let end = Instant::now() + Duration::from_secs_f64(args.duration + 0.5);
     while !stop.load(Ordering::Relaxed) && Instant::now() < end {
@@ -355,6 +370,14 @@ fn run(args: Args) -> anyhow::Result<()> {
         last = Some((*s, err));
         if s.input_kind != INPUT_NONE {
             drive_health = Some((s.health, s.health_reasons));
+            if x.len() >= 3 && truth.standing(t) {
+                stood += 1;
+                found_standing += u64::from(s.standing());
+                let at = *stop_at.get_or_insert([x[0], x[1], x[2]]);
+                stop_drift = stop_drift.max(((x[0] - at[0]).powi(2) + (x[1] - at[1]).powi(2)).sqrt());
+            } else {
+                stop_at = None;
+            }
         }
         if Instant::now() >= next_status {
             next_status = Instant::now() + Duration::from_millis(250);
@@ -367,7 +390,7 @@ fn run(args: Args) -> anyhow::Result<()> {
                 x[1],
                 x[2],
                 err,
-                describe(s),
+                if s.standing() { format!("{}, standing", describe(s)) } else { describe(s) },
                 pos.map_or(0, |c| c.counts.fused),
                 pos.map_or(0, |c| c.counts.gated),
                 latency.value_at_quantile(0.5) as f64 / 1e3,
@@ -415,6 +438,15 @@ fn run(args: Args) -> anyhow::Result<()> {
         sd[2],
         (sum_sq / n_err.max(1) as f64).sqrt()
     );
+    if stood > 0 {
+        println!(
+            "  while the car stood: fusiond found it standing in {:.1} % of the samples ({} standstill updates); \
+             the estimate moved at most {:.3} m horizontally",
+            100.0 * found_standing as f64 / stood as f64,
+            s.standstill_updates,
+            stop_drift
+        );
+    }
     println!(
         "  end-to-end latency, sample published -> snapshot received ({} samples, --wait {wait}):\n    p50 {:.1} us, \
          p90 {:.1} us, p99 {:.1} us, max {:.1} us",

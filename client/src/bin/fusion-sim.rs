@@ -188,7 +188,7 @@ struct SimArgs {
     /// still for SECONDS (4 s after braking starts) and drives off (4 s to full
     /// speed). Repeat for more stops, in order.
     #[arg(long, value_name = "AT:SECONDS")]
-    stop: Vec<String>,
+    stop: Vec<Stop>,
     /// Trajectory time 0 as a sample timestamp, ns (record only).
     #[arg(long, default_value_t = 1_000_000_000)]
     start_ns: u64,
@@ -206,7 +206,7 @@ impl SimArgs {
             seed: self.seed,
             duration_s: self.duration,
             start_ns: self.start_ns,
-            stops: self.stop.iter().map(|s| parse_stop(s)).collect::<anyhow::Result<_>>()?,
+            stops: self.stop.clone(),
             ..Default::default()
         };
         c.trajectory().map_err(|e| anyhow::anyhow!("--stop: {e}"))?;
@@ -301,18 +301,6 @@ fn triple(name: &str, values: Option<&[f64]>) -> anyhow::Result<Option<[f64; 3]>
             <[f64; 3]>::try_from(v).map_err(|_| anyhow::anyhow!("{name}: expected three numbers X,Y,Z, got {v:?}"))
         })
         .transpose()
-}
-
-/// A stop, `AT:SECONDS`.
-fn parse_stop(text: &str) -> anyhow::Result<Stop> {
-    let bad = || anyhow::anyhow!("--stop {text:?}: expected AT:SECONDS, e.g. 20:60");
-    let (at, duration) = text.split_once(':').ok_or_else(bad)?;
-    let (at_s, duration_s) =
-        (at.trim().parse::<f64>().map_err(|_| bad())?, duration.trim().parse::<f64>().map_err(|_| bad())?);
-    if !(at_s.is_finite() && at_s >= 0.0 && duration_s.is_finite() && duration_s >= 0.0) {
-        return Err(bad());
-    }
-    Ok(Stop { at_s, duration_s })
 }
 
 /// An IMU mount, `AXES:ROLL,PITCH,YAW` (degrees), as the rotation body ← IMU.

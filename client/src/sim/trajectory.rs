@@ -90,6 +90,18 @@ pub struct Stop {
 /// Braking to a stop, and pulling away after it, each take this long, s.
 pub const STOP_RAMP_S: f64 = 4.0;
 
+impl std::str::FromStr for Stop {
+    type Err = String;
+
+    /// `AT:SECONDS`, e.g. `20:60` (braking from 20 s into the drive, standing for 60 s).
+    fn from_str(text: &str) -> Result<Self, String> {
+        let bad = || format!("{text:?}: expected AT:SECONDS (both >= 0), e.g. 20:60");
+        let (at, duration) = text.split_once(':').ok_or_else(bad)?;
+        let number = |t: &str| t.trim().parse::<f64>().ok().filter(|v| v.is_finite() && *v >= 0.0).ok_or_else(bad);
+        Ok(Self { at_s: number(at)?, duration_s: number(duration)? })
+    }
+}
+
 impl Stop {
     /// When the car drives at full speed again, s.
     pub fn end_s(&self) -> f64 {
@@ -322,6 +334,10 @@ mod tests {
         assert_eq!(plain.clone().with_stops(&[]).unwrap().at(7.0), plain.at(7.0));
         assert!(CarTrajectory::new(3).with_stops(&[stop, Stop { at_s: 10.0, duration_s: 1.0 }]).is_err());
         assert!(CarTrajectory::new(3).with_stops(&[Stop { at_s: 1.0, duration_s: f64::NAN }]).is_err());
+        assert_eq!("20:60".parse::<Stop>(), Ok(Stop { at_s: 20.0, duration_s: 60.0 }));
+        for bad in ["20", "20:-1", "x:5", "nan:5", "5:inf", ""] {
+            assert!(bad.parse::<Stop>().is_err(), "{bad}");
+        }
     }
 
     #[test]

@@ -23,6 +23,7 @@ macro_rules! dispatch {
     ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident, $params:ident;)*) => {
         /// The configured model, built: one variant per model type.
         #[derive(Debug, Clone)]
+        #[allow(clippy::large_enum_variant, reason = "one value per config, built once at start-up")]
         pub enum BuiltModel {
             $($(#[$doc])* $variant(crate::model::$module::$ty),)*
         }

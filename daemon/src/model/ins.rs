@@ -371,19 +371,8 @@ impl InsModel {
             }
             return;
         };
-        // Standing: the body does not turn ([`standstill`]).
-        let standing = s.still.standing;
-        let w_m = if standing { s.b_g() } else { w_m };
-        let (p_new, v_new, q_new, mut F) = self.mechanise(s, f_m, w_m, dt);
-        if standing {
-            Q.theta = 0.0;
-            F.gyro_dt = 0.0;
-            // Linearised at the specific force of a body at rest, `Rᵀ(−g)`, not at
-            // the noisy sample: `A = −R [Rᵀ(−g)]× = −[−g]× R`, which leaves the
-            // yaw error out of δv (see [`standstill`]).
-            let R = s.q().to_rotation_matrix().into_inner();
-            F.A = -(-self.g()).cross_matrix() * R;
-        }
+        let (p_new, v_new, q_new, F) =
+            if s.still.standing { self.mechanise_at_rest(s, f_m, dt, &mut Q) } else { self.mechanise(s, f_m, w_m, dt) };
         if s.kf.predict_structured(|_| {}, |P| F.propagate_covariance(P, &Q), || (F.dense(), Q.dense())).is_ok() {
             let (b_a, b_g) = (s.b_a(), s.b_g());
             s.set(p_new, v_new, q_new, b_a, b_g);
@@ -391,6 +380,29 @@ impl InsModel {
                 log.predicted(&s.kf, &F.dense());
             }
         }
+    }
+
+    /// The strapdown step of a standing vehicle ([`standstill`]): the body does
+    /// not turn (`ω = 0`: no gyro integration, no attitude noise, no `δθ`–`δb_g`
+    /// coupling), and `F`'s `δv`–`δθ` block is linearised at the specific force of
+    /// a body at rest, `Rᵀ(−g)`, not at the noisy sample: `A = −R [Rᵀ(−g)]× =
+    /// −[−g]× R`, which leaves the yaw error out of `δv`. Out of line: the moving
+    /// step's code stays as it was.
+    #[cold]
+    #[inline(never)]
+    fn mechanise_at_rest(
+        &self,
+        s: &InsState,
+        f_m: Vector3<f64>,
+        dt: f64,
+        Q: &mut ProcessNoise,
+    ) -> (Vector3<f64>, Vector3<f64>, UnitQuaternion<f64>, error_state::Transition) {
+        let (p, v, q, mut F) = self.mechanise(s, f_m, s.b_g(), dt);
+        Q.theta = 0.0;
+        F.gyro_dt = 0.0;
+        let R = s.q().to_rotation_matrix().into_inner();
+        F.A = -(-self.g()).cross_matrix() * R;
+        (p, v, q, F)
     }
 
     /// Holds IMU `sensor`'s specific force `f` and rate `w` (body frame) at `t_ns`

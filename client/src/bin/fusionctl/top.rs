@@ -116,14 +116,15 @@ pub fn draw(frame: &mut Frame, view: &View) {
             s.reinitialisations
         )),
     ]);
+    let standing = if s.standing() { "; standing still (attitude held)" } else { "" };
     let settled = Line::from(if s.settled() {
         format!(
-            "estimate settled (includes every sample received); {} of {} snapshots read were provisional",
+            "estimate settled (includes every sample received); {} of {} snapshots read were provisional{standing}",
             view.provisional, view.snapshots
         )
     } else {
         format!(
-            "estimate provisional: lacks the late sample at t {:.3} s, {} later samples to re-process",
+            "estimate provisional: lacks the late sample at t {:.3} s, {} later samples to re-process{standing}",
             s.pending_since_t_ns as f64 * 1e-9,
             s.pending_steps
         )
@@ -278,6 +279,10 @@ mod tests {
         view.add(&s, start + RATE_WINDOW);
         let text = screen(&view);
         assert!(text.contains("provisional: lacks the late sample at t 1.500 s, 12 later samples"), "{text}");
+        assert!(!text.contains("standing still"), "{text}");
+        s.standing = 1;
+        view.add(&s, start + RATE_WINDOW);
+        assert!(screen(&view).contains("to re-process; standing still (attitude held)"), "{}", screen(&view));
         for needle in [
             "namespace test-ns",
             "health degraded (imu stale)",

@@ -15,6 +15,7 @@ impl InsModel {
     /// The nominal state's strapdown step over `dt` with the IMU values `f_m`,
     /// `w_m` (see the model docs), and the error-state transition of that step:
     /// `(p, v, q)` after it and `F`.
+    #[inline(always)]
     pub(super) fn mechanise(
         &self,
         s: &InsState,

@@ -50,7 +50,9 @@
 //! drift would go on). A filter error (a covariance that is not positive
 //! definite) ends the standstill.
 //!
-//! The update does not move the **yaw**: nothing at rest observes it, yet the
+//! After the first of a stop (a full update: the velocity error the vehicle
+//! stopped with, left by the braking, does carry information on the yaw), the
+//! updates do not move the **yaw**: nothing at rest observes it, yet the
 //! correlations the drive left between the yaw and the velocity and the biases
 //! would let every zero-velocity update nudge it (by a few hundredths of a degree
 //! each, zero on average: over 20 simulated stops the RMS yaw error was the same
@@ -73,8 +75,8 @@
 //! zero-velocity updates would then "observe" the yaw and move it (the spurious
 //! information of an EKF linearised at noisy values; Huang, Mourikis and
 //! Roumeliotis, "Observability-based rules for designing consistent EKF SLAM
-//! estimators", IJRR 29(5), 2010). So the yaw and its variance stay what they
-//! were when the vehicle stopped.
+//! estimators", IJRR 29(5), 2010). So the yaw and its variance stay what the
+//! first update of the stop left.
 //!
 //! **Motion ends it** at once: an odometry speed above `odometry_speed_mps`, or an
 //! IMU sample whose bias-corrected rate exceeds [`EXIT_SIGMAS`] standard
