@@ -116,6 +116,7 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   id = 0
 #   kinds = ["geodetic", "velocity"]
 #   lever_arm_m = [1.2, 0.0, 1.4]          # antenna from the IMU, m, body frame
+#   time_offset_ns = 0                     # its stamps are this late (valid at t - offset); |offset| <= 10 s
 #   [[sensor]]
 #   name = "imu-left"
 #   id = 0

@@ -266,6 +266,19 @@ impl<M: Steps> Engine<M> {
         now_ns: Option<u64>,
         on_final: &mut impl FnMut(&Entry<M::State>),
     ) -> Insert {
+        // A sensor whose timestamps are late by a configured offset: its samples
+        // are valid that much earlier ([`crate::frames::SensorConfig::time_offset_ns`]).
+        let shifted;
+        let offset = self.model.frames().time_offset_ns(sample.kind(), sample.header().sensor);
+        let sample = if offset == 0 {
+            sample
+        } else {
+            let mut s = *sample;
+            let h = s.header_mut();
+            h.t_ns = h.t_ns.saturating_add_signed(-offset);
+            shifted = s;
+            &shifted
+        };
         let key = key_of(sample);
         // Validation comes before anything a sample can change: an invalid sample
         // takes no sensor row and moves no sequence tracking.

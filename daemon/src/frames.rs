@@ -84,7 +84,17 @@ pub struct SensorConfig {
     /// IMU is the body origin).
     #[serde(default)]
     pub lever_arm_m: [f64; 3],
+    /// How late its timestamps are, ns: a sample stamped `t` is taken as valid at
+    /// `t − time_offset_ns` (a constant delay of the sensor's clock or of its
+    /// processing; negative if its clock is early). Applied before a sample is
+    /// checked and ordered. At most [`MAX_TIME_OFFSET_NS`] either way.
+    #[serde(default)]
+    pub time_offset_ns: i64,
 }
+
+/// The largest `[[sensor]] time_offset_ns` either way, ns (10 s): a sensor whose
+/// clock is off by more is not one a fixed offset describes.
+pub const MAX_TIME_OFFSET_NS: i64 = 10_000_000_000;
 
 /// How samples of several IMUs are combined (`[imu] combine`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
@@ -196,6 +206,8 @@ pub struct MountedSensor {
     pub name: String,
     /// Where it sits.
     pub mount: Mount,
+    /// How late its timestamps are, ns ([`SensorConfig::time_offset_ns`]).
+    pub time_offset_ns: i64,
 }
 
 /// The datum of the world frame (set once) and the sensors' mounts.
@@ -204,6 +216,8 @@ pub struct Frames {
     datum: OnceCell<Datum>,
     sensors: Vec<MountedSensor>,
     imus: ImuSet,
+    /// Some sensor has a time offset.
+    offsets: bool,
 }
 
 impl Frames {
@@ -235,6 +249,13 @@ impl Frames {
             if !s.rotation_rpy_deg.iter().all(|a| a.is_finite() && a.abs() <= 360.0) {
                 return Err(invalid(key("rotation_rpy_deg"), "angles must be finite, within ±360°"));
             }
+            if s.time_offset_ns.unsigned_abs() > MAX_TIME_OFFSET_NS.unsigned_abs() {
+                return Err(invalid(
+                    key("time_offset_ns"),
+                    format!("{} ns is more than 10 s either way: not a constant delay", s.time_offset_ns),
+                ));
+            }
+            frames.offsets |= s.time_offset_ns != 0;
             let arm = Vector3::from(s.lever_arm_m);
             if !(arm.iter().all(|v| v.is_finite()) && arm.norm() <= MAX_LEVER_ARM_M) {
                 return Err(invalid(
@@ -270,7 +291,8 @@ impl Frames {
                 }
                 let rpy = s.rotation_rpy_deg.map(f64::to_radians);
                 let mount = Mount::new(s.axes, rpy, s.lever_arm_m);
-                frames.sensors.push(MountedSensor { kind, id: s.id, name: s.name.clone(), mount });
+                let time_offset_ns = s.time_offset_ns;
+                frames.sensors.push(MountedSensor { kind, id: s.id, name: s.name.clone(), mount, time_offset_ns });
             }
         }
         Ok(frames)
@@ -290,6 +312,16 @@ impl Frames {
     #[inline]
     pub fn mount(&self, kind: SampleKind, sensor: u32) -> &Mount {
         self.sensors.iter().find(|m| m.kind == kind && m.id == sensor).map_or(&Mount::IDENTITY, |m| &m.mount)
+    }
+
+    /// How late the timestamps of sensor `sensor` of `kind` are, ns (0 if not
+    /// configured).
+    #[inline]
+    pub fn time_offset_ns(&self, kind: SampleKind, sensor: u32) -> i64 {
+        if !self.offsets {
+            return 0;
+        }
+        self.sensors.iter().find(|m| m.kind == kind && m.id == sensor).map_or(0, |m| m.time_offset_ns)
     }
 
     /// Every configured sensor stream with its mount.
@@ -315,6 +347,7 @@ mod tests {
             axes: Axes::Flu,
             rotation_rpy_deg: [0.0; 3],
             lever_arm_m: [0.0; 3],
+            time_offset_ns: 0,
         }
     }
 
@@ -368,5 +401,24 @@ mod tests {
         assert!(err(&[far]).contains("lever_arm_m"));
         let many: Vec<SensorConfig> = (0..=MAX_IMUS as u32).map(|i| sensor("i", i, &["imu"])).collect();
         assert!(err(&many).contains("at most"));
+    }
+
+    #[test]
+    fn time_offsets_are_per_sensor_and_bounded() {
+        let mut gnss = sensor("gnss", 3, &["geodetic", "velocity"]);
+        gnss.time_offset_ns = 80_000_000;
+        let f = Frames::from_config(None, &[gnss.clone(), sensor("imu", 0, &["imu"])], ImuConfig::default()).unwrap();
+        assert_eq!(f.time_offset_ns(SampleKind::Geodetic, 3), 80_000_000);
+        assert_eq!(f.time_offset_ns(SampleKind::Velocity, 3), 80_000_000, "one receiver, one clock");
+        assert_eq!(f.time_offset_ns(SampleKind::Imu, 0), 0);
+        assert_eq!(f.time_offset_ns(SampleKind::Geodetic, 4), 0, "not configured");
+        gnss.time_offset_ns = -20_000_000;
+        let early = Frames::from_config(None, std::slice::from_ref(&gnss), ImuConfig::default()).unwrap();
+        assert_eq!(early.time_offset_ns(SampleKind::Geodetic, 3), -20_000_000);
+        for absurd in [MAX_TIME_OFFSET_NS + 1, -MAX_TIME_OFFSET_NS - 1, i64::MIN] {
+            gnss.time_offset_ns = absurd;
+            let e = Frames::from_config(None, std::slice::from_ref(&gnss), ImuConfig::default()).unwrap_err();
+            assert!(e.to_string().contains("time_offset_ns") && e.to_string().contains("10 s"), "{e}");
+        }
     }
 }

@@ -189,6 +189,10 @@ struct SimArgs {
     /// speed). Repeat for more stops, in order.
     #[arg(long, value_name = "AT:SECONDS")]
     stop: Vec<Stop>,
+    /// How late the position or GNSS receiver's clock is, ms: a fix valid at `t` is
+    /// stamped `t + LAG` (what `[[sensor]] time_offset_ns` undoes).
+    #[arg(long, default_value_t = 0)]
+    fix_clock_lag_ms: u64,
     /// Trajectory time 0 as a sample timestamp, ns (record only).
     #[arg(long, default_value_t = 1_000_000_000)]
     start_ns: u64,
@@ -232,6 +236,7 @@ impl SimArgs {
         let arm = triple("--lever-arm", self.lever_arm.as_deref())?.unwrap_or([0.0; 3]);
         let odometry_arm = triple("--odometry-lever-arm", self.odometry_lever_arm.as_deref())?;
         c.position.lever_arm_m = arm;
+        c.position.clock_lag_ns = self.fix_clock_lag_ms.saturating_mul(1_000_000);
         let mounts = if self.imu_mount.is_empty() { vec!["flu:0,0,0".to_string()] } else { self.imu_mount.clone() };
         for (i, mount) in mounts.iter().enumerate() {
             let imu = ImuConfig { sensor: i as u32, rotation: parse_mount(mount)?, ..c.imu.clone() };
@@ -283,6 +288,7 @@ impl SimArgs {
                 dropout_probability: self.dropouts,
                 outlier_probability: self.outliers,
                 lever_arm_m: arm,
+                clock_lag_ns: c.position.clock_lag_ns,
                 ..g.fix
             };
             if let Some([lat, lon, h]) = triple("--datum", self.datum.as_deref())? {

@@ -35,6 +35,9 @@ pub struct PositionConfig {
     /// Position of the antenna in the body frame, m: the fixes are of the point
     /// `p + R l`.
     pub lever_arm_m: [f64; 3],
+    /// How late the receiver's clock is, ns: a fix valid at `t` is stamped
+    /// `t + clock_lag_ns` (what `[[sensor]] time_offset_ns` undoes).
+    pub clock_lag_ns: u64,
 }
 
 impl Default for PositionConfig {
@@ -50,6 +53,7 @@ impl Default for PositionConfig {
             outlier_m: 30.0,
             sensor: 1,
             lever_arm_m: [0.0; 3],
+            clock_lag_ns: 0,
         }
     }
 }
@@ -98,7 +102,7 @@ impl Iterator for PositionSim {
                 pos += direction * c.outlier_m;
             }
             let var = std.component_mul(&std);
-            let t_ns = self.start_ns + offset_ns;
+            let t_ns = self.start_ns + offset_ns + c.clock_lag_ns;
             let cov = [var.x, 0.0, 0.0, 0.0, var.y, 0.0, 0.0, 0.0, var.z];
             let sample = PositionSample::new(t_ns, c.sensor, self.seq, pos.into(), cov);
             self.seq += 1;
