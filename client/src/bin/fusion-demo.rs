@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
 use clap::{Parser, ValueEnum};
-use fusion_client::sim::{CarTrajectory, Stop};
+use fusion_client::sim::{CarTrajectory, Outage, Stop};
 use fusion_client::{Client, StateSnapshot, now_ns};
 use fusion_shared::snapshot::INPUT_NONE;
 use hdrhistogram::Histogram;
@@ -37,6 +37,11 @@ struct Args {
     /// fusiond detects it and holds the estimate still.
     #[arg(long, value_name = "AT:SECONDS")]
     stop: Vec<Stop>,
+    /// A GNSS outage (a tunnel), `AT:SECONDS`: no GNSS sample valid from AT s into
+    /// the drive for SECONDS (repeat for more). The report gives the error and its
+    /// σ at the end of each.
+    #[arg(long, value_name = "AT:SECONDS")]
+    outage: Vec<Outage>,
 }
 
 /// `fusiond run --wait`.
@@ -214,8 +219,9 @@ fn run(args: Args) -> anyhow::Result<()> {
         Ok(p)
     };
     let truth = CarTrajectory::new(args.seed).with_stops(&args.stop).map_err(|e| anyhow::anyhow!("--stop: {e}"))?;
-    let stops: Vec<String> =
+    let mut stops: Vec<String> =
         args.stop.iter().flat_map(|s| ["--stop".to_string(), format!("{}:{}", s.at_s, s.duration_s)]).collect();
+    stops.extend(args.outage.iter().flat_map(|o| ["--outage".to_string(), format!("{}:{}", o.at_s, o.duration_s)]));
     let work = bin_dir.join("demo");
     std::fs::create_dir_all(&work)?;
     let ins = args.model == ModelArg::Ins;
@@ -343,6 +349,8 @@ fn run(args: Args) -> anyhow::Result<()> {
     // standing, the estimate's position when it stopped and its largest move.
     let (mut stood, mut found_standing) = (0u64, 0u64);
     let (mut stop_at, mut stop_drift) = (None::<[f64; 3]>, 0.0f64);
+    // Each outage's horizontal error and its 1σ at its end (the first snapshot after it).
+    let mut outage_ends: Vec<Option<(f64, f64)>> = vec![None; args.outage.len()];
     let mut next_status = Instant::now();
     let end = Instant::now() + Duration::from_secs_f64(args.duration + 0.5);
     while !stop.load(Ordering::Relaxed) && Instant::now() < end {
@@ -368,6 +376,14 @@ fn run(args: Args) -> anyhow::Result<()> {
             n_err += 1;
         }
         last = Some((*s, err));
+        for (o, seen) in args.outage.iter().zip(&mut outage_ends) {
+            if seen.is_none() && t >= o.at_s + o.duration_s && x.len() >= 3 && s.cov_dim >= 2 {
+                let p = truth.at(t).pos_m;
+                let n = s.cov_dim as usize;
+                let sd = (s.cov[0].max(0.0) + s.cov[n + 1].max(0.0)).sqrt();
+                *seen = Some((((x[0] - p.x).powi(2) + (x[1] - p.y).powi(2)).sqrt(), sd));
+            }
+        }
         if s.input_kind != INPUT_NONE {
             drive_health = Some((s.health, s.health_reasons));
             if x.len() >= 3 && truth.standing(t) {
@@ -438,6 +454,15 @@ fn run(args: Args) -> anyhow::Result<()> {
         sd[2],
         (sum_sq / n_err.max(1) as f64).sqrt()
     );
+    for (o, seen) in args.outage.iter().zip(&outage_ends) {
+        if let Some((e, sd)) = seen {
+            println!(
+                "  GNSS outage {:.0}-{:.0} s: horizontal error at its end {e:.2} m (1-sigma {sd:.2} m)",
+                o.at_s,
+                o.at_s + o.duration_s
+            );
+        }
+    }
     if stood > 0 {
         println!(
             "  while the car stood: fusiond found it standing in {:.1} % of the samples ({} standstill updates); \

@@ -24,8 +24,8 @@ use std::time::Duration;
 
 use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
 use fusion_client::sim::{
-    Arrival, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, ImuSim, OdometryConfig, PositionConfig, Scenario,
-    ScenarioConfig, Stop, VelocityConfig,
+    Arrival, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, ImuSim, OdometryConfig, Outage, PositionConfig,
+    Scenario, ScenarioConfig, Stop, VelocityConfig, without_outages,
 };
 use fusion_client::{Client, SampleKind, SensorPublishers, now_ns};
 use fusion_shared::geodesy::Datum;
@@ -189,6 +189,10 @@ struct SimArgs {
     /// speed). Repeat for more stops, in order.
     #[arg(long, value_name = "AT:SECONDS")]
     stop: Vec<Stop>,
+    /// A GNSS outage (a tunnel), `AT:SECONDS`: no position, geodetic, velocity or
+    /// heading sample valid from AT s into the drive for SECONDS. Repeatable.
+    #[arg(long, value_name = "AT:SECONDS")]
+    outage: Vec<Outage>,
     /// How late the position or GNSS receiver's clock is, ms: a fix valid at `t` is
     /// stamped `t + LAG` (what `[[sensor]] time_offset_ns` undoes).
     #[arg(long, default_value_t = 0)]
@@ -211,6 +215,7 @@ impl SimArgs {
             duration_s: self.duration,
             start_ns: self.start_ns,
             stops: self.stop.clone(),
+            outages: self.outage.clone(),
             ..Default::default()
         };
         c.trajectory().map_err(|e| anyhow::anyhow!("--stop: {e}"))?;
@@ -387,7 +392,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             if !imu_only {
                 for sim in config.aiding_sims() {
-                    delayed.push(sim.arrivals(&trajectory, start, config.seed));
+                    let arrivals = sim.arrivals(&trajectory, start, config.seed);
+                    delayed.push(Box::new(without_outages(arrivals, config.outages.clone(), start)));
                     publishers.open(&client, sim.kind(), sim.sensor())?;
                 }
             }

@@ -26,7 +26,7 @@ macro_rules! kind_modules {
 }
 fusion_shared::for_each_sample_kind!(kind_modules);
 
-pub use scenario::{Arrival, Scenario, ScenarioConfig};
+pub use scenario::{Arrival, Outage, Scenario, ScenarioConfig, without_outages};
 pub use trajectory::{CarTrajectory, Stop, TruthState};
 
 /// A simulated sensor besides the IMU (whose stream drives time): its settings,

@@ -86,6 +86,60 @@ pub struct ScenarioConfig {
     pub aiding: Vec<Arc<dyn AidingSim>>,
     /// Stops of the drive, in order (see [`CarTrajectory::with_stops`]).
     pub stops: Vec<Stop>,
+    /// GNSS outages (tunnels, garages): no position, geodetic, velocity or
+    /// heading sample valid within one of them.
+    pub outages: Vec<Outage>,
+}
+
+/// A GNSS outage: from `at_s` for `duration_s` seconds of the drive, no sample
+/// of a GNSS kind (position, geodetic, velocity, heading) is valid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Outage {
+    /// Its start, s since the start of the drive.
+    pub at_s: f64,
+    /// Its length, s.
+    pub duration_s: f64,
+}
+
+impl Outage {
+    /// Whether `sample` (of a drive that started at `start_ns`) falls in it.
+    pub fn hides(&self, sample: &Sample, start_ns: u64) -> bool {
+        use fusion_shared::SampleKind::{Geodetic, Heading, Position, Velocity};
+        let t = (sample.t_ns() as f64 - start_ns as f64) * 1e-9;
+        matches!(sample.kind(), Position | Geodetic | Velocity | Heading)
+            && t >= self.at_s
+            && t < self.at_s + self.duration_s
+    }
+}
+
+/// The arrivals of one sensor stream without the samples `outages` hide, their
+/// sequence numbers closed up: a receiver in a tunnel sends nothing, so nothing
+/// is lost.
+pub fn without_outages(
+    arrivals: impl Iterator<Item = Arrival>,
+    outages: Vec<Outage>,
+    start_ns: u64,
+) -> impl Iterator<Item = Arrival> {
+    let mut hidden = 0u64;
+    arrivals.filter_map(move |mut a| {
+        if outages.iter().any(|o| o.hides(&a.sample, start_ns)) {
+            hidden += 1;
+            return None;
+        }
+        let h = a.sample.header_mut();
+        h.seq -= hidden;
+        Some(a)
+    })
+}
+
+impl std::str::FromStr for Outage {
+    type Err = String;
+
+    /// `AT:SECONDS`, e.g. `20:45` (from 20 s into the drive, for 45 s).
+    fn from_str(text: &str) -> Result<Self, String> {
+        let stop: Stop = text.parse()?;
+        Ok(Self { at_s: stop.at_s, duration_s: stop.duration_s })
+    }
 }
 
 impl Default for ScenarioConfig {
@@ -100,6 +154,7 @@ impl Default for ScenarioConfig {
             position: PositionConfig::default(),
             aiding: Vec::new(),
             stops: Vec::new(),
+            outages: Vec::new(),
         }
     }
 }
@@ -139,7 +194,8 @@ impl Scenario {
                 .take_while(|a| a.sample.t_ns() <= end_ns)
         });
         let aiding = config.aiding_sims().flat_map(|sim| {
-            sim.arrivals(&trajectory, config.start_ns, config.seed).take_while(|a| a.sample.t_ns() <= end_ns)
+            let arrivals = sim.arrivals(&trajectory, config.start_ns, config.seed);
+            without_outages(arrivals, config.outages.clone(), config.start_ns).take_while(|a| a.sample.t_ns() <= end_ns)
         });
         let mut arrivals: Vec<Arrival> = imu.chain(aiding).collect();
         arrivals.sort_by_key(|a| (a.arrival_ns, a.sample.t_ns()));
@@ -198,5 +254,26 @@ mod tests {
     fn the_same_seed_gives_the_same_drive() {
         let c = ScenarioConfig { duration_s: 2.0, ..Default::default() };
         assert_eq!(Scenario::generate(&c).arrivals, Scenario::generate(&c).arrivals);
+    }
+
+    #[test]
+    fn an_outage_hides_the_gnss_kinds_inside_it_and_loses_nothing() {
+        let plain = ScenarioConfig { duration_s: 10.0, ..Default::default() };
+        let tunnel = ScenarioConfig { outages: vec![Outage { at_s: 3.0, duration_s: 4.0 }], ..plain.clone() };
+        let (before, after) = (Scenario::generate(&plain), Scenario::generate(&tunnel));
+        let t = |a: &Arrival| (a.sample.t_ns() - plain.start_ns) as f64 * 1e-9;
+        let fixes = |s: &Scenario| -> Vec<Arrival> {
+            s.arrivals.iter().filter(|a| matches!(a.sample, Sample::Position(_))).copied().collect()
+        };
+        let (all, kept) = (fixes(&before), fixes(&after));
+        assert_eq!(kept.len(), all.iter().filter(|a| !(3.0..7.0).contains(&t(a))).count());
+        assert!(kept.iter().all(|a| !(3.0..7.0).contains(&t(a))));
+        // Sequence numbers close up: a receiver in a tunnel sends nothing, nothing is lost.
+        assert!(kept.iter().enumerate().all(|(i, a)| a.sample.header().seq == i as u64));
+        // The IMU is not hidden.
+        let imu = |s: &Scenario| s.arrivals.iter().filter(|a| matches!(a.sample, Sample::Imu(_))).count();
+        assert_eq!(imu(&before), imu(&after));
+        assert_eq!("20:45".parse::<Outage>(), Ok(Outage { at_s: 20.0, duration_s: 45.0 }));
+        assert!("20".parse::<Outage>().is_err());
     }
 }
