@@ -192,7 +192,12 @@ fn a_recorded_live_run_replays_bit_for_bit_and_a_changed_one_says_where() {
     let fixes = samples.iter().filter(|s| s.kind() == SampleKind::Position).count() as u64;
     let plotted = points["trajectory.fixes"].as_u64().unwrap() + points["trajectory.gated"].as_u64().unwrap();
     assert_eq!(plotted, fixes, "{points}");
-    assert_eq!(points["trajectory.gated"].as_u64(), Some(count("gated")), "{points}");
+    // The crosses are the fixes whose own snapshot shows their sensor's gated
+    // count going up. A late fix is judged when its rewind is worked in, after its
+    // snapshot, so its cross can be missing (the count then goes up in a later
+    // snapshot): at most the late fixes' crosses are missing, none is extra.
+    let crosses = points["trajectory.gated"].as_u64().unwrap();
+    assert!(crosses <= count("gated") && crosses + count("late") >= count("gated"), "{points}\n{stderr}");
     assert!(points["latency.samples"].as_u64().unwrap() > 0, "{points}");
     assert!(report.join("latency.png").exists());
 }

@@ -230,14 +230,6 @@ impl InsState {
     pub fn filter(&self) -> &KalmanFilter<f64, N> {
         &self.kf
     }
-    /// Whether the vehicle stands still (detected; the attitude is held).
-    pub fn standing(&self) -> bool {
-        self.still.standing()
-    }
-    /// Standstill updates fused so far.
-    pub fn standstill_updates(&self) -> u64 {
-        self.still.updates
-    }
 
     pub(crate) fn set(
         &mut self,
@@ -380,29 +372,6 @@ impl InsModel {
                 log.predicted(&s.kf, &F.dense());
             }
         }
-    }
-
-    /// The strapdown step of a standing vehicle ([`standstill`]): the body does
-    /// not turn (`ω = 0`: no gyro integration, no attitude noise, no `δθ`–`δb_g`
-    /// coupling), and `F`'s `δv`–`δθ` block is linearised at the specific force of
-    /// a body at rest, `Rᵀ(−g)`, not at the noisy sample: `A = −R [Rᵀ(−g)]× =
-    /// −[−g]× R`, which leaves the yaw error out of `δv`. Out of line: the moving
-    /// step's code stays as it was.
-    #[cold]
-    #[inline(never)]
-    fn mechanise_at_rest(
-        &self,
-        s: &InsState,
-        f_m: Vector3<f64>,
-        dt: f64,
-        Q: &mut ProcessNoise,
-    ) -> (Vector3<f64>, Vector3<f64>, UnitQuaternion<f64>, error_state::Transition) {
-        let (p, v, q, mut F) = self.mechanise(s, f_m, s.b_g(), dt);
-        Q.theta = 0.0;
-        F.gyro_dt = 0.0;
-        let R = s.q().to_rotation_matrix().into_inner();
-        F.A = -(-self.g()).cross_matrix() * R;
-        (p, v, q, F)
     }
 
     /// Holds IMU `sensor`'s specific force `f` and rate `w` (body frame) at `t_ns`

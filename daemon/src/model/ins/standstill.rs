@@ -89,8 +89,9 @@
 
 #![allow(non_snake_case)]
 
-use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
+use super::error_state::{ProcessNoise, Transition};
 use crate::model::StepOutcome;
 use crate::model::ins::{InsModel, InsState, N, inject_and_reset};
 
@@ -203,6 +204,42 @@ impl Detector {
     fn clear_window(&mut self) {
         let (standing, odometry, updates) = (self.standing, self.odometry, self.updates);
         *self = Self { standing, odometry, updates, ..Self::default() };
+    }
+}
+
+impl InsState {
+    /// Whether the vehicle stands still (detected; the attitude is held).
+    pub fn standing(&self) -> bool {
+        self.still.standing()
+    }
+    /// Standstill updates fused so far.
+    pub fn standstill_updates(&self) -> u64 {
+        self.still.updates
+    }
+}
+
+impl InsModel {
+    /// The strapdown step of a standing vehicle (the module docs): the body does
+    /// not turn (`ω = 0`: no gyro integration, no attitude noise, no `δθ`–`δb_g`
+    /// coupling), and `F`'s `δv`–`δθ` block is linearised at the specific force of
+    /// a body at rest, `Rᵀ(−g)`, not at the noisy sample: `A = −R [Rᵀ(−g)]× =
+    /// −[−g]× R`, which leaves the yaw error out of `δv`. Out of line: the moving
+    /// step's code stays as it was.
+    #[cold]
+    #[inline(never)]
+    pub(super) fn mechanise_at_rest(
+        &self,
+        s: &InsState,
+        f_m: Vector3<f64>,
+        dt: f64,
+        Q: &mut ProcessNoise,
+    ) -> (Vector3<f64>, Vector3<f64>, UnitQuaternion<f64>, Transition) {
+        let (p, v, q, mut F) = self.mechanise(s, f_m, s.b_g(), dt);
+        Q.theta = 0.0;
+        F.gyro_dt = 0.0;
+        let R = s.q().to_rotation_matrix().into_inner();
+        F.A = -(-self.g()).cross_matrix() * R;
+        (p, v, q, F)
     }
 }
 
