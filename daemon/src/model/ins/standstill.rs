@@ -201,6 +201,14 @@ impl Detector {
         }
     }
 
+    /// The per-IMU sample rate of the current window so far, Hz: `n − 1`
+    /// intervals over the span from its first sample to its last, shared by
+    /// `imus` IMUs; `None` before two samples.
+    fn rate_hz(&self, imus: u32) -> Option<f64> {
+        let span_s = self.last_ns.saturating_sub(self.start_ns?) as f64 * 1e-9;
+        (self.n >= 2 && span_s > 0.0).then(|| f64::from(self.n - 1) / (f64::from(imus.max(1)) * span_s))
+    }
+
     fn clear_window(&mut self) {
         let (standing, odometry, updates) = (self.standing, self.odometry, self.updates);
         *self = Self { standing, odometry, updates, ..Self::default() };
@@ -258,12 +266,7 @@ struct Window {
 fn window(model: &InsModel, s: &InsState, imus: u32) -> Option<Window> {
     let d = &s.still;
     let n = f64::from(d.n);
-    let span_s = d.last_ns.saturating_sub(d.start_ns?) as f64 * 1e-9;
-    if d.n < 3 || span_s <= 0.0 {
-        return None;
-    }
-    // Samples over the span between the first and the last: n − 1 intervals.
-    let rate = (n - 1.0) / (f64::from(imus.max(1)) * span_s);
+    let rate = d.rate_hz(imus).filter(|_| d.n >= 3)?;
     let noise = model.noise();
     let sample_var_f = noise.accelerometer_noise_density.powi(2) * rate;
     let sample_var_w = noise.gyroscope_noise_density.powi(2) * rate;
@@ -288,8 +291,8 @@ fn window(model: &InsModel, s: &InsState, imus: u32) -> Option<Window> {
     Some(Window { tests, mean_w, sample_var_w, n })
 }
 
-/// Whether the speed allows standing at `t_ns`: the last odometry speed if it
-/// is recent, else the estimate's.
+/// Whether the speed allows standing at `t_ns`: every odometry speed of the
+/// window; without one in it, the last one if it is recent; else the estimate's.
 fn slow(c: &Standstill, d: &Detector, s: &InsState, t_ns: u64) -> bool {
     if let Some(max) = d.window_odometry {
         return max <= c.odometry_speed_mps;
@@ -314,12 +317,12 @@ pub fn observe(
     let b_g = s.b_g();
     let imus = s.imu.mean().map_or(1, |(_, _, k)| k);
     let d = &mut s.still;
-    if d.standing {
-        let sample_sd = model.noise().gyroscope_noise_density * (rate_hint(d, imus)).sqrt();
-        if sample_sd > 0.0 && (w - b_g).amax() > EXIT_SIGMAS * sample_sd {
-            d.standing = false;
-            d.clear_window();
-        }
+    if d.standing
+        && let Some(rate) = d.rate_hz(imus)
+        && (w - b_g).amax() > EXIT_SIGMAS * model.noise().gyroscope_noise_density * rate.sqrt()
+    {
+        d.standing = false;
+        d.clear_window();
     }
     let start = *d.start_ns.get_or_insert(t_ns);
     d.last_ns = t_ns;
@@ -355,12 +358,6 @@ pub fn observe(
         s.still.standing = false;
     }
     injected
-}
-
-/// The per-IMU rate of the current window so far, Hz (0 before two samples).
-fn rate_hint(d: &Detector, imus: u32) -> f64 {
-    let span_s = d.start_ns.map_or(0.0, |start| d.last_ns.saturating_sub(start) as f64 * 1e-9);
-    if d.n < 2 || span_s <= 0.0 { 0.0 } else { f64::from(d.n - 1) / (f64::from(imus.max(1)) * span_s) }
 }
 
 /// The ZUPT and ZARU rows of the module docs, as one update: the first of a
