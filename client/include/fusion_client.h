@@ -43,17 +43,22 @@
 #define FUSION_MODEL_LINEAR 1
 
 // `FusionStateSnapshot.model`: the INS (x = p, v, q (w, x, y, z), accel bias,
-// gyro bias; 16 states, 15×15 covariance).
+// gyro bias; 16 states, 15×15 covariance, then the auxiliary states of
+// `aux_states`).
 #define FUSION_MODEL_INS 2
 
+// `FusionStateSnapshot.aux_states` bit: the odometry scale factor follows the
+// model's states (one more entry of `x` and one more row and column of `cov`).
+#define FUSION_AUX_ODOMETRY_SCALE 1
+
 // Entries of `FusionStateSnapshot.x` (the first `state_len` are in use).
-#define FUSION_MAX_STATE 16
+#define FUSION_MAX_STATE 17
 
 // Side of the largest covariance (`cov_dim` is in use).
-#define FUSION_MAX_COV 15
+#define FUSION_MAX_COV 16
 
 // Entries of `FusionStateSnapshot.cov`: `cov_dim × cov_dim` row-major in use.
-#define FUSION_MAX_COV_LEN 225
+#define FUSION_MAX_COV_LEN 256
 
 // Entries of `FusionStateSnapshot.sensors` (the first `sensor_count` are in use).
 #define FUSION_MAX_SENSORS 16
@@ -385,8 +390,9 @@ typedef struct FusionStateSnapshot {
   // 1 while the vehicle is detected standing still (`[model.standstill]`: the
   // attitude is held and standstill updates are fused), 0 otherwise.
   uint32_t standing;
-  // 0 (keeps the layout free of padding in every language).
-  uint32_t reserved;
+  // The auxiliary states in the estimate, after the model's own: bits of
+  // [`aux`] (see [`StateSnapshot::state_layout`]).
+  uint32_t aux_states;
 } FusionStateSnapshot;
 
 #ifdef __cplusplus
@@ -610,6 +616,15 @@ enum FusionStatus fusion_snapshot_accel_bias_std(const struct FusionStateSnapsho
 // `snapshot` is null or readable; `out` is null or has room for 3 doubles.
 enum FusionStatus fusion_snapshot_gyro_bias_std(const struct FusionStateSnapshot *snapshot,
                                                 double *out);
+
+// The odometry scale factor `k` (odometry speed = `k` × true speed) and its
+// standard deviation, into `out[0..2]`; ins with `[model.odometry_scale]`
+// only (`aux_states` has [`FUSION_AUX_ODOMETRY_SCALE`](super::FUSION_AUX_ODOMETRY_SCALE)).
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 2 doubles.
+enum FusionStatus fusion_snapshot_odometry_scale(const struct FusionStateSnapshot *snapshot,
+                                                 double *out);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -79,15 +79,19 @@ pub const FUSION_HEALTH_DEGRADED: u32 = 2;
 /// `FusionStateSnapshot.model`: the `linear` model (x = p, v; 6 states).
 pub const FUSION_MODEL_LINEAR: u32 = 1;
 /// `FusionStateSnapshot.model`: the INS (x = p, v, q (w, x, y, z), accel bias,
-/// gyro bias; 16 states, 15×15 covariance).
+/// gyro bias; 16 states, 15×15 covariance, then the auxiliary states of
+/// `aux_states`).
 pub const FUSION_MODEL_INS: u32 = 2;
+/// `FusionStateSnapshot.aux_states` bit: the odometry scale factor follows the
+/// model's states (one more entry of `x` and one more row and column of `cov`).
+pub const FUSION_AUX_ODOMETRY_SCALE: u32 = 1;
 
 /// Entries of `FusionStateSnapshot.x` (the first `state_len` are in use).
-pub const MAX_STATE: usize = 16;
+pub const MAX_STATE: usize = 17;
 /// Side of the largest covariance (`cov_dim` is in use).
-pub const MAX_COV: usize = 15;
+pub const MAX_COV: usize = 16;
 /// Entries of `FusionStateSnapshot.cov`: `cov_dim × cov_dim` row-major in use.
-pub const MAX_COV_LEN: usize = 225;
+pub const MAX_COV_LEN: usize = 256;
 /// Entries of `FusionStateSnapshot.sensors` (the first `sensor_count` are in use).
 pub const MAX_SENSORS: usize = 16;
 
@@ -108,6 +112,7 @@ const _: () = {
     assert!(FUSION_HEALTH_DEGRADED == health::DEGRADED);
     assert!(FUSION_MODEL_LINEAR == model::LINEAR);
     assert!(FUSION_MODEL_INS == model::INS);
+    assert!(FUSION_AUX_ODOMETRY_SCALE == fusion_shared::snapshot::aux::ODOMETRY_SCALE);
 };
 
 /// A connection to one namespace (opaque).

@@ -32,7 +32,7 @@ pub use crate::validate::ValidationConfig;
 
 mod build;
 pub use crate::setting::{ConfigError, invalid, positive};
-pub use build::{BuiltModel, WithModel, initial_values, with_model};
+pub use build::{Build, BuiltModel, InsBuilt, WithModel, initial_values, with_model};
 
 /// The default configuration with comments, as printed by `fusiond print-config`
 /// ([`default_config_text`] fills in the per-kind lines).

@@ -72,6 +72,7 @@ pub fn fill<M: Steps>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Optio
         const { assert!(M::COV_DIM <= MAX_COV, "the snapshot holds the covariance") };
         M::write_covariance(&latest.state, &mut snap.cov[..M::COV_DIM * M::COV_DIM]);
         snap.cov_dim = M::COV_DIM as u32;
+        snap.aux_states = M::AUX_STATES;
         snap.reinitialisations = M::reinitialisations(&latest.state);
         let (standing, updates) = M::standstill(&latest.state);
         snap.standing = u32::from(standing);

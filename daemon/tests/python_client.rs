@@ -106,7 +106,7 @@ fn rust_layout() -> Value {
             background_steps,
             standstill_updates,
             standing,
-            reserved
+            aux_states
         }),
     ];
     assert_eq!(types.len(), 4 + SampleKind::COUNT, "a new kind needs its layout here and a Python mirror");
@@ -137,6 +137,15 @@ fn rust_layout() -> Value {
     let models: serde_json::Map<_, _> =
         fusion_shared::snapshot::Model::ALL.iter().map(|m| (m.code().to_string(), json!(m.name()))).collect();
     constants["MODEL_NAMES"] = Value::Object(models);
+    let dims: serde_json::Map<_, _> = fusion_shared::snapshot::Model::ALL
+        .iter()
+        .map(|m| (m.code().to_string(), json!([m.state_len(), m.cov_dim()])))
+        .collect();
+    constants["MODEL_DIMS"] = Value::Object(dims);
+    let aux: serde_json::Map<_, _> =
+        fusion_shared::snapshot::aux::ALL.iter().map(|(bit, name)| (bit.to_string(), json!(name))).collect();
+    constants["AUX_NAMES"] = Value::Object(aux);
+    constants["AUX_ODOMETRY_SCALE"] = json!(fusion_shared::snapshot::aux::ODOMETRY_SCALE);
     // Every kind's wire type is in the list above (and so checked against its
     // Python mirror).
     struct Listed<'a>(&'a [(&'a str, Value)]);
@@ -161,7 +170,7 @@ fn the_python_mirrors_have_the_rust_layout() {
     let out = common::python_command("unused", "tests/check_layout.py", &[path.to_str().unwrap()]).output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
-    assert!(said.contains("10 types, 21 constants: 0 differences"), "{said}");
+    assert!(said.contains("10 types, 24 constants: 0 differences"), "{said}");
 
     // The check sees a difference: a layout with one offset moved fails it.
     let mut broken = rust_layout();

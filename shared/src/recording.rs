@@ -165,6 +165,10 @@ pub struct SnapshotJson {
     /// Standstill updates fused since start.
     #[serde(default)]
     pub standstill_updates: u64,
+    /// The auxiliary states after the model's own in `x` and `P`, in order
+    /// (`odometry_scale`). Absent in recordings of fusiond before wire v9.
+    #[serde(default)]
+    pub aux_states: Vec<String>,
 }
 
 /// A correction still to land ([`StateSnapshot::pending_steps`]).
@@ -301,6 +305,11 @@ impl From<&StateSnapshot> for SnapshotJson {
             background_steps: s.background_steps,
             standing: s.standing(),
             standstill_updates: s.standstill_updates,
+            aux_states: crate::snapshot::aux::ALL
+                .iter()
+                .filter(|(bit, _)| s.aux_states & bit != 0)
+                .map(|(_, name)| name.to_string())
+                .collect(),
         }
     }
 }

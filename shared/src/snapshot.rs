@@ -1,7 +1,7 @@
 //! `StateSnapshot`: what fusiond publishes after every processed sample.
 //!
-//! A fixed-capacity, self-describing record: the estimate (up to 16 states and a
-//! 15×15 covariance, enough for the INS model), the sample it is the estimate at,
+//! A fixed-capacity, self-describing record: the estimate (up to 17 states and a
+//! 16×16 covariance, enough for the INS model with its auxiliary states), the sample it is the estimate at,
 //! the input sample that triggered it (with its send time, so any reader can
 //! measure latency), health, and per-sensor counters.
 
@@ -14,9 +14,9 @@ mod typed;
 pub use typed::{Health, HealthReason, Model, Outcome};
 
 /// Largest state vector a snapshot carries.
-pub const MAX_STATE: usize = 16;
+pub const MAX_STATE: usize = 17;
 /// Largest covariance side a snapshot carries.
-pub const MAX_COV: usize = 15;
+pub const MAX_COV: usize = 16;
 /// Entries of the covariance array (`MAX_COV²`).
 pub const MAX_COV_LEN: usize = MAX_COV * MAX_COV;
 /// Most sensors (of all kinds) a snapshot reports.
@@ -65,6 +65,20 @@ pub mod model {
             None => "unknown",
         }
     }
+}
+
+/// Auxiliary states of [`StateSnapshot::aux_states`]: states a model carries
+/// beyond its own layout ([`Model::state_layout`]) when configured. Each is one
+/// entry of the state vector and one of the covariance, after the model's own
+/// (first the state entries, then their covariance indices), in the order of
+/// the bits.
+pub mod aux {
+    /// The odometry scale factor `k` (odometry speed = `k` × true speed;
+    /// `ins` with `[model.odometry_scale]`).
+    pub const ODOMETRY_SCALE: u32 = 1;
+
+    /// Every auxiliary state with its bit and its name (with unit), in state order.
+    pub const ALL: [(u32, &str); 1] = [(ODOMETRY_SCALE, "odometry_scale")];
 }
 
 /// Health states of [`StateSnapshot::health`].
@@ -269,7 +283,7 @@ impl SensorCounters {
 /// §5.3.3). Because the quaternion's 4 entries share 3 error states,
 /// covariance row `i` lines up with state entry `i` only for `i < 6`.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("fusion.StateSnapshot.v8")]
+#[type_name("fusion.StateSnapshot.v9")]
 #[repr(C)]
 pub struct StateSnapshot {
     /// Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
@@ -373,8 +387,9 @@ pub struct StateSnapshot {
     /// 1 while the vehicle is detected standing still (`[model.standstill]`: the
     /// attitude is held and standstill updates are fused), 0 otherwise.
     pub standing: u32,
-    /// 0 (keeps the layout free of padding in every language).
-    pub reserved: u32,
+    /// The auxiliary states in the estimate, after the model's own: bits of
+    /// [`aux`] (see [`StateSnapshot::state_layout`]).
+    pub aux_states: u32,
 }
 
 impl Default for StateSnapshot {
@@ -419,7 +434,7 @@ impl Default for StateSnapshot {
             background_steps: 0,
             standstill_updates: 0,
             standing: 0,
-            reserved: 0,
+            aux_states: 0,
         }
     }
 }

@@ -26,11 +26,14 @@ import numpy as np
 
 from .wire import (
     ALL_TYPES,
+    AUX_NAMES,
+    AUX_ODOMETRY_SCALE,
     HEALTH_NAMES,
     INPUT_NONE,
     KIND_NAMES,
     MAX_COV,
     MAX_STATE,
+    MODEL_DIMS,
     MODEL_NAMES,
     SAMPLE_TYPES,
     Counters,
@@ -408,6 +411,34 @@ class Snapshot:
     def gyro_bias_std(self):
         """Standard deviation of each gyroscope bias component, rad/s, ``ins`` only."""
         return self._std3(12) if self._ins() else None
+
+    def _aux(self, bit: int):
+        """Value and standard deviation of auxiliary state ``bit`` (after the
+        model's own states, in bit order), or ``None``."""
+        raw = self.raw
+        dims = MODEL_DIMS.get(raw.model)
+        known = sum(b for b in AUX_NAMES)
+        extra = bin(raw.aux_states & known).count("1")
+        if (
+            dims is None
+            or not raw.aux_states & bit
+            or bin(raw.aux_states).count("1") != extra
+            or raw.state_len != dims[0] + extra
+            or raw.cov_dim != dims[1] + extra
+            or raw.state_len > MAX_STATE
+            or raw.cov_dim > MAX_COV
+        ):
+            return None
+        rank = bin(raw.aux_states & (bit - 1)).count("1")
+        i, c, n = dims[0] + rank, dims[1] + rank, raw.cov_dim
+        return raw.x[i], math.sqrt(max(raw.cov[c * n + c], 0.0))
+
+    @property
+    def odometry_scale(self):
+        """The odometry scale factor ``k`` (odometry speed = ``k`` × true speed) and
+        its standard deviation, ``ins`` with ``[model.odometry_scale]`` only."""
+        v = self._aux(AUX_ODOMETRY_SCALE)
+        return None if v is None else np.array(v, dtype=np.float64)
 
 
 class StateReader:

@@ -7,8 +7,8 @@ every size, offset and type name against the Rust build.
 
 import ctypes
 
-MAX_STATE = 16
-MAX_COV = 15
+MAX_STATE = 17
+MAX_COV = 16
 MAX_COV_LEN = MAX_COV * MAX_COV
 MAX_SENSORS = 16
 
@@ -20,6 +20,11 @@ INPUT_NONE = 0
 
 HEALTH_NAMES = {0: "initialising", 1: "ok", 2: "degraded"}
 MODEL_NAMES = {1: "linear", 2: "ins"}
+#: Each model's own state length and covariance side (before auxiliary states).
+MODEL_DIMS = {1: [6, 6], 2: [16, 15]}
+#: ``StateSnapshot.aux_states`` bits: auxiliary states after the model's own, in bit order.
+AUX_ODOMETRY_SCALE = 1
+AUX_NAMES = {1: "odometry_scale"}
 
 f64x3 = ctypes.c_double * 3
 f64x9 = ctypes.c_double * 9
@@ -137,9 +142,9 @@ class SensorCounters(_Wire):
 
 
 class StateSnapshot(_Wire):
-    """The fusion state after one processed sample (``fusion.StateSnapshot.v8``)."""
+    """The fusion state after one processed sample (``fusion.StateSnapshot.v9``)."""
 
-    TYPE_NAME = "fusion.StateSnapshot.v8"
+    TYPE_NAME = "fusion.StateSnapshot.v9"
     _fields_ = [
         ("seq", ctypes.c_uint64),
         ("publish_ns", ctypes.c_uint64),
@@ -180,7 +185,7 @@ class StateSnapshot(_Wire):
         ("background_steps", ctypes.c_uint64),
         ("standstill_updates", ctypes.c_uint64),
         ("standing", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
+        ("aux_states", ctypes.c_uint32),
     ]
 
 

@@ -153,3 +153,14 @@ pub unsafe extern "C" fn fusion_snapshot_accel_bias_std(snapshot: *const StateSn
 pub unsafe extern "C" fn fusion_snapshot_gyro_bias_std(snapshot: *const StateSnapshot, out: *mut f64) -> FusionStatus {
     unsafe { write(snapshot, out, StateSnapshot::gyro_bias_std) }
 }
+
+/// The odometry scale factor `k` (odometry speed = `k` × true speed) and its
+/// standard deviation, into `out[0..2]`; ins with `[model.odometry_scale]`
+/// only (`aux_states` has [`FUSION_AUX_ODOMETRY_SCALE`](super::FUSION_AUX_ODOMETRY_SCALE)).
+///
+/// # Safety
+/// `snapshot` is null or readable; `out` is null or has room for 2 doubles.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_snapshot_odometry_scale(snapshot: *const StateSnapshot, out: *mut f64) -> FusionStatus {
+    unsafe { write(snapshot, out, |s| Some([s.odometry_scale()?, s.odometry_scale_std()?])) }
+}

@@ -23,6 +23,7 @@ static const struct {
     {"roll_pitch_yaw_std", fusion_snapshot_roll_pitch_yaw_std, 3},
     {"accel_bias_std", fusion_snapshot_accel_bias_std, 3},
     {"gyro_bias_std", fusion_snapshot_gyro_bias_std, 3},
+    {"odometry_scale", fusion_snapshot_odometry_scale, 2},
 };
 
 int main(int argc, char **argv) {

@@ -6,7 +6,7 @@ use super::{Config, ConfigError, ModelConfig, Tables, invalid, positive};
 use crate::engine::EngineConfig;
 use crate::frames::{Frames, MountedSensor};
 use crate::measurement::Steps;
-use crate::model::ins::{self, ImuNoise, InsModel};
+use crate::model::ins::{self, ImuNoise, InsModel, OdometryScale};
 use crate::model::linear::{self, LinearModel};
 
 /// Runs something generic over the model type with the configured model.
@@ -17,6 +17,98 @@ pub trait WithModel {
     fn run<M: Steps>(self, model: M) -> Self::Output;
 }
 
+/// How a model type is built from a config and handed to a [`WithModel`].
+pub trait Build {
+    /// A built model: the type itself, or an enum of its forms with different
+    /// state dimensions ([`InsBuilt`]).
+    type Built: Clone + std::fmt::Debug;
+    /// Builds it from a config of its kind.
+    fn build(config: &Tables) -> Result<Self::Built, ConfigError>;
+    /// Hands `built`, as its own type, to `f`.
+    fn run<F: WithModel>(built: Self::Built, f: F) -> F::Output;
+}
+
+impl Build for LinearModel {
+    type Built = LinearModel;
+    fn build(config: &Tables) -> Result<Self, ConfigError> {
+        Self::from_config(config)
+    }
+    fn run<F: WithModel>(built: Self, f: F) -> F::Output {
+        f.run(built)
+    }
+}
+
+/// The `ins` model as configured: the core 15 error states, or with the
+/// odometry scale factor as the 16th (`[model.odometry_scale]`).
+#[derive(Debug, Clone)]
+pub enum InsBuilt {
+    /// Without auxiliary states.
+    Core(InsModel),
+    /// With the odometry scale factor.
+    OdometryScale(InsModel<{ ins::MAX_N }>),
+}
+
+impl InsBuilt {
+    /// The model of a config with `kind = "ins"`.
+    pub fn from_config(config: &Tables) -> Result<Self, ConfigError> {
+        let ModelConfig::Ins(p) = &config.model else {
+            return Err(invalid("model.kind", "not \"ins\""));
+        };
+        let core = InsModel::core_from_config(config)?;
+        let form = |e: crate::filter::FilterError| invalid("filter.initial_state", e.to_string());
+        Ok(match p.odometry_scale {
+            None => Self::Core(core.with_form(config.filter.form).map_err(form)?),
+            Some(k) => {
+                check_odometry_scale(&k)?;
+                let scaled = core.with_odometry_scale(k).map_err(form)?;
+                Self::OdometryScale(scaled.with_form(config.filter.form).map_err(form)?)
+            }
+        })
+    }
+
+    /// The model with the odometry scale factor, if the config has it.
+    pub fn scaled(self) -> Option<InsModel<{ ins::MAX_N }>> {
+        match self {
+            Self::OdometryScale(m) => Some(m),
+            Self::Core(_) => None,
+        }
+    }
+}
+
+/// `[model.odometry_scale]`'s values: `initial` in (0.5, 2), `initial_std` in
+/// (0, 0.5], `random_walk` ≥ 0 and below 0.1/√s; all finite.
+fn check_odometry_scale(k: &OdometryScale) -> Result<(), ConfigError> {
+    if !(k.initial > 0.5 && k.initial < 2.0) {
+        return Err(invalid("model.odometry_scale.initial", format!("must be in (0.5, 2), got {}", k.initial)));
+    }
+    if !(k.initial_std > 0.0 && k.initial_std <= 0.5) {
+        return Err(invalid(
+            "model.odometry_scale.initial_std",
+            format!("must be in (0, 0.5] (a share of the speed), got {}", k.initial_std),
+        ));
+    }
+    if !(k.random_walk >= 0.0 && k.random_walk < 0.1) {
+        return Err(invalid(
+            "model.odometry_scale.random_walk",
+            format!("must be in [0, 0.1) per square root of a second, got {}", k.random_walk),
+        ));
+    }
+    Ok(())
+}
+
+impl Build for InsModel {
+    type Built = InsBuilt;
+    fn build(config: &Tables) -> Result<InsBuilt, ConfigError> {
+        InsBuilt::from_config(config)
+    }
+    fn run<F: WithModel>(built: InsBuilt, f: F) -> F::Output {
+        match built {
+            InsBuilt::Core(m) => f.run(m),
+            InsBuilt::OdometryScale(m) => f.run(m),
+        }
+    }
+}
+
 /// Generates [`BuiltModel`] from [`fusion_shared::for_each_model!`], and checks
 /// that each model type's snapshot code is its line's.
 macro_rules! dispatch {
@@ -25,7 +117,7 @@ macro_rules! dispatch {
         #[derive(Debug, Clone)]
         #[allow(clippy::large_enum_variant, reason = "one value per config, built once at start-up")]
         pub enum BuiltModel {
-            $($(#[$doc])* $variant(crate::model::$module::$ty),)*
+            $($(#[$doc])* $variant(<crate::model::$module::$ty as Build>::Built),)*
         }
 
         impl BuiltModel {
@@ -33,14 +125,14 @@ macro_rules! dispatch {
             /// it to a model type (each type's `from_config`).
             pub fn build(tables: &Tables) -> Result<Self, ConfigError> {
                 Ok(match &tables.model {
-                    $(ModelConfig::$variant(_) => Self::$variant(<crate::model::$module::$ty>::from_config(tables)?),)*
+                    $(ModelConfig::$variant(_) => Self::$variant(<crate::model::$module::$ty as Build>::build(tables)?),)*
                 })
             }
 
             /// Hands the model, as its own type, to `f`.
             pub fn run<F: WithModel>(self, f: F) -> F::Output {
                 match self {
-                    $(Self::$variant(model) => f.run(model),)*
+                    $(Self::$variant(model) => <crate::model::$module::$ty as Build>::run(model, f),)*
                 }
             }
         }
@@ -117,8 +209,20 @@ impl LinearModel {
 }
 
 impl InsModel {
-    /// The model of a config with `kind = "ins"`.
+    /// The model of a config with `kind = "ins"` and without
+    /// `[model.odometry_scale]` (see [`InsBuilt::from_config`] for every config).
     pub fn from_config(config: &Tables) -> Result<Self, ConfigError> {
+        match InsBuilt::from_config(config)? {
+            InsBuilt::Core(m) => Ok(m),
+            InsBuilt::OdometryScale(_) => Err(invalid(
+                "model.odometry_scale",
+                "the model has the odometry scale state: build it with InsBuilt::from_config",
+            )),
+        }
+    }
+
+    /// The core model of a config with `kind = "ins"`, in the default form.
+    fn core_from_config(config: &Tables) -> Result<Self, ConfigError> {
         let ModelConfig::Ins(p) = &config.model else {
             return Err(invalid("model.kind", "not \"ins\""));
         };
@@ -170,7 +274,6 @@ impl InsModel {
             return Err(invalid("sensor", format!("{:?}: the ins model cannot fuse {}", m.name, m.kind.name())));
         }
         Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)
-            .and_then(|m| m.with_form(config.filter.form))
             .map(|m| {
                 let m = m.with_nonholonomic(p.constraints).with_standstill(p.standstill);
                 m.with_frames(frames).with_lockout(config.lockout)

@@ -72,8 +72,8 @@ impl Fuse<LinearModel> for GeodeticSample {
 
 /// Fused as the position fix ([`super::position`]), of the point at the
 /// sensor's lever arm ([`super::lever_arm`]).
-impl Fuse<InsModel> for GeodeticSample {
-    fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, 15>>) {
+impl<const D: usize> Fuse<InsModel<D>> for GeodeticSample {
+    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         let Some(p) = as_position(self, model.frames()) else { return (StepOutcome::Refused, None) };
         let mount = model.frames().mount(SampleKind::Geodetic, self.header.sensor);
         let R = Matrix3::from_row_slice(&p.cov_m2);

@@ -30,7 +30,7 @@ use nalgebra::{Matrix1, SMatrix, SVector, Vector1, Vector3};
 
 use super::{Fuse, Limits, Measurement, Needed, Rejection, finite};
 use crate::model::StepOutcome;
-use crate::model::ins::{InsModel, InsState, N};
+use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
 
 /// Largest |yaw| accepted, rad: a wrapped angle or a few turns of an unwrapped one.
@@ -63,7 +63,7 @@ pub fn wrap(a: f64) -> f64 {
 }
 
 /// `h` and `H` of the yaw; `None` with the forward axis near vertical.
-pub fn yaw(s: &InsState) -> Option<(f64, SMatrix<f64, 1, N>)> {
+pub fn yaw<const D: usize>(s: &InsState<D>) -> Option<(f64, SMatrix<f64, 1, D>)> {
     let R = s.q().to_rotation_matrix().into_inner();
     let (c, d) = (R[(0, 0)], R[(1, 0)]);
     let horizontal = c * c + d * d;
@@ -71,7 +71,7 @@ pub fn yaw(s: &InsState) -> Option<(f64, SMatrix<f64, 1, N>)> {
         return None;
     }
     let dR = -R * Vector3::x().cross_matrix(); // rows: ∂(R e₁)ᵢ / ∂δθ
-    let mut H = SMatrix::<f64, 1, N>::zeros();
+    let mut H = SMatrix::<f64, 1, D>::zeros();
     for k in 0..3 {
         H[(0, 6 + k)] = (c * dR[(1, k)] - d * dR[(0, k)]) / horizontal;
     }
@@ -88,8 +88,8 @@ impl Fuse<LinearModel> for HeadingSample {
     }
 }
 
-impl Fuse<InsModel> for HeadingSample {
-    fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, N>>) {
+impl<const D: usize> Fuse<InsModel<D>> for HeadingSample {
+    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         let Some((h, H)) = yaw(s) else { return (StepOutcome::Refused, None) };
         let y = Vector1::new(wrap(self.yaw_rad - h));
         model.update_residual(s, &y, &H, &Matrix1::new(self.var_rad2))

@@ -58,8 +58,8 @@ impl Fuse<LinearModel> for ImuSample {
 /// configured, standstill detection and its updates ([`standstill`]), and while
 /// the vehicle does not stand the motion constraint, due at most every
 /// `interval` ([`nonholonomic`]). One update at most per sample.
-impl Fuse<InsModel> for ImuSample {
-    fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<nalgebra::SVector<f64, 15>>) {
+impl<const D: usize> Fuse<InsModel<D>> for ImuSample {
+    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<nalgebra::SVector<f64, D>>) {
         let (f, w) = body_values(self, model);
         match model.hold_imu(s, self.header.sensor, self.header.t_ns, f, w) {
             Held::Held | Held::Switched => {}

@@ -27,25 +27,25 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use crate::frames::Mount;
 use crate::model::StepOutcome;
-use crate::model::ins::{InsModel, InsState, N};
+use crate::model::ins::{InsModel, InsState};
 
 /// `h` and `H` of a 3-vector measured at a lever arm ([`position`], [`velocity`]).
-type AtArm = fn(&InsState, &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, N>);
+type AtArm<const D: usize> = fn(&InsState<D>, &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, D>);
 
 /// `h` and `H` of the position of the point at lever arm `l`.
-pub fn position(s: &InsState, l: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, N>) {
+pub fn position<const D: usize>(s: &InsState<D>, l: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, D>) {
     let R = s.q().to_rotation_matrix().into_inner();
-    let mut H = SMatrix::<f64, 3, N>::zeros();
+    let mut H = SMatrix::<f64, 3, D>::zeros();
     H.fixed_view_mut::<3, 3>(0, 0).copy_from(&Matrix3::identity());
     H.fixed_view_mut::<3, 3>(0, 6).copy_from(&(-R * l.cross_matrix()));
     (s.p() + R * l, H)
 }
 
 /// `h` and `H` of the velocity of the point at lever arm `l`.
-pub fn velocity(s: &InsState, l: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, N>) {
+pub fn velocity<const D: usize>(s: &InsState<D>, l: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, D>) {
     let R = s.q().to_rotation_matrix().into_inner();
-    let wl = InsModel::body_rate(s).cross(l);
-    let mut H = SMatrix::<f64, 3, N>::zeros();
+    let wl = InsModel::<D>::body_rate(s).cross(l);
+    let mut H = SMatrix::<f64, 3, D>::zeros();
     H.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
     H.fixed_view_mut::<3, 3>(0, 6).copy_from(&(-R * wl.cross_matrix()));
     // While standing `ω` is 0 whatever `b_g` is ([`InsModel::body_rate`]).
@@ -59,13 +59,13 @@ pub fn velocity(s: &InsState, l: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3
 /// the plain position update on δp. After a lock-out the filter re-initialises
 /// from the fixes ([`crate::model::lockout`]), taken to the body origin as `z − R l`
 /// with the attitude held.
-pub fn fuse_position(
-    model: &InsModel,
-    s: &mut InsState,
+pub fn fuse_position<const D: usize>(
+    model: &InsModel<D>,
+    s: &mut InsState<D>,
     mount: &Mount,
     z: &Vector3<f64>,
     R: &Matrix3<f64>,
-) -> (StepOutcome, Option<SVector<f64, N>>) {
+) -> (StepOutcome, Option<SVector<f64, D>>) {
     let (outcome, correction) = fuse_at(model, s, mount, z, R, 0, position);
     if model.lockout().is_some() {
         let origin = if mount.at_origin { *z } else { z - s.q().to_rotation_matrix() * mount.lever_arm };
@@ -76,30 +76,30 @@ pub fn fuse_position(
 
 /// Fuses a velocity `z` (covariance `R`) of the point of `mount`; at the origin,
 /// the plain velocity update on δv.
-pub fn fuse_velocity(
-    model: &InsModel,
-    s: &mut InsState,
+pub fn fuse_velocity<const D: usize>(
+    model: &InsModel<D>,
+    s: &mut InsState<D>,
     mount: &Mount,
     z: &Vector3<f64>,
     R: &Matrix3<f64>,
-) -> (StepOutcome, Option<SVector<f64, N>>) {
+) -> (StepOutcome, Option<SVector<f64, D>>) {
     fuse_at(model, s, mount, z, R, 3, velocity)
 }
 
 /// A measurement of the nominal block at `offset` (position 0, velocity 3) of the
 /// point of `mount`: at the origin the block itself, selected (the lean update);
 /// elsewhere `h` and `H` of `at_arm` about the lever arm.
-fn fuse_at(
-    model: &InsModel,
-    s: &mut InsState,
+fn fuse_at<const D: usize>(
+    model: &InsModel<D>,
+    s: &mut InsState<D>,
     mount: &Mount,
     z: &Vector3<f64>,
     R: &Matrix3<f64>,
     offset: usize,
-    at_arm: AtArm,
-) -> (StepOutcome, Option<SVector<f64, N>>) {
+    at_arm: AtArm<D>,
+) -> (StepOutcome, Option<SVector<f64, D>>) {
     if mount.at_origin {
-        let predicted = Vector3::from_column_slice(&InsModel::x_of(s)[offset..offset + 3]);
+        let predicted = Vector3::from_column_slice(&InsModel::<D>::x_of(s)[offset..offset + 3]);
         return model.update_block(s, z, &predicted, offset, R);
     }
     let (h, H) = at_arm(s, &mount.lever_arm);

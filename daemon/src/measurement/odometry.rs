@@ -15,6 +15,19 @@
 //! pitch together with the velocity; the sideways and vertical components are the
 //! motion constraint's ([`crate::model::ins::nonholonomic`]).
 //!
+//! With the scale factor `k` as a state (`[model.odometry_scale]`,
+//! [`OdometryScale`](crate::model::ins::OdometryScale)) the sensor measures `k`
+//! times that speed `u`, and the error in `k` is one more column:
+//!
+//! ```text
+//! z = k u + n,   H = [ k H_u   u ]
+//! ```
+//!
+//! (Groves 2013, eq. 16.15, with `k = 1 + s_o`.) While GNSS shows the velocity,
+//! `k` is learned from the difference; through an outage the learned `k` and its
+//! variance are carried, so the speed's scale error neither pulls the position
+//! nor is believed away.
+//!
 //! - `ins`: the update above, Joseph form, gated, injected and reset; refused
 //!   until the attitude is known to [`nonholonomic::MAX_ATTITUDE_SD`] (as the
 //!   motion constraint: with the heading still unknown the speed's attitude
@@ -57,14 +70,15 @@ impl Measurement for OdometrySample {
     }
 }
 
-/// `h` and `H` of the forward speed of the point at lever arm `l`.
-pub fn forward_speed(s: &InsState, l: &Vector3<f64>) -> (f64, SMatrix<f64, 1, N>) {
+/// `h` and `H` of the forward speed of the point at lever arm `l`, as the
+/// sensor measures it (times the scale factor, when it is a state).
+pub fn forward_speed<const D: usize>(s: &InsState<D>, l: &Vector3<f64>) -> (f64, SMatrix<f64, 1, D>) {
     let R = s.q().to_rotation_matrix().into_inner();
     let v_b = R.transpose() * s.v();
-    let w = InsModel::body_rate(s);
+    let w = InsModel::<D>::body_rate(s);
     let vx = v_b.cross_matrix();
     let lx = l.cross_matrix();
-    let mut H = SMatrix::<f64, 1, N>::zeros();
+    let mut H = SMatrix::<f64, 1, D>::zeros();
     for k in 0..3 {
         H[(0, 3 + k)] = R[(k, 0)]; // (Rᵀ)[0][k]
         H[(0, 6 + k)] = vx[(0, k)];
@@ -73,7 +87,15 @@ pub fn forward_speed(s: &InsState, l: &Vector3<f64>) -> (f64, SMatrix<f64, 1, N>
             H[(0, 12 + k)] = lx[(0, k)];
         }
     }
-    (v_b.x + w.cross(l).x, H)
+    let u = v_b.x + w.cross(l).x;
+    match s.odometry_scale() {
+        Some(k) => {
+            H *= k;
+            H[(0, N)] = u;
+            (k * u, H)
+        }
+        None => (u, H),
+    }
 }
 
 impl Fuse<LinearModel> for OdometrySample {
@@ -86,8 +108,8 @@ impl Fuse<LinearModel> for OdometrySample {
     }
 }
 
-impl Fuse<InsModel> for OdometrySample {
-    fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, N>>) {
+impl<const D: usize> Fuse<InsModel<D>> for OdometrySample {
+    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         if let Some(c) = model.standstill() {
             s.still.odometry(c, self.header.t_ns, self.speed_mps);
         }
@@ -103,7 +125,7 @@ impl Fuse<InsModel> for OdometrySample {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::ins::tests_support::{model, moving_state, numeric_jacobian};
+    use crate::model::ins::tests_support::{model, moving_scaled_state, moving_state, numeric_jacobian, scaled_model, set_scale};
 
     #[test]
     fn every_bad_value_has_its_reason() {
@@ -128,6 +150,46 @@ mod tests {
         // The 0.4 rad/s turn seen 0.4 m to the left slows the point by 0.16 m/s.
         assert!((h - (12.0 - 0.4 * 0.4)).abs() < 0.02, "{h}");
         assert!(H.fixed_view::<1, 3>(0, 6).amax() > 0.1, "the attitude enters");
+    }
+
+    /// With the scale factor as a state: `h = k u`, and the column of `δk` is `u`
+    /// (against central differences, as every other column).
+    #[test]
+    fn the_scaled_jacobian_matches_numerical_differentiation() {
+        let s = moving_scaled_state();
+        let l = Vector3::new(-1.3, 0.4, -0.3);
+        let (h, H) = forward_speed(&s, &l);
+        let numeric = numeric_jacobian(&s, |x| Vector1::new(forward_speed(x, &l).0));
+        assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+        let (u, _) = forward_speed(&moving_state(), &l);
+        assert!((h - 1.03 * u).abs() < 1e-12, "{h} vs 1.03 × {u}");
+        assert!((H[(0, N)] - u).abs() < 1e-12, "the scale's column is the unscaled speed");
+    }
+
+    /// A car whose odometer reads 2 % fast: fused against a velocity that is
+    /// known (GNSS), the speed's excess goes into the scale factor, not the
+    /// velocity, and its variance shrinks.
+    #[test]
+    fn a_known_velocity_teaches_the_scale() {
+        let m = scaled_model();
+        let mut s = moving_scaled_state();
+        set_scale(&mut s, 1.0);
+        let mut P = SMatrix::<f64, { crate::model::ins::MAX_N }, { crate::model::ins::MAX_N }>::zeros();
+        for i in 0..N {
+            P[(i, i)] = 1e-8;
+        }
+        P[(N, N)] = 0.02 * 0.02;
+        s.kf.set_state(SVector::zeros(), P).unwrap();
+        let (u, _) = forward_speed(&s, &Vector3::zeros());
+        let v = s.v();
+        for _ in 0..20 {
+            let odo = OdometrySample::new(0, 0, 0, 1.02 * u, 0.05 * 0.05);
+            assert!(matches!(odo.fuse(&m, &mut s).0, StepOutcome::Fused { .. }));
+        }
+        let k = s.odometry_scale().unwrap();
+        assert!((k - 1.02).abs() < 0.002, "k = {k}");
+        assert!((s.v() - v).norm() < 1e-3, "the velocity moved {}", (s.v() - v).norm());
+        assert!(s.filter().variance(N) < 0.1 * 0.02 * 0.02);
     }
 
     /// The measured speed moves the velocity along the body's forward axis only.

@@ -40,8 +40,8 @@ impl Fuse<LinearModel> for PositionSample {
     }
 }
 
-impl Fuse<InsModel> for PositionSample {
-    fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, 15>>) {
+impl<const D: usize> Fuse<InsModel<D>> for PositionSample {
+    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         let z = Vector3::from(self.pos_m);
         let R = Matrix3::from_row_slice(&self.cov_m2);
         let mount = model.frames().mount(SampleKind::Position, self.header.sensor);

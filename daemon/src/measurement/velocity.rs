@@ -41,8 +41,8 @@ impl Fuse<LinearModel> for VelocitySample {
     }
 }
 
-impl Fuse<InsModel> for VelocitySample {
-    fn fuse(&self, model: &InsModel, s: &mut InsState) -> (StepOutcome, Option<SVector<f64, 15>>) {
+impl<const D: usize> Fuse<InsModel<D>> for VelocitySample {
+    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         let z = Vector3::from(self.vel_mps);
         let R = Matrix3::from_row_slice(&self.cov_m2ps2);
         let mount = model.frames().mount(SampleKind::Velocity, self.header.sensor);

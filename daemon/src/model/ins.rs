@@ -83,10 +83,17 @@ use crate::model::lockout::{Lockout, LockoutConfig};
 pub use nonholonomic::Nonholonomic;
 pub use standstill::Standstill;
 
-/// Error-state dimension.
+/// Error-state dimension of the core model: `[δp, δv, δθ, δb_a, δb_g]`.
 pub const N: usize = 15;
-/// Nominal state length.
+/// Nominal state length of the core model.
 pub const NOMINAL: usize = 16;
+/// Error-state index of the odometry scale factor, when it is estimated
+/// ([`OdometryScale`]); its nominal index is `NOMINAL`.
+pub const SCALE: usize = N;
+/// The largest error-state dimension (the core and every auxiliary state).
+pub const MAX_N: usize = N + 1;
+/// Room for the nominal state of any dimension.
+const NOMINAL_MAX: usize = MAX_N + 1;
 
 /// IMU noise parameters, named and scaled as in Kalibr's IMU model.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -123,6 +130,8 @@ pub struct InsParams {
     pub constraints: Option<Nonholonomic>,
     /// Standstill detection and its updates (`[model.standstill]`), if any.
     pub standstill: Option<Standstill>,
+    /// The odometry scale factor as a state (`[model.odometry_scale]`), if any.
+    pub odometry_scale: Option<OdometryScale>,
 }
 
 impl InsParams {
@@ -139,37 +148,85 @@ pub struct AlignmentParams {
     pub static_samples: u32,
 }
 
-/// The `ins` model.
+/// `[model.odometry_scale]`: the odometry scale factor `k` as a state
+/// (odometry speed = `k` × true speed, one factor for every odometry sensor).
+///
+/// Tyre wear, pressure and load change the rolling radius: a scale error of
+/// 0.5–2 % is normal, and unestimated it makes odometry pull the position along
+/// the track by that share of the distance driven (Groves 2013, §16.2.1). The
+/// state is a random walk, `k̇ = n_k` with density `random_walk`; it is learned
+/// while GNSS fixes show the speed and carried through an outage.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OdometryScale {
+    /// `k` at start (default 1).
+    #[serde(default = "OdometryScale::default_initial")]
+    pub initial: f64,
+    /// Its standard deviation at start (default 0.02, a 2 % scale error).
+    #[serde(default = "OdometryScale::default_initial_std")]
+    pub initial_std: f64,
+    /// Random-walk density of `k`, 1/√s (default 10⁻⁵: 0.06 % in an hour).
+    #[serde(default = "OdometryScale::default_random_walk")]
+    pub random_walk: f64,
+}
+
+impl OdometryScale {
+    fn default_initial() -> f64 {
+        1.0
+    }
+    fn default_initial_std() -> f64 {
+        0.02
+    }
+    fn default_random_walk() -> f64 {
+        1e-5
+    }
+}
+
+impl Default for OdometryScale {
+    fn default() -> Self {
+        Self {
+            initial: Self::default_initial(),
+            initial_std: Self::default_initial_std(),
+            random_walk: Self::default_random_walk(),
+        }
+    }
+}
+
+/// The `ins` model: `D` is the error-state dimension, [`N`] for the core
+/// states and [`MAX_N`] with the odometry scale factor ([`OdometryScale`]).
 #[derive(Debug, Clone)]
-pub struct InsModel {
+pub struct InsModel<const D: usize = N> {
     noise: ImuNoise,
     gravity: f64,
-    x0: [f64; NOMINAL],
-    initial: KalmanFilter<f64, N>,
+    x0: [f64; NOMINAL_MAX],
+    initial: KalmanFilter<f64, D>,
     gate: Option<ChiSquareGate>,
     lockout: Option<LockoutConfig>,
     alignment_samples: u32,
     nonholonomic: Option<Nonholonomic>,
     standstill: Option<Standstill>,
+    odometry_scale: Option<OdometryScale>,
     frames: Frames,
 }
 
 /// The smoother's record of one `ins` step (see [`Model::finish_record`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct InsRecord {
+pub struct InsRecord<const D: usize = N> {
     /// The error-state step, about the nominal state after it.
-    pub step: RtsStep<f64, N>,
-    /// Nominal state after the step (after smoothing: the smoothed nominal state).
-    pub nominal: [f64; NOMINAL],
+    pub step: RtsStep<f64, D>,
+    /// Nominal state after the step (after smoothing: the smoothed nominal
+    /// state); its first `D + 1` entries are used.
+    pub nominal: [f64; NOMINAL_MAX],
 }
 
 /// Filter state of the `ins` model at one point of the stream.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct InsState {
-    /// Nominal state [p, v, q_wxyz, b_a, b_g].
-    nominal: [f64; NOMINAL],
+pub struct InsState<const D: usize = N> {
+    /// Nominal state [p, v, q_wxyz, b_a, b_g] and the auxiliary states (the
+    /// first `D + 1` entries are used).
+    nominal: [f64; NOMINAL_MAX],
     /// Error-state filter (its mean is zero between updates).
-    pub(crate) kf: KalmanFilter<f64, N>,
+    pub(crate) kf: KalmanFilter<f64, D>,
     t_ns: Option<u64>,
     /// Held IMU values (specific force, rate; body frame), combined over the IMUs.
     pub(crate) imu: HeldImu,
@@ -187,9 +244,10 @@ pub struct InsState {
     pub(crate) still: standstill::Detector,
 }
 
-impl InsState {
+impl<const D: usize> InsState<D> {
     /// A state before any sample: nominal state and error-state filter.
-    fn new(nominal: [f64; NOMINAL], kf: KalmanFilter<f64, N>) -> Self {
+    fn new(nominal: [f64; NOMINAL_MAX], kf: KalmanFilter<f64, D>) -> Self {
+        const { assert!(D == N || D == MAX_N, "the ins error state is the core or the core and the scale") };
         Self {
             nominal,
             kf,
@@ -226,8 +284,13 @@ impl InsState {
     pub fn b_g(&self) -> Vector3<f64> {
         Vector3::new(self.nominal[13], self.nominal[14], self.nominal[15])
     }
+    /// The odometry scale factor `k` (odometry speed = `k` × true speed), if
+    /// it is estimated.
+    pub fn odometry_scale(&self) -> Option<f64> {
+        (D > N).then_some(self.nominal[NOMINAL])
+    }
     /// The error-state filter.
-    pub fn filter(&self) -> &KalmanFilter<f64, N> {
+    pub fn filter(&self) -> &KalmanFilter<f64, D> {
         &self.kf
     }
 
@@ -249,11 +312,14 @@ impl InsState {
     }
 }
 
-impl InsModel {
+impl<const D: usize> InsModel<D> {
     /// The nominal state `x` of a state (same as [`Model::x`]).
-    pub fn x_of(s: &InsState) -> &[f64] {
-        &s.nominal
+    pub fn x_of(s: &InsState<D>) -> &[f64] {
+        &s.nominal[..D + 1]
     }
+}
+
+impl InsModel {
 
     /// A model with the IMU noise, gravity (m/s²), nominal x₀, diag(P₀) (error-state
     /// order), optional gate, and a static alignment over the first
@@ -267,7 +333,7 @@ impl InsModel {
         alignment_samples: u32,
     ) -> Result<Self, FilterError> {
         let initial = KalmanFilter::new(SVector::zeros(), SMatrix::from_diagonal(&SVector::from(p0_diagonal)))?;
-        let mut x0 = x0;
+        let mut x0 = pad(x0);
         let q = nalgebra::Quaternion::new(x0[6], x0[7], x0[8], x0[9]);
         let norm = q.norm();
         if !(norm.is_finite() && norm > 0.0) {
@@ -286,9 +352,45 @@ impl InsModel {
             alignment_samples,
             nonholonomic: None,
             standstill: None,
+            odometry_scale: None,
             frames: Frames::default(),
         })
     }
+
+    /// The same model with the odometry scale factor as a state: `k₀` and its
+    /// initial variance appended to `x₀` and `P₀` (uncorrelated).
+    pub fn with_odometry_scale(self, scale: OdometryScale) -> Result<InsModel<MAX_N>, FilterError> {
+        let P = self.initial.P();
+        let mut P1 = SMatrix::<f64, MAX_N, MAX_N>::zeros();
+        P1.fixed_view_mut::<N, N>(0, 0).copy_from(&P);
+        P1[(SCALE, SCALE)] = scale.initial_std * scale.initial_std;
+        let initial = KalmanFilter::new(SVector::zeros(), P1)?;
+        let mut x0 = self.x0;
+        x0[NOMINAL] = scale.initial;
+        Ok(InsModel {
+            noise: self.noise,
+            gravity: self.gravity,
+            x0,
+            initial,
+            gate: self.gate,
+            lockout: self.lockout,
+            alignment_samples: self.alignment_samples,
+            nonholonomic: self.nonholonomic,
+            standstill: self.standstill,
+            odometry_scale: Some(scale),
+            frames: self.frames,
+        })
+    }
+}
+
+/// A core nominal state in the array that has room for the auxiliary states.
+fn pad(x: [f64; NOMINAL]) -> [f64; NOMINAL_MAX] {
+    let mut out = [0.0; NOMINAL_MAX];
+    out[..NOMINAL].copy_from_slice(&x);
+    out
+}
+
+impl<const D: usize> InsModel<D> {
 
     /// The same model with these frames (a configured datum).
     pub fn with_frames(mut self, frames: Frames) -> Self {
@@ -319,6 +421,11 @@ impl InsModel {
         self.standstill.as_ref()
     }
 
+    /// The odometry scale state's parameters, if it is estimated.
+    pub fn odometry_scale(&self) -> Option<&OdometryScale> {
+        self.odometry_scale.as_ref()
+    }
+
     /// The IMU noise.
     pub fn noise(&self) -> &ImuNoise {
         &self.noise
@@ -345,12 +452,13 @@ impl InsModel {
             theta: qg * dt,
             ba: n.accelerometer_random_walk.powi(2) * dt,
             bg: n.gyroscope_random_walk.powi(2) * dt,
+            scale: self.odometry_scale.map_or(0.0, |k| k.random_walk * k.random_walk * dt),
         }
     }
 
     /// Propagates nominal state and error covariance over `dt` with the held IMU
     /// values; the transition used (if the filter accepted it) goes to `log`.
-    fn propagate(&self, s: &mut InsState, dt: f64, log: Option<&mut StepLog<f64, N>>) {
+    fn propagate(&self, s: &mut InsState<D>, dt: f64, log: Option<&mut StepLog<f64, D>>) {
         let held = s.imu.mean();
         let mut Q = self.process_noise(dt, held.map_or(1, |(_, _, n)| n));
         let moving = held.filter(|_| s.ready);
@@ -381,14 +489,14 @@ impl InsModel {
     /// IMU dropping out of or back into the mean), the bias variances grow back
     /// to at least their initial values: the biases held now are partly another
     /// IMU's.
-    pub(crate) fn hold_imu(&self, s: &mut InsState, sensor: u32, t_ns: u64, f: Vector3<f64>, w: Vector3<f64>) -> Held {
+    pub(crate) fn hold_imu(&self, s: &mut InsState<D>, sensor: u32, t_ns: u64, f: Vector3<f64>, w: Vector3<f64>) -> Held {
         let held = s.imu.hold(self.frames.imus(), sensor, t_ns, f, w);
         match held {
             Held::Held => {}
             Held::Switched => {
                 let initial = &self.initial;
                 s.kf.reset_error(|P| {
-                    for i in 9..15 {
+                    for i in 9..N {
                         P[(i, i)] = P[(i, i)].max(initial.variance(i));
                     }
                 });
@@ -409,7 +517,7 @@ impl InsModel {
 
     /// The body angular rate `ω = ω_m − b_g` of the held IMU values (zero before
     /// any, and while the vehicle stands: [`standstill`]), rad/s.
-    pub(crate) fn body_rate(s: &InsState) -> Vector3<f64> {
+    pub(crate) fn body_rate(s: &InsState<D>) -> Vector3<f64> {
         if s.still.standing {
             return Vector3::zeros();
         }
@@ -422,11 +530,11 @@ impl InsModel {
     /// nominal state and the error reset, and returned.
     pub(crate) fn update_residual<const M: usize>(
         &self,
-        s: &mut InsState,
+        s: &mut InsState<D>,
         y: &SVector<f64, M>,
-        H: &SMatrix<f64, M, N>,
+        H: &SMatrix<f64, M, D>,
         R: &SMatrix<f64, M, M>,
-    ) -> (StepOutcome, Option<SVector<f64, N>>) {
+    ) -> (StepOutcome, Option<SVector<f64, D>>) {
         self.update_residual_gated(s, y, H, R, self.gate.as_ref())
     }
 
@@ -434,12 +542,12 @@ impl InsModel {
     /// configured one (`None`: not gated).
     pub(crate) fn update_residual_gated<const M: usize>(
         &self,
-        s: &mut InsState,
+        s: &mut InsState<D>,
         y: &SVector<f64, M>,
-        H: &SMatrix<f64, M, N>,
+        H: &SMatrix<f64, M, D>,
         R: &SMatrix<f64, M, M>,
         gate: Option<&ChiSquareGate>,
-    ) -> (StepOutcome, Option<SVector<f64, N>>) {
+    ) -> (StepOutcome, Option<SVector<f64, D>>) {
         let options = UpdateOptions { gate, fault_detector: None };
         match s.kf.update_nonlinear(y, &SVector::zeros(), H, R, options) {
             Ok(d) if d.decision == UpdateDecision::Accepted => {
@@ -467,12 +575,12 @@ impl InsModel {
     /// injected into the nominal state and the error reset, and returned.
     pub(crate) fn update_block(
         &self,
-        s: &mut InsState,
+        s: &mut InsState<D>,
         z: &Vector3<f64>,
         predicted: &Vector3<f64>,
         offset: usize,
         R: &Matrix3<f64>,
-    ) -> (StepOutcome, Option<SVector<f64, N>>) {
+    ) -> (StepOutcome, Option<SVector<f64, D>>) {
         let (decision, nis) = match s.kf.update_selection_lean(z, predicted, offset, R, self.gate.as_ref()) {
             Ok(d) => d,
             Err(_) => return (StepOutcome::Refused, None),
@@ -487,7 +595,7 @@ impl InsModel {
     /// roll `φ = atan2(f̄_y, f̄_z)`, pitch `θ = atan2(−f̄_x, √(f̄_y² + f̄_z²))`
     /// (Groves 2013, eq. 5.101, body forward-left-up), yaw from x₀, and the gyro
     /// bias `b_g = ω̄` (at rest the gyro reads its bias, Earth rate neglected).
-    fn align(&self, s: &mut InsState) {
+    fn align(&self, s: &mut InsState<D>) {
         let f = s.sum_f / f64::from(s.aligned);
         let w = s.sum_w / f64::from(s.aligned);
         let roll = f.y.atan2(f.z);
@@ -499,14 +607,15 @@ impl InsModel {
     }
 }
 
-impl Model for InsModel {
-    type State = InsState;
-    type Record = InsRecord;
-    type Correction = Option<SVector<f64, N>>;
-    type Log = StepLog<f64, N>;
+impl<const D: usize> Model for InsModel<D> {
+    type State = InsState<D>;
+    type Record = InsRecord<D>;
+    type Correction = Option<SVector<f64, D>>;
+    type Log = StepLog<f64, D>;
     const CODE: u32 = fusion_shared::snapshot::model::INS;
+    const AUX_STATES: u32 = if D > N { fusion_shared::snapshot::aux::ODOMETRY_SCALE } else { 0 };
 
-    fn initial_state(&self) -> InsState {
+    fn initial_state(&self) -> InsState<D> {
         InsState::new(self.x0, self.initial)
     }
 
@@ -514,13 +623,13 @@ impl Model for InsModel {
         &self.frames
     }
 
-    fn propagate_to(&self, s: &mut InsState, t_ns: u64, log: Option<&mut StepLog<f64, N>>) {
+    fn propagate_to(&self, s: &mut InsState<D>, t_ns: u64, log: Option<&mut StepLog<f64, D>>) {
         if let Some(dt) = advance_time(&mut s.t_ns, t_ns) {
             self.propagate(s, dt, log);
         }
     }
 
-    fn begin_record(s: &InsState) -> StepLog<f64, N> {
+    fn begin_record(s: &InsState<D>) -> StepLog<f64, D> {
         StepLog::begin(&s.kf)
     }
 
@@ -528,7 +637,7 @@ impl Model for InsModel {
     /// it (see [`smooth`](Model::smooth)): prior mean `−dx` (the correction the
     /// step injected, 0 if none), posterior mean 0, `P⁻`, `P⁺` after the reset,
     /// the step's `F`, and that nominal state.
-    fn finish_record(log: StepLog<f64, N>, s: &InsState, injected: Option<SVector<f64, N>>) -> InsRecord {
+    fn finish_record(log: StepLog<f64, D>, s: &InsState<D>, injected: Option<SVector<f64, D>>) -> InsRecord<D> {
         let mut step = log.finish(&s.kf);
         if let Some(dx) = injected {
             step.x_prior = -dx;
@@ -536,29 +645,29 @@ impl Model for InsModel {
         InsRecord { step, nominal: s.nominal }
     }
 
-    fn time_ns(s: &InsState) -> Option<u64> {
+    fn time_ns(s: &InsState<D>) -> Option<u64> {
         s.t_ns
     }
 
-    fn initialised(s: &InsState) -> bool {
+    fn initialised(s: &InsState<D>) -> bool {
         s.ready
     }
 
-    fn reinitialisations(s: &InsState) -> u64 {
+    fn reinitialisations(s: &InsState<D>) -> u64 {
         s.lockout.count()
     }
 
-    fn standstill(s: &InsState) -> (bool, u64) {
+    fn standstill(s: &InsState<D>) -> (bool, u64) {
         (s.standing(), s.standstill_updates())
     }
 
-    fn x(s: &InsState) -> &[f64] {
-        &s.nominal
+    fn x(s: &InsState<D>) -> &[f64] {
+        &s.nominal[..D + 1]
     }
 
-    const COV_DIM: usize = N;
+    const COV_DIM: usize = D;
 
-    fn write_covariance(s: &InsState, out: &mut [f64]) {
+    fn write_covariance(s: &InsState<D>, out: &mut [f64]) {
         s.kf.write_covariance(out);
     }
 
@@ -569,13 +678,13 @@ impl Model for InsModel {
     /// `[½δθ]×`). The linear RTS recursion ([`rts_smooth`]) then gives each step's
     /// smoothed error `δxˢₖ = Cₖ (δxˢₖ₊₁ + dxₖ₊₁)` and `Pˢₖ`, and the smoothed nominal is
     /// `x⁺ₖ ⊕ δxˢₖ` (injected as a correction is).
-    fn smooth(records: &mut [InsRecord]) -> Result<(), SmootherError> {
-        let mut steps: Vec<RtsStep<f64, N>> = records.iter().map(|r| r.step).collect();
+    fn smooth(records: &mut [InsRecord<D>]) -> Result<(), SmootherError> {
+        let mut steps: Vec<RtsStep<f64, D>> = records.iter().map(|r| r.step).collect();
         rts_smooth(&mut steps)?;
         // `inject` works on the nominal part of a state only.
         let placeholder = linearised::placeholder();
         for (r, smoothed) in records.iter_mut().zip(&steps) {
-            let mut s = InsState::new(r.nominal, placeholder);
+            let mut s = InsState::<D>::new(r.nominal, placeholder);
             inject(&mut s, &smoothed.x_post);
             r.nominal = s.nominal;
             r.step.x_post = SVector::zeros();
@@ -584,8 +693,8 @@ impl Model for InsModel {
         Ok(())
     }
 
-    fn record_output(r: &InsRecord) -> (&[f64], &[f64]) {
-        (&r.nominal, r.step.P_post.as_slice())
+    fn record_output(r: &InsRecord<D>) -> (&[f64], &[f64]) {
+        (&r.nominal[..D + 1], r.step.P_post.as_slice())
     }
 }
 

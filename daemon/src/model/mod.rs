@@ -136,6 +136,10 @@ pub trait Model {
     /// Side of the published covariance (the error-state dimension).
     const COV_DIM: usize;
 
+    /// The auxiliary states after the model's own layout, as bits of
+    /// [`fusion_shared::snapshot::aux`] (0: none).
+    const AUX_STATES: u32 = 0;
+
     /// Writes the covariance as published, row-major (it is symmetric), into
     /// `out` (`COV_DIM²` entries). In the UDU form it is composed from the factors.
     fn write_covariance(state: &Self::State, out: &mut [f64]);

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use fusion_shared::StateSnapshot;
-use fusion_shared::snapshot::{Model, model};
+use fusion_shared::snapshot::{Model, aux, model};
 use serde_json::Value;
 
 /// A tilted ins snapshot: roll, pitch, yaw (rad) as its attitude (the
@@ -40,6 +40,22 @@ fn ins_snapshot(rpy: [f64; 3], quaternion_scale: f64) -> StateSnapshot {
     s
 }
 
+/// An ins snapshot with the odometry scale factor as its auxiliary state
+/// (`k` = 1.012, σ 0.003), its covariance laid out 16×16.
+fn ins_with_scale() -> StateSnapshot {
+    let core = ins_snapshot([0.1, 0.05, -1.0], 1.0);
+    let mut s = StateSnapshot { state_len: 17, cov_dim: 16, aux_states: aux::ODOMETRY_SCALE, ..core };
+    s.cov = [0.0; fusion_shared::snapshot::MAX_COV_LEN];
+    for r in 0..15 {
+        for c in 0..15 {
+            s.cov[r * 16 + c] = core.cov[r * 15 + c];
+        }
+    }
+    s.x[16] = 1.012;
+    s.cov[15 * 16 + 15] = 9e-6;
+    s
+}
+
 /// A snapshot of `model` as fusiond would publish it: its state length and
 /// covariance side, distinct values in every entry (a unit quaternion where the
 /// layout has one) and distinct variances.
@@ -62,7 +78,7 @@ fn model_snapshot(model: Model) -> StateSnapshot {
     s
 }
 
-/// The snapshots the accessors are compared on, each with how many of the 12
+/// The snapshots the accessors are compared on, each with how many of the 13
 /// accessors must give a value (both languages agreeing on `None` for the rest).
 ///
 /// One snapshot of every model in the model list (so a new model's layout is
@@ -88,6 +104,13 @@ pub fn cases() -> Vec<(StateSnapshot, Option<usize>)> {
         (StateSnapshot { state_len: 5, ..ins }, Some(6)),
         (StateSnapshot { cov_dim: 20, ..ins }, Some(6)),
         (StateSnapshot::default(), Some(0)),
+        // The odometry scale after the ins states, and what must not be read
+        // as it: the bit without the room, the room without the bit, a bit
+        // this version does not know.
+        (ins_with_scale(), Some(13)),
+        (StateSnapshot { aux_states: aux::ODOMETRY_SCALE, ..ins }, Some(12)),
+        (StateSnapshot { aux_states: 0, ..ins_with_scale() }, Some(12)),
+        (StateSnapshot { aux_states: aux::ODOMETRY_SCALE | 1 << 7, ..ins_with_scale() }, Some(12)),
     ]);
     cases
 }
@@ -103,7 +126,7 @@ pub fn write_cases(dir: &Path) -> PathBuf {
 type Accessor = fn(&StateSnapshot) -> Option<Vec<f64>>;
 
 /// Every typed accessor, by the name the other languages give it.
-const ACCESSORS: [(&str, Accessor); 12] = [
+const ACCESSORS: [(&str, Accessor); 13] = [
     ("position", |s| s.position().map(Vec::from)),
     ("velocity", |s| s.velocity().map(Vec::from)),
     ("attitude", |s| s.attitude().map(Vec::from)),
@@ -116,6 +139,7 @@ const ACCESSORS: [(&str, Accessor); 12] = [
     ("roll_pitch_yaw_std", |s| s.roll_pitch_yaw_std().map(Vec::from)),
     ("accel_bias_std", |s| s.accel_bias_std().map(Vec::from)),
     ("gyro_bias_std", |s| s.gyro_bias_std().map(Vec::from)),
+    ("odometry_scale", |s| Some(vec![s.odometry_scale()?, s.odometry_scale_std()?])),
 ];
 
 /// Asserts that `printed` (a JSON line per case of [`cases`]) has what the Rust

@@ -3,7 +3,7 @@
 //!
 //! The layout of each model is in [`StateSnapshot`]'s documentation.
 
-use super::{StateSnapshot, health, outcome};
+use super::{MAX_COV, MAX_STATE, StateSnapshot, aux, health, outcome};
 use crate::SampleKind;
 
 /// Generates [`Model`] from [`for_each_model!`](crate::for_each_model).
@@ -404,6 +404,54 @@ impl StateSnapshot {
     pub fn gyro_bias_std(&self) -> Option<[f64; 3]> {
         self.ins()?;
         self.std3(12)
+    }
+
+    /// Every entry of the state vector in use: the model's
+    /// ([`Model::state_layout`]), then the auxiliary states of
+    /// [`aux_states`](Self::aux_states) in bit order, each with the index of its
+    /// standard deviation in the covariance. Empty for an unknown model or when
+    /// the lengths disagree with the layout (the memory is not what fusiond wrote).
+    pub fn state_layout(&self) -> impl Iterator<Item = (&'static str, Option<usize>)> + use<> {
+        let model = self.model().filter(|_| self.aux_layout_fits());
+        let own = model.map_or(&[][..], |m| m.state_layout()).iter().copied();
+        let cov0 = model.map_or(0, |m| m.cov_dim());
+        let bits = if model.is_some() { self.aux_states } else { 0 };
+        let extra = aux::ALL.iter().filter(move |(bit, _)| bits & bit != 0).enumerate();
+        own.chain(extra.map(move |(i, (_, name))| (*name, Some(cov0 + i))))
+    }
+
+    /// Whether `state_len` and `cov_dim` are the model's plus one per auxiliary state.
+    fn aux_layout_fits(&self) -> bool {
+        let Some(m) = self.model() else { return false };
+        let extra = (self.aux_states & aux::ALL.iter().fold(0, |a, (bit, _)| a | bit)).count_ones() as usize;
+        self.aux_states.count_ones() as usize == extra
+            && self.state_len as usize == m.state_len() + extra
+            && self.cov_dim as usize == m.cov_dim() + extra
+            && self.state_len as usize <= MAX_STATE
+            && self.cov_dim as usize <= MAX_COV
+    }
+
+    /// The value and standard deviation of auxiliary state `bit`, if the
+    /// estimate has it.
+    fn aux(&self, bit: u32) -> Option<(f64, f64)> {
+        let m = self.model()?;
+        if self.aux_states & bit == 0 || !self.aux_layout_fits() {
+            return None;
+        }
+        let rank = (self.aux_states & (bit - 1)).count_ones() as usize;
+        let (i, c, n) = (m.state_len() + rank, m.cov_dim() + rank, self.cov_dim as usize);
+        Some((self.x[i], self.cov[c * n + c].max(0.0).sqrt()))
+    }
+
+    /// The odometry scale factor `k` (odometry speed = `k` × true speed), when
+    /// it is estimated (`ins` with `[model.odometry_scale]`).
+    pub fn odometry_scale(&self) -> Option<f64> {
+        self.aux(aux::ODOMETRY_SCALE).map(|(k, _)| k)
+    }
+
+    /// The standard deviation of [`odometry_scale`](Self::odometry_scale).
+    pub fn odometry_scale_std(&self) -> Option<f64> {
+        self.aux(aux::ODOMETRY_SCALE).map(|(_, sd)| sd)
     }
 
     /// The health of the estimate (the raw code is the field `health`).

@@ -5,7 +5,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
-use super::{InsState, N};
+use super::{InsState, N, NOMINAL};
 use crate::filter::kalman::{Symmetrize, symmetrize_leading};
 
 /// The entries of a 3×3 matrix as rows: `m[(r, c)]` is `row_major(m)[r][c]`.
@@ -44,12 +44,17 @@ pub(super) struct ProcessNoise {
     pub theta: f64,
     pub ba: f64,
     pub bg: f64,
+    /// The odometry scale factor's (when it is a state).
+    pub scale: f64,
 }
 
 impl ProcessNoise {
     /// `Q` as a dense matrix (for the UDU form and the tests).
-    pub fn dense(&self) -> SMatrix<f64, N, N> {
-        let mut Q = SMatrix::<f64, N, N>::zeros();
+    pub fn dense<const D: usize>(&self) -> SMatrix<f64, D, D> {
+        let mut Q = SMatrix::<f64, D, D>::zeros();
+        if D > N {
+            Q[(N, N)] = self.scale;
+        }
         for i in 0..3 {
             Q[(i, i)] = self.pp;
             Q[(i, i + 3)] = self.pv;
@@ -63,7 +68,10 @@ impl ProcessNoise {
     }
 
     /// `P += Q`.
-    pub fn add_to(&self, P: &mut SMatrix<f64, N, N>) {
+    pub fn add_to<const D: usize>(&self, P: &mut SMatrix<f64, D, D>) {
+        if D > N {
+            P[(N, N)] += self.scale;
+        }
         for i in 0..3 {
             P[(i, i)] += self.pp;
             P[(i, i + 3)] += self.pv;
@@ -77,11 +85,12 @@ impl ProcessNoise {
 }
 
 impl Transition {
-    /// `F` as a dense matrix (for the smoother's log and the tests).
-    pub fn dense(&self) -> SMatrix<f64, N, N> {
+    /// `F` as a dense matrix (for the smoother's log and the tests); the
+    /// auxiliary states are constant over a step (identity rows).
+    pub fn dense<const D: usize>(&self) -> SMatrix<f64, D, D> {
         let dt = self.dt;
         let hdt2 = 0.5 * dt * dt;
-        let mut F = SMatrix::<f64, N, N>::identity();
+        let mut F = SMatrix::<f64, D, D>::identity();
         F.fixed_view_mut::<3, 3>(0, 3).copy_from(&(Matrix3::identity() * dt));
         F.fixed_view_mut::<3, 3>(0, 6).copy_from(&(self.A * hdt2));
         F.fixed_view_mut::<3, 3>(0, 9).copy_from(&(self.B * hdt2));
@@ -110,8 +119,9 @@ impl Transition {
     ///
     /// The rest is copied: rows 0–8, columns 9–14 from `T`, their transpose below,
     /// and the bias blocks from `P`. About 800 multiply-adds against 6750 for the
-    /// dense `F P Fᵀ`.
-    pub fn propagate_covariance(&self, P: &mut SMatrix<f64, N, N>, Q: &ProcessNoise) {
+    /// dense `F P Fᵀ`. Auxiliary states (index ≥ 15) are constant over a step,
+    /// so their rows and columns are copied as the biases' are.
+    pub fn propagate_covariance<const D: usize>(&self, P: &mut SMatrix<f64, D, D>, Q: &ProcessNoise) {
         let (a, b, c) = (row_major(&self.A), row_major(&self.B), row_major(&self.C));
         propagate_blocks(&mut P.data.0, self.dt, self.gyro_dt, &a, &b, &c);
         Q.add_to(P);
@@ -122,8 +132,8 @@ impl Transition {
 /// `p` (`p[c][r]`), in place; `a`, `b`, `c` row-major. Compiled for AVX2 as well,
 /// chosen at run time: the same operations in the same order, so the same bits.
 #[multiversion::multiversion(targets("x86_64+avx2"))]
-fn propagate_blocks(
-    p: &mut [[f64; N]; N],
+fn propagate_blocks<const D: usize>(
+    p: &mut [[f64; D]; D],
     dt: f64,
     gyro_dt: f64,
     a: &[[f64; 3]; 3],
@@ -132,7 +142,7 @@ fn propagate_blocks(
 ) {
     let hdt2 = 0.5 * dt * dt;
     // T = rows 0–8 of F P, column by column.
-    let mut t = [[0.0; 9]; N];
+    let mut t = [[0.0; 9]; D];
     for (tc, pc) in t.iter_mut().zip(p.iter()) {
         for r in 0..3 {
             let mut w = 0.0;
@@ -166,7 +176,7 @@ fn propagate_blocks(
     symmetrize_leading(p, 9, Symmetrize::Average);
     // Block columns 3 and 4 are unchanged by the column pass: rows 0–8 come
     // from T, and their mirror fills rows 9–14 of columns 0–8.
-    for j in 9..N {
+    for j in 9..D {
         for i in 0..9 {
             p[j][i] = t[j][i];
             p[i][j] = t[j][i];
@@ -175,8 +185,9 @@ fn propagate_blocks(
 }
 
 /// Adds an error-state correction to the nominal state:
-/// `p += δp, v += δv, q ← q ⊗ Exp(δθ), b += δb` (Solà eq. 282–286).
-pub(super) fn inject(s: &mut InsState, dx: &SVector<f64, N>) {
+/// `p += δp, v += δv, q ← q ⊗ Exp(δθ), b += δb` (Solà eq. 282–286), and
+/// `k += δk` for the odometry scale factor.
+pub(super) fn inject<const D: usize>(s: &mut InsState<D>, dx: &SVector<f64, D>) {
     let dp = Vector3::new(dx[0], dx[1], dx[2]);
     let dv = Vector3::new(dx[3], dx[4], dx[5]);
     let dtheta = Vector3::new(dx[6], dx[7], dx[8]);
@@ -186,12 +197,15 @@ pub(super) fn inject(s: &mut InsState, dx: &SVector<f64, N>) {
     q.renormalize();
     let (p, v, b_a, b_g) = (s.p() + dp, s.v() + dv, s.b_a() + dba, s.b_g() + dbg);
     s.set(p, v, q, b_a, b_g);
+    if D > N {
+        s.nominal[NOMINAL] += dx[N];
+    }
 }
 
 /// Injects the error into the nominal state and resets it (Solà eq. 282–287):
 /// [`inject`], `δx ← 0`, `P ← G P Gᵀ` with `G = diag(I, I, I − [½δθ]×, I, I)`.
 /// Returns the injected error.
-pub(crate) fn inject_and_reset(s: &mut InsState) -> SVector<f64, N> {
+pub(crate) fn inject_and_reset<const D: usize>(s: &mut InsState<D>) -> SVector<f64, D> {
     let dx = *s.kf.x();
     inject(s, &dx);
     let Gt = attitude_reset(&dx);
@@ -200,24 +214,25 @@ pub(crate) fn inject_and_reset(s: &mut InsState) -> SVector<f64, N> {
 }
 
 /// The attitude block `Gθ = I − [½δθ]×` of the reset Jacobian after injecting `dx`.
-pub(super) fn attitude_reset(dx: &SVector<f64, N>) -> Matrix3<f64> {
+pub(super) fn attitude_reset<const D: usize>(dx: &SVector<f64, D>) -> Matrix3<f64> {
     let dtheta = Vector3::new(dx[6], dx[7], dx[8]);
     Matrix3::identity() - (dtheta * 0.5).cross_matrix()
 }
 
-/// The reset Jacobian `G = diag(I, I, Gθ, I, I)` as a dense matrix.
-pub(super) fn reset_jacobian(Gt: &Matrix3<f64>) -> SMatrix<f64, N, N> {
-    let mut G = SMatrix::<f64, N, N>::identity();
+/// The reset Jacobian `G = diag(I, I, Gθ, I, I)` (`I` for the auxiliary
+/// states) as a dense matrix.
+pub(super) fn reset_jacobian<const D: usize>(Gt: &Matrix3<f64>) -> SMatrix<f64, D, D> {
+    let mut G = SMatrix::<f64, D, D>::identity();
     G.fixed_view_mut::<3, 3>(6, 6).copy_from(Gt);
     G
 }
 
 /// `P ← G P Gᵀ` for `G = diag(I, I, Gθ, I, I)`, `g` = Gθ row-major.
-fn reset_attitude_block(P: &mut SMatrix<f64, N, N>, g: &[[f64; 3]; 3]) {
+fn reset_attitude_block<const D: usize>(P: &mut SMatrix<f64, D, D>, g: &[[f64; 3]; 3]) {
     // Only block row and column 2 change: P₂ⱼ ← Gθ P₂ⱼ (j ≠ 2), Pᵢ₂ ← its mirror,
     // P₂₂ ← Gθ P₂₂ Gθᵀ. Columns of the array are matrix columns: p[c][r].
     let p = &mut P.data.0;
-    for c in (0..N).filter(|c| !(6..9).contains(c)) {
+    for c in (0..D).filter(|c| !(6..9).contains(c)) {
         let col = [p[c][6], p[c][7], p[c][8]];
         for r in 0..3 {
             let v = g[r][0] * col[0] + g[r][1] * col[1] + g[r][2] * col[2];

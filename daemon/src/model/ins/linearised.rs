@@ -8,17 +8,17 @@
 use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
 
 use super::error_state::{Transition, attitude_reset, inject, reset_jacobian};
-use super::{InsModel, InsState, N, NOMINAL};
+use super::{InsModel, InsState, N, NOMINAL, pad};
 use crate::filter::KalmanFilter;
 
-impl InsModel {
+impl<const D: usize> InsModel<D> {
     /// The nominal state's strapdown step over `dt` with the IMU values `f_m`,
     /// `w_m` (see the model docs), and the error-state transition of that step:
     /// `(p, v, q)` after it and `F`.
     #[inline(always)]
     pub(super) fn mechanise(
         &self,
-        s: &InsState,
+        s: &InsState<D>,
         f_m: Vector3<f64>,
         w_m: Vector3<f64>,
         dt: f64,
@@ -37,6 +37,9 @@ impl InsModel {
         let F = Transition { dt, gyro_dt: dt, A: -R * f.cross_matrix(), B: -R, C };
         (p_new, v_new, q_new, F)
     }
+}
+
+impl InsModel {
 
     /// The strapdown step of `nominal` over `dt` seconds with one IMU's specific
     /// force `f_m` and rate `w_m` (body frame), exactly as the model makes it:
@@ -49,19 +52,19 @@ impl InsModel {
         w_m: Vector3<f64>,
         dt: f64,
     ) -> ([f64; NOMINAL], SMatrix<f64, N, N>, SMatrix<f64, N, N>) {
-        let mut s = InsState::new(*nominal, placeholder());
+        let mut s = InsState::new(pad(*nominal), placeholder());
         let (p, v, q, F) = self.mechanise(&s, f_m, w_m, dt);
         let (b_a, b_g) = (s.b_a(), s.b_g());
         s.set(p, v, q, b_a, b_g);
-        (s.nominal, F.dense(), self.process_noise(dt, 1).dense())
+        (core(&s.nominal), F.dense(), self.process_noise(dt, 1).dense())
     }
 
     /// Injects the error-state correction `dx` into `nominal` as the model does
     /// after an update, and returns the reset Jacobian `G` (`P ← G P Gᵀ`).
     pub fn inject_error(nominal: &mut [f64; NOMINAL], dx: &SVector<f64, N>) -> SMatrix<f64, N, N> {
-        let mut s = InsState::new(*nominal, placeholder());
+        let mut s = InsState::new(pad(*nominal), placeholder());
         inject(&mut s, dx);
-        *nominal = s.nominal;
+        *nominal = core(&s.nominal);
         reset_jacobian(&attitude_reset(dx))
     }
 
@@ -72,11 +75,16 @@ impl InsModel {
 
     /// The model's initial nominal state `x₀`.
     pub fn initial_nominal(&self) -> [f64; NOMINAL] {
-        self.x0
+        core(&self.x0)
     }
 }
 
+/// The core part of a nominal state.
+fn core(x: &[f64]) -> [f64; NOMINAL] {
+    x[..NOMINAL].try_into().expect("a nominal state holds the core")
+}
+
 /// A filter for states used only for their nominal part.
-pub(super) fn placeholder() -> KalmanFilter<f64, N> {
+pub(super) fn placeholder<const D: usize>() -> KalmanFilter<f64, D> {
     KalmanFilter::new(SVector::zeros(), SMatrix::identity()).expect("I is a valid covariance")
 }

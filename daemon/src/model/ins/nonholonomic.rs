@@ -20,7 +20,7 @@
 
 use nalgebra::{Matrix2, SMatrix, SVector, Vector2};
 
-use crate::model::ins::{InsModel, InsState, N};
+use crate::model::ins::{InsModel, InsState};
 
 /// Innovation dimension: lateral and vertical body velocity.
 pub const INNOVATION_DIM: usize = 2;
@@ -55,14 +55,14 @@ impl Nonholonomic {
 
 /// Whether every axis of the attitude is known to [`MAX_ATTITUDE_SD`]: before,
 /// a measurement through the attitude is linearised about a wrong body frame.
-pub fn attitude_known(s: &InsState) -> bool {
+pub fn attitude_known<const D: usize>(s: &InsState<D>) -> bool {
     (6..9).all(|i| s.filter().variance(i) <= MAX_ATTITUDE_SD * MAX_ATTITUDE_SD)
 }
 
 /// Fuses `[v_b,y, v_b,z] = 0` into `s` and injects the correction, which it
 /// returns. Below the minimum speed, with the attitude not yet known, or when
 /// the gate refuses it, nothing changes.
-pub fn fuse(c: &Nonholonomic, model: &InsModel, s: &mut InsState) -> Option<SVector<f64, N>> {
+pub fn fuse<const D: usize>(c: &Nonholonomic, model: &InsModel<D>, s: &mut InsState<D>) -> Option<SVector<f64, D>> {
     let R = s.q().to_rotation_matrix().into_inner();
     let v_b = R.transpose() * s.v();
     if v_b.x < c.min_speed_mps {
@@ -74,7 +74,7 @@ pub fn fuse(c: &Nonholonomic, model: &InsModel, s: &mut InsState) -> Option<SVec
     if !attitude_known(s) {
         return None;
     }
-    let mut H = SMatrix::<f64, INNOVATION_DIM, N>::zeros();
+    let mut H = SMatrix::<f64, INNOVATION_DIM, D>::zeros();
     let vx = v_b.cross_matrix();
     for r in 0..2 {
         for k in 0..3 {

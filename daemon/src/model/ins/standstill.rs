@@ -93,7 +93,7 @@ use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 use super::error_state::{ProcessNoise, Transition};
 use crate::model::StepOutcome;
-use crate::model::ins::{InsModel, InsState, N, inject_and_reset};
+use crate::model::ins::{InsModel, InsState, inject_and_reset};
 
 /// Rows of the standstill update: three of velocity, three of gyro bias.
 pub const INNOVATION_DIM: usize = 6;
@@ -215,7 +215,7 @@ impl Detector {
     }
 }
 
-impl InsState {
+impl<const D: usize> InsState<D> {
     /// Whether the vehicle stands still (detected; the attitude is held).
     pub fn standing(&self) -> bool {
         self.still.standing()
@@ -226,7 +226,7 @@ impl InsState {
     }
 }
 
-impl InsModel {
+impl<const D: usize> InsModel<D> {
     /// The strapdown step of a standing vehicle (the module docs): the body does
     /// not turn (`ω = 0`: no gyro integration, no attitude noise, no `δθ`–`δb_g`
     /// coupling), and `F`'s `δv`–`δθ` block is linearised at the specific force of
@@ -237,7 +237,7 @@ impl InsModel {
     #[inline(never)]
     pub(super) fn mechanise_at_rest(
         &self,
-        s: &InsState,
+        s: &InsState<D>,
         f_m: Vector3<f64>,
         dt: f64,
         Q: &mut ProcessNoise,
@@ -263,7 +263,7 @@ struct Window {
 }
 
 /// The tests of the window summed in `s.still` (`imus` IMUs in it).
-fn window(model: &InsModel, s: &InsState, imus: u32) -> Option<Window> {
+fn window<const D: usize>(model: &InsModel<D>, s: &InsState<D>, imus: u32) -> Option<Window> {
     let d = &s.still;
     let n = f64::from(d.n);
     let rate = d.rate_hz(imus).filter(|_| d.n >= 3)?;
@@ -293,7 +293,7 @@ fn window(model: &InsModel, s: &InsState, imus: u32) -> Option<Window> {
 
 /// Whether the speed allows standing at `t_ns`: every odometry speed of the
 /// window; without one in it, the last one if it is recent; else the estimate's.
-fn slow(c: &Standstill, d: &Detector, s: &InsState, t_ns: u64) -> bool {
+fn slow<const D: usize>(c: &Standstill, d: &Detector, s: &InsState<D>, t_ns: u64) -> bool {
     if let Some(max) = d.window_odometry {
         return max <= c.odometry_speed_mps;
     }
@@ -306,14 +306,14 @@ fn slow(c: &Standstill, d: &Detector, s: &InsState, t_ns: u64) -> bool {
 /// Takes one IMU sample (body specific force `f`, rate `w`, already held) at
 /// `t_ns`; at the end of a window decides whether the vehicle stands and, if
 /// it does, fuses the standstill update, whose correction it returns.
-pub fn observe(
+pub fn observe<const D: usize>(
     c: &Standstill,
-    model: &InsModel,
-    s: &mut InsState,
+    model: &InsModel<D>,
+    s: &mut InsState<D>,
     t_ns: u64,
     f: Vector3<f64>,
     w: Vector3<f64>,
-) -> Option<SVector<f64, N>> {
+) -> Option<SVector<f64, D>> {
     let b_g = s.b_g();
     let imus = s.imu.mean().map_or(1, |(_, _, k)| k);
     let d = &mut s.still;
@@ -362,14 +362,14 @@ pub fn observe(
 
 /// The ZUPT and ZARU rows of the module docs, as one update: the first of a
 /// standstill (`entering`) a full one, the others with the yaw held.
-fn fuse(
+fn fuse<const D: usize>(
     c: &Standstill,
-    model: &InsModel,
-    s: &mut InsState,
+    model: &InsModel<D>,
+    s: &mut InsState<D>,
     w: &Window,
     entering: bool,
-) -> (StepOutcome, Option<SVector<f64, N>>) {
-    let mut H = SMatrix::<f64, INNOVATION_DIM, N>::zeros();
+) -> (StepOutcome, Option<SVector<f64, D>>) {
+    let mut H = SMatrix::<f64, INNOVATION_DIM, D>::zeros();
     let mut R = SMatrix::<f64, INNOVATION_DIM, INNOVATION_DIM>::zeros();
     let (v, b_g) = (s.v(), s.b_g());
     let mut y = SVector::<f64, INNOVATION_DIM>::zeros();
@@ -390,12 +390,12 @@ fn fuse(
 
 /// The update of `y`, `H`, `R` with the yaw as a consider direction (see the
 /// module docs); the correction is injected and returned. Not gated.
-fn consider_yaw_update(
-    s: &mut InsState,
+fn consider_yaw_update<const D: usize>(
+    s: &mut InsState<D>,
     y: &SVector<f64, INNOVATION_DIM>,
-    H: &SMatrix<f64, INNOVATION_DIM, N>,
+    H: &SMatrix<f64, INNOVATION_DIM, D>,
     R: &SMatrix<f64, INNOVATION_DIM, INNOVATION_DIM>,
-) -> (StepOutcome, Option<SVector<f64, N>>) {
+) -> (StepOutcome, Option<SVector<f64, D>>) {
     let P = s.kf.P();
     let PHt = P * H.transpose();
     let S = H * PHt + R;
@@ -412,7 +412,7 @@ fn consider_yaw_update(
         }
     }
     let dx = K * y;
-    let I_KH = SMatrix::<f64, N, N>::identity() - K * H;
+    let I_KH = SMatrix::<f64, D, D>::identity() - K * H;
     let P_new = I_KH * P * I_KH.transpose() + K * R * K.transpose();
     let nis = y.dot(&chol.solve(y));
     if s.kf.set_state(dx, P_new).is_err() {
@@ -425,6 +425,7 @@ fn consider_yaw_update(
 mod tests {
     use super::*;
     use crate::model::Model;
+    use crate::model::ins::N;
     use crate::model::ins::tests_support::NOISE;
     use nalgebra::UnitQuaternion;
     use rand::SeedableRng;

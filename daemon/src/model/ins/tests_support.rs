@@ -5,7 +5,7 @@
 
 use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
 
-use super::{ImuNoise, InsModel, InsState, N, error_state::inject};
+use super::{ImuNoise, InsModel, InsState, MAX_N, N, OdometryScale, error_state::inject};
 use crate::frames::Frames;
 use crate::model::Model;
 
@@ -24,9 +24,29 @@ pub fn model() -> InsModel {
     InsModel::new(NOISE, 9.80665, x0, [1.0; N], None, 0).unwrap()
 }
 
+/// [`model`] with the odometry scale factor as a state (k₀ = 1, σ 0.02).
+pub fn scaled_model() -> InsModel<MAX_N> {
+    model().with_odometry_scale(OdometryScale::default()).unwrap()
+}
+
 /// A state driving at 12 m/s, tilted and turning at 0.4 rad/s, with biases.
 pub fn moving_state() -> InsState {
-    let m = model();
+    moving(&model())
+}
+
+/// [`moving_state`] of [`scaled_model`], with an odometry scale factor of 1.03.
+pub fn moving_scaled_state() -> InsState<MAX_N> {
+    let mut s = moving(&scaled_model());
+    set_scale(&mut s, 1.03);
+    s
+}
+
+/// Sets the nominal odometry scale factor of `s`.
+pub fn set_scale(s: &mut InsState<MAX_N>, k: f64) {
+    s.nominal[super::NOMINAL] = k;
+}
+
+fn moving<const D: usize>(m: &InsModel<D>) -> InsState<D> {
     let mut s = m.initial_state();
     let q = UnitQuaternion::from_euler_angles(0.05, -0.08, 2.3);
     let v = q * Vector3::new(12.0, 0.2, 0.0);
@@ -38,11 +58,14 @@ pub fn moving_state() -> InsState {
 }
 
 /// `∂h/∂δx` by central differences of `h` at the state with `±ε eⱼ` injected.
-pub fn numeric_jacobian<const M: usize>(s: &InsState, h: impl Fn(&InsState) -> SVector<f64, M>) -> SMatrix<f64, M, N> {
+pub fn numeric_jacobian<const M: usize, const D: usize>(
+    s: &InsState<D>,
+    h: impl Fn(&InsState<D>) -> SVector<f64, M>,
+) -> SMatrix<f64, M, D> {
     let eps = 1e-6;
-    let mut J = SMatrix::<f64, M, N>::zeros();
-    for j in 0..N {
-        let mut dx = SVector::<f64, N>::zeros();
+    let mut J = SMatrix::<f64, M, D>::zeros();
+    for j in 0..D {
+        let mut dx = SVector::<f64, D>::zeros();
         dx[j] = eps;
         let (mut plus, mut minus) = (*s, *s);
         inject(&mut plus, &dx);
