@@ -159,6 +159,10 @@ max_readers = 8
 #   max_speed_mps = 0.3                    # estimated speed at most this (without recent odometry)
 #   odometry_speed_mps = 0.01              # odometry speed at most this (when odometry came)
 #   velocity_std_mps = 0.01                # sigma of the zero-velocity update
+#   [model.odometry_scale]                 # optional: the odometry's scale factor k as a 16th state
+#   initial = 1.0                          #   (odometry speed = k x true speed), at start
+#   initial_std = 0.02                     # its sigma at start (2 %)
+#   random_walk = 1.0e-5                   # how fast it wanders, 1/sqrt(s)
 #   [filter]
 #   initial_state = [px, py, pz, vx, vy, vz, qw, qx, qy, qz, bax, bay, baz, bgx, bgy, bgz]
 #   initial_covariance_diagonal = [15 values: dp(3), dv(3), dtheta(3), dba(3), dbg(3)]

@@ -97,6 +97,10 @@ nonholonomic_std_mps = 0.1
 [model.standstill]
 # standing still (a traffic light): zero velocity and rate, the attitude held
 
+[model.odometry_scale]
+# worn tyres: the odometry's scale factor is estimated (a 16th state), 2 % at start
+initial_std = 0.02
+
 [datum]
 # where the drive starts: Theresienwiese, Munich
 latitude_deg = 48.1316
@@ -137,7 +141,7 @@ combine = "average"
 const INS_IMU_MOUNTS: [&str; 4] = ["--imu-mount", "frd:3,-2,90", "--imu-mount", "flu:-1.5,2.5,-90"];
 
 /// The demo's GNSS receiver and odometry, as `fusion-sim` takes them.
-const INS_AIDING: [&str; 12] = [
+const INS_AIDING: [&str; 15] = [
     "--position-rate",
     "0",
     "--geodetic-rate",
@@ -150,6 +154,9 @@ const INS_AIDING: [&str; 12] = [
     "50",
     "--odometry-lever-arm",
     "-1.3,0,-0.3",
+    "--odometry-scale-error",
+    "0.01",
+    "--odometry-noise-only-variance",
 ];
 
 const CONFIG: &str = "[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n\n[filter]\n\
@@ -318,7 +325,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         println!(
             "  fusion-sim: two IMU processes ({imu_hz} Hz each, one clock, differently mounted, one in FRD axes) and \
              a GNSS receiver\n  (10 Hz latitude/longitude/height with 3 % outliers and 10 Hz Doppler velocity of an \
-             antenna 1.5 m from the IMUs,\n  20-120 ms late) with wheel odometry (50 Hz, 0.2 % scale error) started\n"
+             antenna 1.5 m from the IMUs,\n  20-120 ms late) with wheel odometry (50 Hz, 1 % scale error) started\n"
         );
     } else {
         children.0.push(("fusion-sim --imu-only", sim(&["--imu-only"])?));
@@ -454,6 +461,9 @@ fn run(args: Args) -> anyhow::Result<()> {
         sd[2],
         (sum_sq / n_err.max(1) as f64).sqrt()
     );
+    if let (Some(k), Some(sd)) = (s.odometry_scale(), s.odometry_scale_std()) {
+        println!("  odometry scale factor: estimated {k:.4} (1-sigma {sd:.4}), simulated 1.0100");
+    }
     for (o, seen) in args.outage.iter().zip(&outage_ends) {
         if let Some((e, sd)) = seen {
             println!(

@@ -161,6 +161,10 @@ struct SimArgs {
     /// Odometry relative scale error (e.g. 0.002: 0.2 % fast).
     #[arg(long, default_value_t = 0.002, allow_hyphen_values = true)]
     odometry_scale_error: f64,
+    /// Report only the noise in the odometry's variance, not the scale error
+    /// too (for a fusiond that estimates the scale: `[model.odometry_scale]`).
+    #[arg(long)]
+    odometry_noise_only_variance: bool,
     /// Odometry reference point (rear axle) in the body frame: x,y,z, m.
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     odometry_lever_arm: Option<Vec<f64>>,
@@ -271,6 +275,7 @@ impl SimArgs {
                 rate_hz: self.odometry_rate,
                 noise_std_mps: self.odometry_noise,
                 scale_error: self.odometry_scale_error,
+                scale_in_variance: !self.odometry_noise_only_variance,
                 lever_arm_m: odometry_arm.unwrap_or(defaults.lever_arm_m),
                 ..defaults
             }));

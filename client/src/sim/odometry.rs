@@ -18,12 +18,16 @@ use super::trajectory::CarTrajectory;
 pub struct OdometryConfig {
     /// Rate, Hz.
     pub rate_hz: f64,
-    /// Standard deviation of the white noise, m/s (the reported variance is
-    /// `noise_std_mps²`).
+    /// Standard deviation of the white noise, m/s.
     pub noise_std_mps: f64,
     /// Relative scale error (wheel radius, tyre wear): the reported speed is
-    /// `(1 + scale_error)` times the true one. Not reported in the variance.
+    /// `(1 + scale_error)` times the true one.
     pub scale_error: f64,
+    /// Whether the reported variance covers the scale error as well as the
+    /// noise, `noise_std_mps² + (scale_error · speed)²` (an odometry tuned for
+    /// a filter that does not estimate the scale), or the noise only,
+    /// `noise_std_mps²` (for one that does: `[model.odometry_scale]`).
+    pub scale_in_variance: bool,
     /// Position of the reference point in the body frame, m.
     pub lever_arm_m: [f64; 3],
     /// Delay from time of validity to publication: uniform in [min, max], ns.
@@ -40,6 +44,7 @@ impl Default for OdometryConfig {
             rate_hz: 50.0,
             noise_std_mps: 0.05,
             scale_error: 0.002,
+            scale_in_variance: true,
             lever_arm_m: [-1.3, 0.0, -0.3],
             delay_min_ns: 2_000_000,
             delay_max_ns: 10_000_000,
@@ -78,8 +83,10 @@ impl Iterator for OdometrySim {
         // A wheel that does not turn gives no encoder ticks: exactly 0.
         let standing = truth.vel_mps == Vector3::zeros() && truth.omega_body_radps == Vector3::zeros();
         let speed = if standing { 0.0 } else { true_speed * (1.0 + c.scale_error) + noise * c.noise_std_mps };
-        // What a calibrated odometry reports: its noise and its scale uncertainty.
-        let var = c.noise_std_mps.powi(2) + (c.scale_error * true_speed).powi(2);
+        // What a calibrated odometry reports: its noise and, unless the filter
+        // estimates the scale, its scale uncertainty.
+        let scale_var = if c.scale_in_variance { (c.scale_error * true_speed).powi(2) } else { 0.0 };
+        let var = c.noise_std_mps.powi(2) + scale_var;
         let t_ns = self.start_ns + offset_ns;
         let sample = OdometrySample::new(t_ns, c.sensor, self.index, speed, var);
         self.index += 1;

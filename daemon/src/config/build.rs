@@ -41,6 +41,7 @@ impl Build for LinearModel {
 /// The `ins` model as configured: the core 15 error states, or with the
 /// odometry scale factor as the 16th (`[model.odometry_scale]`).
 #[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant, reason = "one value per config, built once at start-up")]
 pub enum InsBuilt {
     /// Without auxiliary states.
     Core(InsModel),

@@ -114,6 +114,37 @@ fn standstill_is_opt_in_with_defaults_and_refuses_absurd_values() {
 }
 
 #[test]
+fn the_odometry_scale_state_is_opt_in_with_defaults_and_refuses_absurd_values() {
+    use crate::config::InsBuilt;
+    use crate::model::ins::OdometryScale;
+    let config = Config::parse(INS).unwrap();
+    let ModelConfig::Ins(p) = &config.model else { panic!() };
+    assert_eq!(p.odometry_scale, None, "opt-in");
+    assert!(matches!(InsBuilt::from_config(&config).unwrap(), InsBuilt::Core(_)), "15 states without it");
+    let with =
+        |table: &str| Config::parse(&INS.replace("[filter]", &format!("[model.odometry_scale]\n{table}[filter]")));
+    let config = with("").unwrap();
+    let ModelConfig::Ins(p) = &config.model else { panic!() };
+    assert_eq!(p.odometry_scale, Some(OdometryScale::default()));
+    let scaled = InsBuilt::from_config(&config).unwrap().scaled().expect("16 states with it");
+    let s = crate::model::Model::initial_state(&scaled);
+    assert_eq!(s.filter().variance(crate::model::ins::N), 0.02 * 0.02);
+    assert_eq!(s.odometry_scale(), Some(1.0));
+    assert!(crate::model::ins::InsModel::from_config(&config).is_err(), "not a 15-state model");
+    let tuned = with("initial = 1.01\ninitial_std = 0.005\n").unwrap();
+    let ModelConfig::Ins(p) = &tuned.model else { panic!() };
+    assert_eq!(p.odometry_scale.map(|k| (k.initial, k.initial_std, k.random_walk)), Some((1.01, 0.005, 1e-5)));
+    let bad = |table: &str| with(table).unwrap_err().to_string();
+    assert!(bad("initial = 0\n").contains("model.odometry_scale.initial"));
+    assert!(bad("initial = nan\n").contains("model.odometry_scale.initial"));
+    assert!(bad("initial_std = 0\n").contains("model.odometry_scale.initial_std"));
+    assert!(bad("initial_std = 3\n").contains("model.odometry_scale.initial_std"));
+    assert!(bad("random_walk = -1e-5\n").contains("model.odometry_scale.random_walk"));
+    assert!(bad("random_walk = inf\n").contains("model.odometry_scale.random_walk"));
+    assert!(bad("scale = 1\n").contains("scale"), "unknown keys are errors");
+}
+
+#[test]
 fn lockout_recovery_is_on_with_the_gate_and_can_be_tuned_or_turned_off() {
     use crate::model::lockout::LockoutConfig;
     assert_eq!(Config::parse(MIN).unwrap().lockout, None, "no gate, nothing to be locked out by");

@@ -320,7 +320,6 @@ impl<const D: usize> InsModel<D> {
 }
 
 impl InsModel {
-
     /// A model with the IMU noise, gravity (m/s²), nominal x₀, diag(P₀) (error-state
     /// order), optional gate, and a static alignment over the first
     /// `alignment_samples` IMU samples (0: none, x₀'s attitude is used).
@@ -391,7 +390,6 @@ fn pad(x: [f64; NOMINAL]) -> [f64; NOMINAL_MAX] {
 }
 
 impl<const D: usize> InsModel<D> {
-
     /// The same model with these frames (a configured datum).
     pub fn with_frames(mut self, frames: Frames) -> Self {
         self.frames = frames;
@@ -489,7 +487,14 @@ impl<const D: usize> InsModel<D> {
     /// IMU dropping out of or back into the mean), the bias variances grow back
     /// to at least their initial values: the biases held now are partly another
     /// IMU's.
-    pub(crate) fn hold_imu(&self, s: &mut InsState<D>, sensor: u32, t_ns: u64, f: Vector3<f64>, w: Vector3<f64>) -> Held {
+    pub(crate) fn hold_imu(
+        &self,
+        s: &mut InsState<D>,
+        sensor: u32,
+        t_ns: u64,
+        f: Vector3<f64>,
+        w: Vector3<f64>,
+    ) -> Held {
         let held = s.imu.hold(self.frames.imus(), sensor, t_ns, f, w);
         match held {
             Held::Held => {}

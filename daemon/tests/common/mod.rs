@@ -120,7 +120,7 @@ pub fn ins_start_from_prior(scenario: &Scenario, seed: u64, sigma0: [f64; 5]) ->
 }
 
 /// Position-and-velocity error of an `ins` estimate `x` (nominal state) against
-/// the truth, and its NEES under the 15×15 row-major covariance `cov`.
+/// the truth, and its NEES under the row-major error-state covariance `cov` (any side).
 pub fn pv_error_and_nees(
     x: &[f64],
     cov: &[f64],
@@ -134,7 +134,8 @@ pub fn pv_error_and_nees(
         x[4] - truth.vel_mps.y,
         x[5] - truth.vel_mps.z,
     );
-    let p6 = nalgebra::Matrix6::from_fn(|r, c| cov[r * 15 + c]);
+    let n = (cov.len() as f64).sqrt().round() as usize;
+    let p6 = nalgebra::Matrix6::from_fn(|r, c| cov[r * n + c]);
     let nees = err.dot(&nalgebra::Cholesky::new(p6).expect("P is positive definite").solve(&err));
     (err, nees)
 }

@@ -231,10 +231,8 @@ fn run(cli: Cli) -> anyhow::Result<u8> {
 /// Each state's name and the index of its standard deviation in the covariance
 /// (see [`fusion_client::Model::state_layout`]).
 fn state_layout(s: &StateSnapshot) -> Vec<(String, Option<usize>)> {
-    match s.model() {
-        Some(m) => m.state_layout().iter().map(|(n, i)| (n.to_string(), *i)).collect(),
-        None => (0..s.state().len()).map(|i| (format!("x[{i}]"), Some(i))).collect(),
-    }
+    let layout: Vec<_> = s.state_layout().map(|(n, i)| (n.to_string(), i)).collect();
+    if layout.is_empty() { (0..s.state().len()).map(|i| (format!("x[{i}]"), Some(i))).collect() } else { layout }
 }
 
 /// The health reasons of a snapshot, and which sensors are stale (`stale: imu 0`).

@@ -40,7 +40,6 @@ impl<const D: usize> InsModel<D> {
 }
 
 impl InsModel {
-
     /// The strapdown step of `nominal` over `dt` seconds with one IMU's specific
     /// force `f_m` and rate `w_m` (body frame), exactly as the model makes it:
     /// the nominal state after it, and the step's error-state transition `F` and

@@ -24,7 +24,13 @@ impl<const D: usize> InsModel<D> {
     /// body origin, and re-initialises after a lock-out: nominal `p`, `v` from
     /// the fixes, attitude and biases held; the error covariance of
     /// [`Reinit::covariance`](crate::model::lockout::Reinit::covariance).
-    pub(crate) fn observe_fix(&self, s: &mut InsState<D>, outcome: &StepOutcome, origin: &Vector3<f64>, R: &Matrix3<f64>) {
+    pub(crate) fn observe_fix(
+        &self,
+        s: &mut InsState<D>,
+        outcome: &StepOutcome,
+        origin: &Vector3<f64>,
+        R: &Matrix3<f64>,
+    ) {
         let t = s.t_ns.unwrap_or(0);
         let Some(r) = s.lockout.observe(self.lockout.as_ref(), outcome, t, origin, R) else { return };
         let P = r.covariance(&self.initial.P());
