@@ -123,15 +123,58 @@ impl Transition {
     /// so their rows and columns are copied as the biases' are.
     pub fn propagate_covariance<const D: usize>(&self, P: &mut SMatrix<f64, D, D>, Q: &ProcessNoise) {
         let (a, b, c) = (row_major(&self.A), row_major(&self.B), row_major(&self.C));
-        propagate_blocks(&mut P.data.0, self.dt, self.gyro_dt, &a, &b, &c);
+        let p: &mut dyn std::any::Any = &mut P.data.0;
+        // One compiled dispatcher per dimension: a generic function's dispatcher
+        // would detect the CPU's features on every call (multiversion's direct
+        // dispatch), a non-generic one caches the choice.
+        if let Some(p) = p.downcast_mut::<[[f64; N]; N]>() {
+            propagate_blocks_core(p, self.dt, self.gyro_dt, &a, &b, &c);
+        } else if let Some(p) = p.downcast_mut::<[[f64; N + 1]; N + 1]>() {
+            propagate_blocks_scaled(p, self.dt, self.gyro_dt, &a, &b, &c);
+        } else {
+            propagate_blocks(
+                p.downcast_mut::<[[f64; D]; D]>().expect("the array of P"),
+                self.dt,
+                self.gyro_dt,
+                &a,
+                &b,
+                &c,
+            );
+        }
         Q.add_to(P);
     }
 }
 
-/// The body of [`Transition::propagate_covariance`] on the column-major array
-/// `p` (`p[c][r]`), in place; `a`, `b`, `c` row-major. Compiled for AVX2 as well,
+/// [`propagate_blocks`] for the core error state, compiled for AVX2 as well and
 /// chosen at run time: the same operations in the same order, so the same bits.
 #[multiversion::multiversion(targets("x86_64+avx2"))]
+fn propagate_blocks_core(
+    p: &mut [[f64; N]; N],
+    dt: f64,
+    gyro_dt: f64,
+    a: &[[f64; 3]; 3],
+    b: &[[f64; 3]; 3],
+    c: &[[f64; 3]; 3],
+) {
+    propagate_blocks(p, dt, gyro_dt, a, b, c);
+}
+
+/// [`propagate_blocks`] with the odometry scale factor, as [`propagate_blocks_core`].
+#[multiversion::multiversion(targets("x86_64+avx2"))]
+fn propagate_blocks_scaled(
+    p: &mut [[f64; N + 1]; N + 1],
+    dt: f64,
+    gyro_dt: f64,
+    a: &[[f64; 3]; 3],
+    b: &[[f64; 3]; 3],
+    c: &[[f64; 3]; 3],
+) {
+    propagate_blocks(p, dt, gyro_dt, a, b, c);
+}
+
+/// The body of [`Transition::propagate_covariance`] on the column-major array
+/// `p` (`p[c][r]`), in place; `a`, `b`, `c` row-major.
+#[inline(always)]
 fn propagate_blocks<const D: usize>(
     p: &mut [[f64; D]; D],
     dt: f64,
