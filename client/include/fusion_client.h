@@ -30,6 +30,27 @@
 // A heading (`FusionHeadingSample`).
 #define FUSION_KIND_HEADING 6
 
+// `FusionGeodeticSample.fix_type`: not reported.
+#define FUSION_FIX_UNKNOWN 0
+
+// `FusionGeodeticSample.fix_type`: no fix.
+#define FUSION_FIX_NONE 1
+
+// `FusionGeodeticSample.fix_type`: 2-D fix.
+#define FUSION_FIX_2D 2
+
+// `FusionGeodeticSample.fix_type`: 3-D single-point fix.
+#define FUSION_FIX_3D 3
+
+// `FusionGeodeticSample.fix_type`: differential (DGNSS, SBAS).
+#define FUSION_FIX_DGNSS 4
+
+// `FusionGeodeticSample.fix_type`: RTK, float ambiguities.
+#define FUSION_FIX_RTK_FLOAT 5
+
+// `FusionGeodeticSample.fix_type`: RTK, fixed ambiguities.
+#define FUSION_FIX_RTK_FIXED 6
+
 // `FusionStateSnapshot.health`: no usable estimate yet.
 #define FUSION_HEALTH_INITIALISING 0
 
@@ -174,6 +195,12 @@ typedef struct FusionVelocitySample {
 // the fix (a receiver's horizontal and vertical accuracy give
 // `diag(h², h², v²)`; a full 3×3 is accepted). fusiond turns it into its local ENU
 // frame about the datum ([`crate::geodesy::Datum`]) exactly, through ECEF.
+//
+// The receiver's own view of the fix's quality comes with it: its fix type
+// ([`fix`]), the satellites used and its dilutions of precision. fusiond maps
+// them to the noise it fuses the fix with and refuses the fix types it is
+// configured to refuse (`[sensor.quality]`). A field a receiver does not report
+// is 0.
 typedef struct FusionGeodeticSample {
   // Time, sensor, sequence number, kind [`SampleKind::Geodetic`].
   struct FusionSampleHeader header;
@@ -184,8 +211,17 @@ typedef struct FusionGeodeticSample {
   // Height above the WGS-84 ellipsoid (not above mean sea level), m.
   double height_m;
   // Covariance of the position in the local ENU frame, m², row-major 3×3; must
-  // be symmetric positive definite.
+  // be symmetric positive definite. The receiver's own accuracy estimate.
   double cov_enu_m2[9];
+  // Fix type, a code of [`fix`] (0: not reported).
+  uint32_t fix_type;
+  // Satellites used in the fix (0: not reported; at most
+  // [`fix::MAX_SATELLITES`]).
+  int32_t satellites;
+  // Horizontal dilution of precision (0: not reported).
+  double hdop;
+  // Vertical dilution of precision (0: not reported).
+  double vdop;
 } FusionGeodeticSample;
 // Values one sample gives a measurement update: the χ² degrees of freedom of
 // its NIS.
@@ -393,6 +429,14 @@ typedef struct FusionStateSnapshot {
   // The auxiliary states in the estimate, after the model's own: bits of
   // [`aux`] (see [`StateSnapshot::state_layout`]).
   uint32_t aux_states;
+  // How late the velocity sensors' timestamps look beyond their configured
+  // `time_offset_ns`, estimated from their residuals while the vehicle
+  // accelerates (`ins`), ns; see [`StateSnapshot::velocity_time_offset`].
+  double velocity_offset_ns;
+  // Its standard deviation, ns (0: no estimate yet).
+  double velocity_offset_std_ns;
+  // Velocity samples it is estimated from.
+  uint64_t velocity_offset_samples;
 } FusionStateSnapshot;
 
 #ifdef __cplusplus

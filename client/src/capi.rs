@@ -70,6 +70,21 @@ pub const FUSION_KIND_ODOMETRY: u32 = 5;
 /// A heading (`FusionHeadingSample`).
 pub const FUSION_KIND_HEADING: u32 = 6;
 
+/// `FusionGeodeticSample.fix_type`: not reported.
+pub const FUSION_FIX_UNKNOWN: u32 = 0;
+/// `FusionGeodeticSample.fix_type`: no fix.
+pub const FUSION_FIX_NONE: u32 = 1;
+/// `FusionGeodeticSample.fix_type`: 2-D fix.
+pub const FUSION_FIX_2D: u32 = 2;
+/// `FusionGeodeticSample.fix_type`: 3-D single-point fix.
+pub const FUSION_FIX_3D: u32 = 3;
+/// `FusionGeodeticSample.fix_type`: differential (DGNSS, SBAS).
+pub const FUSION_FIX_DGNSS: u32 = 4;
+/// `FusionGeodeticSample.fix_type`: RTK, float ambiguities.
+pub const FUSION_FIX_RTK_FLOAT: u32 = 5;
+/// `FusionGeodeticSample.fix_type`: RTK, fixed ambiguities.
+pub const FUSION_FIX_RTK_FIXED: u32 = 6;
+
 /// `FusionStateSnapshot.health`: no usable estimate yet.
 pub const FUSION_HEALTH_INITIALISING: u32 = 0;
 /// `FusionStateSnapshot.health`: every stream fresh, the filter consistent.
@@ -106,6 +121,13 @@ const _: () = {
     assert!(FUSION_KIND_GEODETIC == SampleKind::Geodetic as u32);
     assert!(FUSION_KIND_ODOMETRY == SampleKind::Odometry as u32);
     assert!(FUSION_KIND_HEADING == SampleKind::Heading as u32);
+    {
+        use fusion_shared::fix;
+        assert!(FUSION_FIX_UNKNOWN == fix::UNKNOWN && FUSION_FIX_NONE == fix::NONE && FUSION_FIX_2D == fix::TWO_D);
+        assert!(FUSION_FIX_3D == fix::THREE_D && FUSION_FIX_DGNSS == fix::DGNSS);
+        assert!(FUSION_FIX_RTK_FLOAT == fix::RTK_FLOAT && FUSION_FIX_RTK_FIXED == fix::RTK_FIXED);
+        assert!(fix::COUNT == 7);
+    }
     assert!(SampleKind::COUNT == 6, "a new kind needs its FUSION_KIND_ constant and fusion_publish_ function");
     assert!(FUSION_HEALTH_INITIALISING == health::INITIALISING);
     assert!(FUSION_HEALTH_OK == health::OK);

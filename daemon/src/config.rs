@@ -117,6 +117,19 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   kinds = ["geodetic", "velocity"]
 #   lever_arm_m = [1.2, 0.0, 1.4]          # antenna from the IMU, m, body frame
 #   time_offset_ns = 0                     # its stamps are this late (valid at t - offset); |offset| <= 10 s
+#   [sensor.quality]                       # optional: the receiver's fix type, DOPs -> noise
+#   refuse = ["none"]                      # fix types not fused: unknown none 2d 3d dgnss rtk_float rtk_fixed
+#   covariance_scale = 1.0                 # the reported covariance times this
+#   uere_m = 0.0                           # > 0: HDOP x uere_m, VDOP x uere_m are floors too
+#   min_satellites = 0                     # fewer satellites (when reported): refused
+#   [sensor.quality.horizontal_floor_m]    # least horizontal sigma per fix type, m
+#   rtk_fixed = 0.02
+#   rtk_float = 0.3
+#   "3d" = 1.5
+#   [sensor.quality.vertical_floor_m]      # least vertical sigma per fix type, m
+#   rtk_fixed = 0.03
+#   rtk_float = 0.5
+#   "3d" = 2.5
 #   [[sensor]]
 #   name = "imu-left"
 #   id = 0

@@ -27,6 +27,7 @@ use fusion_shared::geodesy::Datum;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 
+use crate::gnss_quality::{GnssQuality, QualityConfig};
 use crate::setting::{ConfigError, invalid};
 
 /// The `[datum]` table: the origin of the world frame, checked by [`Datum::new`].
@@ -90,6 +91,10 @@ pub struct SensorConfig {
     /// checked and ordered. At most [`MAX_TIME_OFFSET_NS`] either way.
     #[serde(default)]
     pub time_offset_ns: i64,
+    /// How its geodetic fixes' reported quality maps to noise, and which fix
+    /// types are refused (`[sensor.quality]`; [`crate::gnss_quality`]).
+    #[serde(default)]
+    pub quality: Option<QualityConfig>,
 }
 
 /// The largest `[[sensor]] time_offset_ns` either way, ns (10 s): a sensor whose
@@ -208,6 +213,8 @@ pub struct MountedSensor {
     pub mount: Mount,
     /// How late its timestamps are, ns ([`SensorConfig::time_offset_ns`]).
     pub time_offset_ns: i64,
+    /// Its fixes' quality mapping (geodetic only; the default elsewhere).
+    pub quality: GnssQuality,
 }
 
 /// The datum of the world frame (set once) and the sensors' mounts.
@@ -256,6 +263,16 @@ impl Frames {
                 ));
             }
             frames.offsets |= s.time_offset_ns != 0;
+            let quality = match &s.quality {
+                Some(_) if !s.kinds.iter().any(|k| k == SampleKind::Geodetic.name()) => {
+                    return Err(invalid(
+                        key("quality"),
+                        "applies to geodetic fixes: the sensor has no kind \"geodetic\"",
+                    ));
+                }
+                Some(q) => GnssQuality::from_config(q, |f| key(&format!("quality.{f}")))?,
+                None => GnssQuality::default(),
+            };
             let arm = Vector3::from(s.lever_arm_m);
             if !(arm.iter().all(|v| v.is_finite()) && arm.norm() <= MAX_LEVER_ARM_M) {
                 return Err(invalid(
@@ -292,7 +309,14 @@ impl Frames {
                 let rpy = s.rotation_rpy_deg.map(f64::to_radians);
                 let mount = Mount::new(s.axes, rpy, s.lever_arm_m);
                 let time_offset_ns = s.time_offset_ns;
-                frames.sensors.push(MountedSensor { kind, id: s.id, name: s.name.clone(), mount, time_offset_ns });
+                frames.sensors.push(MountedSensor {
+                    kind,
+                    id: s.id,
+                    name: s.name.clone(),
+                    mount,
+                    time_offset_ns,
+                    quality,
+                });
             }
         }
         Ok(frames)
@@ -312,6 +336,15 @@ impl Frames {
     #[inline]
     pub fn mount(&self, kind: SampleKind, sensor: u32) -> &Mount {
         self.sensors.iter().find(|m| m.kind == kind && m.id == sensor).map_or(&Mount::IDENTITY, |m| &m.mount)
+    }
+
+    /// The quality mapping of geodetic sensor `sensor` (the default if not
+    /// configured).
+    pub fn quality(&self, sensor: u32) -> GnssQuality {
+        self.sensors
+            .iter()
+            .find(|m| m.kind == SampleKind::Geodetic && m.id == sensor)
+            .map_or_else(GnssQuality::default, |m| m.quality)
     }
 
     /// How late the timestamps of sensor `sensor` of `kind` are, ns (0 if not
@@ -348,6 +381,7 @@ mod tests {
             rotation_rpy_deg: [0.0; 3],
             lever_arm_m: [0.0; 3],
             time_offset_ns: 0,
+            quality: None,
         }
     }
 

@@ -29,6 +29,7 @@ pub mod config;
 pub mod engine;
 pub mod filter;
 pub mod frames;
+pub mod gnss_quality;
 pub mod health;
 pub mod ipc;
 pub mod live;

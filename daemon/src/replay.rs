@@ -76,6 +76,38 @@ pub struct ReplaySummary {
     pub standstill_updates: u64,
     /// Whether the newest estimate so far stands still.
     standing: bool,
+    /// How late the velocity sensors' stamps look beyond their configured
+    /// offset at the end of the run: `(τ̂, σ_τ, samples)`, s
+    /// ([`Model::velocity_time_offset`]).
+    pub velocity_time_offset: Option<(f64, f64, u64)>,
+}
+
+/// The smallest velocity time offset estimate worth acting on, ms: below, the
+/// estimate's own systematic error (±10 ms on simulated drives with the offset
+/// right; [`crate::model::ins::clock`]).
+pub const MIN_OFFSET_MS: f64 = 15.0;
+
+/// What the velocity time offset estimate (`τ̂` ± `σ_τ` s from `n` samples) says
+/// to a user: the offset to add when it is clearly not 0 (beyond 3σ and
+/// [`MIN_OFFSET_MS`]),
+/// that the configured one is right otherwise; nothing from too few samples.
+pub fn offset_advice(tau: f64, sd: f64, n: u64) -> Option<String> {
+    if n < 20 {
+        return None;
+    }
+    let (ms, sd_ms) = (tau * 1e3, sd * 1e3);
+    Some(if ms.abs() > (3.0 * sd_ms).max(MIN_OFFSET_MS) {
+        format!(
+            "velocity stamps {} by {:.0} ± {:.0} ms beyond their time_offset_ns ({n} samples): add about {:.0} ms \
+             to the velocity sensor's time_offset_ns (an estimate that reads low: run again after)",
+            if ms > 0.0 { "late" } else { "early" },
+            ms.abs(),
+            sd_ms,
+            ms
+        )
+    } else {
+        format!("velocity stamps match their time_offset_ns: {ms:+.1} ± {sd_ms:.1} ms ({n} samples)")
+    })
 }
 
 impl std::fmt::Display for ReplaySummary {
@@ -110,6 +142,9 @@ impl std::fmt::Display for ReplaySummary {
                 if self.standstills == 1 { "once".to_string() } else { format!("{} times", self.standstills) },
                 self.standstill_updates
             )?;
+        }
+        if let Some(line) = self.velocity_time_offset.and_then(|(tau, sd, n)| offset_advice(tau, sd, n)) {
+            writeln!(f, "{line}")?;
         }
         if self.reinitialisations > 0 {
             let lines: Vec<String> = self.reinitialised_at.iter().map(u64::to_string).collect();
@@ -367,6 +402,7 @@ fn replay_model<M: Steps>(
         let (standing, updates) = engine.latest().map_or((false, 0), |e| M::standstill(&e.state));
         summary.standstills += u64::from(standing && !summary.standing);
         (summary.standing, summary.standstill_updates) = (standing, updates);
+        summary.velocity_time_offset = engine.latest().and_then(|e| M::velocity_time_offset(&e.state));
         sink.check()?;
     }
     engine.flush(&mut |e| sink.take(e));

@@ -105,7 +105,7 @@ fn run(seed: u64, setup: Setup) -> Run {
         outages: vec![OUTAGE],
         ..Default::default()
     };
-    c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix }));
+    c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix, phases: Vec::new() }));
     c.aiding.push(Arc::new(VelocityConfig { sensor: 3, lever_arm_m: LEVER_ARM, ..Default::default() }));
     if setup != Setup::MotionConstraint {
         c.aiding.push(Arc::new(OdometryConfig {

@@ -48,7 +48,7 @@ fn rust_layout() -> Value {
         layout!(ImuSample { header, accel_mps2, gyro_radps }),
         layout!(PositionSample { header, pos_m, cov_m2 }),
         layout!(VelocitySample { header, vel_mps, cov_m2ps2 }),
-        layout!(GeodeticSample { header, lat_deg, lon_deg, height_m, cov_enu_m2 }),
+        layout!(GeodeticSample { header, lat_deg, lon_deg, height_m, cov_enu_m2, fix_type, satellites, hdop, vdop }),
         layout!(OdometrySample { header, speed_mps, var_m2ps2 }),
         layout!(HeadingSample { header, yaw_rad, var_rad2 }),
         layout!(Counters {
@@ -106,7 +106,10 @@ fn rust_layout() -> Value {
             background_steps,
             standstill_updates,
             standing,
-            aux_states
+            aux_states,
+            velocity_offset_ns,
+            velocity_offset_std_ns,
+            velocity_offset_samples
         }),
     ];
     assert_eq!(types.len(), 4 + SampleKind::COUNT, "a new kind needs its layout here and a Python mirror");
@@ -146,6 +149,21 @@ fn rust_layout() -> Value {
         fusion_shared::snapshot::aux::ALL.iter().map(|(bit, name)| (bit.to_string(), json!(name))).collect();
     constants["AUX_NAMES"] = Value::Object(aux);
     constants["AUX_ODOMETRY_SCALE"] = json!(fusion_shared::snapshot::aux::ODOMETRY_SCALE);
+    let fixes: serde_json::Map<_, _> =
+        fusion_shared::fix::NAMES.iter().enumerate().map(|(code, name)| (code.to_string(), json!(name))).collect();
+    constants["FIX_NAMES"] = Value::Object(fixes);
+    use fusion_shared::fix;
+    for (name, code) in [
+        ("FIX_UNKNOWN", fix::UNKNOWN),
+        ("FIX_NONE", fix::NONE),
+        ("FIX_2D", fix::TWO_D),
+        ("FIX_3D", fix::THREE_D),
+        ("FIX_DGNSS", fix::DGNSS),
+        ("FIX_RTK_FLOAT", fix::RTK_FLOAT),
+        ("FIX_RTK_FIXED", fix::RTK_FIXED),
+    ] {
+        constants[name] = json!(code);
+    }
     // Every kind's wire type is in the list above (and so checked against its
     // Python mirror).
     struct Listed<'a>(&'a [(&'a str, Value)]);
@@ -170,7 +188,7 @@ fn the_python_mirrors_have_the_rust_layout() {
     let out = common::python_command("unused", "tests/check_layout.py", &[path.to_str().unwrap()]).output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
-    assert!(said.contains("10 types, 24 constants: 0 differences"), "{said}");
+    assert!(said.contains("10 types, 32 constants: 0 differences"), "{said}");
 
     // The check sees a difference: a layout with one offset moved fails it.
     let mut broken = rust_layout();

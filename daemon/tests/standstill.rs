@@ -101,7 +101,7 @@ fn run(seed: u64, setup: Setup) -> Run {
         stops: vec![STOP],
         ..Default::default()
     };
-    c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix }));
+    c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix, phases: Vec::new() }));
     c.aiding.push(Arc::new(VelocityConfig { sensor: gnss, lever_arm_m: LEVER_ARM, ..Default::default() }));
     if setup.odometry {
         c.aiding.push(Arc::new(OdometryConfig { lever_arm_m: ODOMETRY_ARM, ..Default::default() }));

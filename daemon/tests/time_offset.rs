@@ -15,7 +15,9 @@ mod common;
 
 use std::sync::Arc;
 
-use fusion_client::sim::{GeodeticConfig, ImuConfig, ImuOutput, PositionConfig, Scenario, ScenarioConfig};
+use fusion_client::sim::{
+    GeodeticConfig, ImuConfig, ImuOutput, PositionConfig, Scenario, ScenarioConfig, VelocityConfig,
+};
 use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig, Entry};
 use fusion_daemon::model::Model;
@@ -42,7 +44,7 @@ fn run(seed: u64, clock_lag_ns: u64, configured_offset_ns: u64) -> (f64, Vec<f64
         imu_output: ImuOutput::BodySpecificForce,
         ..Default::default()
     };
-    c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix }));
+    c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix, phases: Vec::new() }));
     let mut scenario = Scenario::generate(&c);
     // No local fixes; and the same geodetic fixes in every run (the drive's end
     // cuts a late-stamped one off earlier).
@@ -100,4 +102,74 @@ fn a_late_receiver_clock_is_undone_by_its_configured_offset() {
     );
     assert!((0.6..=1.5).contains(&mean(&with)), "{with:?}");
     assert!(mean(&without) > 2.0 * mean(&with), "the late clock must show without the offset: {without:?}");
+}
+
+/// The velocity time offset estimate at the end of a 60 s drive whose GNSS
+/// receiver (geodetic fixes and Doppler velocity) is `lag_ns` late, with
+/// `configured_ns` in its `[[sensor]]` entry: `(τ̂, σ_τ, samples)`, s.
+fn offset_estimate(seed: u64, lag_ns: u64, configured_ns: u64) -> (f64, f64, u64) {
+    let fix = PositionConfig { sensor: 3, lever_arm_m: LEVER_ARM, clock_lag_ns: lag_ns, ..Default::default() };
+    let mut c = ScenarioConfig {
+        seed,
+        duration_s: 60.0,
+        imu: ImuConfig {
+            accel_bias_std: SIGMA0[3],
+            gyro_bias_std: SIGMA0[4],
+            ..ImuConfig::kalibr(200.0, 0.02, 0.001, 0.001, 1e-5)
+        },
+        imu_output: ImuOutput::BodySpecificForce,
+        ..Default::default()
+    };
+    c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix, phases: Vec::new() }));
+    c.aiding.push(Arc::new(VelocityConfig {
+        sensor: 3,
+        lever_arm_m: LEVER_ARM,
+        clock_lag_ns: lag_ns,
+        ..Default::default()
+    }));
+    let mut scenario = Scenario::generate(&c);
+    scenario.arrivals.retain(|a| !matches!(a.sample, Sample::Position(_)));
+    let (_, filter) = common::ins_start_from_prior(&scenario, seed, SIGMA0);
+    let config = Config::parse(&format!(
+        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n{filter}\
+         [gating]\nprobability = 0.9999\n[datum]\nlatitude_deg = {}\nlongitude_deg = {}\nheight_m = {}\n\
+         [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\", \"velocity\"]\nlever_arm_m = [{}]\n\
+         time_offset_ns = {configured_ns}\n",
+        DATUM.latitude_deg,
+        DATUM.longitude_deg,
+        DATUM.height_m,
+        common::toml_list(&LEVER_ARM),
+    ))
+    .unwrap();
+    let mut engine = Engine::new(InsModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
+    let mut estimate = None;
+    let mut sink = |e: &Entry<_>| estimate = <InsModel as Model>::velocity_time_offset(&e.state);
+    for a in &scenario.arrivals {
+        engine.insert(&a.sample, None, &mut sink);
+    }
+    engine.flush(&mut sink);
+    estimate.expect("an estimate")
+}
+
+/// The diagnostic for setting the offset: with the receiver 100 ms late and no
+/// offset configured the estimate says late, clearly beyond its σ (it reads
+/// low: about half, see `model::ins::clock`); with the offset configured it says
+/// nothing is left.
+#[test]
+fn the_velocity_residuals_show_how_late_the_clock_is() {
+    for seed in 0..3 {
+        let (late, late_sd, n) = offset_estimate(9200 + seed, LAG_NS, 0);
+        let (left, left_sd, _) = offset_estimate(9200 + seed, LAG_NS, LAG_NS);
+        eprintln!(
+            "drive {seed}: receiver 100 ms late; estimated {:.1} ± {:.1} ms without the offset ({n} samples), \
+             {:+.1} ± {:.1} ms with it",
+            late * 1e3,
+            late_sd * 1e3,
+            left * 1e3,
+            left_sd * 1e3
+        );
+        assert!(late > 5.0 * late_sd && (0.03..=0.13).contains(&late), "{late} ± {late_sd}");
+        assert!(left.abs() < (3.0 * left_sd).max(0.015), "{left} ± {left_sd}");
+    }
 }

@@ -149,7 +149,7 @@ fn run(seed: u64, seconds: f64, setup: Setup, stats: &mut Stats) {
         imu_output: ImuOutput::BodySpecificForce,
         ..Default::default()
     };
-    c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix }));
+    c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix, phases: Vec::new() }));
     c.aiding.push(Arc::new(VelocityConfig { sensor: gnss, lever_arm_m: LEVER_ARM, ..Default::default() }));
     if setup.odometry_and_heading {
         c.aiding.push(Arc::new(OdometryConfig {

@@ -169,6 +169,21 @@ pub struct SnapshotJson {
     /// (`odometry_scale`). Absent in recordings of fusiond before wire v9.
     #[serde(default)]
     pub aux_states: Vec<String>,
+    /// How late the velocity sensors' stamps look beyond their configured
+    /// offset (`null`: no estimate). Absent before wire v9.
+    #[serde(default)]
+    pub velocity_offset: Option<OffsetJson>,
+}
+
+/// [`StateSnapshot::velocity_time_offset`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct OffsetJson {
+    /// The estimate, ns (positive: late).
+    pub ns: f64,
+    /// Its standard deviation, ns.
+    pub std_ns: f64,
+    /// Samples it is from.
+    pub samples: u64,
 }
 
 /// A correction still to land ([`StateSnapshot::pending_steps`]).
@@ -310,6 +325,7 @@ impl From<&StateSnapshot> for SnapshotJson {
                 .filter(|(bit, _)| s.aux_states & bit != 0)
                 .map(|(_, name)| name.to_string())
                 .collect(),
+            velocity_offset: s.velocity_time_offset().map(|(ns, std_ns, samples)| OffsetJson { ns, std_ns, samples }),
         }
     }
 }

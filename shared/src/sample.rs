@@ -120,6 +120,7 @@ macro_rules! for_each_sample_kind {
 // that read the source without expanding macros (cbindgen, for the C header)
 // find the wire types; a kind missing here fails to compile.
 mod geodetic;
+pub use geodetic::fix;
 mod heading;
 mod imu;
 mod odometry;

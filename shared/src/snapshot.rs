@@ -390,6 +390,14 @@ pub struct StateSnapshot {
     /// The auxiliary states in the estimate, after the model's own: bits of
     /// [`aux`] (see [`StateSnapshot::state_layout`]).
     pub aux_states: u32,
+    /// How late the velocity sensors' timestamps look beyond their configured
+    /// `time_offset_ns`, estimated from their residuals while the vehicle
+    /// accelerates (`ins`), ns; see [`StateSnapshot::velocity_time_offset`].
+    pub velocity_offset_ns: f64,
+    /// Its standard deviation, ns (0: no estimate yet).
+    pub velocity_offset_std_ns: f64,
+    /// Velocity samples it is estimated from.
+    pub velocity_offset_samples: u64,
 }
 
 impl Default for StateSnapshot {
@@ -435,11 +443,26 @@ impl Default for StateSnapshot {
             standstill_updates: 0,
             standing: 0,
             aux_states: 0,
+            velocity_offset_ns: 0.0,
+            velocity_offset_std_ns: 0.0,
+            velocity_offset_samples: 0,
         }
     }
 }
 
 impl StateSnapshot {
+    /// How late the velocity sensors' stamps look beyond the configured
+    /// `time_offset_ns`, and its standard deviation, ns, with the samples it
+    /// is from; `None` before an estimate. Add it to the offset when it is
+    /// clearly not 0 (a few σ).
+    pub fn velocity_time_offset(&self) -> Option<(f64, f64, u64)> {
+        (self.velocity_offset_std_ns > 0.0).then_some((
+            self.velocity_offset_ns,
+            self.velocity_offset_std_ns,
+            self.velocity_offset_samples,
+        ))
+    }
+
     /// Whether the vehicle was detected standing still at this estimate's time
     /// (the field `standing`).
     pub const fn standing(&self) -> bool {
@@ -523,6 +546,6 @@ const _: () = {
     assert!(core::mem::align_of::<StateSnapshot>() == 8);
     assert!(
         core::mem::size_of::<StateSnapshot>()
-            == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 128 * MAX_SENSORS + 24 + 32 + 16 + 24 + 16
+            == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 128 * MAX_SENSORS + 24 + 32 + 16 + 24 + 16 + 24
     );
 };

@@ -19,6 +19,9 @@ KIND_NAMES = {1: "imu", 2: "position", 3: "velocity", 4: "geodetic", 5: "odometr
 INPUT_NONE = 0
 
 HEALTH_NAMES = {0: "initialising", 1: "ok", 2: "degraded"}
+#: ``GeodeticSample.fix_type`` codes and their names.
+FIX_UNKNOWN, FIX_NONE, FIX_2D, FIX_3D, FIX_DGNSS, FIX_RTK_FLOAT, FIX_RTK_FIXED = 0, 1, 2, 3, 4, 5, 6
+FIX_NAMES = {0: "unknown", 1: "none", 2: "2d", 3: "3d", 4: "dgnss", 5: "rtk_float", 6: "rtk_fixed"}
 MODEL_NAMES = {1: "linear", 2: "ins"}
 #: Each model's own state length and covariance side (before auxiliary states).
 MODEL_DIMS = {1: [6, 6], 2: [16, 15]}
@@ -82,9 +85,10 @@ class VelocitySample(_Sample):
 
 
 class GeodeticSample(_Sample):
-    """A GNSS fix: WGS-84 latitude, longitude (deg), ellipsoidal height (m); ENU covariance m²."""
+    """A GNSS fix: WGS-84 latitude, longitude (deg), ellipsoidal height (m); ENU covariance m²;
+    the receiver's fix type (``FIX_*``), satellites used, HDOP and VDOP (0: not reported)."""
 
-    TYPE_NAME = "fusion.GeodeticSample.v2"
+    TYPE_NAME = "fusion.GeodeticSample.v3"
     KIND = KIND_GEODETIC
     _fields_ = [
         ("header", SampleHeader),
@@ -92,6 +96,10 @@ class GeodeticSample(_Sample):
         ("lon_deg", ctypes.c_double),
         ("height_m", ctypes.c_double),
         ("cov_enu_m2", f64x9),
+        ("fix_type", ctypes.c_uint32),
+        ("satellites", ctypes.c_int32),
+        ("hdop", ctypes.c_double),
+        ("vdop", ctypes.c_double),
     ]
 
 
@@ -186,6 +194,9 @@ class StateSnapshot(_Wire):
         ("standstill_updates", ctypes.c_uint64),
         ("standing", ctypes.c_uint32),
         ("aux_states", ctypes.c_uint32),
+        ("velocity_offset_ns", ctypes.c_double),
+        ("velocity_offset_std_ns", ctypes.c_double),
+        ("velocity_offset_samples", ctypes.c_uint64),
     ]
 
 

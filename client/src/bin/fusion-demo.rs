@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
 use clap::{Parser, ValueEnum};
-use fusion_client::sim::{CarTrajectory, Outage, Stop};
+use fusion_client::sim::{CarTrajectory, FixPhase, Outage, Stop};
 use fusion_client::{Client, StateSnapshot, now_ns};
 use fusion_shared::snapshot::INPUT_NONE;
 use hdrhistogram::Histogram;
@@ -42,6 +42,17 @@ struct Args {
     /// σ at the end of each.
     #[arg(long, value_name = "AT:SECONDS")]
     outage: Vec<Outage>,
+    /// The GNSS receiver's fix type from AT s on, `AT:TYPE` (`rtk_fixed`,
+    /// `rtk_float`, `3d`, `none`; repeat, in order): its noise and the accuracy it
+    /// reports change with it, and fusiond maps them to noise (`[sensor.quality]`).
+    /// With `--model ins`.
+    #[arg(long, value_name = "AT:TYPE")]
+    fix_phase: Vec<FixPhase>,
+    /// How late the GNSS receiver's clock is, ms (its fixes and velocities are
+    /// stamped that late); the demo's configuration says so (`time_offset_ns`).
+    /// With `--model ins`.
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u64).range(0..=10_000))]
+    gnss_clock_lag_ms: u64,
 }
 
 /// `fusiond run --wait`.
@@ -112,6 +123,13 @@ name = "gnss"
 id = 3
 kinds = ["geodetic", "velocity"]
 lever_arm_m = [1.0, 0.5, 1.0]
+time_offset_ns = 0
+
+[sensor.quality]
+# what each fix type is worth (the receiver's own accuracy is optimistic)
+refuse = ["none", "2d"]
+horizontal_floor_m = { rtk_fixed = 0.02, rtk_float = 0.3, "3d" = 1.5 }
+vertical_floor_m = { rtk_fixed = 0.03, rtk_float = 0.5, "3d" = 2.5 }
 
 [[sensor]]
 name = "imu-a"
@@ -229,6 +247,17 @@ fn run(args: Args) -> anyhow::Result<()> {
     let mut stops: Vec<String> =
         args.stop.iter().flat_map(|s| ["--stop".to_string(), format!("{}:{}", s.at_s, s.duration_s)]).collect();
     stops.extend(args.outage.iter().flat_map(|o| ["--outage".to_string(), format!("{}:{}", o.at_s, o.duration_s)]));
+    if args.model != ModelArg::Ins && (!args.fix_phase.is_empty() || args.gnss_clock_lag_ms > 0) {
+        bail!("--fix-phase and --gnss-clock-lag-ms need --model ins (a GNSS receiver with quality and a clock)");
+    }
+    stops.extend(
+        args.fix_phase
+            .iter()
+            .flat_map(|p| ["--fix-phase".to_string(), format!("{}:{}", p.at_s, fusion_shared::fix::name(p.fix_type))]),
+    );
+    if args.gnss_clock_lag_ms > 0 {
+        stops.extend(["--fix-clock-lag-ms".to_string(), args.gnss_clock_lag_ms.to_string()]);
+    }
     let work = bin_dir.join("demo");
     std::fs::create_dir_all(&work)?;
     let ins = args.model == ModelArg::Ins;
@@ -261,7 +290,8 @@ fn run(args: Args) -> anyhow::Result<()> {
         ),
     };
     let config = work.join(format!("{model}.toml"));
-    std::fs::write(&config, config_text)?;
+    let offset = format!("time_offset_ns = {}", args.gnss_clock_lag_ms * 1_000_000);
+    std::fs::write(&config, config_text.replacen("time_offset_ns = 0", &offset, 1))?;
     let log = work.join("fusiond.log");
     let namespace = format!("demo-{}", std::process::id());
 
@@ -327,6 +357,20 @@ fn run(args: Args) -> anyhow::Result<()> {
              a GNSS receiver\n  (10 Hz latitude/longitude/height with 3 % outliers and 10 Hz Doppler velocity of an \
              antenna 1.5 m from the IMUs,\n  20-120 ms late) with wheel odometry (50 Hz, 1 % scale error) started\n"
         );
+        if !args.fix_phase.is_empty() {
+            let phases: Vec<String> = args
+                .fix_phase
+                .iter()
+                .map(|p| format!("{} from {} s", fusion_shared::fix::name(p.fix_type), p.at_s))
+                .collect();
+            println!("  the receiver's fix type: {} (noise and reported accuracy change with it)", phases.join(", "));
+        }
+        if args.gnss_clock_lag_ms > 0 {
+            println!(
+                "  the receiver's clock is {} ms late; the configuration says so (time_offset_ns)",
+                args.gnss_clock_lag_ms
+            );
+        }
     } else {
         children.0.push(("fusion-sim --imu-only", sim(&["--imu-only"])?));
         children.0.push(("fusion-sim --position-only", sim(&["--position-only"])?));

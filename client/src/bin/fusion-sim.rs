@@ -24,8 +24,8 @@ use std::time::Duration;
 
 use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
 use fusion_client::sim::{
-    Arrival, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, ImuSim, OdometryConfig, Outage, PositionConfig,
-    Scenario, ScenarioConfig, Stop, VelocityConfig, without_outages,
+    Arrival, FixPhase, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, ImuSim, OdometryConfig, Outage,
+    PositionConfig, Scenario, ScenarioConfig, Stop, VelocityConfig, without_outages,
 };
 use fusion_client::{Client, SampleKind, SensorPublishers, now_ns};
 use fusion_shared::geodesy::Datum;
@@ -201,6 +201,12 @@ struct SimArgs {
     /// stamped `t + LAG` (what `[[sensor]] time_offset_ns` undoes).
     #[arg(long, default_value_t = 0)]
     fix_clock_lag_ms: u64,
+    /// The GNSS receiver's fix type from AT s into the drive on, `AT:TYPE` with
+    /// TYPE `rtk_fixed` (2 cm, reported 1.4 cm), `rtk_float` (0.3 m, reported
+    /// 5 cm), `3d` (1.5 m, reported 0.8 m) or `none` (10 m); the geodetic fixes
+    /// then carry the fix type, satellites and DOPs. Repeatable, in order.
+    #[arg(long, value_name = "AT:TYPE")]
+    fix_phase: Vec<FixPhase>,
     /// Trajectory time 0 as a sample timestamp, ns (record only).
     #[arg(long, default_value_t = 1_000_000_000)]
     start_ns: u64,
@@ -267,6 +273,8 @@ impl SimArgs {
                 delay_max_ns: c.position.delay_max_ns,
                 sensor: if self.geodetic_rate > 0.0 { gnss_id } else { defaults.sensor },
                 lever_arm_m: arm,
+                // One receiver, one clock.
+                clock_lag_ns: c.position.clock_lag_ns,
             }));
         }
         if self.odometry_rate > 0.0 {
@@ -304,6 +312,10 @@ impl SimArgs {
             if let Some([lat, lon, h]) = triple("--datum", self.datum.as_deref())? {
                 g.datum = Datum::new(lat, lon, h).context("--datum")?;
             }
+            if self.fix_phase.windows(2).any(|w| w[1].at_s < w[0].at_s) {
+                anyhow::bail!("--fix-phase: give the phases in order of their start");
+            }
+            g.phases = self.fix_phase.clone();
             c.aiding.push(Arc::new(g));
         }
         Ok(c)

@@ -28,6 +28,9 @@ pub struct VelocityConfig {
     /// Position of the antenna in the body frame, m: the velocities are of the
     /// point `p + R l`, `v + R (ω × l)`.
     pub lever_arm_m: [f64; 3],
+    /// How late the receiver's clock is, ns: a velocity valid at `t` is stamped
+    /// `t + clock_lag_ns` (as [`super::PositionConfig::clock_lag_ns`]).
+    pub clock_lag_ns: u64,
 }
 
 impl Default for VelocityConfig {
@@ -40,6 +43,7 @@ impl Default for VelocityConfig {
             delay_max_ns: 120_000_000,
             sensor: 2,
             lever_arm_m: [0.0; 3],
+            clock_lag_ns: 0,
         }
     }
 }
@@ -75,7 +79,7 @@ impl Iterator for VelocitySim {
         let std = Vector3::new(c.noise_std_mps, c.noise_std_mps, c.vertical_noise_std_mps);
         let vel = truth.antenna_velocity(&Vector3::from(c.lever_arm_m)) + noise.component_mul(&std);
         let var = std.component_mul(&std);
-        let t_ns = self.start_ns + offset_ns;
+        let t_ns = self.start_ns + offset_ns + c.clock_lag_ns;
         let cov = [var.x, 0.0, 0.0, 0.0, var.y, 0.0, 0.0, 0.0, var.z];
         let sample = VelocitySample::new(t_ns, c.sensor, self.index, vel.into(), cov);
         self.index += 1;

@@ -155,3 +155,29 @@ fn lockout_recovery_is_on_with_the_gate_and_can_be_tuned_or_turned_off() {
     assert_eq!(gated("lockout_ns = 0\n").unwrap().lockout, None);
     assert!(gated("lockout_fixes = 1\n").unwrap_err().to_string().contains("gating.lockout_fixes"));
 }
+
+#[test]
+fn a_receivers_quality_table_reaches_its_geodetic_fixes_and_nothing_else() {
+    use fusion_shared::{GeodeticSample, fix};
+    let gnss = "[[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\", \"velocity\"]\n\
+                [sensor.quality]\nrefuse = [\"none\", \"2d\"]\n\
+                [sensor.quality.horizontal_floor_m]\nrtk_float = 0.3\n\"3d\" = 1.5\n";
+    let config = Config::parse(&format!("{INS}{gnss}")).unwrap();
+    let BuiltModel::Ins(crate::config::InsBuilt::Core(m)) = config.built() else { panic!() };
+    let frames = crate::model::Model::frames(m);
+    let cov = [0.0025, 0.0, 0.0, 0.0, 0.0025, 0.0, 0.0, 0.0, 0.01];
+    let f = |code| GeodeticSample::new(0, 3, 0, 48.1, 11.5, 500.0, cov).with_quality(code, 12, 0.9, 1.4);
+    let q = frames.quality(3);
+    assert!(q.noise(&f(fix::TWO_D)).is_err() && q.noise(&f(fix::NONE)).is_err());
+    assert!((q.noise(&f(fix::RTK_FLOAT)).unwrap()[0] - 0.09).abs() < 1e-12);
+    assert_eq!(q.noise(&f(fix::RTK_FIXED)).unwrap(), cov);
+    // Another receiver without a table: fused as reported, no fix refused.
+    let other = frames.quality(4);
+    assert_eq!(other.noise(&f(fix::TWO_D)).unwrap(), cov);
+    assert!(other.noise(&f(fix::NONE)).is_err());
+    // Only a geodetic sensor has a quality.
+    let wheels = "[[sensor]]\nname = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\n[sensor.quality]\n";
+    assert!(err(&format!("{INS}{wheels}")).contains("quality"));
+    let bad = gnss.replace("\"2d\"]", "\"rtk\"]");
+    assert!(err(&format!("{INS}{bad}")).contains("quality.refuse"));
+}

@@ -14,14 +14,20 @@
 //!
 //! The first valid fix sets the datum when none is configured.
 //!
+//! The receiver's quality (fix type, satellites, HDOP/VDOP) maps to the noise `R`
+//! the fix is fused with, and refused fix types are refused, as the sensor's
+//! `[sensor.quality]` says ([`crate::gnss_quality`]).
+//!
 //! Validation: latitude in [−90°, 90°], longitude in [−180°, 180°], height within
 //! [−1 km, 18 km] of the ellipsoid, all finite; covariance symmetric positive
-//! definite. Required by the health as a position source (this or `position`).
+//! definite; a known fix type code, satellites in 0..=255, HDOP and VDOP finite
+//! in [0, 100] (0: not reported). Required by the health as a position source
+//! (this or `position`).
 
 #![allow(non_snake_case)]
 
 use fusion_shared::geodesy::{self, Datum, InvalidGeodetic};
-use fusion_shared::{GeodeticSample, PositionSample, SampleKind};
+use fusion_shared::{GeodeticSample, PositionSample, SampleKind, fix};
 use nalgebra::{Matrix3, SVector, Vector3};
 
 use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, lever_arm};
@@ -40,6 +46,15 @@ impl Measurement for GeodeticSample {
             InvalidGeodetic::NonFinite => Rejection::NonFinite,
             InvalidGeodetic::Latitude | InvalidGeodetic::Longitude | InvalidGeodetic::Height => Rejection::OutOfRange,
         })?;
+        super::finite(&[self.hdop, self.vdop])?;
+        let dop = 0.0..=MAX_DOP;
+        if self.fix_type as usize >= fix::COUNT
+            || !(0..=fix::MAX_SATELLITES).contains(&self.satellites)
+            || !dop.contains(&self.hdop)
+            || !dop.contains(&self.vdop)
+        {
+            return Err(Rejection::OutOfRange);
+        }
         covariance3(&self.cov_enu_m2)
     }
 
@@ -51,13 +66,19 @@ impl Measurement for GeodeticSample {
     }
 }
 
+/// The largest dilution of precision accepted (a receiver reports 99.99 for
+/// "no geometry").
+pub const MAX_DOP: f64 = 100.0;
+
 /// The fix as the position fix at its world-frame coordinates (m, ENU about the
-/// datum), with the same header and covariance; `None` before any datum (never,
-/// once the engine admitted the fix).
-fn as_position(fix: &GeodeticSample, frames: &Frames) -> Option<PositionSample> {
-    let enu = frames.datum()?.to_enu(fix.lat_deg, fix.lon_deg, fix.height_m);
-    let h = fix.header;
-    Some(PositionSample::new(h.t_ns, h.sensor, h.seq, enu, fix.cov_enu_m2))
+/// datum), with the same header and the covariance its quality maps to; `None`
+/// when its quality refuses it, and before any datum (never, once the engine
+/// admitted the fix).
+fn as_position(f: &GeodeticSample, frames: &Frames) -> Option<PositionSample> {
+    let cov = frames.quality(f.header.sensor).noise(f).ok()?;
+    let enu = frames.datum()?.to_enu(f.lat_deg, f.lon_deg, f.height_m);
+    let h = f.header;
+    Some(PositionSample::new(h.t_ns, h.sensor, h.seq, enu, cov))
 }
 
 /// Fused as the position fix ([`super::position`]).
@@ -102,6 +123,20 @@ mod tests {
         indefinite[1] = 1.0;
         indefinite[3] = 1.0;
         assert_eq!(fix(48.1, 11.6, 520.0, indefinite), Err(Rejection::CovarianceNotPositiveDefinite));
+        // The receiver's quality.
+        let q = |code, sats, hdop, vdop| {
+            GeodeticSample::new(0, 0, 0, 48.1, 11.6, 520.0, COV).with_quality(code, sats, hdop, vdop).validate(&limits)
+        };
+        assert_eq!(q(fix::RTK_FIXED, 24, 0.6, 1.1), Ok(()));
+        assert_eq!(q(fix::UNKNOWN, 0, 0.0, 0.0), Ok(()), "nothing reported");
+        assert_eq!(q(7, 24, 0.6, 1.1), Err(Rejection::OutOfRange), "a fix type out of range");
+        assert_eq!(q(u32::MAX, 24, 0.6, 1.1), Err(Rejection::OutOfRange));
+        assert_eq!(q(fix::THREE_D, -3, 0.6, 1.1), Err(Rejection::OutOfRange), "negative satellites");
+        assert_eq!(q(fix::THREE_D, 300, 0.6, 1.1), Err(Rejection::OutOfRange));
+        assert_eq!(q(fix::THREE_D, 9, f64::NAN, 1.1), Err(Rejection::NonFinite), "NaN HDOP");
+        assert_eq!(q(fix::THREE_D, 9, 0.9, f64::INFINITY), Err(Rejection::NonFinite));
+        assert_eq!(q(fix::THREE_D, 9, -0.5, 1.1), Err(Rejection::OutOfRange));
+        assert_eq!(q(fix::THREE_D, 9, 0.9, 1e4), Err(Rejection::OutOfRange));
     }
 
     /// With the datum at the fix, a geodetic fix is the position fix at the origin;

@@ -46,6 +46,8 @@ impl<const D: usize> Fuse<InsModel<D>> for VelocitySample {
         let z = Vector3::from(self.vel_mps);
         let R = Matrix3::from_row_slice(&self.cov_m2ps2);
         let mount = model.frames().mount(SampleKind::Velocity, self.header.sensor);
+        let rotational = lever_arm::velocity(s, &mount.lever_arm).0 - s.v();
+        model.observe_velocity(s, self.header.t_ns, &(z - rotational), &R);
         lever_arm::fuse_velocity(model, s, mount, &z, &R)
     }
 }

@@ -148,6 +148,7 @@ mod tests {
             rotation_rpy_deg: [0.0; 3],
             lever_arm_m: [0.0; 3],
             time_offset_ns: 0,
+            quality: None,
         };
         let config = crate::frames::ImuConfig { combine, failover_after_ns: 20 };
         crate::frames::Frames::from_config(None, &[imu("a", 4), imu("b", 9)], config).unwrap()

@@ -63,6 +63,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
+pub mod clock;
 mod error_state;
 mod linearised;
 pub mod nonholonomic;
@@ -242,6 +243,8 @@ pub struct InsState<const D: usize = N> {
     lockout: Lockout,
     /// Standstill detection ([`standstill`]).
     pub(crate) still: standstill::Detector,
+    /// The velocity sensors' time offset estimate ([`clock`]).
+    pub(crate) clock: clock::ClockEstimate,
 }
 
 impl<const D: usize> InsState<D> {
@@ -260,6 +263,7 @@ impl<const D: usize> InsState<D> {
             constrained_ns: None,
             lockout: Lockout::default(),
             still: standstill::Detector::default(),
+            clock: clock::ClockEstimate::default(),
         }
     }
 
@@ -472,6 +476,7 @@ impl<const D: usize> InsModel<D> {
         let (p_new, v_new, q_new, F) =
             if s.still.standing { self.mechanise_at_rest(s, f_m, dt, &mut Q) } else { self.mechanise(s, f_m, w_m, dt) };
         if s.kf.predict_structured(|_| {}, |P| F.propagate_covariance(P, &Q), || (F.dense(), Q.dense())).is_ok() {
+            s.clock.integrated += v_new - s.v();
             let (b_a, b_g) = (s.b_a(), s.b_g());
             s.set(p_new, v_new, q_new, b_a, b_g);
             if let Some(log) = log {
@@ -664,6 +669,10 @@ impl<const D: usize> Model for InsModel<D> {
 
     fn standstill(s: &InsState<D>) -> (bool, u64) {
         (s.standing(), s.standstill_updates())
+    }
+
+    fn velocity_time_offset(s: &InsState<D>) -> Option<(f64, f64, u64)> {
+        s.clock.estimate()
     }
 
     fn x(s: &InsState<D>) -> &[f64] {

@@ -121,6 +121,13 @@ pub trait Model {
         (false, 0)
     }
 
+    /// How late the velocity sensors' stamps look beyond their configured
+    /// offset, from the residuals up to this state: `(τ̂, σ_τ, samples)`, s
+    /// (`ins`: [`ins::clock`]); `None` where the model has no estimate.
+    fn velocity_time_offset(_state: &Self::State) -> Option<(f64, f64, u64)> {
+        None
+    }
+
     /// Filter time, ns, or `None` before the first sample.
     fn time_ns(state: &Self::State) -> Option<u64>;
 

@@ -300,6 +300,7 @@ fn differences(live: &SnapshotJson, replay: &SnapshotJson) -> Vec<(String, Strin
     field("background_steps", live.background_steps.to_string(), replay.background_steps.to_string());
     field("standing", live.standing.to_string(), replay.standing.to_string());
     field("standstill_updates", live.standstill_updates.to_string(), replay.standstill_updates.to_string());
+    field("velocity_offset", format!("{:?}", live.velocity_offset), format!("{:?}", replay.velocity_offset));
     field("unknown_sensor", live.unknown_sensor.to_string(), replay.unknown_sensor.to_string());
     field("reinitialisations", live.reinitialisations.to_string(), replay.reinitialisations.to_string());
     out

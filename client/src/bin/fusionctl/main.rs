@@ -280,6 +280,17 @@ fn describe(s: &StateSnapshot) -> String {
     } else if s.standstill_updates > 0 {
         o += &format!("moving ({} standstill updates so far)\n", s.standstill_updates);
     }
+    if let Some((ns, sd, n)) = s.velocity_time_offset() {
+        let (ms, sd_ms) = (ns * 1e-6, sd * 1e-6);
+        o += &if n >= 20 && ms.abs() > (3.0 * sd_ms).max(15.0) {
+            format!(
+                "velocity stamps {ms:+.0} ± {sd_ms:.0} ms off beyond their time_offset_ns ({n} samples): \
+                 add about {ms:.0} ms to it\n"
+            )
+        } else {
+            format!("velocity stamps vs their time_offset_ns: {ms:+.1} ± {sd_ms:.1} ms ({n} samples)\n")
+        };
+    }
     o += "\n";
     let layout = state_layout(s);
     let sd: Vec<f64> = s.std_devs().collect();
