@@ -1,5 +1,6 @@
 //! Bad input of the vehicle sensor kinds through the `ins` engine: impossible
-//! odometry, headings and fixes, mixed into a drive, are rejected with their
+//! odometry, headings and fixes (and fixes with an impossible quality), mixed
+//! into a drive, are rejected with their
 //! reason and counted, and the estimate after the drive is bit for bit the one of
 //! the same drive without them. A linear model refuses odometry and heading at
 //! start-up with a clear error.
@@ -12,7 +13,7 @@ use fusion_daemon::engine::{Engine, EngineConfig, Insert};
 use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::InsModel;
 use fusion_daemon::validate::Rejection;
-use fusion_shared::{GeodeticSample, HeadingSample, ImuSample, OdometrySample, Sample, SampleKind};
+use fusion_shared::{GeodeticSample, HeadingSample, ImuSample, OdometrySample, Sample, SampleKind, fix};
 
 const INS: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
     accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\
@@ -32,6 +33,9 @@ fn bad(t: u64, seq: u64) -> Vec<(Sample, Rejection)> {
     let mut not_spd = cov;
     (not_spd[1], not_spd[3]) = (1.0, 1.0);
     let geodetic = |lat, lon, cov| Sample::Geodetic(GeodeticSample::new(t, 3, seq, lat, lon, 520.0, cov));
+    let quality = |code, sats, hdop| {
+        Sample::Geodetic(GeodeticSample::new(t, 3, seq, 48.1, 11.5, 520.0, cov).with_quality(code, sats, hdop, 1.0))
+    };
     let odometry = |speed, var| Sample::Odometry(OdometrySample::new(t, 0, seq, speed, var));
     let heading = |yaw, var| Sample::Heading(HeadingSample::new(t, 0, seq, yaw, var));
     vec![
@@ -41,6 +45,11 @@ fn bad(t: u64, seq: u64) -> Vec<(Sample, Rejection)> {
         (geodetic(48.1, -200.0, cov), Rejection::OutOfRange),
         (geodetic(f64::NAN, 11.5, cov), Rejection::NonFinite),
         (geodetic(48.1, 11.5, not_spd), Rejection::CovarianceNotPositiveDefinite),
+        // The receiver's quality: a fix type out of range, negative satellites, NaN HDOP.
+        (quality(7, 12, 0.9), Rejection::OutOfRange),
+        (quality(fix::THREE_D, -1, 0.9), Rejection::OutOfRange),
+        (quality(fix::THREE_D, 12, f64::NAN), Rejection::NonFinite),
+        (quality(fix::RTK_FIXED, 12, -0.5), Rejection::OutOfRange),
         (odometry(10.0, -0.01), Rejection::VarianceNotPositive),
         (odometry(f64::NAN, 0.01), Rejection::NonFinite),
         (odometry(1e5, 0.01), Rejection::OutOfRange),
