@@ -476,7 +476,8 @@ impl<const D: usize> InsModel<D> {
         let (p_new, v_new, q_new, F) =
             if s.still.standing { self.mechanise_at_rest(s, f_m, dt, &mut Q) } else { self.mechanise(s, f_m, w_m, dt) };
         if s.kf.predict_structured(|_| {}, |P| F.propagate_covariance(P, &Q), || (F.dense(), Q.dense())).is_ok() {
-            s.clock.integrated += v_new - s.v();
+            let dv = v_new - s.v();
+            s.clock.integrated += nalgebra::Vector2::new(dv.x, dv.y);
             let (b_a, b_g) = (s.b_a(), s.b_g());
             s.set(p_new, v_new, q_new, b_a, b_g);
             if let Some(log) = log {

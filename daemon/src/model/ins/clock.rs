@@ -37,7 +37,7 @@
 //! the offset is right. Add the estimate to `time_offset_ns` and run again until
 //! it reads 0: each round halves what is left.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Vector2, Vector3};
 
 use super::{InsModel, InsState};
 
@@ -47,15 +47,17 @@ pub const WINDOW_NS: u64 = 5_000_000_000;
 /// The running sums of the estimate (module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ClockEstimate {
-    /// `V(t)`: the IMU's velocity change since the start, m/s (world).
-    pub(super) integrated: Vector3<f64>,
-    /// `V` and the time at the previous velocity sample.
-    last: Option<(u64, Vector3<f64>)>,
+    /// `V(t)`: the IMU's horizontal velocity change since the start, m/s
+    /// (world east, north).
+    pub(super) integrated: Vector2<f64>,
+    /// `V` at the previous velocity sample, and its time (0: none yet).
+    last_v: Vector2<f64>,
+    last_ns: u64,
     /// The open window: its first sample's time, samples, `Σ a`, `Σ u`, `Σ |a|²`, `Σ aᵀu`.
     start_ns: u64,
     n: u32,
-    sum_a: Vector3<f64>,
-    sum_u: Vector3<f64>,
+    sum_a: Vector2<f64>,
+    sum_u: Vector2<f64>,
     sum_aa: f64,
     sum_au: f64,
     /// The closed windows: `Σ |a − ā|²`, `Σ (a − ā)ᵀ(u − ū)`, samples, `Σ σ²`.
@@ -83,7 +85,7 @@ impl ClockEstimate {
             self.sxx += self.sum_aa - self.sum_a.norm_squared() / n;
             self.sxy += self.sum_au - self.sum_a.dot(&self.sum_u) / n;
         }
-        (self.n, self.sum_a, self.sum_u, self.sum_aa, self.sum_au) = (0, Vector3::zeros(), Vector3::zeros(), 0.0, 0.0);
+        (self.n, self.sum_a, self.sum_u, self.sum_aa, self.sum_au) = (0, Vector2::zeros(), Vector2::zeros(), 0.0, 0.0);
     }
 }
 
@@ -96,21 +98,21 @@ impl<const D: usize> InsModel<D> {
             return;
         }
         let c = &mut s.clock;
-        let Some((t0, v0)) = c.last.replace((t_ns, c.integrated)) else { return };
+        let (t0, v0) = (c.last_ns, c.last_v);
+        (c.last_ns, c.last_v) = (t_ns, c.integrated);
         let dt = t_ns.saturating_sub(t0) as f64 * 1e-9;
-        if !(dt > 0.0 && dt <= 1.0) {
+        if t0 == 0 || !(dt > 0.0 && dt <= 1.0) {
             c.close();
             return;
         }
-        let horizontal = |v: Vector3<f64>| Vector3::new(v.x, v.y, 0.0);
-        let a = horizontal((c.integrated - v0) / dt);
+        let a = (c.integrated - v0) / dt;
         if c.n > 0 && t_ns.saturating_sub(c.start_ns) > WINDOW_NS {
             c.close();
         }
         if c.n == 0 {
             c.start_ns = t_ns;
         }
-        let u = horizontal(w - c.integrated);
+        let u = Vector2::new(w.x, w.y) - c.integrated;
         c.n += 1;
         c.sum_a += a;
         c.sum_u += u;
@@ -131,10 +133,10 @@ mod tests {
     fn the_window_constants_drop_out() {
         let mut e = ClockEstimate::default();
         let tau = 0.08;
-        for (w, c) in [(0.0, Vector3::new(3.0, -1.0, 0.0)), (1.0, Vector3::new(-7.0, 2.0, 0.5))] {
+        for (w, c) in [(0.0, Vector2::new(3.0, -1.0)), (1.0, Vector2::new(-7.0, 2.0))] {
             for k in 0..20 {
                 let t = k as f64 * 0.1;
-                let a = Vector3::new((t + w).sin(), (2.0 * t).cos(), 0.1 * t);
+                let a = Vector2::new((t + w).sin(), (2.0 * t).cos() + 0.1 * t);
                 let u = c - a * tau;
                 e.n += 1;
                 e.sum_a += a;
