@@ -345,3 +345,36 @@ fn describe(s: &StateSnapshot) -> String {
     );
     o
 }
+
+#[cfg(test)]
+mod tests {
+    use fusion_client::StateSnapshot;
+    use fusion_shared::snapshot::{aux, model};
+
+    use super::describe;
+
+    /// An ins snapshot with the odometry scale state and a velocity time offset
+    /// estimate: the state table names the scale with its σ, and the offset
+    /// line says what to add.
+    #[test]
+    fn the_state_names_auxiliary_states_and_the_offset_advice() {
+        let mut s = StateSnapshot {
+            model: model::INS,
+            state_len: 17,
+            cov_dim: 16,
+            aux_states: aux::ODOMETRY_SCALE,
+            velocity_offset_ns: 52.4e6,
+            velocity_offset_std_ns: 3.1e6,
+            velocity_offset_samples: 600,
+            ..Default::default()
+        };
+        s.x[6] = 1.0;
+        s.x[16] = 1.0123;
+        (0..16).for_each(|i| s.cov[i * 16 + i] = 1e-6);
+        let text = describe(&s);
+        assert!(text.contains("odometry_scale") && text.contains("1.012300") && text.contains("0.0010"), "{text}");
+        assert!(text.contains("+52 ± 3 ms off") && text.contains("add about 52 ms"), "{text}");
+        s.velocity_offset_ns = 4.0e6;
+        assert!(describe(&s).contains("velocity stamps vs their time_offset_ns: +4.0 ± 3.1 ms"), "{}", describe(&s));
+    }
+}
