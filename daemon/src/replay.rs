@@ -78,7 +78,7 @@ pub struct ReplaySummary {
     standing: bool,
     /// How late the velocity sensors' stamps look beyond their configured
     /// offset at the end of the run: `(τ̂, σ_τ, samples)`, s
-    /// ([`Model::velocity_time_offset`]).
+    /// ([`crate::model::Model::velocity_time_offset`]).
     pub velocity_time_offset: Option<(f64, f64, u64)>,
 }
 
