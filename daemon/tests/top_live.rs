@@ -1,5 +1,6 @@
 //! `fusionctl top` against a running fusiond, on a pseudo-terminal (`script`):
-//! it shows the daemon's sensors and health, and quits on `q`.
+//! it shows the daemon's sensors and health, and quits on `q`; without a
+//! terminal it says so in one line and exits 1.
 
 mod common;
 
@@ -79,4 +80,24 @@ fn the_dashboard_shows_a_running_daemon_and_quits_on_q() {
     drop(client);
     assert!(daemon.terminate().success());
     assert!(domain.files().is_empty(), "left in /dev/shm: {:?}", domain.files());
+}
+
+/// Without a terminal (a pipe, as from a unit or ssh without `-t`) the dashboard
+/// does not start: one line that says why and what to use, exit 1, no panic.
+#[test]
+fn without_a_terminal_it_says_so_in_one_line() {
+    let domain = TestDomain::new("top-tty");
+    let out = Command::new(workspace_bin("fusionctl"))
+        .args(["top", "--namespace", &domain.namespace])
+        .env(DOMAIN_ENV, &domain.domain)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("needs a terminal") && stderr.contains("fusionctl state"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
 }

@@ -191,8 +191,21 @@ pub fn draw(frame: &mut Frame, view: &View) {
     frame.render_widget(Paragraph::new(format!(" q: quit   {} snapshots read", view.snapshots)), footer);
 }
 
-/// Runs the dashboard on the terminal until `q` or `stop`.
+/// Runs the dashboard on the terminal until `q` or `stop`; without a terminal
+/// on standard input and output (ssh without `-t`, a unit, cron), an error that
+/// says what to use instead.
 pub fn run(namespace: &str, stop: &AtomicBool) -> anyhow::Result<()> {
+    use std::io::IsTerminal;
+    for (name, is) in
+        [("standard output", std::io::stdout().is_terminal()), ("standard input", std::io::stdin().is_terminal())]
+    {
+        if !is {
+            anyhow::bail!(
+                "the dashboard needs a terminal and {name} is not one (ssh -t gives one); \
+                 `fusionctl state` prints the latest snapshot, `fusionctl echo` every one"
+            );
+        }
+    }
     let client = Client::connect(namespace)?;
     let mut view = View::new(namespace);
     let mut state = None;
