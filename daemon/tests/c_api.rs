@@ -69,6 +69,8 @@ fn the_c_example_publishes_and_reads_from_a_live_fusiond() {
     assert_eq!(snapshot.input_kind, fusion_shared::SampleKind::Imu as u32);
     let imu = &snapshot.sensor_counters()[0];
     assert_eq!((imu.counts.received, imu.counts.processed, imu.counts.invalid), (1, 1, 0));
+    // As an IMU of its own, not a vehicle's IMU 0.
+    assert_eq!((imu.kind, imu.sensor), (fusion_shared::SampleKind::Imu as u32, 99));
     // `t_ns <t> x <x0> <x1> <x2> health <name>`, the doubles printed with 17 digits.
     let words: Vec<&str> = stdout.split_whitespace().collect();
     assert_eq!((words.len(), words[0], words[2], words[6]), (8, "t_ns", "x", "health"), "{stdout}");
@@ -81,6 +83,23 @@ fn the_c_example_publishes_and_reads_from_a_live_fusiond() {
     assert!(daemon.terminate().success());
     drop(daemon);
     assert!(domain.files().is_empty(), "{:?}", domain.files());
+}
+
+/// The guide's build command, as written, from the repository root (with this
+/// build's library and a temporary output): the paths it names exist.
+#[test]
+fn the_guides_build_command_works_from_the_repository_root() {
+    let guide = std::fs::read_to_string(client_dir().join("../docs/clients.md")).unwrap();
+    let line = guide.lines().find(|l| l.starts_with("cc ")).expect("a cc command in docs/clients.md");
+    assert!(line.contains("target/release/libfusion_client.a") && line.ends_with("-o example"), "{line}");
+    let build = tempfile::tempdir().unwrap();
+    let out = build.path().join("example");
+    let command = line
+        .replace("target/release/libfusion_client.a", &static_lib().display().to_string())
+        .replace("-o example", &format!("-o {}", out.display()));
+    let done = Command::new("sh").args(["-c", &command]).current_dir(client_dir().join("..")).output().unwrap();
+    assert!(done.status.success(), "{command}: {}", String::from_utf8_lossy(&done.stderr));
+    assert!(out.exists());
 }
 
 #[test]

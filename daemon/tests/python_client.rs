@@ -308,6 +308,8 @@ fn fusiond_fuses_what_python_publishes_and_python_refuses_bad_samples() {
 fn the_python_example_reads_a_live_snapshot() {
     let domain = TestDomain::new("py-example");
     let mut daemon = Daemon::start(&domain, &common::linear_config(None), "event");
+    let client = domain.client();
+    let mut reader = client.state_subscriber_with_buffer(16).unwrap();
     let out = common::python_command(&domain.domain, "examples/example.py", &[&domain.namespace]).output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
@@ -318,6 +320,10 @@ fn the_python_example_reads_a_live_snapshot() {
             && said.ends_with("health initialising\n"),
         "{said}"
     );
+    // As an IMU of its own, not a vehicle's IMU 0.
+    let s = *reader.wait_next(std::time::Duration::from_secs(10)).unwrap().expect("the example's snapshot");
+    assert_eq!(s.sensor_counters().iter().map(|c| c.sensor).collect::<Vec<_>>(), [99], "{:?}", s.sensor_counters());
+    drop((reader, client));
     assert!(daemon.terminate().success());
     drop(daemon);
     assert!(domain.files().is_empty(), "{:?}", domain.files());

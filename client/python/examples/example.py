@@ -1,8 +1,10 @@
 import sys
 import fusion_client as fc
 
-client = fc.Client(sys.argv[1] if len(sys.argv) > 1 else "fusion")
-imu = client.publisher(fc.ImuSample, sensor=0)
+# A namespace and an IMU id of its own: beside a live vehicle it must not publish as
+# one of its sensors. Give it the namespace of a fusiond run to try it.
+client = fc.Client(sys.argv[1] if len(sys.argv) > 1 else "fusion-example")
+imu = client.publisher(fc.ImuSample, sensor=99)
 state = client.state_reader()  # fc.DaemonNotRunning if no fusiond runs here
 imu.publish(fc.ImuSample(accel_mps2=(0.1, 0.0, 0.0)), t_ns=fc.now_ns())
 s = state.wait_next(timeout=1.0)
