@@ -389,6 +389,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if let Some(path) = input {
                 return publish_file(&client, &path, realtime, allow_no_daemon, &stop);
             }
+            let mut daemon_seen = daemon_runs(&client);
             let start = start_at_ns.unwrap_or_else(|| now_ns() + 100_000_000);
             let trajectory = config.trajectory().map_err(|e| anyhow::anyhow!("--stop: {e}"))?;
             let end_ns = start + (config.duration_s * 1e9) as u64;
@@ -425,7 +426,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let missed = published - played.delivered;
             let reached = if missed == 0 { String::new() } else { format!(" ({missed} reached no reader)") };
             eprintln!("fusion-sim: published {} to namespace {namespace:?}{reached}", counts.join(", "));
-            if published > 0 && played.delivered == 0 && !allow_no_daemon {
+            daemon_seen |= daemon_runs(&client);
+            // Other readers (a recorder) take samples too: whether fusiond ran is
+            // whether its state service was there.
+            if published > 0 && (played.delivered == 0 || !daemon_seen) && !allow_no_daemon {
                 anyhow::bail!(
                     "no fusiond received the samples: none runs in namespace {namespace:?} (--allow-no-daemon to \
                      publish anyway)"
@@ -467,6 +471,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 /// rejected, duplicate or too-late sample produces none).
 const ACK_TIMEOUT: Duration = Duration::from_millis(50);
 
+/// How long `--input` goes on while fusiond answers none of its samples, before
+/// it gives up: fusiond refuses them all.
+const SILENCE: Duration = Duration::from_secs(2);
+
+/// Whether a fusiond runs in the client's namespace (its state service is there).
+fn daemon_runs(client: &Client) -> bool {
+    !matches!(client.state_subscriber_with_buffer(1), Err(fusion_client::ClientError::DaemonNotRunning { .. }))
+}
+
 /// Publishes a file in file order: paced by its timestamps (`realtime`), or in
 /// lockstep with the daemon: each sample after the snapshot of the one before, so
 /// the daemon sees exactly the file's order and any reader can keep up with the
@@ -487,6 +500,7 @@ fn publish_file(
         Err(e) => return Err(e.into()),
     };
     let (mut published, mut delivered, mut skipped, mut unacknowledged) = (0u64, 0u64, 0u64, 0u64);
+    let (mut last_answer, mut unanswered) = (std::time::Instant::now(), 0u64);
     let mut pace: Option<(u64, u64)> = None; // (first timestamp, wall time of it)
     for (i, line) in file.lines().enumerate() {
         if stop.load(Ordering::Relaxed) {
@@ -528,6 +542,19 @@ fn publish_file(
                 }
             };
             unacknowledged += u64::from(!acknowledged);
+            if acknowledged {
+                (last_answer, unanswered) = (std::time::Instant::now(), 0);
+                continue;
+            }
+            unanswered += 1;
+            if last_answer.elapsed() > SILENCE {
+                anyhow::bail!(
+                    "fusiond answered none of the last {unanswered} samples in {:.0} s: it refuses them \
+                     (`fusionctl state` and its log say why; samples stamped on another clock than fusiond's \
+                     are too far in the past: [validation] max_past_ns, or publish with --realtime)",
+                    SILENCE.as_secs_f64()
+                );
+            }
         }
     }
     eprintln!(
@@ -536,7 +563,11 @@ fn publish_file(
         path.display(),
         published - delivered
     );
-    if published > 0 && delivered == 0 && !allow_no_daemon {
+    if published == 0 && skipped > 0 {
+        anyhow::bail!("{}: none of its {skipped} lines is a sample (see the lines above)", path.display());
+    }
+    let daemon_seen = state.is_some() || daemon_runs(client);
+    if published > 0 && (delivered == 0 || !daemon_seen) && !allow_no_daemon {
         anyhow::bail!(
             "no fusiond received the samples: none runs in namespace {:?} (--allow-no-daemon to publish anyway)",
             client.names().namespace

@@ -1,0 +1,100 @@
+//! `fusion-sim run` does not wait silently or claim success: a file whose every
+//! sample fusiond refuses ends in a bounded time with the reason and exit 1; a
+//! file of garbage is an error; and a run with readers but no fusiond (a
+//! recorder alone) is not taken for one that reached fusiond.
+
+mod common;
+
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+use common::live::{Daemon, TestDomain, workspace_bin};
+use fusion_shared::service::DOMAIN_ENV;
+use fusion_shared::{ImuSample, Sample};
+
+fn sim(domain: &TestDomain, args: &[&str]) -> Output {
+    Command::new("timeout")
+        .arg("60")
+        .arg(workspace_bin("fusion-sim"))
+        .args(["run", "--namespace", &domain.namespace])
+        .args(args)
+        .env(DOMAIN_ENV, &domain.domain)
+        .output()
+        .unwrap()
+}
+
+/// Samples stamped on another clock (a recording's, near 0 s of it) are all
+/// refused by a fusiond whose clock is far ahead: fusion-sim stops within a few
+/// seconds (not 50 ms per sample of the file), says why and exits 1.
+#[test]
+fn a_file_fusiond_refuses_entirely_ends_with_the_reason() {
+    let domain = TestDomain::new("sim-refused");
+    // The default validation (a [validation] table keeps the test harness from
+    // opening the past-timestamp check up).
+    let config = format!("{}\n[validation]\nmax_past_ns = 5_000_000_000\n", common::linear_config(Some(0.999)));
+    let mut daemon = Daemon::start(&domain, &config, "event");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("old.jsonl");
+    let lines: String = (0..2000u64)
+        .map(|k| {
+            let s = Sample::Imu(ImuSample::new(1_000_000 + k * 5_000_000, 0, k, [0.1, 0.0, 0.0], [0.0; 3]));
+            fusion_shared::jsonl::format_sample(&s) + "\n"
+        })
+        .collect();
+    std::fs::write(&path, lines).unwrap();
+    let started = Instant::now();
+    let out = sim(&domain, &["--input", path.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(started.elapsed() < Duration::from_secs(20), "it gave up after {:?}", started.elapsed());
+    assert!(stderr.contains("answered none") && stderr.contains("max_past_ns"), "{stderr}");
+    assert!(daemon.terminate().success());
+    drop(daemon);
+    assert!(domain.files().is_empty(), "{:?}", domain.files());
+}
+
+/// A file with no sample in it publishes nothing and says so: exit 1.
+#[test]
+fn a_file_of_garbage_is_an_error() {
+    let domain = TestDomain::new("sim-garbage");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("garbage.jsonl");
+    std::fs::write(&path, "not json\n{\"imu\": 3}\n\u{1}\u{2}\n").unwrap();
+    let out = sim(&domain, &["--input", path.to_str().unwrap(), "--realtime", "--allow-no-daemon"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("none of its 3 lines is a sample"), "{stderr}");
+    assert!(domain.files().is_empty(), "{:?}", domain.files());
+}
+
+/// Only a reader of the samples (a recorder) is there, no fusiond: the run is
+/// not taken for one that reached fusiond.
+#[test]
+fn readers_without_fusiond_are_not_a_daemon() {
+    let domain = TestDomain::new("sim-nodaemon");
+    let client = domain.client();
+    let mut recorder = client.sample_subscriber().unwrap();
+    let mut sim = Command::new(workspace_bin("fusion-sim"))
+        .args(["run", "--namespace", &domain.namespace, "--duration", "3", "--imu-rate", "100"])
+        .args(["--position-rate", "5"])
+        .env(DOMAIN_ENV, &domain.domain)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Read as a recorder does, while it publishes.
+    let (mut read, deadline) = (0u64, Instant::now() + Duration::from_secs(30));
+    while sim.try_wait().unwrap().is_none() && Instant::now() < deadline {
+        while recorder.try_next().unwrap().is_some() {
+            read += 1;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let out = sim.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(read > 100, "the recorder read {read} samples (what the old check took for a daemon): {stderr}");
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("no fusiond received the samples"), "{stderr}");
+    drop((recorder, client));
+    assert!(domain.files().is_empty(), "{:?}", domain.files());
+}
