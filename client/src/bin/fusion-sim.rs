@@ -550,8 +550,9 @@ fn publish_file(
             if last_answer.elapsed() > SILENCE {
                 anyhow::bail!(
                     "fusiond answered none of the last {unanswered} samples in {:.0} s: it refuses them \
-                     (`fusionctl state` and its log say why; samples stamped on another clock than fusiond's \
-                     are too far in the past: [validation] max_past_ns, or publish with --realtime)",
+                     (`fusionctl state` and its log say why; samples stamped on another clock than fusiond's, \
+                     as a recording's, are too far in the past: raise [validation] max_past_ns, or run \
+                     `fusiond replay` on the file)",
                     SILENCE.as_secs_f64()
                 );
             }
