@@ -2,7 +2,7 @@
 //! processes over iceoryx2, a live status line, then the position error against
 //! the truth and the end-to-end latency.
 
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::{Child, Command, ExitCode, Stdio};
 use std::sync::Arc;
@@ -403,6 +403,11 @@ fn run(args: Args) -> anyhow::Result<()> {
     // Each outage's horizontal error and its 1σ at its end (the first snapshot after it).
     let mut outage_ends: Vec<Option<(f64, f64)>> = vec![None; args.outage.len()];
     let mut next_status = Instant::now();
+    // On a terminal one status line redrawn 4 times a second; into a file or a
+    // pipe a plain line every 5 s (redrawn lines would collapse into one).
+    let terminal = std::io::stdout().is_terminal();
+    let (every, start_of_line, end_of_line) =
+        if terminal { (Duration::from_millis(250), "\r", "") } else { (Duration::from_secs(5), "", "\n") };
     let end = Instant::now() + Duration::from_secs_f64(args.duration + 0.5);
     while !stop.load(Ordering::Relaxed) && Instant::now() < end {
         let Some(s) = state.wait_next(Duration::from_millis(50))? else { continue };
@@ -447,12 +452,12 @@ fn run(args: Args) -> anyhow::Result<()> {
             }
         }
         if Instant::now() >= next_status {
-            next_status = Instant::now() + Duration::from_millis(250);
+            next_status = Instant::now() + every;
             let c = s.sensor_counters();
             let fixes = [fusion_shared::SampleKind::Position as u32, fusion_shared::SampleKind::Geodetic as u32];
             let pos = c.iter().find(|c| fixes.contains(&c.kind));
             print!(
-                "\r  t {t:5.1} s  pos ({:7.2},{:7.2},{:6.2}) m  err {:5.2} m  {:<28}  fixes {:3} fused {:2} gated  latency p50 {:5.0} us ",
+                "{start_of_line}  t {t:5.1} s  pos ({:7.2},{:7.2},{:6.2}) m  err {:5.2} m  {:<28}  fixes {:3} fused {:2} gated  latency p50 {:5.0} us {end_of_line}",
                 x[0],
                 x[1],
                 x[2],
@@ -465,7 +470,9 @@ fn run(args: Args) -> anyhow::Result<()> {
             let _ = std::io::stdout().flush();
         }
     }
-    println!();
+    if terminal {
+        println!();
+    }
     children.stop();
     // The recorder last: it has every snapshot once fusiond stopped.
     recorder.stop();
