@@ -1,7 +1,10 @@
 //! `fusionctl top`: a live dashboard of a running fusiond (`ratatui`): health
 //! and its reasons, each sensor's rate and counters, the estimate with its
-//! standard deviations, and the end-to-end latency percentiles, redrawn every
-//! [`REFRESH`]; `q` (or Esc, Ctrl-C) quits.
+//! standard deviations (in as many columns as fit: the whole `ins` estimate at
+//! 80×24), and the end-to-end latency percentiles, redrawn every [`REFRESH`];
+//! `q` (or Esc, Ctrl-C) quits. Narrower than 120 columns the sensor table uses
+//! short column names and adds duplicates, rate-limited samples and restarts up
+//! as "other".
 
 use std::collections::{HashMap, VecDeque};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -14,7 +17,7 @@ use ratatui::crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers
 use ratatui::layout::{Constraint, Layout};
 use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Block, Cell, Paragraph, Row, Table};
+use ratatui::widgets::{Block, Borders, Cell, Paragraph, Row, Table};
 
 /// How often the view is redrawn.
 pub const REFRESH: Duration = Duration::from_millis(200);
@@ -83,15 +86,48 @@ impl View {
     }
 }
 
-/// Draws the dashboard of `view` into `frame`.
+/// Width of one column of the estimate panel: name, value, 1-sigma.
+const ESTIMATE_COLUMN: u16 = 40;
+/// Below this width the sensor table uses its short column names.
+const WIDE: u16 = 120;
+
+/// The estimate's rows: each state (name, value, 1-sigma), and for the `ins`
+/// model roll, pitch and yaw in degrees.
+fn estimate_rows(s: &StateSnapshot) -> Vec<[String; 3]> {
+    let sd: Vec<f64> = s.std_devs().collect();
+    let mut rows: Vec<[String; 3]> = crate::state_layout(s)
+        .into_iter()
+        .zip(s.state())
+        .map(|((name, k), v)| {
+            let sigma = k.and_then(|k| sd.get(k)).map_or(String::new(), |v| format!("{v:.4}"));
+            [name, format!("{v:.4}"), sigma]
+        })
+        .collect();
+    if let (Some(rpy), Some(rpy_sd)) = (s.roll_pitch_yaw(), s.roll_pitch_yaw_std()) {
+        for ((name, v), sd) in ["roll deg", "pitch deg", "yaw deg"].iter().zip(rpy).zip(rpy_sd) {
+            rows.push([name.to_string(), format!("{:.3}", v.to_degrees()), format!("{:.3}", sd.to_degrees())]);
+        }
+    }
+    rows
+}
+
+/// Draws the dashboard of `view` into `frame`: at 80×24 the whole `ins`
+/// estimate (in columns) and up to six sensors show.
 pub fn draw(frame: &mut Frame, view: &View) {
-    let [header, sensors, lower, footer] =
-        Layout::vertical([Constraint::Length(4), Constraint::Min(6), Constraint::Length(12), Constraint::Length(1)])
-            .areas(frame.area());
+    let area = frame.area();
+    let columns = (area.width / ESTIMATE_COLUMN).max(1) as usize;
+    let estimate_height = view.latest.as_ref().map_or(0, |s| estimate_rows(s).len().div_ceil(columns));
+    let [header, sensors, lower, footer] = Layout::vertical([
+        Constraint::Length(3),
+        Constraint::Min(4),
+        Constraint::Length(estimate_height as u16 + 2),
+        Constraint::Length(1),
+    ])
+    .areas(area);
     let title = format!(" fusiond · namespace {} ", view.namespace);
     let Some(s) = &view.latest else {
         let text = format!("waiting for the first snapshot of fusiond in namespace {:?} …", view.namespace);
-        frame.render_widget(Paragraph::new(text).block(Block::bordered().title(title)), header);
+        frame.render_widget(Paragraph::new(text).block(Block::new().borders(Borders::TOP).title(title)), header);
         frame.render_widget(Paragraph::new(" q: quit"), footer);
         return;
     };
@@ -129,12 +165,21 @@ pub fn draw(frame: &mut Frame, view: &View) {
             s.pending_steps
         )
     });
-    frame.render_widget(Paragraph::new(vec![line, settled]).block(Block::bordered().title(title)), header);
+    frame.render_widget(
+        Paragraph::new(vec![line, settled]).block(Block::new().borders(Borders::TOP).title(title)),
+        header,
+    );
 
-    let head = [
-        "sensor", "rate Hz", "received", "fused", "gated", "late", "too late", "dup", "invalid", "lost", "limited",
-        "restarts", "last NIS",
-    ];
+    let wide = area.width >= WIDE;
+    let head = if wide {
+        [
+            "sensor", "rate Hz", "received", "fused", "gated", "late", "too late", "dup", "invalid", "lost", "limited",
+            "restarts", "last NIS",
+        ]
+    } else {
+        // Narrow: duplicates, rate-limited and restarts added up as "other".
+        ["sensor", "Hz", "recv", "fused", "gated", "late", "2late", "inval", "lost", "other", "NIS", "", ""]
+    };
     let stale_rows: Vec<(u32, u32)> = s.stale_sensor_counters().map(|c| (c.kind, c.sensor)).collect();
     let rows = s.sensor_counters().iter().map(|c| {
         let n = &c.counts;
@@ -142,9 +187,10 @@ pub fn draw(frame: &mut Frame, view: &View) {
         let nis = if c.last_nis.is_finite() { format!("{:.2}", c.last_nis) } else { "-".into() };
         let style =
             if stale_rows.contains(&(c.kind, c.sensor)) { Style::default().fg(Color::Red) } else { Style::default() };
-        Row::new(
+        let name = format!("{} {}", crate::kind_name(c.kind), c.sensor);
+        let cells = if wide {
             [
-                format!("{} {}", crate::kind_name(c.kind), c.sensor),
+                name,
                 rate,
                 n.received.to_string(),
                 n.fused.to_string(),
@@ -158,37 +204,56 @@ pub fn draw(frame: &mut Frame, view: &View) {
                 n.restarts.to_string(),
                 nis,
             ]
-            .map(Cell::from),
-        )
-        .style(style)
+        } else {
+            [
+                name,
+                rate,
+                n.received.to_string(),
+                n.fused.to_string(),
+                n.gated.to_string(),
+                n.late.to_string(),
+                n.too_late.to_string(),
+                n.invalid.to_string(),
+                n.lost.to_string(),
+                (n.duplicate + n.rate_limited + n.restarts).to_string(),
+                nis,
+                String::new(),
+                String::new(),
+            ]
+        };
+        Row::new(cells.map(Cell::from)).style(style)
     });
-    let mut widths = vec![Constraint::Length(12)];
-    widths.extend([Constraint::Length(9); 12]);
+    let widths: Vec<Constraint> = if wide {
+        std::iter::once(12).chain([9; 12]).map(Constraint::Length).collect()
+    } else {
+        [11, 5, 7, 7, 5, 5, 5, 5, 5, 5, 5, 0, 0].map(Constraint::Length).to_vec()
+    };
     let table = Table::new(rows, widths)
         .header(Row::new(head).style(Style::default().add_modifier(Modifier::BOLD)))
-        .block(Block::bordered().title(" sensors "));
+        .block(Block::new().borders(Borders::TOP).title(" sensors "));
     frame.render_widget(table, sensors);
 
-    let [estimate, latency] = Layout::horizontal([Constraint::Percentage(60), Constraint::Percentage(40)]).areas(lower);
-    let sd: Vec<f64> = s.std_devs().collect();
-    let rows = crate::state_layout(s).into_iter().zip(s.state()).map(|((name, k), v)| {
-        let sigma = k.and_then(|k| sd.get(k)).map_or(String::new(), |v| format!("{v:.4}"));
-        Row::new([name, format!("{v:.4}"), sigma].map(Cell::from))
-    });
-    let table = Table::new(rows, [Constraint::Length(12), Constraint::Length(14), Constraint::Length(12)])
-        .header(Row::new(["state", "value", "1-sigma"]).style(Style::default().add_modifier(Modifier::BOLD)))
-        .block(Block::bordered().title(" estimate "));
-    frame.render_widget(table, estimate);
+    // The estimate in as many columns as fit, filled top to bottom.
+    let rows = estimate_rows(s);
+    let per_column = rows.len().div_ceil(columns).max(1);
+    let parts = Layout::horizontal(vec![Constraint::Length(ESTIMATE_COLUMN); columns]).split(lower);
+    for (i, chunk) in rows.chunks(per_column).enumerate() {
+        let table =
+            Table::new(chunk.iter().map(|r| Row::new(r.clone().map(Cell::from))), [14, 12, 10].map(Constraint::Length))
+                .header(Row::new(["state", "value", "1-sigma"]).style(Style::default().add_modifier(Modifier::BOLD)));
+        let block = Block::new().borders(Borders::TOP);
+        let block = if i == 0 { block.title(" estimate ") } else { block };
+        frame.render_widget(table.block(block), parts[i]);
+    }
 
-    let text = match view.latency_us() {
+    let latency = match view.latency_us() {
         Some([p50, p90, p99, max]) => format!(
-            "sample sent → snapshot published\n(last {} in order)\n\np50 {p50:9.1} µs\np90 {p90:9.1} µs\np99 {p99:9.1} µs\nmax {max:9.1} µs",
+            "latency sent → published: p50 {p50:.1} p90 {p90:.1} p99 {p99:.1} max {max:.1} µs (last {})",
             view.latencies.len()
         ),
-        None => "no sample with a send time yet".into(),
+        None => "latency: no sample with a send time yet".into(),
     };
-    frame.render_widget(Paragraph::new(text).block(Block::bordered().title(" latency ")), latency);
-    frame.render_widget(Paragraph::new(format!(" q: quit   {} snapshots read", view.snapshots)), footer);
+    frame.render_widget(Paragraph::new(format!(" q: quit · {} snapshots · {latency}", view.snapshots)), footer);
 }
 
 /// Runs the dashboard on the terminal until `q` or `stop`; without a terminal
@@ -250,7 +315,11 @@ mod tests {
     use ratatui::backend::TestBackend;
 
     fn screen(view: &View) -> String {
-        let mut terminal = Terminal::new(TestBackend::new(140, 30)).unwrap();
+        screen_of(view, 140, 30)
+    }
+
+    fn screen_of(view: &View, width: u16, height: u16) -> String {
+        let mut terminal = Terminal::new(TestBackend::new(width, height)).unwrap();
         terminal.draw(|frame| draw(frame, view)).unwrap();
         let buffer = terminal.backend().buffer();
         (0..buffer.area.height)
@@ -307,10 +376,64 @@ mod tests {
             "p_x m",
             "12.5000",
             "0.5000", // √0.25
-            "p50      50.0 µs",
+            "p50 50.0",
             "q: quit",
         ] {
             assert!(text.contains(needle), "{needle:?} not on the screen:\n{text}");
+        }
+    }
+
+    /// At 80×24 a vehicle's dashboard shows the whole `ins` estimate (with the
+    /// odometry scale, and roll, pitch and yaw), every sensor and whole column names.
+    #[test]
+    fn at_80_by_24_the_whole_ins_estimate_and_every_sensor_show() {
+        use fusion_shared::snapshot::aux;
+        let mut s = StateSnapshot {
+            model: model::INS,
+            health: health::OK,
+            state_len: 17,
+            cov_dim: 16,
+            aux_states: aux::ODOMETRY_SCALE,
+            sensor_count: 5,
+            ..Default::default()
+        };
+        s.x[6] = 1.0;
+        s.x[16] = 1.0098;
+        (0..16).for_each(|i| s.cov[i * 16 + i] = 1e-4);
+        let kinds = [(SampleKind::Imu, 0), (SampleKind::Imu, 1), (SampleKind::Geodetic, 3), (SampleKind::Velocity, 3)];
+        for (i, (kind, id)) in kinds.iter().chain([(SampleKind::Odometry, 0)].iter()).enumerate() {
+            s.sensors[i].kind = *kind as u32;
+            s.sensors[i].sensor = *id;
+            s.sensors[i].counts.received = 123_456;
+        }
+        let mut view = View::new("vehicle");
+        view.add(&s, Instant::now());
+        let text = screen_of(&view, 80, 24);
+        for (name, _) in s.state_layout() {
+            assert!(text.contains(name), "{name:?} not on the 80x24 screen:\n{text}");
+        }
+        for needle in [
+            "roll deg",
+            "pitch deg",
+            "yaw deg",
+            "1.0098",
+            "imu 0",
+            "imu 1",
+            "geodetic 3",
+            "velocity 3",
+            "odometry 0",
+            "recv",
+            "fused",
+            "gated",
+            "2late",
+            "inval",
+            "lost",
+            "other",
+            "NIS",
+            "123456",
+            "q: quit",
+        ] {
+            assert!(text.contains(needle), "{needle:?} not on the 80x24 screen:\n{text}");
         }
     }
 
