@@ -179,6 +179,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let mut file = File::open(&input).with_context(|| format!("cannot open {}", input.display()))?;
             let mut magic = [0u8; 8];
             let n = file.read(&mut magic).with_context(|| format!("cannot read {}", input.display()))?;
+            let named_mcap = input.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
+            anyhow::ensure!(
+                !named_mcap || Recording::is_mcap(&magic[..n]),
+                "{}: named .mcap but not an MCAP file (it does not start with the MCAP magic bytes)",
+                input.display()
+            );
             if Recording::is_mcap(&magic[..n]) {
                 let recording = Recording::open(&input).with_context(|| format!("cannot map {}", input.display()))?;
                 let bar = progress_bar(recording.sample_count(), false);

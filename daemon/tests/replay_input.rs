@@ -1,0 +1,27 @@
+//! `fusiond replay` on input that is not what its name says.
+
+mod common;
+
+use std::process::Command;
+
+/// A file named `.mcap` that is not MCAP is refused as such, not read as JSON
+/// lines (which reported every line invalid).
+#[test]
+fn a_garbage_mcap_is_refused_as_not_mcap() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("config.toml");
+    std::fs::write(&config, common::linear_config(None)).unwrap();
+    let input = dir.path().join("run.mcap");
+    std::fs::write(&input, "{\"imu\": {\"t_ns\": 1}}\ngarbage\n").unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_fusiond"))
+        .args(["replay", "--config"])
+        .arg(&config)
+        .arg("--input")
+        .arg(&input)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("named .mcap but not an MCAP file"), "{stderr}");
+    assert!(!stderr.contains("read 2 lines"), "{stderr}");
+}
