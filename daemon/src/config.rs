@@ -181,6 +181,38 @@ max_readers = 8
 #   initial_covariance_diagonal = [15 values: dp(3), dv(3), dtheta(3), dba(3), dbg(3)]
 "#;
 
+/// An unknown key inside a table that is read through a tagged enum (`[model]`)
+/// comes back from the parser at its table's header line: the key and its own
+/// line instead, found in `text` below that header. Any other error as it is.
+fn locate_unknown_key(text: &str, e: toml::de::Error) -> ConfigError {
+    let message = e.message().to_string();
+    let (Some(field), Some(span)) =
+        (message.strip_prefix("unknown field `").and_then(|r| r.split('`').next()), e.span())
+    else {
+        return e.into();
+    };
+    let rest = &text[span.start.min(text.len())..];
+    let header = rest.lines().next().unwrap_or("").trim();
+    let Some(table) = header.strip_prefix('[').and_then(|h| h.strip_suffix(']')).filter(|t| !t.starts_with('[')) else {
+        return e.into();
+    };
+    let first_line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+    for (i, line) in rest.lines().enumerate().skip(1) {
+        let line = line.trim_start();
+        if line.starts_with('[') {
+            break;
+        }
+        if line.split(['=', ' ', '\t']).next() == Some(field) {
+            let expected = message.split_once(", ").map_or(String::new(), |(_, x)| format!("; {x}"));
+            return invalid(
+                format!("{}.{field}", table.trim()),
+                format!("unknown key (line {}){expected}", first_line + i),
+            );
+        }
+    }
+    e.into()
+}
+
 /// The default configuration with comments, as printed by `fusiond print-config`:
 /// what an empty file means. A test checks it against the `Default` impls.
 pub fn default_config_text() -> String {
@@ -431,7 +463,7 @@ impl Config {
 
     /// Parses and validates TOML text, and builds the model ([`from_tables`](Self::from_tables)).
     pub fn parse(text: &str) -> Result<Self, ConfigError> {
-        let raw: RawConfig = toml::from_str(text)?;
+        let raw: RawConfig = toml::from_str(text).map_err(|e| locate_unknown_key(text, e))?;
         for (table, present) in [("alignment", raw.alignment.is_some()), ("constraints", raw.constraints.is_some())] {
             if present {
                 return Err(invalid(table, format!("this table is now [model.{table}]")));

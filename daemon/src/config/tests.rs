@@ -181,3 +181,14 @@ fn a_receivers_quality_table_reaches_its_geodetic_fixes_and_nothing_else() {
     let bad = gnss.replace("\"2d\"]", "\"rtk\"]");
     assert!(err(&format!("{INS}{bad}")).contains("quality.refuse"));
 }
+
+#[test]
+fn an_unknown_key_in_the_model_table_is_reported_at_its_own_line() {
+    let text = "[model]\nkind = \"linear\"\naccel_noise_std = 0.3\nbogus = 1\n\n[filter]\n\
+                initial_state = [0, 0, 0, 0, 0, 0]\ninitial_covariance_diagonal = [1, 1, 1, 1, 1, 1]\n";
+    let e = err(text);
+    assert!(e.contains("model.bogus") && e.contains("line 4") && e.contains("accel_noise_std"), "{e}");
+    // Elsewhere the parser's own position stays.
+    let ipc = err(&format!("{MIN}[ipc]\nbogus = 1\n"));
+    assert!(ipc.contains("line 8") && ipc.contains("bogus"), "{ipc}");
+}
