@@ -13,9 +13,13 @@
 //! | 6..10 | q = [w, x, y, z] | – | rotates body (forward-left-up) into world |
 //! | 10..13 | b_a, accelerometer bias | m/s² | body |
 //! | 13..16 | b_g, gyroscope bias | rad/s | body |
+//! | 16 | k, odometry scale factor (only with `[model.odometry_scale]`) | – | – |
 //!
-//! Error state `δx` (15, the covariance): `[δp, δv, δθ, δb_a, δb_g]`, with the
-//! **local** attitude error `q_true = q ⊗ Exp(δθ)` (δθ in the body frame; Solà §5.3.3).
+//! Error state `δx` (15, the covariance): `[δp, δv, δθ, δb_a, δb_g]`, and `δk`
+//! (16) with the scale factor ([`OdometryScale`]: a random walk, constant in
+//! `F`), with the **local** attitude error `q_true = q ⊗ Exp(δθ)` (δθ in the
+//! body frame; Solà §5.3.3). The model is generic over this dimension
+//! (`InsModel<15>`, `InsModel<16>`).
 //!
 //! IMU model (Kalibr): `f_m = Rᵀ (a − g) + b_a + n_a`, `ω_m = ω + b_g + n_g`,
 //! `ḃ_a = n_aw`, `ḃ_g = n_gw`, `g = [0, 0, −gravity]`, white noises with densities
