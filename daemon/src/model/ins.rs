@@ -65,27 +65,29 @@
 
 #![allow(non_snake_case)]
 
-use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
+use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
 
 pub mod clock;
 mod error_state;
 mod linearised;
 pub mod nonholonomic;
+mod odometry_scale;
+mod params;
 mod reinit;
 pub mod standstill;
+mod update;
 
 pub(crate) use error_state::inject_and_reset;
 use error_state::{ProcessNoise, inject};
 
-use super::{Model, StepOutcome, advance_time};
-use crate::filter::{
-    ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, UpdateOptions,
-    rts_smooth,
-};
+use super::{Model, advance_time};
+use crate::filter::{ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, StepLog, rts_smooth};
 use crate::frames::Frames;
 use crate::model::held_imu::{Held, HeldImu};
 use crate::model::lockout::{Lockout, LockoutConfig};
 pub use nonholonomic::Nonholonomic;
+pub use odometry_scale::OdometryScale;
+pub use params::{AlignmentParams, ImuNoise, InsParams};
 pub use standstill::Standstill;
 
 /// Error-state dimension of the core model: `[δp, δv, δθ, δb_a, δb_g]`.
@@ -99,103 +101,6 @@ pub const SCALE: usize = N;
 pub const MAX_N: usize = N + 1;
 /// Room for the nominal state of any dimension.
 const NOMINAL_MAX: usize = MAX_N + 1;
-
-/// IMU noise parameters, named and scaled as in Kalibr's IMU model.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ImuNoise {
-    /// Accelerometer white noise density σ_a, m/s²/√Hz.
-    pub accelerometer_noise_density: f64,
-    /// Gyroscope white noise density σ_g, rad/s/√Hz.
-    pub gyroscope_noise_density: f64,
-    /// Accelerometer bias random walk σ_aw, m/s³/√Hz.
-    pub accelerometer_random_walk: f64,
-    /// Gyroscope bias random walk σ_gw, rad/s²/√Hz.
-    pub gyroscope_random_walk: f64,
-}
-
-/// The `ins` model's parameters as configured (`[model]` with `kind = "ins"`, Kalibr
-/// names and units).
-#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct InsParams {
-    /// Accelerometer white noise density σ_a, m/s²/√Hz.
-    pub accelerometer_noise_density: f64,
-    /// Gyroscope white noise density σ_g, rad/s/√Hz.
-    pub gyroscope_noise_density: f64,
-    /// Accelerometer bias random walk σ_aw, m/s³/√Hz.
-    pub accelerometer_random_walk: f64,
-    /// Gyroscope bias random walk σ_gw, rad/s²/√Hz.
-    pub gyroscope_random_walk: f64,
-    /// Gravity, m/s².
-    #[serde(default = "InsParams::default_gravity")]
-    pub gravity_mps2: f64,
-    /// Static alignment (`[model.alignment]`), if any.
-    pub alignment: Option<AlignmentParams>,
-    /// Land-vehicle motion constraint (`[model.constraints]`), if any.
-    pub constraints: Option<Nonholonomic>,
-    /// Standstill detection and its updates (`[model.standstill]`), if any.
-    pub standstill: Option<Standstill>,
-    /// The odometry scale factor as a state (`[model.odometry_scale]`), if any.
-    pub odometry_scale: Option<OdometryScale>,
-}
-
-impl InsParams {
-    fn default_gravity() -> f64 {
-        9.80665
-    }
-}
-
-/// `[model.alignment]`: roll, pitch and gyro bias from the first samples at rest.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct AlignmentParams {
-    /// IMU samples averaged.
-    pub static_samples: u32,
-}
-
-/// `[model.odometry_scale]`: the odometry scale factor `k` as a state
-/// (odometry speed = `k` × true speed, one factor for every odometry sensor).
-///
-/// Tyre wear, pressure and load change the rolling radius: a scale error of
-/// 0.5–2 % is normal, and unestimated it makes odometry pull the position along
-/// the track by that share of the distance driven (Groves 2013, §16.2.1). The
-/// state is a random walk, `k̇ = n_k` with density `random_walk`; it is learned
-/// while GNSS fixes show the speed and carried through an outage.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct OdometryScale {
-    /// `k` at start (default 1).
-    #[serde(default = "OdometryScale::default_initial")]
-    pub initial: f64,
-    /// Its standard deviation at start (default 0.02, a 2 % scale error).
-    #[serde(default = "OdometryScale::default_initial_std")]
-    pub initial_std: f64,
-    /// Random-walk density of `k`, 1/√s (default 10⁻⁵: 0.06 % in an hour).
-    #[serde(default = "OdometryScale::default_random_walk")]
-    pub random_walk: f64,
-}
-
-impl OdometryScale {
-    fn default_initial() -> f64 {
-        1.0
-    }
-    fn default_initial_std() -> f64 {
-        0.02
-    }
-    fn default_random_walk() -> f64 {
-        1e-5
-    }
-}
-
-impl Default for OdometryScale {
-    fn default() -> Self {
-        Self {
-            initial: Self::default_initial(),
-            initial_std: Self::default_initial_std(),
-            random_walk: Self::default_random_walk(),
-        }
-    }
-}
 
 /// The `ins` model: `D` is the error-state dimension, [`N`] for the core
 /// states and [`MAX_N`] with the odometry scale factor ([`OdometryScale`]).
@@ -363,31 +268,6 @@ impl InsModel {
             frames: Frames::default(),
         })
     }
-
-    /// The same model with the odometry scale factor as a state: `k₀` and its
-    /// initial variance appended to `x₀` and `P₀` (uncorrelated).
-    pub fn with_odometry_scale(self, scale: OdometryScale) -> Result<InsModel<MAX_N>, FilterError> {
-        let P = self.initial.P();
-        let mut P1 = SMatrix::<f64, MAX_N, MAX_N>::zeros();
-        P1.fixed_view_mut::<N, N>(0, 0).copy_from(&P);
-        P1[(SCALE, SCALE)] = scale.initial_std * scale.initial_std;
-        let initial = KalmanFilter::new(SVector::zeros(), P1)?;
-        let mut x0 = self.x0;
-        x0[NOMINAL] = scale.initial;
-        Ok(InsModel {
-            noise: self.noise,
-            gravity: self.gravity,
-            x0,
-            initial,
-            gate: self.gate,
-            lockout: self.lockout,
-            alignment_samples: self.alignment_samples,
-            nonholonomic: self.nonholonomic,
-            standstill: self.standstill,
-            odometry_scale: Some(scale),
-            frames: self.frames,
-        })
-    }
 }
 
 /// A core nominal state in the array that has room for the auxiliary states.
@@ -539,40 +419,6 @@ impl<const D: usize> InsModel<D> {
         s.imu.mean().map_or_else(Vector3::zeros, |(_, w, _)| w - s.b_g())
     }
 
-    /// Fuses a measurement with residual `y = z − h(x)` (given, so a caller can
-    /// wrap angles) and Jacobian `H` with respect to the error state: Joseph
-    /// form, gated as configured; a fused correction is injected into the
-    /// nominal state and the error reset, and returned.
-    pub(crate) fn update_residual<const M: usize>(
-        &self,
-        s: &mut InsState<D>,
-        y: &SVector<f64, M>,
-        H: &SMatrix<f64, M, D>,
-        R: &SMatrix<f64, M, M>,
-    ) -> (StepOutcome, Option<SVector<f64, D>>) {
-        self.update_residual_gated(s, y, H, R, self.gate.as_ref())
-    }
-
-    /// [`update_residual`](Self::update_residual) with `gate` instead of the
-    /// configured one (`None`: not gated).
-    pub(crate) fn update_residual_gated<const M: usize>(
-        &self,
-        s: &mut InsState<D>,
-        y: &SVector<f64, M>,
-        H: &SMatrix<f64, M, D>,
-        R: &SMatrix<f64, M, M>,
-        gate: Option<&ChiSquareGate>,
-    ) -> (StepOutcome, Option<SVector<f64, D>>) {
-        let options = UpdateOptions { gate, fault_detector: None };
-        match s.kf.update_nonlinear(y, &SVector::zeros(), H, R, options) {
-            Ok(d) if d.decision == UpdateDecision::Accepted => {
-                (StepOutcome::Fused { nis: d.nis }, Some(inject_and_reset(s)))
-            }
-            Ok(d) => (StepOutcome::Gated { nis: d.nis }, None),
-            Err(_) => (StepOutcome::Refused, None),
-        }
-    }
-
     /// The motion constraint, if configured.
     pub fn nonholonomic(&self) -> Option<&Nonholonomic> {
         self.nonholonomic.as_ref()
@@ -581,29 +427,6 @@ impl<const D: usize> InsModel<D> {
     /// The gate, if gating is on.
     pub fn gate(&self) -> Option<&ChiSquareGate> {
         self.gate.as_ref()
-    }
-
-    /// Fuses `z = x[offset..offset+3] + n`, `n ~ N(0, R)`, a measurement of three
-    /// consecutive nominal states that are also error states (δp at 0, δv at 3):
-    /// `H` selects them, `h(x) = predicted` (the nominal value: the error is zero
-    /// before the update). Joseph form, gated as configured; a fused correction is
-    /// injected into the nominal state and the error reset, and returned.
-    pub(crate) fn update_block(
-        &self,
-        s: &mut InsState<D>,
-        z: &Vector3<f64>,
-        predicted: &Vector3<f64>,
-        offset: usize,
-        R: &Matrix3<f64>,
-    ) -> (StepOutcome, Option<SVector<f64, D>>) {
-        let (decision, nis) = match s.kf.update_selection_lean(z, predicted, offset, R, self.gate.as_ref()) {
-            Ok(d) => d,
-            Err(_) => return (StepOutcome::Refused, None),
-        };
-        if decision != UpdateDecision::Accepted {
-            return (StepOutcome::Gated { nis }, None);
-        }
-        (StepOutcome::Fused { nis }, Some(inject_and_reset(s)))
     }
 
     /// Static alignment from the mean specific force and rate (vehicle at rest):

@@ -1,0 +1,57 @@
+//! The `ins` model's parameters as configured: the IMU noise (Kalibr's names and
+//! units), gravity, and the optional tables of `[model]`.
+
+use super::{Nonholonomic, OdometryScale, Standstill};
+
+/// IMU noise parameters, named and scaled as in Kalibr's IMU model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImuNoise {
+    /// Accelerometer white noise density σ_a, m/s²/√Hz.
+    pub accelerometer_noise_density: f64,
+    /// Gyroscope white noise density σ_g, rad/s/√Hz.
+    pub gyroscope_noise_density: f64,
+    /// Accelerometer bias random walk σ_aw, m/s³/√Hz.
+    pub accelerometer_random_walk: f64,
+    /// Gyroscope bias random walk σ_gw, rad/s²/√Hz.
+    pub gyroscope_random_walk: f64,
+}
+
+/// The `ins` model's parameters as configured (`[model]` with `kind = "ins"`, Kalibr
+/// names and units).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InsParams {
+    /// Accelerometer white noise density σ_a, m/s²/√Hz.
+    pub accelerometer_noise_density: f64,
+    /// Gyroscope white noise density σ_g, rad/s/√Hz.
+    pub gyroscope_noise_density: f64,
+    /// Accelerometer bias random walk σ_aw, m/s³/√Hz.
+    pub accelerometer_random_walk: f64,
+    /// Gyroscope bias random walk σ_gw, rad/s²/√Hz.
+    pub gyroscope_random_walk: f64,
+    /// Gravity, m/s².
+    #[serde(default = "InsParams::default_gravity")]
+    pub gravity_mps2: f64,
+    /// Static alignment (`[model.alignment]`), if any.
+    pub alignment: Option<AlignmentParams>,
+    /// Land-vehicle motion constraint (`[model.constraints]`), if any.
+    pub constraints: Option<Nonholonomic>,
+    /// Standstill detection and its updates (`[model.standstill]`), if any.
+    pub standstill: Option<Standstill>,
+    /// The odometry scale factor as a state (`[model.odometry_scale]`), if any.
+    pub odometry_scale: Option<OdometryScale>,
+}
+
+impl InsParams {
+    fn default_gravity() -> f64 {
+        9.80665
+    }
+}
+
+/// `[model.alignment]`: roll, pitch and gyro bias from the first samples at rest.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AlignmentParams {
+    /// IMU samples averaged.
+    pub static_samples: u32,
+}
