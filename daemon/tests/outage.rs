@@ -27,8 +27,7 @@ mod common;
 use std::sync::Arc;
 
 use fusion_client::sim::{
-    GeodeticConfig, ImuConfig, ImuOutput, OdometryConfig, Outage, PositionConfig, Scenario, ScenarioConfig,
-    VelocityConfig,
+    GeodeticConfig, ImuOutput, OdometryConfig, Outage, PositionConfig, Scenario, ScenarioConfig, VelocityConfig,
 };
 use fusion_daemon::config::{Config, InsBuilt};
 use fusion_daemon::engine::{Engine, EngineConfig, Entry};
@@ -36,7 +35,6 @@ use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::{InsModel, N};
 use fusion_shared::Sample;
 use fusion_shared::geodesy::Datum;
-use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 const SIGMA0: [f64; 5] = [0.5, 0.3, 0.02, 0.05, 0.0005];
 const LEVER_ARM: [f64; 3] = [1.0, 0.5, 1.0];
@@ -45,8 +43,6 @@ const DATUM: Datum = Datum { latitude_deg: 48.1316, longitude_deg: 11.5494, heig
 const OUTAGE: Outage = Outage { at_s: 30.0, duration_s: 45.0 };
 /// Two-sided 95 % band of χ²₆ (tables).
 const CHI2_6_95: (f64, f64) = (1.2373, 14.4494);
-/// The IMUs: id, forward-right-down axes, roll/pitch/yaw of the mount (degrees).
-const IMUS: [(u32, bool, [f64; 3]); 2] = [(0, true, [3.0, -2.0, 90.0]), (1, false, [-1.5, 2.5, -90.0])];
 
 /// What a run has besides the IMUs, GNSS and the motion constraint.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -84,23 +80,13 @@ struct Run {
 const SCALE_ERROR: f64 = 0.01;
 
 fn run(seed: u64, setup: Setup) -> Run {
-    let imu = |&(id, frd, rpy): &(u32, bool, [f64; 3])| {
-        let [r, p, y] = rpy.map(f64::to_radians);
-        let flip = if frd { Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, -1.0)) } else { Matrix3::identity() };
-        ImuConfig {
-            accel_bias_std: SIGMA0[3],
-            gyro_bias_std: SIGMA0[4],
-            sensor: id,
-            rotation: UnitQuaternion::from_euler_angles(r, p, y).to_rotation_matrix().into_inner() * flip,
-            ..ImuConfig::kalibr(200.0, 0.02, 0.001, 0.001, 1e-5)
-        }
-    };
+    let imu = |spec| common::car::imu(spec, SIGMA0[3], SIGMA0[4]);
     let fix = PositionConfig { sensor: 3, lever_arm_m: LEVER_ARM, ..Default::default() };
     let mut c = ScenarioConfig {
         seed,
         duration_s: OUTAGE.at_s + OUTAGE.duration_s + 15.0,
-        imu: imu(&IMUS[0]),
-        extra_imus: vec![imu(&IMUS[1])],
+        imu: imu(&common::car::IMUS[0]),
+        extra_imus: vec![imu(&common::car::IMUS[1])],
         imu_output: ImuOutput::BodySpecificForce,
         outages: vec![OUTAGE],
         ..Default::default()
@@ -126,12 +112,7 @@ fn run(seed: u64, setup: Setup) -> Run {
         fmt(&LEVER_ARM),
         fmt(&ODOMETRY_ARM)
     );
-    for (id, frd, [r, p, y]) in IMUS {
-        let axes = if frd { "frd" } else { "flu" };
-        sensors += &format!(
-            "[[sensor]]\nname = \"imu-{id}\"\nid = {id}\nkinds = [\"imu\"]\naxes = \"{axes}\"\nrotation_rpy_deg = [{r}, {p}, {y}]\n"
-        );
-    }
+    sensors += &common::car::imu_sensors();
     let config = Config::parse(&format!(
         "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
          accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\

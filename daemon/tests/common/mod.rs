@@ -87,6 +87,7 @@ pub fn acceptance_scenario(seed: u64, outlier_probability: f64) -> Scenario {
     Scenario::generate(&c)
 }
 
+pub mod car;
 pub mod heartbeat;
 pub mod live;
 pub mod typed;

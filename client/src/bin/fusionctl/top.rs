@@ -188,38 +188,15 @@ pub fn draw(frame: &mut Frame, view: &View) {
         let style =
             if stale_rows.contains(&(c.kind, c.sensor)) { Style::default().fg(Color::Red) } else { Style::default() };
         let name = format!("{} {}", crate::kind_name(c.kind), c.sensor);
+        let [received, fused, gated, late, too_late, invalid, lost] =
+            [n.received, n.fused, n.gated, n.late, n.too_late, n.invalid, n.lost].map(|v| v.to_string());
         let cells = if wide {
-            [
-                name,
-                rate,
-                n.received.to_string(),
-                n.fused.to_string(),
-                n.gated.to_string(),
-                n.late.to_string(),
-                n.too_late.to_string(),
-                n.duplicate.to_string(),
-                n.invalid.to_string(),
-                n.lost.to_string(),
-                n.rate_limited.to_string(),
-                n.restarts.to_string(),
-                nis,
-            ]
+            let [dup, limited, restarts] = [n.duplicate, n.rate_limited, n.restarts].map(|v| v.to_string());
+            [name, rate, received, fused, gated, late, too_late, dup, invalid, lost, limited, restarts, nis]
         } else {
-            [
-                name,
-                rate,
-                n.received.to_string(),
-                n.fused.to_string(),
-                n.gated.to_string(),
-                n.late.to_string(),
-                n.too_late.to_string(),
-                n.invalid.to_string(),
-                n.lost.to_string(),
-                (n.duplicate + n.rate_limited + n.restarts).to_string(),
-                nis,
-                String::new(),
-                String::new(),
-            ]
+            let other = (n.duplicate + n.rate_limited + n.restarts).to_string();
+            let [e1, e2] = [String::new(), String::new()];
+            [name, rate, received, fused, gated, late, too_late, invalid, lost, other, nis, e1, e2]
         };
         Row::new(cells.map(Cell::from)).style(style)
     });
