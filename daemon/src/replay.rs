@@ -82,21 +82,16 @@ pub struct ReplaySummary {
     pub velocity_time_offset: Option<(f64, f64, u64)>,
 }
 
-/// The smallest velocity time offset estimate worth acting on, ms: below, the
-/// estimate's own systematic error (±10 ms on simulated drives with the offset
-/// right; [`crate::model::ins::clock`]).
-pub const MIN_OFFSET_MS: f64 = 15.0;
-
 /// What the velocity time offset estimate (`τ̂` ± `σ_τ` s from `n` samples) says
-/// to a user: the offset to add when it is clearly not 0 (beyond 3σ and
-/// [`MIN_OFFSET_MS`]),
-/// that the configured one is right otherwise; nothing from too few samples.
+/// to a user: the offset to add when it is clearly not 0
+/// ([`fusion_shared::snapshot::time_offset_to_add_ms`]), that the configured one
+/// is right otherwise; nothing from too few samples.
 pub fn offset_advice(tau: f64, sd: f64, n: u64) -> Option<String> {
-    if n < 20 {
+    if n < fusion_shared::snapshot::MIN_TIME_OFFSET_SAMPLES {
         return None;
     }
     let (ms, sd_ms) = (tau * 1e3, sd * 1e3);
-    Some(if ms.abs() > (3.0 * sd_ms).max(MIN_OFFSET_MS) {
+    Some(if fusion_shared::snapshot::time_offset_to_add_ms(tau * 1e9, sd * 1e9, n).is_some() {
         format!(
             "velocity stamps {} by {:.0} ± {:.0} ms beyond their time_offset_ns ({n} samples): add about {:.0} ms \
              to the velocity sensor's time_offset_ns (an estimate that reads low: run again after)",

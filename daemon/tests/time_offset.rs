@@ -30,12 +30,13 @@ const LEVER_ARM: [f64; 3] = [1.0, 0.5, 1.0];
 const DATUM: Datum = Datum { latitude_deg: 48.1316, longitude_deg: 11.5494, height_m: 519.0 };
 const LAG_NS: u64 = 100_000_000;
 
-/// The run's NEES/dof over the IMU steps after 2 s, and its last estimate.
-fn run(seed: u64, clock_lag_ns: u64, configured_offset_ns: u64) -> (f64, Vec<f64>) {
+/// A drive of `duration_s` with a 200 Hz MEMS IMU and geodetic fixes of a
+/// receiver whose clock is `clock_lag_ns` late.
+fn drive(seed: u64, duration_s: f64, clock_lag_ns: u64) -> ScenarioConfig {
     let fix = PositionConfig { sensor: 3, lever_arm_m: LEVER_ARM, clock_lag_ns, ..Default::default() };
     let mut c = ScenarioConfig {
         seed,
-        duration_s: 30.0,
+        duration_s,
         imu: ImuConfig {
             accel_bias_std: SIGMA0[3],
             gyro_bias_std: SIGMA0[4],
@@ -45,6 +46,28 @@ fn run(seed: u64, clock_lag_ns: u64, configured_offset_ns: u64) -> (f64, Vec<f64
         ..Default::default()
     };
     c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix, phases: Vec::new() }));
+    c
+}
+
+/// The `ins` config with `filter` (`[filter]` lines) and the receiver as sensor 3
+/// of `kinds` (a TOML list's contents) with `time_offset_ns`.
+fn config(filter: &str, kinds: &str, time_offset_ns: u64) -> Config {
+    Config::parse(&format!(
+        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n{filter}\
+         [gating]\nprobability = 0.9999\n[datum]\nlatitude_deg = {}\nlongitude_deg = {}\nheight_m = {}\n\
+         [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [{kinds}]\nlever_arm_m = [{}]\ntime_offset_ns = {time_offset_ns}\n",
+        DATUM.latitude_deg,
+        DATUM.longitude_deg,
+        DATUM.height_m,
+        common::toml_list(&LEVER_ARM),
+    ))
+    .unwrap()
+}
+
+/// The run's NEES/dof over the IMU steps after 2 s, and its last estimate.
+fn run(seed: u64, clock_lag_ns: u64, configured_offset_ns: u64) -> (f64, Vec<f64>) {
+    let c = drive(seed, 30.0, clock_lag_ns);
     let mut scenario = Scenario::generate(&c);
     // No local fixes; and the same geodetic fixes in every run (the drive's end
     // cuts a late-stamped one off earlier).
@@ -55,17 +78,7 @@ fn run(seed: u64, clock_lag_ns: u64, configured_offset_ns: u64) -> (f64, Vec<f64
         _ => true,
     });
     let (t0, filter) = common::ins_start_from_prior(&scenario, seed, SIGMA0);
-    let config = Config::parse(&format!(
-        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
-         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n{filter}\
-         [gating]\nprobability = 0.9999\n[datum]\nlatitude_deg = {}\nlongitude_deg = {}\nheight_m = {}\n\
-         [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [{}]\ntime_offset_ns = {configured_offset_ns}\n",
-        DATUM.latitude_deg,
-        DATUM.longitude_deg,
-        DATUM.height_m,
-        common::toml_list(&LEVER_ARM),
-    ))
-    .unwrap();
+    let config = config(&filter, "\"geodetic\"", configured_offset_ns);
     let mut engine = Engine::new(InsModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
     let (mut nees, mut n, mut last) = (0.0, 0u64, Vec::new());
     let mut sink = |e: &Entry<_>| {
@@ -108,19 +121,7 @@ fn a_late_receiver_clock_is_undone_by_its_configured_offset() {
 /// receiver (geodetic fixes and Doppler velocity) is `lag_ns` late, with
 /// `configured_ns` in its `[[sensor]]` entry: `(τ̂, σ_τ, samples)`, s.
 fn offset_estimate(seed: u64, lag_ns: u64, configured_ns: u64) -> (f64, f64, u64) {
-    let fix = PositionConfig { sensor: 3, lever_arm_m: LEVER_ARM, clock_lag_ns: lag_ns, ..Default::default() };
-    let mut c = ScenarioConfig {
-        seed,
-        duration_s: 60.0,
-        imu: ImuConfig {
-            accel_bias_std: SIGMA0[3],
-            gyro_bias_std: SIGMA0[4],
-            ..ImuConfig::kalibr(200.0, 0.02, 0.001, 0.001, 1e-5)
-        },
-        imu_output: ImuOutput::BodySpecificForce,
-        ..Default::default()
-    };
-    c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix, phases: Vec::new() }));
+    let mut c = drive(seed, 60.0, lag_ns);
     c.aiding.push(Arc::new(VelocityConfig {
         sensor: 3,
         lever_arm_m: LEVER_ARM,
@@ -130,18 +131,7 @@ fn offset_estimate(seed: u64, lag_ns: u64, configured_ns: u64) -> (f64, f64, u64
     let mut scenario = Scenario::generate(&c);
     scenario.arrivals.retain(|a| !matches!(a.sample, Sample::Position(_)));
     let (_, filter) = common::ins_start_from_prior(&scenario, seed, SIGMA0);
-    let config = Config::parse(&format!(
-        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
-         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[filter]\n{filter}\
-         [gating]\nprobability = 0.9999\n[datum]\nlatitude_deg = {}\nlongitude_deg = {}\nheight_m = {}\n\
-         [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\", \"velocity\"]\nlever_arm_m = [{}]\n\
-         time_offset_ns = {configured_ns}\n",
-        DATUM.latitude_deg,
-        DATUM.longitude_deg,
-        DATUM.height_m,
-        common::toml_list(&LEVER_ARM),
-    ))
-    .unwrap();
+    let config = config(&filter, "\"geodetic\", \"velocity\"", configured_ns);
     let mut engine = Engine::new(InsModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
     let mut estimate = None;
     let mut sink = |e: &Entry<_>| estimate = <InsModel as Model>::velocity_time_offset(&e.state);

@@ -282,7 +282,7 @@ fn describe(s: &StateSnapshot) -> String {
     }
     if let Some((ns, sd, n)) = s.velocity_time_offset() {
         let (ms, sd_ms) = (ns * 1e-6, sd * 1e-6);
-        o += &if n >= 20 && ms.abs() > (3.0 * sd_ms).max(15.0) {
+        o += &if s.velocity_time_offset_to_add_ms().is_some() {
             format!(
                 "velocity stamps {ms:+.0} ± {sd_ms:.0} ms off beyond their time_offset_ns ({n} samples): \
                  add about {ms:.0} ms to it\n"

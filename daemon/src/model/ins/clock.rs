@@ -78,6 +78,18 @@ impl ClockEstimate {
         Some((-self.sxy / self.sxx, (var / self.sxx).sqrt(), self.samples))
     }
 
+    /// Takes one sample into the open window: its mean acceleration `a`, its
+    /// `u = w − V` and the mean variance `var` of its components.
+    fn add(&mut self, a: Vector2<f64>, u: Vector2<f64>, var: f64) {
+        self.n += 1;
+        self.sum_a += a;
+        self.sum_u += u;
+        self.sum_aa += a.norm_squared();
+        self.sum_au += a.dot(&u);
+        self.samples += 1;
+        self.sum_var += var;
+    }
+
     /// Closes the open window into the totals.
     fn close(&mut self) {
         if self.n >= 2 {
@@ -113,13 +125,7 @@ impl<const D: usize> InsModel<D> {
             c.start_ns = t_ns;
         }
         let u = Vector2::new(w.x, w.y) - c.integrated;
-        c.n += 1;
-        c.sum_a += a;
-        c.sum_u += u;
-        c.sum_aa += a.norm_squared();
-        c.sum_au += a.dot(&u);
-        c.samples += 1;
-        c.sum_var += 0.5 * (R[(0, 0)] + R[(1, 1)]);
+        c.add(a, u, 0.5 * (R[(0, 0)] + R[(1, 1)]));
     }
 }
 
@@ -137,14 +143,7 @@ mod tests {
             for k in 0..20 {
                 let t = k as f64 * 0.1;
                 let a = Vector2::new((t + w).sin(), (2.0 * t).cos() + 0.1 * t);
-                let u = c - a * tau;
-                e.n += 1;
-                e.sum_a += a;
-                e.sum_u += u;
-                e.sum_aa += a.norm_squared();
-                e.sum_au += a.dot(&u);
-                e.samples += 1;
-                e.sum_var += 0.0025;
+                e.add(a, c - a * tau, 0.0025);
             }
             e.close();
         }
