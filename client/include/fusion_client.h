@@ -72,6 +72,44 @@
 // model's states (one more entry of `x` and one more row and column of `cov`).
 #define FUSION_AUX_ODOMETRY_SCALE 1
 
+// `FusionStateSnapshot.rejections` index and `FusionSensorCounters.last_rejection`:
+// a NaN or ±∞ in a value.
+#define FUSION_REJECTION_NON_FINITE 1
+
+// Refused: the covariance is not symmetric.
+#define FUSION_REJECTION_COVARIANCE_NOT_SYMMETRIC 2
+
+// Refused: the covariance is not positive definite.
+#define FUSION_REJECTION_COVARIANCE_NOT_POSITIVE_DEFINITE 3
+
+// Refused: the timestamp is ahead of fusiond's clock (`[validation] max_future_ns`).
+#define FUSION_REJECTION_FUTURE_TIMESTAMP 4
+
+// Refused: the timestamp is too far behind fusiond's clock (`[validation]
+// max_past_ns`; a publisher stamping on another clock than CLOCK_MONOTONIC).
+#define FUSION_REJECTION_PAST_TIMESTAMP 5
+
+// Refused (replay): the timestamp jumps ahead of the others (`[validation] max_jump_ns`).
+#define FUSION_REJECTION_TIME_JUMP 6
+
+// Refused: more sensors than the table has rows (`[validation] max_sensors`).
+#define FUSION_REJECTION_TOO_MANY_SENSORS 7
+
+// Refused: a value beyond what the sensor can report.
+#define FUSION_REJECTION_OUT_OF_RANGE 8
+
+// Refused: a variance not > 0.
+#define FUSION_REJECTION_VARIANCE_NOT_POSITIVE 9
+
+// Refused: the header's kind is not the service's.
+#define FUSION_REJECTION_WRONG_KIND 10
+
+// Rejection codes in use: `1..=FUSION_REJECTION_COUNT` (see `fusion_rejection_name`).
+#define FUSION_REJECTION_COUNT 10
+
+// Entries of `FusionStateSnapshot.rejections` (entry 0 unused).
+#define MAX_REJECTIONS 16
+
 // Entries of `FusionStateSnapshot.x` (the first `state_len` are in use).
 #define FUSION_MAX_STATE 17
 
@@ -312,6 +350,12 @@ typedef struct FusionSensorCounters {
   uint64_t last_t_ns;
   // When the daemon last received a sample of this sensor, ns of its clock.
   uint64_t last_arrival_ns;
+  // Bit `c`: samples of this sensor were refused in validation with
+  // [`rejection`] code `c` (their count is in `counts.invalid`, by reason
+  // in [`StateSnapshot::rejections`]).
+  uint32_t rejection_reasons;
+  // The [`rejection`] code of its latest refused sample (0: none).
+  uint32_t last_rejection;
 } FusionSensorCounters;
 
 // The fusion state after one processed sample.
@@ -437,6 +481,12 @@ typedef struct FusionStateSnapshot {
   double velocity_offset_std_ns;
   // Velocity samples it is estimated from.
   uint64_t velocity_offset_samples;
+  // Samples refused in validation since the start, by reason: entry `c`
+  // counts [`rejection`] code `c` (entry 0 is unused). Samples of every
+  // sensor, those without a row in `sensors` included. Snapshots are also
+  // published while every sample is refused (input kind [`INPUT_NONE`],
+  // at most 10 a second), so a reader sees why there is no estimate.
+  uint64_t rejections[MAX_REJECTIONS];
 } FusionStateSnapshot;
 
 #ifdef __cplusplus
@@ -571,6 +621,15 @@ enum FusionStatus fusion_state_wait_next(struct FusionStateReader *reader,
 // The name of a `FusionStateSnapshot.health` value ("ok", "degraded", ...), a
 // static string.
 const char *fusion_health_name(uint32_t health);
+
+// The name of a rejection code (`FUSION_REJECTION_*`: an index of
+// `FusionStateSnapshot.rejections`), a static string; "unknown" for none.
+const char *fusion_rejection_name(uint32_t code);
+
+// The configuration setting that decides refusals of a rejection code (for
+// `FUSION_REJECTION_PAST_TIMESTAMP`: "[validation] max_past_ns"), a static
+// string; NULL when none does (the publisher's values are to fix).
+const char *fusion_rejection_setting(uint32_t code);
 
 // Position, m, world frame (ENU about the datum), into `out[0..3]`; every model.
 //

@@ -101,6 +101,33 @@ pub const FUSION_MODEL_INS: u32 = 2;
 /// model's states (one more entry of `x` and one more row and column of `cov`).
 pub const FUSION_AUX_ODOMETRY_SCALE: u32 = 1;
 
+/// `FusionStateSnapshot.rejections` index and `FusionSensorCounters.last_rejection`:
+/// a NaN or ±∞ in a value.
+pub const FUSION_REJECTION_NON_FINITE: u32 = 1;
+/// Refused: the covariance is not symmetric.
+pub const FUSION_REJECTION_COVARIANCE_NOT_SYMMETRIC: u32 = 2;
+/// Refused: the covariance is not positive definite.
+pub const FUSION_REJECTION_COVARIANCE_NOT_POSITIVE_DEFINITE: u32 = 3;
+/// Refused: the timestamp is ahead of fusiond's clock (`[validation] max_future_ns`).
+pub const FUSION_REJECTION_FUTURE_TIMESTAMP: u32 = 4;
+/// Refused: the timestamp is too far behind fusiond's clock (`[validation]
+/// max_past_ns`; a publisher stamping on another clock than CLOCK_MONOTONIC).
+pub const FUSION_REJECTION_PAST_TIMESTAMP: u32 = 5;
+/// Refused (replay): the timestamp jumps ahead of the others (`[validation] max_jump_ns`).
+pub const FUSION_REJECTION_TIME_JUMP: u32 = 6;
+/// Refused: more sensors than the table has rows (`[validation] max_sensors`).
+pub const FUSION_REJECTION_TOO_MANY_SENSORS: u32 = 7;
+/// Refused: a value beyond what the sensor can report.
+pub const FUSION_REJECTION_OUT_OF_RANGE: u32 = 8;
+/// Refused: a variance not > 0.
+pub const FUSION_REJECTION_VARIANCE_NOT_POSITIVE: u32 = 9;
+/// Refused: the header's kind is not the service's.
+pub const FUSION_REJECTION_WRONG_KIND: u32 = 10;
+/// Rejection codes in use: `1..=FUSION_REJECTION_COUNT` (see `fusion_rejection_name`).
+pub const FUSION_REJECTION_COUNT: u32 = 10;
+/// Entries of `FusionStateSnapshot.rejections` (entry 0 unused).
+pub const MAX_REJECTIONS: usize = 16;
+
 /// Entries of `FusionStateSnapshot.x` (the first `state_len` are in use).
 pub const MAX_STATE: usize = 17;
 /// Side of the largest covariance (`cov_dim` is in use).
@@ -135,6 +162,20 @@ const _: () = {
     assert!(FUSION_MODEL_LINEAR == model::LINEAR);
     assert!(FUSION_MODEL_INS == model::INS);
     assert!(FUSION_AUX_ODOMETRY_SCALE == fusion_shared::snapshot::aux::ODOMETRY_SCALE);
+    {
+        use fusion_shared::snapshot::rejection as r;
+        assert!(FUSION_REJECTION_NON_FINITE == r::NON_FINITE);
+        assert!(FUSION_REJECTION_COVARIANCE_NOT_SYMMETRIC == r::COVARIANCE_NOT_SYMMETRIC);
+        assert!(FUSION_REJECTION_COVARIANCE_NOT_POSITIVE_DEFINITE == r::COVARIANCE_NOT_POSITIVE_DEFINITE);
+        assert!(FUSION_REJECTION_FUTURE_TIMESTAMP == r::FUTURE_TIMESTAMP);
+        assert!(FUSION_REJECTION_PAST_TIMESTAMP == r::PAST_TIMESTAMP);
+        assert!(FUSION_REJECTION_TIME_JUMP == r::TIME_JUMP);
+        assert!(FUSION_REJECTION_TOO_MANY_SENSORS == r::TOO_MANY_SENSORS);
+        assert!(FUSION_REJECTION_OUT_OF_RANGE == r::OUT_OF_RANGE);
+        assert!(FUSION_REJECTION_VARIANCE_NOT_POSITIVE == r::VARIANCE_NOT_POSITIVE);
+        assert!(FUSION_REJECTION_WRONG_KIND == r::WRONG_KIND);
+        assert!(FUSION_REJECTION_COUNT as usize == r::COUNT && MAX_REJECTIONS == r::MAX);
+    }
 };
 
 /// A connection to one namespace (opaque).
@@ -558,6 +599,42 @@ pub extern "C" fn fusion_health_name(health: u32) -> *const c_char {
         FUSION_HEALTH_OK => c"ok".as_ptr(),
         FUSION_HEALTH_DEGRADED => c"degraded".as_ptr(),
         _ => c"unknown".as_ptr(),
+    }
+}
+
+/// The name of a rejection code (`FUSION_REJECTION_*`: an index of
+/// `FusionStateSnapshot.rejections`), a static string; "unknown" for none.
+#[unsafe(no_mangle)]
+pub extern "C" fn fusion_rejection_name(code: u32) -> *const c_char {
+    rejection_text(code).0.as_ptr()
+}
+
+/// The configuration setting that decides refusals of a rejection code (for
+/// `FUSION_REJECTION_PAST_TIMESTAMP`: "[validation] max_past_ns"), a static
+/// string; NULL when none does (the publisher's values are to fix).
+#[unsafe(no_mangle)]
+pub extern "C" fn fusion_rejection_setting(code: u32) -> *const c_char {
+    rejection_text(code).1.map_or(std::ptr::null(), CStr::as_ptr)
+}
+
+/// The C strings of [`fusion_shared::snapshot::rejection::name`] and
+/// [`setting`](fusion_shared::snapshot::rejection::setting) (compared in a test).
+const fn rejection_text(code: u32) -> (&'static CStr, Option<&'static CStr>) {
+    match code {
+        FUSION_REJECTION_NON_FINITE => (c"non-finite value", None),
+        FUSION_REJECTION_COVARIANCE_NOT_SYMMETRIC => (c"covariance not symmetric", None),
+        FUSION_REJECTION_COVARIANCE_NOT_POSITIVE_DEFINITE => (c"covariance not positive definite", None),
+        FUSION_REJECTION_FUTURE_TIMESTAMP => (c"timestamp in the future", Some(c"[validation] max_future_ns")),
+        FUSION_REJECTION_PAST_TIMESTAMP => (c"timestamp too far in the past", Some(c"[validation] max_past_ns")),
+        FUSION_REJECTION_TIME_JUMP => (c"timestamp jumps too far ahead of the others", Some(c"[validation] max_jump_ns")),
+        FUSION_REJECTION_TOO_MANY_SENSORS => (c"too many sensors", Some(c"[validation] max_sensors")),
+        FUSION_REJECTION_OUT_OF_RANGE => (
+            c"beyond the sensor range",
+            Some(c"[validation] accel_range_mps2 and gyro_range_radps (IMU)"),
+        ),
+        FUSION_REJECTION_VARIANCE_NOT_POSITIVE => (c"variance not positive", None),
+        FUSION_REJECTION_WRONG_KIND => (c"header kind does not match the payload", None),
+        _ => (c"unknown", None),
     }
 }
 

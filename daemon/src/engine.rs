@@ -283,7 +283,8 @@ impl<M: Steps> Engine<M> {
         // Validation comes before anything a sample can change: an invalid sample
         // takes no sensor row and moves no sequence tracking.
         if let Err(r) = self.check(sample, &key, now_ns) {
-            if !self.sensors.count_invalid(&key) {
+            self.stats.rejections[r.code() as usize] += 1;
+            if !self.sensors.count_invalid(&key, r.code()) {
                 self.stats.unknown_sensor += 1;
             }
             return Insert::Rejected(r);
@@ -294,6 +295,7 @@ impl<M: Steps> Engine<M> {
             Ok(slot) => slot,
             Err(Refusal::NoRow) => {
                 self.stats.unknown_sensor += 1;
+                self.stats.rejections[Rejection::TooManySensors.code() as usize] += 1;
                 return Insert::Rejected(Rejection::TooManySensors);
             }
             Err(Refusal::Duplicate) => return Insert::Duplicate,

@@ -34,6 +34,7 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
+use fusion_shared::snapshot::rejection;
 use fusion_shared::{Counters, Sample, SampleKind, StateSnapshot, now_ns};
 use hdrhistogram::Histogram;
 
@@ -41,10 +42,18 @@ use crate::engine::{Engine, Insert};
 use crate::health::{HealthConfig, HealthMonitor, HealthNow};
 use crate::measurement::Steps;
 use crate::snapshot::{self, Input};
-use crate::summary::Summary;
+use crate::summary::{Rejections, Summary};
+use refusals::RefusalWarnings;
+
+mod refusals;
 
 /// Health and housekeeping period.
 pub const HOUSEKEEPING_NS: u64 = 10_000_000;
+/// While samples are refused in validation and nothing else is published,
+/// a snapshot (input [`INPUT_NONE`](fusion_shared::snapshot::INPUT_NONE))
+/// carrying the refusal counters is published at most this often, ns: a
+/// reader sees why there is no estimate.
+pub const REFUSAL_SNAPSHOT_NS: u64 = 100_000_000;
 /// Spin mode: while no sample arrives, the memory the next sample will touch is
 /// read (and the sink's next snapshot written) this often, so that the next
 /// sample finds it in the cache.
@@ -129,12 +138,19 @@ pub struct LiveCore<M: Steps> {
     report: RunReport,
     summary_ns: u64,
     next_housekeeping: u64,
-    /// Start of the summary interval, and the counters and snapshot count then.
-    last_summary: (u64, [Counters; SampleKind::COUNT], u64),
+    /// Start of the summary interval, and the counters, snapshot count and
+    /// refusals by reason then.
+    last_summary: (u64, [Counters; SampleKind::COUNT], u64, Rejections),
     /// Refused readers, as last read from the source and as last published.
     readers_refused: (u64, u64),
     /// Re-initialisations of the filter already logged.
     reinitialisations_logged: u64,
+    /// Samples refused in validation: so far, and in the last published snapshot.
+    refused: (u64, u64),
+    /// When a snapshot was last published for refusals alone.
+    refusal_published_ns: u64,
+    /// The sensors and reasons whose refusals were logged.
+    refusal_warnings: RefusalWarnings,
 }
 
 impl<M: Steps> LiveCore<M> {
@@ -152,9 +168,12 @@ impl<M: Steps> LiveCore<M> {
             report: RunReport::default(),
             summary_ns: summary_interval.as_nanos().clamp(1, u64::MAX as u128) as u64,
             next_housekeeping: now_ns,
-            last_summary: (now_ns, [Counters::default(); SampleKind::COUNT], 0),
+            last_summary: (now_ns, [Counters::default(); SampleKind::COUNT], 0, [0; rejection::MAX]),
             readers_refused: (0, 0),
             reinitialisations_logged: 0,
+            refused: (0, 0),
+            refusal_published_ns: 0,
+            refusal_warnings: RefusalWarnings::default(),
         }
     }
 
@@ -208,6 +227,13 @@ impl<M: Steps> LiveCore<M> {
             }
             // Late: its outcome comes with the rewind (`record_first_outcomes`).
             Insert::Placed { replayed } => replayed,
+            Insert::Rejected(why) => {
+                // Counted by the engine; the counts reach readers with the next
+                // snapshot (or a housekeeping one while nothing else is published).
+                self.refused.0 += 1;
+                self.refusal_warnings.warn(&sample, why, received_ns);
+                return;
+            }
             _ => return,
         };
         // Late samples the insert had to process at once (leaving the history).
@@ -232,7 +258,7 @@ impl<M: Steps> LiveCore<M> {
     fn publish(&mut self, sink: &mut impl SnapshotSink, input: Option<Input<'_>>) -> Option<u64> {
         let mut publish_ns = 0;
         let (engine, health, seq) = (&self.engine, self.health_now, self.report.snapshots);
-        let readers_refused = self.readers_refused.0;
+        let (readers_refused, refused) = (self.readers_refused.0, self.refused.0);
         let sent = sink.publish(|snap| {
             snapshot::fill(snap, engine, input, health);
             snap.readers_refused = readers_refused;
@@ -243,6 +269,7 @@ impl<M: Steps> LiveCore<M> {
         sent.then(|| {
             self.report.snapshots += 1;
             self.readers_refused.1 = readers_refused;
+            self.refused.1 = refused;
             publish_ns
         })
     }
@@ -281,13 +308,18 @@ impl<M: Steps> LiveCore<M> {
         self.next_housekeeping = now + HOUSEKEEPING_NS;
         self.evaluate_health(now);
         self.readers_refused.0 = source.readers_refused();
-        if (self.health_now != self.published_health || self.readers_refused.0 != self.readers_refused.1)
-            && self.engine.latest().is_some()
-            && self.publish(sink, None).is_some()
-        {
-            // Nothing arrived but the health changed (a stream went stale), or a
-            // reader was refused: say so.
+        let changed = (self.health_now != self.published_health || self.readers_refused.0 != self.readers_refused.1)
+            && self.engine.latest().is_some();
+        // Refused samples publish nothing themselves: while they are all there
+        // is (no estimate yet, say), their counts go out at a low rate.
+        let refusals = self.refused.0 != self.refused.1 && now >= self.refusal_published_ns + REFUSAL_SNAPSHOT_NS;
+        if (changed || refusals) && self.publish(sink, None).is_some() {
+            // Nothing was published but the health changed (a stream went
+            // stale), a reader was refused, or samples were: say so.
             self.published_health = self.health_now;
+            if refusals {
+                self.refusal_published_ns = now;
+            }
             sink.flush();
         }
         sink.refresh();
@@ -301,7 +333,12 @@ impl<M: Steps> LiveCore<M> {
         }
         let h = &self.latency;
         let latency_ns = (!h.is_empty()).then(|| (h.value_at_quantile(0.5), h.value_at_quantile(0.99), h.max()));
-        let (since, before, snapshots) = &self.last_summary;
+        let (since, before, snapshots, rejections_before) = &self.last_summary;
+        let rejections_now = self.engine.stats().rejections;
+        let mut rejections = [0; rejection::MAX];
+        for ((d, n), b) in rejections.iter_mut().zip(rejections_now).zip(rejections_before) {
+            *d = n.saturating_sub(*b);
+        }
         let mut interval = [Counters::default(); SampleKind::COUNT];
         for ((d, now_c), then_c) in interval.iter_mut().zip(&kinds).zip(before) {
             *d = now_c.since(then_c);
@@ -313,9 +350,10 @@ impl<M: Steps> LiveCore<M> {
             latency_ns,
             health: self.health_now.pair(),
             standing: self.engine.latest().map(|e| M::standstill(&e.state)),
+            rejections,
         };
         self.latency.reset();
-        self.last_summary = (now, kinds, self.report.snapshots);
+        self.last_summary = (now, kinds, self.report.snapshots, rejections_now);
         Some(summary)
     }
 

@@ -35,6 +35,11 @@ pub struct SensorRow {
     pub last_t_ns: Option<u64>,
     /// When the latest sample arrived (the clock reading given with it).
     pub last_arrival_ns: Option<u64>,
+    /// Bit `c`: a sample was refused in validation with rejection code `c`
+    /// ([`fusion_shared::snapshot::rejection`]).
+    pub rejection_reasons: u32,
+    /// The rejection code of the latest refused sample (0: none).
+    pub last_rejection: u32,
     highest_seq: Option<u64>,
     seen: SeqWindow,
     /// Token bucket of the rate limit: tokens left, and the timestamp they were
@@ -52,6 +57,8 @@ impl SensorRow {
             last_nis: None,
             last_t_ns: None,
             last_arrival_ns: None,
+            rejection_reasons: 0,
+            last_rejection: 0,
             highest_seq: None,
             seen: SeqWindow::default(),
             tokens: 0.0,
@@ -158,13 +165,16 @@ impl SensorTable {
     }
 
     /// Counts an invalid sample against its sensor's row; false when the sensor
-    /// has none (an invalid sample takes no row). Its sequence number is no gap,
+    /// has none (an invalid sample takes no row). Its rejection `code` is kept
+    /// in the row (`rejection_reasons`, `last_rejection`). Its sequence number is no gap,
     /// but only a number just after the highest seen is trusted from it.
-    pub fn count_invalid(&mut self, key: &SampleKey) -> bool {
+    pub fn count_invalid(&mut self, key: &SampleKey, code: u32) -> bool {
         let Some(row) = self.find(key.kind, key.sensor) else { return false };
         let row = &mut self.rows[row];
         row.stats.received += 1;
         row.stats.invalid += 1;
+        row.rejection_reasons |= 1u32.checked_shl(code).unwrap_or(0);
+        row.last_rejection = code;
         if row.highest_seq.is_some_and(|h| key.seq > h && key.seq - h <= SeqWindow::SPAN) {
             row.track_seq(key.seq);
         }

@@ -40,6 +40,8 @@ fn counters(s: &SensorRow) -> SensorCounters {
         last_nis: s.last_nis.unwrap_or(f64::NAN),
         last_t_ns: s.last_t_ns.unwrap_or(0),
         last_arrival_ns: s.last_arrival_ns.unwrap_or(0),
+        rejection_reasons: s.rejection_reasons,
+        last_rejection: s.last_rejection,
     }
 }
 
@@ -112,6 +114,7 @@ pub fn fill<M: Steps>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Optio
     snap.rewinds = stats.rewinds;
     snap.replayed = stats.replayed;
     snap.unknown_sensor = stats.unknown_sensor;
+    snap.rejections = stats.rejections;
     snap.background_steps = stats.background_steps;
     (snap.pending_steps, snap.pending_since_t_ns) =
         engine.correction().map_or((0, 0), |c| (c.steps as u64, c.since_t_ns));

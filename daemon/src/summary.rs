@@ -5,11 +5,14 @@
 use std::thread::JoinHandle;
 
 use crossbeam::channel::{Receiver, Sender, TrySendError, bounded};
-use fusion_shared::snapshot::health;
+use fusion_shared::snapshot::{health, rejection};
 use fusion_shared::{Counters, SampleKind};
 
 /// Number of sample kinds.
 const KINDS: usize = SampleKind::COUNT;
+
+/// Counts by rejection code ([`rejection`]; entry 0 unused).
+pub type Rejections = [u64; rejection::MAX];
 
 /// One summary interval.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -27,6 +30,9 @@ pub struct Summary {
     /// Standing still at the end of the interval, and the standstill updates
     /// so far (`None` before any sample).
     pub standing: Option<(bool, u64)>,
+    /// Samples refused in validation in the interval, by rejection code: every
+    /// sensor's, those without a row (never counted in `kinds`) included.
+    pub rejections: Rejections,
 }
 
 /// The summary thread and the sending half of its channel.
@@ -76,6 +82,16 @@ pub fn format(s: &Summary) -> String {
         }
     }
     let reasons: Vec<&str> = health::reason_names(s.health.1).collect();
+    // Every refusal in validation, by reason (the per-kind `invalid` counts
+    // miss the sensors without a row).
+    let refused: u64 = s.rejections.iter().sum();
+    let reasons_refused: Vec<String> = rejection::ALL
+        .iter()
+        .filter(|(code, _)| s.rejections[*code as usize] > 0)
+        .map(|(code, name)| format!("{name} {}", s.rejections[*code as usize]))
+        .collect();
+    let invalid =
+        if refused == 0 { "0".to_string() } else { format!("{refused} ({})", reasons_refused.join(", ")) };
     let latency = match s.latency_ns {
         Some((p50, p99, max)) => format!("{:.1}/{:.1}/{:.1} us", p50 as f64 / 1e3, p99 as f64 / 1e3, max as f64 / 1e3),
         None => "-".to_string(),
@@ -89,7 +105,7 @@ pub fn format(s: &Summary) -> String {
         total.late,
         total.too_late,
         total.duplicate,
-        total.invalid,
+        invalid,
         total.lost,
         total.rate_limited,
         total.restarts,
@@ -107,5 +123,25 @@ pub fn format(s: &Summary) -> String {
 fn log_loop(receiver: Receiver<Summary>) {
     for s in receiver {
         tracing::info!(target: "fusiond::summary", "{}", format(&s));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Refusals of sensors without a row (all of them, when every sample is
+    /// refused) show in the line by reason, though no kind counted them.
+    #[test]
+    fn refusals_show_by_reason_without_a_sensor_row() {
+        let mut s = Summary { interval_s: 10.0, ..Default::default() };
+        s.rejections[rejection::PAST_TIMESTAMP as usize] = 1072;
+        s.rejections[rejection::NON_FINITE as usize] = 3;
+        let line = format(&s);
+        assert!(
+            line.contains("invalid 1075 (non-finite value 3, timestamp too far in the past 1072)"),
+            "{line}"
+        );
+        assert!(format(&Summary { interval_s: 1.0, ..Default::default() }).contains("invalid 0,"));
     }
 }

@@ -41,20 +41,26 @@ pub enum Rejection {
 }
 
 impl Rejection {
+    /// Its code in snapshots ([`fusion_shared::snapshot::rejection`]).
+    pub const fn code(self) -> u32 {
+        use fusion_shared::snapshot::rejection as r;
+        match self {
+            Rejection::NonFinite => r::NON_FINITE,
+            Rejection::CovarianceNotSymmetric => r::COVARIANCE_NOT_SYMMETRIC,
+            Rejection::CovarianceNotPositiveDefinite => r::COVARIANCE_NOT_POSITIVE_DEFINITE,
+            Rejection::FutureTimestamp => r::FUTURE_TIMESTAMP,
+            Rejection::PastTimestamp => r::PAST_TIMESTAMP,
+            Rejection::TimeJump => r::TIME_JUMP,
+            Rejection::TooManySensors => r::TOO_MANY_SENSORS,
+            Rejection::OutOfRange => r::OUT_OF_RANGE,
+            Rejection::VarianceNotPositive => r::VARIANCE_NOT_POSITIVE,
+            Rejection::WrongKind => r::WRONG_KIND,
+        }
+    }
+
     /// A short reason for logs and summaries.
     pub const fn reason(self) -> &'static str {
-        match self {
-            Rejection::NonFinite => "non-finite value",
-            Rejection::CovarianceNotSymmetric => "covariance not symmetric",
-            Rejection::CovarianceNotPositiveDefinite => "covariance not positive definite",
-            Rejection::FutureTimestamp => "timestamp in the future",
-            Rejection::PastTimestamp => "timestamp too far in the past",
-            Rejection::TimeJump => "timestamp jumps too far ahead of the others",
-            Rejection::TooManySensors => "too many sensors",
-            Rejection::OutOfRange => "beyond the sensor range",
-            Rejection::VarianceNotPositive => "variance not positive",
-            Rejection::WrongKind => "header kind does not match the payload",
-        }
+        fusion_shared::snapshot::rejection::name(self.code())
     }
 }
 

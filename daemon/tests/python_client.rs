@@ -65,7 +65,16 @@ fn rust_layout() -> Value {
             rate_limited,
             restarts
         }),
-        layout!(SensorCounters { kind, sensor, counts, last_nis, last_t_ns, last_arrival_ns }),
+        layout!(SensorCounters {
+            kind,
+            sensor,
+            counts,
+            last_nis,
+            last_t_ns,
+            last_arrival_ns,
+            rejection_reasons,
+            last_rejection
+        }),
         layout!(StateSnapshot {
             seq,
             publish_ns,
@@ -109,7 +118,8 @@ fn rust_layout() -> Value {
             aux_states,
             velocity_offset_ns,
             velocity_offset_std_ns,
-            velocity_offset_samples
+            velocity_offset_samples,
+            rejections
         }),
     ];
     assert_eq!(types.len(), 4 + SampleKind::COUNT, "a new kind needs its layout here and a Python mirror");
@@ -129,6 +139,7 @@ fn rust_layout() -> Value {
         "MAX_COV": snap::MAX_COV,
         "MAX_SENSORS": snap::MAX_SENSORS,
         "INPUT_NONE": snap::INPUT_NONE,
+        "MAX_REJECTIONS": snap::rejection::MAX,
     });
     for &kind in SampleKind::ALL {
         constants[format!("KIND_{}", kind.name().to_uppercase())] = json!(kind as u32);
@@ -152,6 +163,24 @@ fn rust_layout() -> Value {
     let fixes: serde_json::Map<_, _> =
         fusion_shared::fix::NAMES.iter().enumerate().map(|(code, name)| (code.to_string(), json!(name))).collect();
     constants["FIX_NAMES"] = Value::Object(fixes);
+    let rejections: serde_json::Map<_, _> =
+        snap::rejection::ALL.iter().map(|(code, name)| (code.to_string(), json!(name))).collect();
+    constants["REJECTION_NAMES"] = Value::Object(rejections);
+    for (name, code) in [
+        ("REJECTION_NON_FINITE", snap::rejection::NON_FINITE),
+        ("REJECTION_COVARIANCE_NOT_SYMMETRIC", snap::rejection::COVARIANCE_NOT_SYMMETRIC),
+        ("REJECTION_COVARIANCE_NOT_POSITIVE_DEFINITE", snap::rejection::COVARIANCE_NOT_POSITIVE_DEFINITE),
+        ("REJECTION_FUTURE_TIMESTAMP", snap::rejection::FUTURE_TIMESTAMP),
+        ("REJECTION_PAST_TIMESTAMP", snap::rejection::PAST_TIMESTAMP),
+        ("REJECTION_TIME_JUMP", snap::rejection::TIME_JUMP),
+        ("REJECTION_TOO_MANY_SENSORS", snap::rejection::TOO_MANY_SENSORS),
+        ("REJECTION_OUT_OF_RANGE", snap::rejection::OUT_OF_RANGE),
+        ("REJECTION_VARIANCE_NOT_POSITIVE", snap::rejection::VARIANCE_NOT_POSITIVE),
+        ("REJECTION_WRONG_KIND", snap::rejection::WRONG_KIND),
+    ] {
+        constants[name] = json!(code);
+    }
+    assert_eq!(snap::rejection::ALL.len(), 10, "a new rejection code needs its REJECTION_ constant here");
     use fusion_shared::fix;
     for (name, code) in [
         ("FIX_UNKNOWN", fix::UNKNOWN),
@@ -188,7 +217,7 @@ fn the_python_mirrors_have_the_rust_layout() {
     let out = common::python_command("unused", "tests/check_layout.py", &[path.to_str().unwrap()]).output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
-    assert!(said.contains("10 types, 32 constants: 0 differences"), "{said}");
+    assert!(said.contains("10 types, 44 constants: 0 differences"), "{said}");
 
     // The check sees a difference: a layout with one offset moved fails it.
     let mut broken = rust_layout();

@@ -10,6 +10,7 @@ use std::time::{Duration, Instant};
 
 use common::live::{Daemon, TestDomain, workspace_bin};
 use fusion_shared::service::DOMAIN_ENV;
+use fusion_shared::snapshot::rejection;
 use fusion_shared::{ImuSample, Sample};
 
 fn sim(domain: &TestDomain, args: &[&str]) -> Output {
@@ -25,14 +26,17 @@ fn sim(domain: &TestDomain, args: &[&str]) -> Output {
 
 /// Samples stamped on another clock (a recording's, near 0 s of it) are all
 /// refused by a fusiond whose clock is far ahead: fusion-sim stops within a few
-/// seconds (not 50 ms per sample of the file), says why and exits 1.
+/// seconds (not 50 ms per sample of the file), says why (from fusiond's refusal
+/// counters) and exits 1; and every place a user looks says why: the snapshot
+/// (published though no sample was processed), `fusionctl state`, one warning
+/// in fusiond's log naming the setting, and the summary line.
 #[test]
 fn a_file_fusiond_refuses_entirely_ends_with_the_reason() {
     let domain = TestDomain::new("sim-refused");
     // The default validation (a [validation] table keeps the test harness from
     // opening the past-timestamp check up).
     let config = format!("{}\n[validation]\nmax_past_ns = 5_000_000_000\n", common::linear_config(Some(0.999)));
-    let mut daemon = Daemon::start(&domain, &config, "event");
+    let mut daemon = Daemon::start_with(&domain, &config, &["--wait", "event", "--summary-interval", "0.5"]);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("old.jsonl");
     let lines: String = (0..2000u64)
@@ -47,8 +51,39 @@ fn a_file_fusiond_refuses_entirely_ends_with_the_reason() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(started.elapsed() < Duration::from_secs(20), "it gave up after {:?}", started.elapsed());
-    assert!(stderr.contains("answered none") && stderr.contains("max_past_ns"), "{stderr}");
+    assert!(stderr.contains("answered none") && stderr.contains("its refusal counters"), "{stderr}");
+    assert!(stderr.contains("timestamp too far in the past: ") && stderr.contains("max_past_ns"), "{stderr}");
+
+    // The snapshot says how many and why, though no sample was processed (the
+    // last refusals' one within REFUSAL_SNAPSHOT_NS).
+    std::thread::sleep(Duration::from_millis(500));
+    let client = domain.client();
+    let mut reader = client.state_subscriber().unwrap();
+    let snap = match reader.latest().unwrap() {
+        Some(s) => *s,
+        None => *reader.wait_next(Duration::from_secs(5)).unwrap().expect("a snapshot of the refusals"),
+    };
+    let refused = snap.rejections[rejection::PAST_TIMESTAMP as usize];
+    assert!(refused > 0 && snap.rejected() == refused, "{:?}", snap.rejections);
+    assert_eq!((snap.state_len, snap.sensor_count, snap.unknown_sensor), (0, 0, refused));
+    drop((reader, client));
+    let state = Command::new(workspace_bin("fusionctl"))
+        .args(["state", "--namespace", &domain.namespace])
+        .env(DOMAIN_ENV, &domain.domain)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&state.stdout);
+    assert!(state.status.success(), "{text}{}", String::from_utf8_lossy(&state.stderr));
+    assert!(text.contains("no estimate yet"), "{text}");
+    assert!(text.contains(&format!("refused in validation since start: {refused} samples")), "{text}");
+    assert!(text.contains(&format!("{refused} timestamp too far in the past: ")), "{text}");
+    assert!(text.contains("[validation] max_past_ns"), "{text}");
     assert!(daemon.terminate().success());
+    let log = daemon.stderr();
+    let warnings: Vec<&str> = log.lines().filter(|l| l.contains("refusing samples of")).collect();
+    assert_eq!(warnings.len(), 1, "one warning for imu 0 and its reason:\n{log}");
+    assert!(warnings[0].contains("imu 0: timestamp too far in the past") && warnings[0].contains("max_past_ns"));
+    assert!(log.contains("(timestamp too far in the past "), "the summary line names the reason:\n{log}");
     drop(daemon);
     assert!(domain.files().is_empty(), "{:?}", domain.files());
 }

@@ -173,6 +173,10 @@ pub struct SnapshotJson {
     /// offset (`null`: no estimate). Absent before wire v9.
     #[serde(default)]
     pub velocity_offset: Option<OffsetJson>,
+    /// Samples refused in validation since start, by reason (the reasons with
+    /// a count; [`crate::snapshot::rejection`]). Absent before wire v10.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub rejections: std::collections::BTreeMap<String, u64>,
 }
 
 /// [`StateSnapshot::velocity_time_offset`].
@@ -320,6 +324,10 @@ impl From<&StateSnapshot> for SnapshotJson {
             background_steps: s.background_steps,
             standing: s.standing(),
             standstill_updates: s.standstill_updates,
+            rejections: s
+                .rejection_counts()
+                .map(|(code, n)| (crate::snapshot::rejection::name(code).to_string(), n))
+                .collect(),
             aux_states: crate::snapshot::aux::ALL
                 .iter()
                 .filter(|(bit, _)| s.aux_states & bit != 0)

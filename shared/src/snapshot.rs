@@ -10,6 +10,7 @@ use iceoryx2::prelude::ZeroCopySend;
 use crate::SampleKind;
 use crate::geodesy::Datum;
 
+pub mod rejection;
 mod typed;
 pub use typed::{Health, HealthReason, Model, Outcome};
 
@@ -21,6 +22,8 @@ pub const MAX_COV: usize = 16;
 pub const MAX_COV_LEN: usize = MAX_COV * MAX_COV;
 /// Most sensors (of all kinds) a snapshot reports.
 pub const MAX_SENSORS: usize = 16;
+/// Entries of [`StateSnapshot::rejections`] (see [`rejection`]; entry 0 unused).
+pub const MAX_REJECTIONS: usize = 16;
 /// [`StateSnapshot::input_kind`] of a snapshot published without a new sample:
 /// the health changed while no sample arrived (a stream went stale), or a late
 /// sample's correction landed (the snapshot is then [settled](StateSnapshot::settled)).
@@ -258,7 +261,7 @@ impl Counters {
 
 /// Counters of one sensor, as in the engine.
 #[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
-#[type_name("fusion.SensorCounters.v3")]
+#[type_name("fusion.SensorCounters.v4")]
 #[repr(C)]
 pub struct SensorCounters {
     /// [`SampleKind`] code.
@@ -273,12 +276,24 @@ pub struct SensorCounters {
     pub last_t_ns: u64,
     /// When the daemon last received a sample of this sensor, ns of its clock.
     pub last_arrival_ns: u64,
+    /// Bit `c`: samples of this sensor were refused in validation with
+    /// [`rejection`] code `c` (their count is in `counts.invalid`, by reason
+    /// in [`StateSnapshot::rejections`]).
+    pub rejection_reasons: u32,
+    /// The [`rejection`] code of its latest refused sample (0: none).
+    pub last_rejection: u32,
 }
 
 impl SensorCounters {
     /// The kind, if the code is known.
     pub fn sample_kind(&self) -> Option<SampleKind> {
         SampleKind::from_code(self.kind)
+    }
+
+    /// The [`rejection`] codes this sensor's samples were refused with.
+    pub fn rejection_codes(&self) -> impl Iterator<Item = u32> + use<> {
+        let bits = self.rejection_reasons;
+        (1..=rejection::COUNT as u32).filter(move |c| bits & (1 << c) != 0)
     }
 }
 
@@ -298,7 +313,7 @@ impl SensorCounters {
 /// §5.3.3). Because the quaternion's 4 entries share 3 error states,
 /// covariance row `i` lines up with state entry `i` only for `i < 6`.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("fusion.StateSnapshot.v9")]
+#[type_name("fusion.StateSnapshot.v10")]
 #[repr(C)]
 pub struct StateSnapshot {
     /// Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
@@ -413,6 +428,12 @@ pub struct StateSnapshot {
     pub velocity_offset_std_ns: f64,
     /// Velocity samples it is estimated from.
     pub velocity_offset_samples: u64,
+    /// Samples refused in validation since the start, by reason: entry `c`
+    /// counts [`rejection`] code `c` (entry 0 is unused). Samples of every
+    /// sensor, those without a row in `sensors` included. Snapshots are also
+    /// published while every sample is refused (input kind [`INPUT_NONE`],
+    /// at most 10 a second), so a reader sees why there is no estimate.
+    pub rejections: [u64; MAX_REJECTIONS],
 }
 
 impl Default for StateSnapshot {
@@ -461,6 +482,7 @@ impl Default for StateSnapshot {
             velocity_offset_ns: 0.0,
             velocity_offset_std_ns: 0.0,
             velocity_offset_samples: 0,
+            rejections: [0; MAX_REJECTIONS],
         }
     }
 }
@@ -556,6 +578,17 @@ impl StateSnapshot {
         self.pending_steps == 0
     }
 
+    /// Samples refused in validation since the start: each reason's
+    /// [`rejection`] code with its count, for the reasons with a count.
+    pub fn rejection_counts(&self) -> impl Iterator<Item = (u32, u64)> + '_ {
+        rejection::ALL.iter().map(|(c, _)| (*c, self.rejections[*c as usize])).filter(|(_, n)| *n > 0)
+    }
+
+    /// Samples refused in validation since the start, every reason.
+    pub fn rejected(&self) -> u64 {
+        self.rejections.iter().fold(0u64, |a, n| a.wrapping_add(*n))
+    }
+
     /// The names of the health reason bits that are set.
     pub fn health_reason_names(&self) -> impl Iterator<Item = &'static str> + use<> {
         health::reason_names(self.health_reasons)
@@ -564,10 +597,19 @@ impl StateSnapshot {
 
 const _: () = {
     assert!(core::mem::size_of::<Counters>() == 96);
-    assert!(core::mem::size_of::<SensorCounters>() == 128);
+    assert!(core::mem::size_of::<SensorCounters>() == 136);
     assert!(core::mem::align_of::<StateSnapshot>() == 8);
     assert!(
         core::mem::size_of::<StateSnapshot>()
-            == 120 + 8 * (MAX_STATE + MAX_COV * MAX_COV) + 128 * MAX_SENSORS + 24 + 32 + 16 + 24 + 16 + 24
+            == 120
+                + 8 * (MAX_STATE + MAX_COV * MAX_COV)
+                + 136 * MAX_SENSORS
+                + 24
+                + 32
+                + 16
+                + 24
+                + 16
+                + 24
+                + 8 * MAX_REJECTIONS
     );
 };

@@ -35,6 +35,7 @@ from .wire import (
     MAX_STATE,
     MODEL_DIMS,
     MODEL_NAMES,
+    REJECTION_NAMES,
     SAMPLE_TYPES,
     Counters,
     GeodeticSample,
@@ -294,6 +295,14 @@ class Snapshot:
         snapshot lacks the effect of the sample at ``pending_since_t_ns``; a
         later one includes it."""
         return self.raw.pending_steps == 0
+
+    @property
+    def rejections(self) -> dict:
+        """Samples fusiond refused in validation since it started, by reason
+        (``REJECTION_NAMES``; a sensor's own in its row: ``invalid``,
+        ``rejection_reasons``, ``last_rejection``): only the reasons with a count."""
+        counts = self.raw.rejections
+        return {name: int(counts[code]) for code, name in REJECTION_NAMES.items() if counts[code]}
 
     def sensor_counters(self) -> list:
         """The sensor rows in use."""

@@ -28,6 +28,33 @@ MODEL_DIMS = {1: [6, 6], 2: [16, 15]}
 #: ``StateSnapshot.aux_states`` bits: auxiliary states after the model's own, in bit order.
 AUX_ODOMETRY_SCALE = 1
 AUX_NAMES = {1: "odometry_scale"}
+#: Why a sample was refused in validation: the index of ``StateSnapshot.rejections``
+#: and ``SensorCounters.last_rejection`` (entry 0 unused).
+MAX_REJECTIONS = 16
+(
+    REJECTION_NON_FINITE,
+    REJECTION_COVARIANCE_NOT_SYMMETRIC,
+    REJECTION_COVARIANCE_NOT_POSITIVE_DEFINITE,
+    REJECTION_FUTURE_TIMESTAMP,
+    REJECTION_PAST_TIMESTAMP,
+    REJECTION_TIME_JUMP,
+    REJECTION_TOO_MANY_SENSORS,
+    REJECTION_OUT_OF_RANGE,
+    REJECTION_VARIANCE_NOT_POSITIVE,
+    REJECTION_WRONG_KIND,
+) = range(1, 11)
+REJECTION_NAMES = {
+    1: "non-finite value",
+    2: "covariance not symmetric",
+    3: "covariance not positive definite",
+    4: "timestamp in the future",
+    5: "timestamp too far in the past",
+    6: "timestamp jumps too far ahead of the others",
+    7: "too many sensors",
+    8: "beyond the sensor range",
+    9: "variance not positive",
+    10: "header kind does not match the payload",
+}
 
 f64x3 = ctypes.c_double * 3
 f64x9 = ctypes.c_double * 9
@@ -138,7 +165,7 @@ class Counters(_Wire):
 class SensorCounters(_Wire):
     """One sensor's row of the snapshot."""
 
-    TYPE_NAME = "fusion.SensorCounters.v3"
+    TYPE_NAME = "fusion.SensorCounters.v4"
     _fields_ = [
         ("kind", ctypes.c_uint32),
         ("sensor", ctypes.c_uint32),
@@ -146,13 +173,15 @@ class SensorCounters(_Wire):
         ("last_nis", ctypes.c_double),
         ("last_t_ns", ctypes.c_uint64),
         ("last_arrival_ns", ctypes.c_uint64),
+        ("rejection_reasons", ctypes.c_uint32),
+        ("last_rejection", ctypes.c_uint32),
     ]
 
 
 class StateSnapshot(_Wire):
-    """The fusion state after one processed sample (``fusion.StateSnapshot.v9``)."""
+    """The fusion state after one processed sample (``fusion.StateSnapshot.v10``)."""
 
-    TYPE_NAME = "fusion.StateSnapshot.v9"
+    TYPE_NAME = "fusion.StateSnapshot.v10"
     _fields_ = [
         ("seq", ctypes.c_uint64),
         ("publish_ns", ctypes.c_uint64),
@@ -197,6 +226,7 @@ class StateSnapshot(_Wire):
         ("velocity_offset_ns", ctypes.c_double),
         ("velocity_offset_std_ns", ctypes.c_double),
         ("velocity_offset_samples", ctypes.c_uint64),
+        ("rejections", ctypes.c_uint64 * MAX_REJECTIONS),
     ]
 
 

@@ -26,6 +26,7 @@ def main() -> int:
         for name in NAMES:
             v = getattr(s, name)
             line[name] = None if v is None else [float(c) for c in v]
+        line["rejections"] = s.rejections
         print(json.dumps(line))
     return 0
 

@@ -501,6 +501,8 @@ fn publish_file(
     };
     let (mut published, mut delivered, mut skipped, mut unacknowledged) = (0u64, 0u64, 0u64, 0u64);
     let (mut last_answer, mut unanswered) = (std::time::Instant::now(), 0u64);
+    // fusiond's refusal counters, as its latest snapshot gave them.
+    let mut rejections = [0u64; fusion_shared::snapshot::rejection::MAX];
     let mut pace: Option<(u64, u64)> = None; // (first timestamp, wall time of it)
     for (i, line) in file.lines().enumerate() {
         if stop.load(Ordering::Relaxed) {
@@ -537,7 +539,7 @@ fn publish_file(
                     {
                         break true;
                     }
-                    Some(_) => {}
+                    Some(s) => rejections = s.rejections,
                     None => break false,
                 }
             };
@@ -548,6 +550,22 @@ fn publish_file(
             }
             unanswered += 1;
             if last_answer.elapsed() > SILENCE {
+                use fusion_shared::snapshot::rejection;
+                let reasons: Vec<String> = rejection::ALL
+                    .iter()
+                    .filter(|(code, _)| rejections[*code as usize] > 0)
+                    .map(|(code, name)| {
+                        format!("{} {name}: {}", rejections[*code as usize], rejection::advice(*code))
+                    })
+                    .collect();
+                if !reasons.is_empty() {
+                    anyhow::bail!(
+                        "fusiond answered none of the last {unanswered} samples in {:.0} s: its refusal counters \
+                         (`fusionctl state`) say {}",
+                        SILENCE.as_secs_f64(),
+                        reasons.join("; ")
+                    );
+                }
                 anyhow::bail!(
                     "fusiond answered none of the last {unanswered} samples in {:.0} s: it refuses them \
                      (`fusionctl state` and its log say why; samples stamped on another clock than fusiond's, \

@@ -64,3 +64,18 @@ fn null_pointers_and_bad_arguments_are_errors() {
         fusion_state_reader_free(std::ptr::null_mut());
     }
 }
+
+/// The C names and settings of the rejection codes are the Rust ones.
+#[test]
+fn rejection_names_and_settings_are_the_shared_ones() {
+    use fusion_shared::snapshot::rejection;
+    for code in 0..=rejection::COUNT as u32 + 1 {
+        // SAFETY: static, NUL-terminated strings.
+        let name = unsafe { CStr::from_ptr(fusion_rejection_name(code)) };
+        assert_eq!(name.to_str().unwrap(), rejection::name(code), "code {code}");
+        let setting = fusion_rejection_setting(code);
+        // SAFETY: null or a static, NUL-terminated string.
+        let setting = (!setting.is_null()).then(|| unsafe { CStr::from_ptr(setting) }.to_str().unwrap());
+        assert_eq!(setting, rejection::setting(code), "code {code}");
+    }
+}

@@ -1,6 +1,7 @@
 /* Prints the typed accessors (fusion_snapshot_*) of each snapshot in a file of
  * raw FusionStateSnapshot records as JSON lines (the test compares them with the
  * Rust client's). Usage: typed FILE */
+#include <stdint.h>
 #include <stdio.h>
 #include "fusion_client.h"
 
@@ -51,7 +52,17 @@ int main(int argc, char **argv) {
                 return 1;
             }
         }
-        printf("}\n");
+        /* The refusals by reason name, the reasons with a count. */
+        printf(", \"rejections\": {");
+        int first = 1;
+        for (uint32_t code = 1; code <= FUSION_REJECTION_COUNT; code++) {
+            if (s.rejections[code] > 0) {
+                printf("%s\"%s\": %llu", first ? "" : ", ", fusion_rejection_name(code),
+                       (unsigned long long)s.rejections[code]);
+                first = 0;
+            }
+        }
+        printf("}}\n");
     }
     /* A null snapshot or output is refused, with a reason. */
     if (fusion_snapshot_position(NULL, out) != FUSION_ERROR_NULL || fusion_snapshot_position(&s, NULL) != FUSION_ERROR_NULL) {

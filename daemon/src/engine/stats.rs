@@ -4,6 +4,9 @@
 /// Counters of the engine as a whole.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct EngineStats {
+    /// Samples refused in validation, by [`Rejection::code`](crate::validate::Rejection::code)
+    /// (every sensor's, those without a slot included).
+    pub rejections: [u64; fusion_shared::snapshot::rejection::MAX],
     /// Samples counted against no sensor slot: the table was full, or the sample
     /// was invalid and from a sensor without a slot (it takes none).
     pub unknown_sensor: u64,

@@ -194,3 +194,38 @@ fn summaries_come_at_their_interval_with_counts_per_kind() {
         health::stale(SampleKind::Imu) | health::stale(SampleKind::Position) | health::stale(SampleKind::Velocity)
     );
 }
+
+/// Every sample refused (stamped on another clock): no sample publishes a
+/// snapshot, but the housekeeping does, at most every REFUSAL_SNAPSHOT_NS, with
+/// the refusals by reason (the sensor has no row); the summary counts them.
+#[test]
+fn refused_samples_are_published_by_reason_while_nothing_else_is() {
+    let config = Config::default_config();
+    let engine = Engine::new(LinearModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
+    let t0 = now_ns();
+    let mut core = LiveCore::new(engine, config.health, Duration::from_secs(1), t0);
+    let mut sink = VecSink::default();
+    for k in 0..50 {
+        core.handle(ImuSample::new(1_000_000 + k, 0, k, [0.0; 3], [0.0; 3]).into(), &mut sink);
+    }
+    core.handle(ImuSample::new(now_ns(), 3, 0, [f64::NAN; 3], [0.0; 3]).into(), &mut sink);
+    assert!(sink.sent.is_empty());
+    assert!(core.housekeeping(t0 + REFUSAL_SNAPSHOT_NS, &mut none(), &mut sink).is_none());
+    assert_eq!(sink.sent.len(), 1);
+    let snap = sink.sent[0];
+    assert_eq!(snap.input_kind, fusion_shared::snapshot::INPUT_NONE);
+    assert_eq!((snap.health, snap.sensor_count, snap.state_len), (health::INITIALISING, 0, 0));
+    assert_eq!(snap.rejection_counts().collect::<Vec<_>>(), [(rejection::NON_FINITE, 1), (rejection::PAST_TIMESTAMP, 50)]);
+    assert_eq!((snap.rejected(), snap.unknown_sensor), (51, 51));
+    // Nothing new: nothing published. New refusals: not before the interval.
+    core.housekeeping(t0 + REFUSAL_SNAPSHOT_NS + HOUSEKEEPING_NS, &mut none(), &mut sink);
+    core.handle(ImuSample::new(1_000_000, 0, 99, [0.0; 3], [0.0; 3]).into(), &mut sink);
+    core.housekeeping(t0 + REFUSAL_SNAPSHOT_NS + 2 * HOUSEKEEPING_NS, &mut none(), &mut sink);
+    assert_eq!(sink.sent.len(), 1);
+    core.housekeeping(t0 + 2 * REFUSAL_SNAPSHOT_NS + 2 * HOUSEKEEPING_NS, &mut none(), &mut sink);
+    assert_eq!(sink.sent.len(), 2);
+    assert_eq!(sink.sent[1].rejections[rejection::PAST_TIMESTAMP as usize], 51);
+    let summary = core.housekeeping(t0 + 1_500_000_000, &mut none(), &mut sink).expect("a summary");
+    assert_eq!(summary.rejections[rejection::PAST_TIMESTAMP as usize], 51);
+    assert!(crate::summary::format(&summary).contains("invalid 52 (non-finite value 1, timestamp too far in the past 51)"));
+}

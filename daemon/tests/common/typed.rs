@@ -111,6 +111,8 @@ pub fn cases() -> Vec<(StateSnapshot, Option<usize>)> {
         (StateSnapshot { aux_states: aux::ODOMETRY_SCALE, ..ins }, Some(12)),
         (StateSnapshot { aux_states: 0, ..ins_with_scale() }, Some(12)),
         (StateSnapshot { aux_states: aux::ODOMETRY_SCALE | 1 << 7, ..ins_with_scale() }, Some(12)),
+        // Refusals by reason (every code, and one past them the names do not read).
+        (StateSnapshot { rejections: std::array::from_fn(|c| if c == 0 { 0 } else { 1000 + c as u64 }), ..ins }, Some(12)),
     ]);
     cases
 }
@@ -167,6 +169,12 @@ pub fn assert_agree(printed: &str) {
                 (rust, v) => panic!("case {i}: {name}: printed {v}, rust {rust:?}"),
             }
         }
+        // The refusals by reason name.
+        let rust: serde_json::Map<String, Value> = case
+            .rejection_counts()
+            .map(|(code, n)| (fusion_shared::snapshot::rejection::name(code).to_string(), Value::from(n)))
+            .collect();
+        assert_eq!(line["rejections"], Value::Object(rust), "case {i}: rejections");
         match expected {
             Some(n) => assert_eq!(compared, *n, "case {i}: accessors with a value\n{printed}"),
             None => {

@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 use clap::{Parser, Subcommand};
 use fusion_client::{Client, StateSnapshot, now_ns};
 use fusion_shared::recording::SnapshotJson;
-use fusion_shared::snapshot::{health, model};
+use fusion_shared::snapshot::{health, model, rejection};
 
 #[derive(Parser)]
 #[command(name = "fusionctl", version, about = "Inspect a running fusiond")]
@@ -216,7 +216,7 @@ fn run(cli: Cli) -> anyhow::Result<u8> {
                     None => {
                         eprintln!(
                             "fusionctl: fusiond runs in namespace {namespace:?} but has published no snapshot yet \
-                             (it has had no input)"
+                             (no sample has reached it)"
                         );
                         return Ok(fusion_shared::exit::NO_STATE_YET);
                     }
@@ -259,21 +259,53 @@ fn settledness(s: &StateSnapshot) -> String {
     }
 }
 
+/// The samples refused in validation, by reason, with what to do about each
+/// (empty when none was).
+fn refusals(s: &StateSnapshot) -> String {
+    let total = s.rejected();
+    if total == 0 {
+        return String::new();
+    }
+    let mut o = format!("refused in validation since start: {total} samples\n");
+    for (code, n) in s.rejection_counts() {
+        let sensors: Vec<String> = s
+            .sensor_counters()
+            .iter()
+            .filter(|c| c.rejection_codes().any(|c| c == code))
+            .map(|c| format!("{} {}", kind_name(c.kind), c.sensor))
+            .collect();
+        let from = if sensors.is_empty() { String::new() } else { format!(" (from {})", sensors.join(", ")) };
+        o += &format!("  {n} {}{from}: {}\n", rejection::name(code), rejection::advice(code));
+    }
+    if s.unknown_sensor > 0 {
+        o += &format!(
+            "  {} of them from sensors without a row (a refused sample takes none)\n",
+            s.unknown_sensor.min(total)
+        );
+    }
+    o
+}
+
 fn describe(s: &StateSnapshot) -> String {
     let mut o = String::new();
     let age_ms = now_ns().saturating_sub(s.publish_ns) as f64 * 1e-6;
     let reasons = health_reasons(s);
-    o += &format!(
-        "model {}, snapshot {} published {age_ms:.1} ms ago, estimate at t = {:.6} s\n",
-        model::name(s.model),
-        s.seq,
-        s.t_ns as f64 * 1e-9
-    );
+    o += &if s.state().is_empty() {
+        format!("snapshot {} published {age_ms:.1} ms ago: no estimate yet\n", s.seq)
+    } else {
+        format!(
+            "model {}, snapshot {} published {age_ms:.1} ms ago, estimate at t = {:.6} s\n",
+            model::name(s.model),
+            s.seq,
+            s.t_ns as f64 * 1e-9
+        )
+    };
     o += &format!(
         "health: {}{}\n",
         health::name(s.health),
         if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) }
     );
+    o += &refusals(s);
     o += &settledness(s);
     if s.standing() {
         o += &format!("standing still: attitude held, {} standstill updates so far\n", s.standstill_updates);
@@ -349,9 +381,28 @@ fn describe(s: &StateSnapshot) -> String {
 #[cfg(test)]
 mod tests {
     use fusion_client::StateSnapshot;
-    use fusion_shared::snapshot::{aux, model};
+    use fusion_shared::snapshot::{aux, model, rejection};
 
     use super::describe;
+
+    /// Every sample refused: no estimate, and why, with the setting to change
+    /// and the sensors it came from.
+    #[test]
+    fn refusals_are_described_with_their_setting() {
+        let mut s = StateSnapshot { unknown_sensor: 1072, ..Default::default() };
+        s.rejections[rejection::PAST_TIMESTAMP as usize] = 1072;
+        let text = describe(&s);
+        assert!(text.contains("no estimate yet"), "{text}");
+        assert!(text.contains("refused in validation since start: 1072 samples"), "{text}");
+        assert!(text.contains("1072 timestamp too far in the past: ") && text.contains("[validation] max_past_ns"), "{text}");
+        assert!(text.contains("1072 of them from sensors without a row"), "{text}");
+        // A sensor with a row names itself.
+        s.sensor_count = 1;
+        s.sensors[0].kind = 1;
+        s.sensors[0].rejection_reasons = 1 << rejection::PAST_TIMESTAMP;
+        assert!(describe(&s).contains("in the past (from imu 0)"), "{}", describe(&s));
+        assert!(!describe(&StateSnapshot::default()).contains("refused in validation"));
+    }
 
     /// An ins snapshot with the odometry scale state and a velocity time offset
     /// estimate: the state table names the scale with its σ, and the offset

@@ -11,7 +11,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use fusion_client::{Client, StateSnapshot, now_ns};
-use fusion_shared::snapshot::{INPUT_NONE, health, model};
+use fusion_shared::snapshot::{INPUT_NONE, health, model, rejection};
 use ratatui::Frame;
 use ratatui::crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
 use ratatui::layout::{Constraint, Layout};
@@ -117,8 +117,9 @@ pub fn draw(frame: &mut Frame, view: &View) {
     let area = frame.area();
     let columns = (area.width / ESTIMATE_COLUMN).max(1) as usize;
     let estimate_height = view.latest.as_ref().map_or(0, |s| estimate_rows(s).len().div_ceil(columns));
+    let refused = view.latest.as_ref().map_or(0, |s| s.rejected());
     let [header, sensors, lower, footer] = Layout::vertical([
-        Constraint::Length(3),
+        Constraint::Length(3 + u16::from(refused > 0)),
         Constraint::Min(4),
         Constraint::Length(estimate_height as u16 + 2),
         Constraint::Length(1),
@@ -165,10 +166,21 @@ pub fn draw(frame: &mut Frame, view: &View) {
             s.pending_steps
         )
     });
-    frame.render_widget(
-        Paragraph::new(vec![line, settled]).block(Block::new().borders(Borders::TOP).title(title)),
-        header,
-    );
+    let mut lines = vec![line, settled];
+    if refused > 0 {
+        let reasons: Vec<String> = s
+            .rejection_counts()
+            .map(|(code, n)| match rejection::setting(code) {
+                Some(setting) => format!("{} {n}: {setting}", rejection::name(code)),
+                None => format!("{} {n}", rejection::name(code)),
+            })
+            .collect();
+        lines.push(Line::styled(
+            format!("refused in validation: {refused} ({})", reasons.join("; ")),
+            Style::default().fg(Color::Red),
+        ));
+    }
+    frame.render_widget(Paragraph::new(lines).block(Block::new().borders(Borders::TOP).title(title)), header);
 
     let wide = area.width >= WIDE;
     let head = if wide {
@@ -412,6 +424,20 @@ mod tests {
         ] {
             assert!(text.contains(needle), "{needle:?} not on the 80x24 screen:\n{text}");
         }
+    }
+
+    /// Every sample refused: the dashboard says so, by reason with its setting.
+    #[test]
+    fn refusals_show_with_their_setting() {
+        let mut s = StateSnapshot::default();
+        s.rejections[rejection::PAST_TIMESTAMP as usize] = 1072;
+        let mut view = View::new("ns");
+        view.add(&s, Instant::now());
+        let text = screen(&view);
+        assert!(
+            text.contains("refused in validation: 1072 (timestamp too far in the past 1072: [validation] max_past_ns)"),
+            "{text}"
+        );
     }
 
     #[test]

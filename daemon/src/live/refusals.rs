@@ -1,0 +1,103 @@
+//! One warning per sensor and reason when samples are refused in validation:
+//! the first refusal of each pair is logged with what to change; the rest are
+//! counted (snapshot, summary line, `fusionctl state`), never logged per sample.
+//!
+//! Bounded: the pairs already warned about are kept for [`TRACKED`] sensors
+//! (those with a row and those without, as a flood of garbage ids has none);
+//! beyond that, one warning per reason for all the others.
+
+use fusion_shared::Sample;
+use fusion_shared::snapshot::rejection;
+
+use crate::reorder::key_of;
+use crate::validate::Rejection;
+
+/// Sensors whose warned reasons are remembered one by one.
+pub const TRACKED: usize = 32;
+
+/// The (kind, sensor) pairs warned about, with the reason bits of each.
+#[derive(Debug, Clone)]
+pub struct RefusalWarnings {
+    sensors: [(u32, u32, u32); TRACKED],
+    len: usize,
+    /// Reason bits warned about for the sensors beyond [`TRACKED`].
+    others: u32,
+}
+
+impl Default for RefusalWarnings {
+    fn default() -> Self {
+        Self { sensors: [(0, 0, 0); TRACKED], len: 0, others: 0 }
+    }
+}
+
+impl RefusalWarnings {
+    /// Whether `sample`, refused for `why`, is the first of its sensor and
+    /// reason (then it is remembered as warned about).
+    pub fn first(&mut self, sample: &Sample, why: Rejection) -> bool {
+        let key = key_of(sample);
+        let (kind, sensor, bit) = (key.kind as u32, key.sensor, 1u32 << why.code());
+        let bits = match self.sensors[..self.len].iter_mut().find(|(k, s, _)| *k == kind && *s == sensor) {
+            Some((_, _, bits)) => bits,
+            None if self.len < TRACKED => {
+                self.sensors[self.len] = (kind, sensor, 0);
+                self.len += 1;
+                &mut self.sensors[self.len - 1].2
+            }
+            None => &mut self.others,
+        };
+        let first = *bits & bit == 0;
+        *bits |= bit;
+        first
+    }
+
+    /// Logs the first refusal of `sample`'s sensor for `why` (a rare event:
+    /// once per sensor and reason), with the sample's time and the clock's.
+    pub fn warn(&mut self, sample: &Sample, why: Rejection, now_ns: u64) {
+        if !self.first(sample, why) {
+            return;
+        }
+        let key = key_of(sample);
+        tracing::warn!(
+            kind = key.kind.name(),
+            sensor = key.sensor,
+            reason = why.reason(),
+            sample_t_s = key.t_ns as f64 * 1e-9,
+            clock_s = now_ns as f64 * 1e-9,
+            "refusing samples of {} {}: {} ({}); further refusals of this sensor for this reason are counted \
+             (`fusionctl state`, the summary line), not logged",
+            key.kind.name(),
+            key.sensor,
+            why.reason(),
+            rejection::advice(why.code()),
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use fusion_shared::{ImuSample, PositionSample};
+
+    use super::*;
+
+    fn imu(sensor: u32) -> Sample {
+        Sample::Imu(ImuSample::new(1, sensor, 0, [0.0; 3], [0.0; 3]))
+    }
+
+    #[test]
+    fn each_sensor_and_reason_is_first_once() {
+        let mut w = RefusalWarnings::default();
+        assert!(w.first(&imu(0), Rejection::PastTimestamp));
+        assert!(!w.first(&imu(0), Rejection::PastTimestamp));
+        assert!(w.first(&imu(0), Rejection::NonFinite));
+        assert!(w.first(&imu(1), Rejection::PastTimestamp));
+        let fix = Sample::Position(PositionSample::new(1, 0, 0, [0.0; 3], [0.0; 9]));
+        assert!(w.first(&fix, Rejection::PastTimestamp), "another kind with the same id");
+        // A flood of ids: beyond TRACKED, one per reason for all of them.
+        for id in 2..TRACKED as u32 + 10 {
+            w.first(&imu(id), Rejection::WrongKind);
+        }
+        assert!(!w.first(&imu(1000), Rejection::WrongKind));
+        assert!(w.first(&imu(1001), Rejection::OutOfRange));
+        assert!(!w.first(&imu(1002), Rejection::OutOfRange));
+    }
+}
