@@ -127,6 +127,12 @@ pub fn run(config: &Config, options: &RunOptions, shutdown: &AtomicBool) -> Resu
 /// the service), and `receive` passes over a publisher at that limit to the
 /// next: in each turn every publisher gets the same share. The samples are given
 /// back at the end of the turn.
+///
+/// A port whose publishers have all given their share while they have more is
+/// *blocked* for the rest of the turn: its next samples are unseen, so the merge
+/// ([`IpcSource::next`]) hands out no sample of another port that could come
+/// after them, and the turn ends; under a backlog the kinds are drained in
+/// timestamp order, not one kind's share ahead of another's.
 struct KindPort<T: WireSample> {
     subscriber: Subscriber<Ipc, T, ()>,
     service: publish_subscribe::PortFactory<Ipc, T, ()>,
@@ -134,6 +140,11 @@ struct KindPort<T: WireSample> {
     /// share: pushing never allocates).
     held: Vec<iceoryx2::sample::Sample<Ipc, T, ()>>,
     pending: Option<T>,
+    /// The oldest `(t_ns, rank)` received this turn: every publisher's next
+    /// sample is at or after its last one, so at or after this.
+    turn_oldest: Option<(u64, u8)>,
+    /// Every publisher with samples waiting has given its share this turn.
+    blocked: bool,
     /// A publisher is connected or samples are waiting (as of the last
     /// [`Port::refresh`]). An empty poll costs about 65 ns, and each one more in a
     /// turn of the spin loop delays the sample that arrives meanwhile: the
@@ -144,8 +155,11 @@ struct KindPort<T: WireSample> {
 /// A [`KindPort`] of any wire type.
 trait Port {
     /// Receives into the pending slot if it is empty; returns the pending
-    /// sample's `(t_ns, rank)`.
-    fn poll(&mut self, errors: &mut u64) -> Option<(u64, u8)>;
+    /// sample's `(t_ns, rank)`, and while the port is blocked (its publishers
+    /// have given their share of the turn and have more) the oldest `(t_ns,
+    /// rank)` its next samples can have: no sample at or after it may go
+    /// before them.
+    fn poll(&mut self, errors: &mut u64) -> (Option<(u64, u8)>, Option<(u64, u8)>);
     /// Hands the pending sample over.
     fn take(&mut self) -> Option<Sample>;
     /// Housekeeping: whether this kind has a publisher or waiting samples.
@@ -155,11 +169,13 @@ trait Port {
 }
 
 impl<T: WireSample> Port for KindPort<T> {
-    fn poll(&mut self, errors: &mut u64) -> Option<(u64, u8)> {
+    fn poll(&mut self, errors: &mut u64) -> (Option<(u64, u8)>, Option<(u64, u8)>) {
         if self.pending.is_none() && self.active {
             match self.subscriber.receive() {
                 // Copied out, and held until the end of the turn (fair draining).
                 Ok(Some(sample)) => {
+                    let key = (sample.payload().header().t_ns, measurement::rank(T::KIND));
+                    self.turn_oldest = Some(self.turn_oldest.map_or(key, |k| k.min(key)));
                     self.pending = Some(*sample);
                     if self.held.len() < self.held.capacity() {
                         self.held.push(sample);
@@ -167,7 +183,7 @@ impl<T: WireSample> Port for KindPort<T> {
                 }
                 Ok(None) => {}
                 // Every publisher with data has given its share of this turn.
-                Err(ReceiveError::ExceedsMaxBorrows) => {}
+                Err(ReceiveError::ExceedsMaxBorrows) => self.blocked = true,
                 Err(e) => {
                     if *errors == 0 {
                         tracing::warn!("{} receive: {e:?} (further failures are only counted)", T::KIND.name());
@@ -176,7 +192,9 @@ impl<T: WireSample> Port for KindPort<T> {
                 }
             }
         }
-        self.pending.map(|p| (p.header().t_ns, measurement::rank(T::KIND)))
+        // Blocked with nothing taken cannot be (the borrows are this turn's);
+        // then nothing of this port bounds the others.
+        (self.pending.map(|p| (p.header().t_ns, measurement::rank(T::KIND))), self.turn_oldest.filter(|_| self.blocked))
     }
 
     fn take(&mut self) -> Option<Sample> {
@@ -190,6 +208,7 @@ impl<T: WireSample> Port for KindPort<T> {
 
     fn release(&mut self) {
         self.held.clear();
+        (self.turn_oldest, self.blocked) = (None, false);
     }
 }
 
@@ -239,7 +258,15 @@ impl IpcSource {
                     Ok((service, subscriber)) => {
                         let held =
                             Vec::with_capacity(service::MAX_SAMPLE_PUBLISHERS * service::MAX_BORROWED_PER_PUBLISHER);
-                        let mut port = KindPort::<T> { subscriber, service, held, pending: None, active: true };
+                        let mut port = KindPort::<T> {
+                            subscriber,
+                            service,
+                            held,
+                            pending: None,
+                            turn_oldest: None,
+                            blocked: false,
+                            active: true,
+                        };
                         port.refresh();
                         self.ports.push(Box::new(port));
                     }
@@ -275,11 +302,28 @@ impl SampleSource for IpcSource {
     /// while the in-order sample's snapshot would otherwise wait for both (the
     /// IMU sample right behind a late GNSS fix). At most `MAX_PASSED_OVER`
     /// in-order samples go ahead of it.
+    ///
+    /// A port that is blocked for the rest of the turn (its publishers gave
+    /// their share and have more) holds back every sample at or after the
+    /// oldest it gave this turn: its unseen samples may be older. `None` then
+    /// ends the turn; the next one gives its publishers their next share.
     fn next(&mut self, newest: Option<(u64, u8)>) -> Option<Sample> {
+        let mut heads = [None; SampleKind::COUNT];
+        let mut bound: Option<(u64, u8)> = None;
+        for (head, port) in heads.iter_mut().zip(self.ports.iter_mut()) {
+            let blocked_from;
+            (*head, blocked_from) = port.poll(&mut self.receive_errors);
+            if let Some(b) = blocked_from {
+                bound = Some(bound.map_or(b, |x| x.min(b)));
+            }
+        }
         let mut oldest: Option<((u64, u8), usize)> = None;
         let mut oldest_in_order: Option<((u64, u8), usize)> = None;
-        for (i, port) in self.ports.iter_mut().enumerate() {
-            let Some(key) = port.poll(&mut self.receive_errors) else { continue };
+        for (i, head) in heads.iter().enumerate() {
+            let Some(key) = *head else { continue };
+            if bound.is_some_and(|b| key >= b) {
+                continue;
+            }
             if oldest.is_none_or(|(k, _)| key < k) {
                 oldest = Some((key, i));
             }
