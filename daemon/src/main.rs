@@ -200,6 +200,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     replay::recording::replay_recording(&config, &recording, writer, smooth, compare, tick)?;
                 bar.finish_and_clear();
                 eprint!("{summary}");
+                if recording.was_cut_off() {
+                    eprintln!(
+                        "replay: {} was cut off (no summary: the recorder was killed or lost its power): replayed \
+                         what its complete chunks hold ({} samples); what the recorder had not yet written is lost",
+                        input.display(),
+                        summary.read
+                    );
+                }
                 if let Some(c) = comparison {
                     eprint!("{c}");
                     anyhow::ensure!(c.equal(), "the replay differs from the live run");

@@ -12,6 +12,7 @@
 use std::fs::File;
 use std::io::Write;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use fusion_shared::SampleKind;
 use fusion_shared::recording::{self, SAMPLE_TOPIC_PREFIX, SnapshotJson};
@@ -28,10 +29,31 @@ use crate::snapshot::{self, Input};
 pub const DIFFERENCES_REPORTED: usize = 10;
 
 /// An MCAP recording, mapped into memory.
+///
+/// A recording cut off (the recorder killed, or its power lost) has no summary
+/// and ends in the middle of a record: it is read up to its last complete
+/// record (every complete chunk), and [`Recording::was_cut_off`] says so.
 pub struct Recording {
     map: memmap2::Mmap,
     /// The summary section, if the file has one (a cut-off recording has not).
     summary: Option<mcap::Summary>,
+    /// A read of it ended at a record cut off by the end of the file.
+    cut_off: AtomicBool,
+}
+
+/// Ends `messages` at a record cut off by the end of the file (a recording
+/// whose writer was killed), setting `cut_off`; every other error stays one.
+fn until_cut<'a, T>(
+    messages: impl Iterator<Item = mcap::McapResult<T>> + 'a,
+    cut_off: &'a AtomicBool,
+) -> impl Iterator<Item = mcap::McapResult<T>> + 'a {
+    messages.map_while(move |m| match m {
+        Err(mcap::McapError::UnexpectedEof) => {
+            cut_off.store(true, Ordering::Relaxed);
+            None
+        }
+        m => Some(m),
+    })
 }
 
 fn mcap_error(e: mcap::McapError) -> std::io::Error {
@@ -47,7 +69,14 @@ impl Recording {
         // is not written to (`fusionctl record` writes a new file).
         let map = unsafe { memmap2::Mmap::map(&file)? };
         let summary = mcap::Summary::read(&map).ok().flatten();
-        Ok(Self { map, summary })
+        Ok(Self { map, summary, cut_off: AtomicBool::new(false) })
+    }
+
+    /// Whether a read of the recording ended at a record cut off by the end of
+    /// the file: the recorder was killed or lost its power, and what it had not
+    /// yet written (at most its flush interval) is lost.
+    pub fn was_cut_off(&self) -> bool {
+        self.cut_off.load(Ordering::Relaxed)
     }
 
     /// Whether `bytes` start with the MCAP magic.
@@ -91,7 +120,8 @@ impl Recording {
                 let stream = mcap::MessageStream::new(&self.map).map_err(mcap_error)?;
                 // A stream's messages own their data ('static); the type says 's.
                 #[allow(clippy::map_identity)]
-                Box::new(stream.map(|m| -> mcap::McapResult<mcap::Message<'s>> { m }))
+                let stream = stream.map(|m| -> mcap::McapResult<mcap::Message<'s>> { m });
+                Box::new(until_cut(stream, &self.cut_off))
             }
         };
         Ok(messages.filter_map(|m| match m {
@@ -104,7 +134,7 @@ impl Recording {
     /// The recorded snapshots that report a processed sample, in order.
     pub fn live_snapshots(&self) -> std::io::Result<impl Iterator<Item = std::io::Result<SnapshotJson>> + '_> {
         let stream = mcap::MessageStream::new(&self.map).map_err(mcap_error)?;
-        Ok(stream.filter_map(|m| {
+        Ok(until_cut(stream, &self.cut_off).filter_map(|m| {
             let m = match m {
                 Ok(m) => m,
                 Err(e) => return Some(Err(mcap_error(e))),

@@ -62,6 +62,11 @@ enum Command {
         /// Write uncompressed chunks (default: zstd).
         #[arg(long)]
         no_compression: bool,
+        /// Seconds between writes of what was gathered as complete chunks,
+        /// synced to the disk: a recorder killed or without power (ignition
+        /// off) loses at most this much (readers use every complete chunk).
+        #[arg(long, value_parser = seconds, default_value_t = record::DEFAULT_FLUSH_INTERVAL_S)]
+        flush_interval: f64,
     },
     /// Write a report of a run (SVG and PNG): trajectory, errors or ±3σ bands,
     /// NIS per sensor with χ² bounds, latency histogram of a live recording.
@@ -176,9 +181,10 @@ fn run(cli: Cli) -> anyhow::Result<u8> {
             let _ = out.flush();
             Ok(fusion_shared::exit::SUCCESS)
         }
-        Command::Record { output, namespace, duration, no_compression } => {
+        Command::Record { output, namespace, duration, no_compression, flush_interval } => {
             let duration = duration.map(Duration::from_secs_f64);
-            let c = record::run(&namespace, &output, duration, !no_compression, &stop)?;
+            let flush_interval = Duration::from_secs_f64(flush_interval);
+            let c = record::run(&namespace, &output, duration, !no_compression, flush_interval, &stop)?;
             eprintln!(
                 "fusionctl: recorded {} samples ({} not processed by fusiond) and {} snapshots to {}",
                 c.samples,

@@ -105,8 +105,23 @@ fn from_recording(path: &Path) -> anyhow::Result<Data> {
     let mut gated_fixes = HashMap::new();
     let mut previous_gated: HashMap<(String, u32), u64> = HashMap::new();
     let mut datum = None;
+    let mut messages = 0u64;
     for m in mcap::MessageStream::new(&bytes)? {
-        let m = m?;
+        let m = match m {
+            Ok(m) => m,
+            // Cut off by the end of the file (the recorder was killed or lost
+            // its power): what its complete chunks hold is the report.
+            Err(mcap::McapError::UnexpectedEof) => {
+                eprintln!(
+                    "fusionctl: {} was cut off (no summary: the recorder was killed or lost its power): the report \
+                     shows its {messages} messages in complete chunks",
+                    path.display()
+                );
+                break;
+            }
+            Err(e) => return Err(e.into()),
+        };
+        messages += 1;
         if let Some(kind) = recording::kind_of_topic(&m.channel.topic) {
             if let Ok(s) = recording::parse_sample(kind, &m.data) {
                 samples.push(s);

@@ -23,8 +23,14 @@ use fusion_shared::snapshot::INPUT_NONE;
 
 /// Bytes of messages gathered before they are written as chunks of their own:
 /// the samples and the snapshots go to separate chunks, so that a replay reads
-/// (and decompresses) only the samples' chunks.
+/// (and decompresses) only the samples' chunks. What is gathered is also
+/// written at every flush interval (`--flush-interval`).
 const BATCH_BYTES: usize = 1 << 20;
+
+/// Default of `fusionctl record --flush-interval`, s: at most this much of a
+/// recording (plus the 250 ms a sample waits for its snapshot) is lost when the
+/// recorder is killed or loses its power.
+pub const DEFAULT_FLUSH_INTERVAL_S: f64 = 1.0;
 
 /// Messages gathered for chunks of their own.
 #[derive(Default)]
@@ -239,6 +245,14 @@ impl<W: Write + std::io::Seek> Recorder<W> {
         Ok(())
     }
 
+    /// Writes every message gathered so far as complete chunks, and hands them
+    /// to the operating system.
+    pub fn write_held(&mut self) -> anyhow::Result<()> {
+        Self::write_batch(&mut self.mcap, &mut self.samples)?;
+        Self::write_batch(&mut self.mcap, &mut self.snapshots)?;
+        Ok(())
+    }
+
     /// Writes the samples whose place is settled at `now` (all of them when
     /// `now` is `u64::MAX`): the processed ones in fusiond's order, the
     /// unreported ones before the first processed one fusiond received after
@@ -307,21 +321,35 @@ impl<W: Write + std::io::Seek> Recorder<W> {
 }
 
 /// Records namespace `namespace` to `output` until `stop` is set or `duration`
-/// passes, with a progress line on stderr.
+/// passes, with a progress line on stderr. Every `flush_interval` what was
+/// gathered is written as complete chunks and synced to the disk: a recorder
+/// killed or without power loses at most that (a reader uses every complete
+/// chunk of a cut-off file).
 pub fn run(
     namespace: &str,
     output: &Path,
     duration: Option<Duration>,
     compress: bool,
+    flush_interval: Duration,
     stop: &AtomicBool,
 ) -> anyhow::Result<Counts> {
     let client = Client::connect(namespace)?;
     let mut samples = client.sample_subscriber()?;
     let mut waited = false;
+    let waiting_since = Instant::now();
     let mut state = loop {
         match client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER) {
             Ok(s) => break s,
             Err(ClientError::DaemonNotRunning { .. }) if !stop.load(Ordering::Relaxed) => {
+                if let Some(d) = duration
+                    && waiting_since.elapsed() >= d
+                {
+                    anyhow::bail!(
+                        "no fusiond ran in namespace {namespace:?} within the {:.1} s of --duration: nothing recorded \
+                         (is the namespace right? `fusionctl state --namespace NS` asks one)",
+                        d.as_secs_f64()
+                    );
+                }
                 if !waited {
                     eprintln!("fusionctl: waiting for fusiond in namespace {namespace:?} …");
                     waited = true;
@@ -332,7 +360,10 @@ pub fn run(
         }
     };
     let file = File::create(output).with_context(|| format!("cannot create {}", output.display()))?;
+    // The same open file, for syncing what was written to the disk.
+    let sync = file.try_clone()?;
     let mut recorder = Recorder::new(BufWriter::with_capacity(1 << 20, file), compress)?;
+    let mut next_flush = Instant::now() + flush_interval;
     let started = Instant::now();
     let terminal = std::io::stderr().is_terminal();
     let mut next_progress = started + Duration::from_secs(1);
@@ -348,6 +379,11 @@ pub fn run(
             busy = true;
         }
         recorder.flush(now_ns())?;
+        if Instant::now() >= next_flush {
+            recorder.write_held()?;
+            sync.sync_data().with_context(|| format!("cannot sync {}", output.display()))?;
+            next_flush = Instant::now() + flush_interval;
+        }
         if Instant::now() >= next_progress {
             let c = recorder.counts();
             let rate = (c.samples - last.1) as f64 / last.0.elapsed().as_secs_f64();
