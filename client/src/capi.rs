@@ -626,12 +626,13 @@ const fn rejection_text(code: u32) -> (&'static CStr, Option<&'static CStr>) {
         FUSION_REJECTION_COVARIANCE_NOT_POSITIVE_DEFINITE => (c"covariance not positive definite", None),
         FUSION_REJECTION_FUTURE_TIMESTAMP => (c"timestamp in the future", Some(c"[validation] max_future_ns")),
         FUSION_REJECTION_PAST_TIMESTAMP => (c"timestamp too far in the past", Some(c"[validation] max_past_ns")),
-        FUSION_REJECTION_TIME_JUMP => (c"timestamp jumps too far ahead of the others", Some(c"[validation] max_jump_ns")),
+        FUSION_REJECTION_TIME_JUMP => {
+            (c"timestamp jumps too far ahead of the others", Some(c"[validation] max_jump_ns"))
+        }
         FUSION_REJECTION_TOO_MANY_SENSORS => (c"too many sensors", Some(c"[validation] max_sensors")),
-        FUSION_REJECTION_OUT_OF_RANGE => (
-            c"beyond the sensor range",
-            Some(c"[validation] accel_range_mps2 and gyro_range_radps (IMU)"),
-        ),
+        FUSION_REJECTION_OUT_OF_RANGE => {
+            (c"beyond the sensor range", Some(c"[validation] accel_range_mps2 and gyro_range_radps (IMU)"))
+        }
         FUSION_REJECTION_VARIANCE_NOT_POSITIVE => (c"variance not positive", None),
         FUSION_REJECTION_WRONG_KIND => (c"header kind does not match the payload", None),
         _ => (c"unknown", None),

@@ -152,6 +152,9 @@ struct KindPort<T: WireSample> {
     active: bool,
 }
 
+/// A sample's place in the merge: `(t_ns, rank of its kind)`.
+type Key = (u64, u8);
+
 /// A [`KindPort`] of any wire type.
 trait Port {
     /// Receives into the pending slot if it is empty; returns the pending
@@ -159,7 +162,7 @@ trait Port {
     /// have given their share of the turn and have more) the oldest `(t_ns,
     /// rank)` its next samples can have: no sample at or after it may go
     /// before them.
-    fn poll(&mut self, errors: &mut u64) -> (Option<(u64, u8)>, Option<(u64, u8)>);
+    fn poll(&mut self, errors: &mut u64) -> (Option<Key>, Option<Key>);
     /// Hands the pending sample over.
     fn take(&mut self) -> Option<Sample>;
     /// Housekeeping: whether this kind has a publisher or waiting samples.
@@ -169,7 +172,7 @@ trait Port {
 }
 
 impl<T: WireSample> Port for KindPort<T> {
-    fn poll(&mut self, errors: &mut u64) -> (Option<(u64, u8)>, Option<(u64, u8)>) {
+    fn poll(&mut self, errors: &mut u64) -> (Option<Key>, Option<Key>) {
         if self.pending.is_none() && self.active {
             match self.subscriber.receive() {
                 // Copied out, and held until the end of the turn (fair draining).

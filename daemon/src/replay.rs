@@ -46,9 +46,6 @@ pub enum ReplayError {
     /// The configured model could not be built.
     #[error(transparent)]
     Model(#[from] ConfigError),
-    /// The smoother failed (a prior covariance without Cholesky factor).
-    #[error(transparent)]
-    Smoother(#[from] crate::filter::SmootherError),
     /// No sample of the input could be processed.
     #[error("no sample could be processed ({0} lines read)")]
     NothingProcessed(u64),
@@ -80,6 +77,13 @@ pub struct ReplaySummary {
     /// offset at the end of the run: `(τ̂, σ_τ, samples)`, s
     /// ([`crate::model::Model::velocity_time_offset`]).
     pub velocity_time_offset: Option<(f64, f64, u64)>,
+    /// With `--smooth`: steps the smoothing could not pass back through (a
+    /// prior covariance without a Cholesky factor, or a smoothed result that
+    /// is not a covariance): each kept its filtered estimate, and the
+    /// stretches on either side were smoothed apart.
+    pub smoothing_breaks: u64,
+    /// The times of the first of them, ns.
+    pub smoothing_breaks_at: Vec<u64>,
 }
 
 /// What the velocity time offset estimate (`τ̂` ± `σ_τ` s from `n` samples) says
@@ -148,6 +152,17 @@ impl std::fmt::Display for ReplaySummary {
                 "filter re-initialised from the fixes {} times after a lock-out (at line {})",
                 self.reinitialisations,
                 lines.join(", ")
+            )?;
+        }
+        if self.smoothing_breaks > 0 {
+            let at: Vec<String> = self.smoothing_breaks_at.iter().map(|t| format!("{:.3}", *t as f64 * 1e-9)).collect();
+            writeln!(
+                f,
+                "smoothing could not pass back through {} steps (a prior covariance that is not positive definite): \
+                 each keeps its filtered estimate and the stretches on either side were smoothed apart (at t = {} s{})",
+                self.smoothing_breaks,
+                at.join(", "),
+                if self.smoothing_breaks > at.len() as u64 { ", …" } else { "" }
             )?;
         }
         Ok(())
@@ -421,7 +436,12 @@ fn replay_model<M: Steps>(
         }
         stretches.push(smoothed.len());
         for pair in stretches.windows(2) {
-            M::smooth(&mut smoothed[pair[0]..pair[1]])?;
+            for k in M::smooth(&mut smoothed[pair[0]..pair[1]]) {
+                summary.smoothing_breaks += 1;
+                if summary.smoothing_breaks_at.len() < INVALID_LINES_REPORTED {
+                    summary.smoothing_breaks_at.push(finals[pair[0] + k].0.t_ns);
+                }
+            }
         }
         if let Some(output) = &mut sink.output {
             for ((key, outcome, _), record) in finals.iter().zip(&smoothed) {

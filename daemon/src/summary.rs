@@ -90,8 +90,7 @@ pub fn format(s: &Summary) -> String {
         .filter(|(code, _)| s.rejections[*code as usize] > 0)
         .map(|(code, name)| format!("{name} {}", s.rejections[*code as usize]))
         .collect();
-    let invalid =
-        if refused == 0 { "0".to_string() } else { format!("{refused} ({})", reasons_refused.join(", ")) };
+    let invalid = if refused == 0 { "0".to_string() } else { format!("{refused} ({})", reasons_refused.join(", ")) };
     let latency = match s.latency_ns {
         Some((p50, p99, max)) => format!("{:.1}/{:.1}/{:.1} us", p50 as f64 / 1e3, p99 as f64 / 1e3, max as f64 / 1e3),
         None => "-".to_string(),
@@ -138,10 +137,7 @@ mod tests {
         s.rejections[rejection::PAST_TIMESTAMP as usize] = 1072;
         s.rejections[rejection::NON_FINITE as usize] = 3;
         let line = format(&s);
-        assert!(
-            line.contains("invalid 1075 (non-finite value 3, timestamp too far in the past 1072)"),
-            "{line}"
-        );
+        assert!(line.contains("invalid 1075 (non-finite value 3, timestamp too far in the past 1072)"), "{line}");
         assert!(format(&Summary { interval_s: 1.0, ..Default::default() }).contains("invalid 0,"));
     }
 }

@@ -554,9 +554,7 @@ fn publish_file(
                 let reasons: Vec<String> = rejection::ALL
                     .iter()
                     .filter(|(code, _)| rejections[*code as usize] > 0)
-                    .map(|(code, name)| {
-                        format!("{} {name}: {}", rejections[*code as usize], rejection::advice(*code))
-                    })
+                    .map(|(code, name)| format!("{} {name}: {}", rejections[*code as usize], rejection::advice(*code)))
                     .collect();
                 if !reasons.is_empty() {
                     anyhow::bail!(

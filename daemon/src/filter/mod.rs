@@ -19,4 +19,4 @@ pub use kalman::{
     FaultDecision, FaultDetector, FilterError, Form, KalmanFilter, MeasurementView, UpdateDecision, UpdateDiagnostics,
     UpdateOptions, map_process_noise,
 };
-pub use smoother::{RtsStep, SmootherError, StepLog, rts_smooth};
+pub use smoother::{RtsStep, StepLog, rts_smooth};

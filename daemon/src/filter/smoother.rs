@@ -73,29 +73,39 @@ impl<T: RealField + Copy, const N: usize> StepLog<T, N> {
     }
 }
 
-/// Why smoothing failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum SmootherError {
-    /// A prior covariance `P⁻ₖ` had no Cholesky factor, so `Cₖ` is undefined.
-    #[error("prior covariance of step {0} is not positive definite")]
-    PriorNotPositiveDefinite(usize),
-}
-
 /// Smooths `steps` in place: each posterior is replaced by the smoothed estimate
 /// `(xˢₖ, Pˢₖ)`; the priors are left as they were.
-pub fn rts_smooth<T: RealField + Copy, const N: usize>(steps: &mut [RtsStep<T, N>]) -> Result<(), SmootherError> {
+///
+/// Where the recursion cannot pass from step `k+1` back to step `k` (a prior
+/// `P⁻ₖ₊₁` without a Cholesky factor, so `Cₖ` is undefined, or a smoothed
+/// result that is not finite or has a negative variance), step `k` keeps its
+/// filtered estimate and the recursion starts again from it: `Cₖ = 0`, the
+/// run is smoothed as two stretches that end at `k` and start at `k+1`
+/// (each exact given its own data). Returns those `k`, in order.
+pub fn rts_smooth<T: RealField + Copy, const N: usize>(steps: &mut [RtsStep<T, N>]) -> Vec<usize> {
     let half = T::from_subset(&0.5);
+    let mut breaks = Vec::new();
     for k in (0..steps.len().saturating_sub(1)).rev() {
         let next = steps[k + 1];
         let cur = &mut steps[k];
-        let chol = Cholesky::new(next.P_prior).ok_or(SmootherError::PriorNotPositiveDefinite(k + 1))?;
+        let Some(chol) = Cholesky::new(next.P_prior) else {
+            breaks.push(k);
+            continue;
+        };
         // Cₖ = P⁺ₖ Fᵀ (P⁻)⁻¹  ⇔  Cₖᵀ = (P⁻)⁻¹ F P⁺ₖ  (both covariances symmetric).
         let C = chol.solve(&(next.F * cur.P_post)).transpose();
-        cur.x_post += C * (next.x_post - next.x_prior);
+        let x = cur.x_post + C * (next.x_post - next.x_prior);
         let P = cur.P_post + C * (next.P_post - next.P_prior) * C.transpose();
-        cur.P_post = (P + P.transpose()) * half;
+        let P = (P + P.transpose()) * half;
+        let usable = x.iter().chain(P.iter()).all(|v| v.is_finite()) && (0..N).all(|i| P[(i, i)] >= T::zero());
+        if !usable {
+            breaks.push(k);
+            continue;
+        }
+        (cur.x_post, cur.P_post) = (x, P);
     }
-    Ok(())
+    breaks.reverse();
+    breaks
 }
 
 #[cfg(test)]
@@ -130,7 +140,7 @@ mod tests {
             kf.update(&Vector1::new(*zk), &H, &nalgebra::Matrix1::new(R), UpdateOptions::default()).unwrap();
             steps.push(log.finish(&kf));
         }
-        rts_smooth(&mut steps).unwrap();
+        assert!(rts_smooth(&mut steps).is_empty());
 
         let dim = 2 * n;
         let mut info = DMatrix::<f64>::zeros(dim, dim);
@@ -175,16 +185,39 @@ mod tests {
         assert!((steps[0].P_post[(0, 0)] - P0[(0, 0)]).abs() > 1e-3);
     }
 
+    /// A prior without a Cholesky factor in the middle of a run: the run is
+    /// smoothed as the two stretches on either side of it, each as it would be
+    /// alone, and the step before it keeps its filtered estimate.
     #[test]
-    fn singular_prior_is_an_error() {
-        let zero: RtsStep<f64, 2> = RtsStep {
-            x_prior: Vector2::zeros(),
-            P_prior: Matrix2::zeros(),
-            x_post: Vector2::zeros(),
-            P_post: Matrix2::identity(),
-            F: Matrix2::identity(),
-        };
-        let mut steps = [zero, zero];
-        assert_eq!(rts_smooth(&mut steps), Err(SmootherError::PriorNotPositiveDefinite(1)));
+    fn a_singular_prior_splits_the_run_into_stretches_smoothed_apart() {
+        let F = Matrix2::new(1.0, 0.1, 0.0, 1.0);
+        let Q = Matrix2::new(0.02, 0.005, 0.005, 0.1);
+        let H = Matrix1x2::new(1.0, 0.0);
+        let mut kf = KalmanFilter::new(Vector2::new(0.5, -1.0), Matrix2::new(2.0, 0.1, 0.1, 1.0)).unwrap();
+        let mut steps = Vec::new();
+        for k in 0..10 {
+            let mut log = StepLog::begin(&kf);
+            if k > 0 {
+                kf.predict(&F, &Q).unwrap();
+                log.predicted(&kf, &F);
+            }
+            let z = Vector1::new((k as f64 * 0.7).sin());
+            kf.update(&z, &H, &nalgebra::Matrix1::new(0.3), UpdateOptions::default()).unwrap();
+            steps.push(log.finish(&kf));
+        }
+        let filtered = steps.clone();
+        steps[6].P_prior = Matrix2::new(1.0, 2.0, 2.0, 1.0); // indefinite
+        let (mut first, mut second) = (steps[..6].to_vec(), steps[6..].to_vec());
+        assert_eq!(rts_smooth(&mut steps), vec![5]);
+        assert!(rts_smooth(&mut first).is_empty() && rts_smooth(&mut second).is_empty());
+        assert_eq!(steps[..6], first[..]);
+        assert_eq!(steps[6..], second[..]);
+        assert_eq!(steps[5].x_post, filtered[5].x_post, "the step before the break keeps its filtered estimate");
+        assert_ne!(steps[4].x_post, filtered[4].x_post, "the stretch before it is smoothed");
+        // Every prior singular: nothing can be smoothed, nothing fails.
+        let zero: RtsStep<f64, 2> = RtsStep { P_prior: Matrix2::zeros(), ..filtered[1] };
+        let mut all = [zero, zero, zero];
+        assert_eq!(rts_smooth(&mut all), vec![0, 1]);
+        assert_eq!(all[0], zero);
     }
 }

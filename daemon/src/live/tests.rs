@@ -215,7 +215,10 @@ fn refused_samples_are_published_by_reason_while_nothing_else_is() {
     let snap = sink.sent[0];
     assert_eq!(snap.input_kind, fusion_shared::snapshot::INPUT_NONE);
     assert_eq!((snap.health, snap.sensor_count, snap.state_len), (health::INITIALISING, 0, 0));
-    assert_eq!(snap.rejection_counts().collect::<Vec<_>>(), [(rejection::NON_FINITE, 1), (rejection::PAST_TIMESTAMP, 50)]);
+    assert_eq!(
+        snap.rejection_counts().collect::<Vec<_>>(),
+        [(rejection::NON_FINITE, 1), (rejection::PAST_TIMESTAMP, 50)]
+    );
     assert_eq!((snap.rejected(), snap.unknown_sensor), (51, 51));
     // Nothing new: nothing published. New refusals: not before the interval.
     core.housekeeping(t0 + REFUSAL_SNAPSHOT_NS + HOUSEKEEPING_NS, &mut none(), &mut sink);
@@ -227,5 +230,7 @@ fn refused_samples_are_published_by_reason_while_nothing_else_is() {
     assert_eq!(sink.sent[1].rejections[rejection::PAST_TIMESTAMP as usize], 51);
     let summary = core.housekeeping(t0 + 1_500_000_000, &mut none(), &mut sink).expect("a summary");
     assert_eq!(summary.rejections[rejection::PAST_TIMESTAMP as usize], 51);
-    assert!(crate::summary::format(&summary).contains("invalid 52 (non-finite value 1, timestamp too far in the past 51)"));
+    assert!(
+        crate::summary::format(&summary).contains("invalid 52 (non-finite value 1, timestamp too far in the past 51)")
+    );
 }

@@ -81,7 +81,7 @@ pub(crate) use error_state::inject_and_reset;
 use error_state::{ProcessNoise, inject};
 
 use super::{Model, advance_time};
-use crate::filter::{ChiSquareGate, FilterError, KalmanFilter, RtsStep, SmootherError, StepLog, rts_smooth};
+use crate::filter::{ChiSquareGate, FilterError, KalmanFilter, RtsStep, StepLog, rts_smooth};
 use crate::frames::Frames;
 use crate::model::held_imu::{Held, HeldImu};
 use crate::model::lockout::{Lockout, LockoutConfig};
@@ -520,9 +520,9 @@ impl<const D: usize> Model for InsModel<D> {
     /// `[½δθ]×`). The linear RTS recursion ([`rts_smooth`]) then gives each step's
     /// smoothed error `δxˢₖ = Cₖ (δxˢₖ₊₁ + dxₖ₊₁)` and `Pˢₖ`, and the smoothed nominal is
     /// `x⁺ₖ ⊕ δxˢₖ` (injected as a correction is).
-    fn smooth(records: &mut [InsRecord<D>]) -> Result<(), SmootherError> {
+    fn smooth(records: &mut [InsRecord<D>]) -> Vec<usize> {
         let mut steps: Vec<RtsStep<f64, D>> = records.iter().map(|r| r.step).collect();
-        rts_smooth(&mut steps)?;
+        let breaks = rts_smooth(&mut steps);
         // `inject` works on the nominal part of a state only.
         let placeholder = linearised::placeholder();
         for (r, smoothed) in records.iter_mut().zip(&steps) {
@@ -532,7 +532,7 @@ impl<const D: usize> Model for InsModel<D> {
             r.step.x_post = SVector::zeros();
             r.step.P_post = smoothed.P_post;
         }
-        Ok(())
+        breaks
     }
 
     fn record_output(r: &InsRecord<D>) -> (&[f64], &[f64]) {

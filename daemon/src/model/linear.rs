@@ -28,7 +28,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use super::{Model, StepOutcome, advance_time};
-use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, SmootherError, StepLog, UpdateDecision, rts_smooth};
+use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, StepLog, UpdateDecision, rts_smooth};
 use crate::frames::Frames;
 use crate::model::held_imu::HeldImu;
 use crate::model::lockout::{Lockout, LockoutConfig};
@@ -275,7 +275,7 @@ impl Model for LinearModel {
         s.kf.write_covariance(out);
     }
 
-    fn smooth(records: &mut [RtsStep<f64, N>]) -> Result<(), SmootherError> {
+    fn smooth(records: &mut [RtsStep<f64, N>]) -> Vec<usize> {
         rts_smooth(records)
     }
 

@@ -160,8 +160,11 @@ pub trait Model {
         out
     }
 
-    /// Smooths a complete run of records in place (RTS).
-    fn smooth(records: &mut [Self::Record]) -> Result<(), crate::filter::SmootherError>;
+    /// Smooths a complete run of records in place (RTS). Returns the records
+    /// the smoothing could not pass back from the next one (see
+    /// [`rts_smooth`](crate::filter::rts_smooth)): each keeps its filtered
+    /// estimate, and the stretches on either side are smoothed apart.
+    fn smooth(records: &mut [Self::Record]) -> Vec<usize>;
 
     /// `(x, P)` of a record (after smoothing: the smoothed estimate).
     fn record_output(record: &Self::Record) -> (&[f64], &[f64]);

@@ -112,7 +112,10 @@ pub fn cases() -> Vec<(StateSnapshot, Option<usize>)> {
         (StateSnapshot { aux_states: 0, ..ins_with_scale() }, Some(12)),
         (StateSnapshot { aux_states: aux::ODOMETRY_SCALE | 1 << 7, ..ins_with_scale() }, Some(12)),
         // Refusals by reason (every code, and one past them the names do not read).
-        (StateSnapshot { rejections: std::array::from_fn(|c| if c == 0 { 0 } else { 1000 + c as u64 }), ..ins }, Some(12)),
+        (
+            StateSnapshot { rejections: std::array::from_fn(|c| if c == 0 { 0 } else { 1000 + c as u64 }), ..ins },
+            Some(12),
+        ),
     ]);
     cases
 }

@@ -84,7 +84,9 @@ pub const fn advice(code: u32) -> &'static str {
             "the publisher's clock runs ahead of fusiond's CLOCK_MONOTONIC: stamp with CLOCK_MONOTONIC or raise \
              [validation] max_future_ns"
         }
-        TIME_JUMP => "the timestamps jump ahead of the other sensors': check the clock, or raise [validation] max_jump_ns",
+        TIME_JUMP => {
+            "the timestamps jump ahead of the other sensors': check the clock, or raise [validation] max_jump_ns"
+        }
         TOO_MANY_SENSORS => {
             "more sensor ids than the table has rows: check the publishers' sensor ids, or raise [validation] \
              max_sensors"

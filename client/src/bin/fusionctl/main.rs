@@ -400,7 +400,10 @@ mod tests {
         let text = describe(&s);
         assert!(text.contains("no estimate yet"), "{text}");
         assert!(text.contains("refused in validation since start: 1072 samples"), "{text}");
-        assert!(text.contains("1072 timestamp too far in the past: ") && text.contains("[validation] max_past_ns"), "{text}");
+        assert!(
+            text.contains("1072 timestamp too far in the past: ") && text.contains("[validation] max_past_ns"),
+            "{text}"
+        );
         assert!(text.contains("1072 of them from sensors without a row"), "{text}");
         // A sensor with a row names itself.
         s.sensor_count = 1;

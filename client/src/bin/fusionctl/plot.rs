@@ -105,8 +105,7 @@ fn from_recording(path: &Path) -> anyhow::Result<Data> {
     let mut gated_fixes = HashMap::new();
     let mut previous_gated: HashMap<(String, u32), u64> = HashMap::new();
     let mut datum = None;
-    let mut messages = 0u64;
-    for m in mcap::MessageStream::new(&bytes)? {
+    for (messages, m) in mcap::MessageStream::new(&bytes)?.enumerate() {
         let m = match m {
             Ok(m) => m,
             // Cut off by the end of the file (the recorder was killed or lost
@@ -121,7 +120,6 @@ fn from_recording(path: &Path) -> anyhow::Result<Data> {
             }
             Err(e) => return Err(e.into()),
         };
-        messages += 1;
         if let Some(kind) = recording::kind_of_topic(&m.channel.topic) {
             if let Ok(s) = recording::parse_sample(kind, &m.data) {
                 samples.push(s);
