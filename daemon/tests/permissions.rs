@@ -169,3 +169,104 @@ fn a_node_counter_open_to_everyone_is_narrowed_to_its_owner() {
     assert_eq!(std::fs::metadata(&counter).unwrap().mode() & 0o777, 0o600);
     drop((client, node));
 }
+
+/// Another user plants files under the names of everything fusiond made in a
+/// run before (in `/dev/shm`, where anyone may create files), before fusiond
+/// starts again. iceoryx2 0.10 names a service's segments (its dynamic config,
+/// data segments, connections, event managers) by ids drawn when they are
+/// made, so no name is reused: fusiond starts and fuses as usual. The files of
+/// iceoryx2's directory (static configs, sockets, node records), whose names
+/// are predictable, cannot be planted: the directory is closed to others. The
+/// one predictable name in `/dev/shm`, the node counter, is refused with its
+/// owner (`a_node_counter_planted_by_another_user_…`).
+#[test]
+fn files_planted_under_the_names_of_an_earlier_run_do_not_stop_fusiond() {
+    let Some(_) = peer_uid() else { return };
+    let probe = TestDomain::new("squat-probe");
+    let mut daemon = Daemon::start(&probe, &config(), "event");
+    let client = probe.client();
+    let mut imu = client.imu_publisher(0).unwrap();
+    imu.set_wake(true);
+    let mut reader = client.state_subscriber().unwrap();
+    let sample = ImuSample::new(fusion_shared::now_ns(), 0, 0, [0.0; 3], [0.0; 3]);
+    imu.publish_sample(sample).unwrap();
+    common::live::snapshot_of(&mut reader, &sample.into());
+    let names = probe.files();
+    drop((imu, reader, client));
+    assert!(daemon.terminate().success());
+    drop(daemon);
+
+    let target = TestDomain::new("squat");
+    let mut planted = Vec::new();
+    for name in &names {
+        let name = name.replacen(&probe.prefix, &target.prefix, 1);
+        if name.starts_with("/dev/shm/") {
+            if name.contains("_node.") && name.ends_with("global_mgmt") {
+                continue;
+            }
+            let out = as_peer(&["truncate", "-s", "4096", &name]);
+            assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+            planted.push(name);
+        } else {
+            assert!(!as_peer(&["touch", &name]).status.success(), "{name} planted in iceoryx2's directory");
+        }
+    }
+    assert!(planted.len() >= 8, "{planted:?} of {names:?}");
+
+    let mut daemon = Daemon::start(&target, &config(), "event");
+    let client = target.client();
+    let mut imu = client.imu_publisher(0).unwrap();
+    imu.set_wake(true);
+    let mut reader = client.state_subscriber().unwrap();
+    let sample = ImuSample::new(fusion_shared::now_ns(), 0, 0, [0.1, 0.0, 0.0], [0.0; 3]);
+    imu.publish_sample(sample).unwrap();
+    let snap = common::live::snapshot_of(&mut reader, &sample.into());
+    assert_eq!(snap.sensor_counters()[0].counts.processed, 1);
+    drop((imu, reader, client));
+    assert!(daemon.terminate().success());
+    for name in planted {
+        std::fs::remove_file(&name).unwrap();
+    }
+}
+
+/// Another user tries to open every file of the domain in `/dev/shm` for
+/// writing, over and over, while this user's processes keep making new ones:
+/// publishers and readers that come and go make data segments and connections.
+/// iceoryx2 0.10 creates each segment with mode 0200 (`shm_open` with
+/// `O_CREAT | O_EXCL`: the umask can only narrow it) and then sets 0600, so at no
+/// moment may another user open one; not once in the run may it.
+#[test]
+fn new_segments_are_never_open_to_another_user_not_even_while_they_are_made() {
+    let Some(_) = peer_uid() else { return };
+    let domain = TestDomain::new("hammer");
+    let mut daemon = Daemon::start(&domain, &config(), "event");
+    let pattern = format!("/dev/shm/{}*", domain.prefix);
+    // As the other user: 3 s of attempts to open each file for writing (never
+    // creating one), printing the name of any that opens.
+    let script = format!(
+        "end=$(($(date +%s) + 3)); n=0; while [ $(date +%s) -lt $end ]; do for f in {pattern}; do \
+         n=$((n+1)); dd if=/dev/null of=\"$f\" conv=nocreat,notrunc status=none 2>/dev/null && echo \"OPENED $f\"; \
+         done; done; echo \"attempts $n\""
+    );
+    let peer = Command::new("timeout")
+        .args(["20", "runuser", "-u", PEER, "--", "sh", "-c", &script])
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    let mut made = 0;
+    while started.elapsed() < Duration::from_secs(3) {
+        let client = domain.client();
+        let mut imu = client.imu_publisher(7).unwrap();
+        imu.publish_sample(ImuSample::new(fusion_shared::now_ns(), 7, made, [0.0; 3], [0.0; 3])).unwrap();
+        let reader = client.state_subscriber().unwrap();
+        drop((reader, imu, client));
+        made += 1;
+    }
+    let out = peer.wait_with_output().unwrap();
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(!said.contains("OPENED"), "another user opened a segment:\n{said}");
+    let attempts: u64 = said.lines().last().and_then(|l| l.strip_prefix("attempts ")?.parse().ok()).unwrap_or(0);
+    assert!(attempts > 100 && made > 20, "{attempts} attempts while {made} clients came and went");
+    assert!(daemon.terminate().success());
+}
