@@ -150,6 +150,7 @@ pub fn steady_state(s: &Scenario<'_>) -> anyhow::Result<Window> {
         summary_interval: Duration::from_millis(50),
         cpu: None,
         stall: None,
+        config_text: Some(s.config.to_string()),
     };
     let daemon = {
         let shutdown = Arc::clone(&shutdown);

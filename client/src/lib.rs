@@ -134,4 +134,38 @@ impl Client {
     pub fn state_subscriber_with_buffer(&self, buffer: usize) -> Result<StateSubscriber, ClientError> {
         StateSubscriber::new(self, buffer)
     }
+
+    /// The configuration fusiond runs with (the text of its configuration file
+    /// and its version, [`fusion_shared::config_record::ConfigRecord`]), waiting
+    /// up to `timeout` for it; `None` when no fusiond publishes one in the
+    /// namespace (none runs, or one of a version without `<ns>/config`).
+    pub fn fusiond_config(
+        &self,
+        timeout: std::time::Duration,
+    ) -> Result<Option<Box<fusion_shared::config_record::ConfigRecord>>, ClientError> {
+        let service = match service::config_service(self.node(), &self.names, false) {
+            Ok(s) => s,
+            Err(service::ServiceError::DoesNotExist { .. }) => return Ok(None),
+            Err(e) => return Err(ClientError::Service(e)),
+        };
+        let subscriber = service
+            .subscriber_builder()
+            .create()
+            .map_err(|e| ClientError::Port { service: self.names.config.clone(), detail: format!("{e:?}") })?;
+        let deadline = std::time::Instant::now() + timeout;
+        loop {
+            // The history sample comes when fusiond next updates its connections
+            // (every 10 ms), or is there at once.
+            match subscriber.receive() {
+                Ok(Some(record)) => return Ok(Some(Box::new(*record))),
+                Ok(None) if std::time::Instant::now() < deadline => {
+                    std::thread::sleep(std::time::Duration::from_millis(5))
+                }
+                Ok(None) => return Ok(None),
+                Err(e) => {
+                    return Err(ClientError::Receive { service: self.names.config.clone(), detail: format!("{e:?}") });
+                }
+            }
+        }
+    }
 }

@@ -9,6 +9,7 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
+use fusion_shared::config_record::{ConfigRecord, MAX_CONFIG_TEXT};
 use fusion_shared::service::{self, InvalidNamespace, ServiceNames};
 use fusion_shared::transport::Ipc;
 use fusion_shared::{KindVisitor, Sample, SampleKind, StateSnapshot, WireSample};
@@ -45,6 +46,9 @@ pub struct RunOptions {
     pub cpu: Option<usize>,
     /// Fault injection: stall the loop after this many samples (`--fault-stall-after`).
     pub stall: Option<crate::systemd::StallFault>,
+    /// The text of the configuration file, published once on `<ns>/config` for
+    /// recorders (`None`: not published).
+    pub config_text: Option<String>,
 }
 
 /// Why the daemon could not start or had to stop.
@@ -421,9 +425,12 @@ type LoanedSnapshot = iceoryx2::sample_mut::SampleMut<Ipc, StateSnapshot, ()>;
 /// publisher's `max_loaned_samples`).
 const LOANED: usize = 2;
 
-/// The state publisher and its event.
+/// The state publisher and its event, and the configuration's publisher.
 pub struct IpcSink {
     state: Publisher<Ipc, StateSnapshot, ()>,
+    /// Publishes the configuration once; kept for readers that come later
+    /// (its history).
+    config: Option<Publisher<Ipc, ConfigRecord, ()>>,
     state_event: Notifier<Ipc>,
     /// The chunks of the next snapshots, loaned after the last turn's sends so
     /// that loaning (and writing a default snapshot, 4.2 KB) is off the path from
@@ -434,7 +441,12 @@ pub struct IpcSink {
 }
 
 impl IpcSink {
-    fn open(node: &Node<Ipc>, names: &ServiceNames, max_readers: usize) -> Result<Self, RunError> {
+    fn open(
+        node: &Node<Ipc>,
+        names: &ServiceNames,
+        max_readers: usize,
+        config_text: Option<&str>,
+    ) -> Result<Self, RunError> {
         let state = service::state_service(node, names, Some(max_readers))?;
         let state = match state.publisher_builder().max_loaned_samples(LOANED).create() {
             Ok(p) => p,
@@ -446,7 +458,25 @@ impl IpcSink {
         };
         let state_event = service::event_service(node, &names.state)?;
         let state_event = state_event.notifier_builder().create().map_err(ipc("state notifier"))?;
-        Ok(Self { state, state_event, loaned: [const { None }; LOANED], publish_errors: 0 })
+        let config = match config_text.map(|t| (t, ConfigRecord::new(t, env!("CARGO_PKG_VERSION")))) {
+            None => None,
+            Some((text, None)) => {
+                tracing::warn!(
+                    bytes = text.len(),
+                    "the configuration is longer than {MAX_CONFIG_TEXT} bytes: not published on {} (recordings of \
+                     this run will not carry it)",
+                    names.config
+                );
+                None
+            }
+            Some((_, Some(record))) => {
+                let service = service::config_service(node, names, true)?;
+                let publisher = service.publisher_builder().create().map_err(ipc("config publisher"))?;
+                publisher.send_copy(record).map_err(ipc("config publisher"))?;
+                Some(publisher)
+            }
+        };
+        Ok(Self { state, config, state_event, loaned: [const { None }; LOANED], publish_errors: 0 })
     }
 }
 
@@ -483,6 +513,9 @@ impl SnapshotSink for IpcSink {
     fn refresh(&mut self) {
         // Lets a reader that connected since the last send get the history sample.
         let _ = self.state.update_connections();
+        if let Some(config) = &self.config {
+            let _ = config.update_connections();
+        }
     }
 
     /// Touches the loaned chunks of the next snapshots (loaning those not
@@ -541,7 +574,7 @@ fn run_model<M: Steps>(
     let node = service::create_node(&format!("fusiond.{}", names.namespace), &iceoryx)
         .map_err(|detail| RunError::Ipc { what: "node", detail })?;
     // The state publisher first: a second fusiond stops here.
-    let mut sink = IpcSink::open(&node, &names, config.ipc.max_readers)?;
+    let mut sink = IpcSink::open(&node, &names, config.ipc.max_readers, options.config_text.as_deref())?;
     let mut source = IpcSource::open(&node, &names)?;
     let summary = SummaryLogger::start().map_err(RunError::Thread)?;
     // After the summary thread started: it must not inherit the loop's CPU.

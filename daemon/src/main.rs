@@ -61,9 +61,11 @@ enum Command {
     /// Replay recorded samples (JSON lines, or an MCAP recording of `fusionctl
     /// record`) through the engine and write the estimates.
     Replay {
-        /// Configuration file (TOML); see `fusiond print-config`.
+        /// Configuration file (TOML); see `fusiond print-config`. An MCAP
+        /// recording carries the configuration it was made with, which is used
+        /// without this (given, it wins, with a warning when it differs).
         #[arg(long)]
-        config: PathBuf,
+        config: Option<PathBuf>,
         /// Samples: one JSON object per line in arrival order, or an MCAP recording.
         #[arg(long)]
         input: PathBuf,
@@ -139,9 +141,68 @@ fn progress_bar(len: Option<u64>, bytes: bool) -> indicatif::ProgressBar {
     }
 }
 
+/// The configuration of a replay: `--config` if given (with a warning when
+/// the recording was made with another), else the one the recording carries.
+fn replay_config(
+    path: Option<&std::path::Path>,
+    recording: Option<&Recording>,
+    input: &std::path::Path,
+) -> anyhow::Result<Config> {
+    let recorded = recording.and_then(Recording::config);
+    if let Some(r) = &recorded
+        && r.snapshot_wire != fusion_shared::config_record::snapshot_wire()
+    {
+        eprintln!(
+            "replay: warning: the run was recorded by fusiond {} ({}); this is fusiond {} ({}): the replay may differ",
+            r.fusiond_version,
+            r.snapshot_wire,
+            env!("CARGO_PKG_VERSION"),
+            fusion_shared::config_record::snapshot_wire()
+        );
+    }
+    match (path, recorded) {
+        (Some(path), recorded) => {
+            let config = Config::load(path)?;
+            if let Some(r) = recorded {
+                match Config::parse(&r.toml) {
+                    Ok(at_record) if at_record == config => {}
+                    Ok(_) => eprintln!(
+                        "replay: warning: {} differs from the configuration {} was recorded with; replaying with {} \
+                         (leave --config out to replay with the recorded one)",
+                        path.display(),
+                        input.display(),
+                        path.display()
+                    ),
+                    Err(e) => eprintln!(
+                        "replay: warning: the configuration recorded with {} is not valid for this fusiond ({e}); \
+                         replaying with {}",
+                        input.display(),
+                        path.display()
+                    ),
+                }
+            }
+            Ok(config)
+        }
+        (None, Some(r)) => {
+            eprintln!(
+                "replay: the configuration {} was recorded with (fusiond {})",
+                input.display(),
+                r.fusiond_version
+            );
+            Config::parse(&r.toml).with_context(|| format!("the configuration recorded with {}", input.display()))
+        }
+        (None, None) => anyhow::bail!(
+            "--config is needed: {} carries no configuration (a JSON-lines file, or a recording of a fusiond that did \
+             not publish its configuration)",
+            input.display()
+        ),
+    }
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Run { config, namespace, wait, summary_interval, cpu, fault_stall_after } => {
+            let text = std::fs::read_to_string(&config).with_context(|| format!("cannot read {}", config.display()))?;
             let config = Config::load(&config)?;
             let shutdown = Arc::new(AtomicBool::new(false));
             for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
@@ -157,6 +218,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     .context("--summary-interval must be a positive number of seconds")?,
                 cpu,
                 stall: fault_stall_after.map(|after_samples| StallFault { after_samples }),
+                config_text: Some(text),
             };
             fusion_daemon::ipc::run(&config, &options, &shutdown)?;
             Ok(())
@@ -171,11 +233,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Replay { config, input, output, smooth, compare } => {
-            let config = Config::load(&config)?;
-            eprintln!("replay: model {}, form {}", config.model.kind(), config.filter.form.name());
-            let writer = output
-                .map(|o| File::create(&o).map(BufWriter::new).with_context(|| format!("cannot create {}", o.display())))
-                .transpose()?;
             let mut file = File::open(&input).with_context(|| format!("cannot open {}", input.display()))?;
             let mut magic = [0u8; 8];
             let n = file.read(&mut magic).with_context(|| format!("cannot read {}", input.display()))?;
@@ -185,8 +242,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 "{}: named .mcap but not an MCAP file (it does not start with the MCAP magic bytes)",
                 input.display()
             );
-            if Recording::is_mcap(&magic[..n]) {
-                let recording = Recording::open(&input).with_context(|| format!("cannot map {}", input.display()))?;
+            let recording = Recording::is_mcap(&magic[..n])
+                .then(|| Recording::open(&input).with_context(|| format!("cannot map {}", input.display())))
+                .transpose()?;
+            let config = replay_config(config.as_deref(), recording.as_ref(), &input)?;
+            eprintln!("replay: model {}, form {}", config.model.kind(), config.filter.form.name());
+            let writer = output
+                .map(|o| File::create(&o).map(BufWriter::new).with_context(|| format!("cannot create {}", o.display())))
+                .transpose()?;
+            if let Some(recording) = recording {
                 let bar = progress_bar(recording.sample_count(), false);
                 let mut since = 0u64;
                 let tick = || {

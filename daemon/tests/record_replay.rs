@@ -121,6 +121,13 @@ fn check_with_the_mcap_crate(mcap: &Path, samples: &[Sample]) {
     assert_eq!(per_topic[&recording::sample_topic(SampleKind::Position)], of(SampleKind::Position));
     assert_eq!(per_topic[recording::POSE_TOPIC], samples.len() as u64);
     assert!(per_topic[recording::STATE_TOPIC] >= samples.len() as u64);
+    // fusiond's configuration, as the recorder received it from fusiond.
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    let index = summary.metadata_indexes.iter().find(|m| m.name == "fusion.config").expect("fusion.config metadata");
+    let metadata = mcap::read::metadata(&bytes, index).unwrap();
+    assert_eq!(metadata.metadata["toml"], config(0.3));
+    assert_eq!(metadata.metadata["fusiond_version"], env!("CARGO_PKG_VERSION"));
+    assert!(metadata.metadata["snapshot_wire"].starts_with("fusion.StateSnapshot.v"));
 }
 
 /// Another implementation, the `mcap` Python package, reads the summary,
@@ -167,10 +174,32 @@ fn a_recorded_live_run_replays_bit_for_bit_and_a_changed_one_says_where() {
     };
     assert!(count("gated") > 0 && count("late") > 0, "{stderr}");
 
-    // Another process noise: the replay fails and names the first difference.
+    // Another process noise: the replay fails and names the first difference,
+    // and warns first that the configuration is not the recorded one.
     let (ok, stderr) = replay(dir.path(), &config(0.5), &mcap, &["--compare"]);
     assert!(!ok, "{stderr}");
     assert!(stderr.contains("differ") && stderr.contains("P["), "{stderr}");
+    assert!(stderr.contains("differs from the configuration"), "{stderr}");
+
+    // The recording carries fusiond's configuration: without --config the
+    // replay uses it, bit for bit.
+    let out = Command::new(env!("CARGO_BIN_EXE_fusiond"))
+        .args(["replay", "--compare", "--input"])
+        .arg(&mcap)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("recorded with (fusiond "), "{stderr}");
+    assert!(stderr.contains(&format!("{} compared, all equal bit for bit", samples.len())), "{stderr}");
+    // A JSON-lines file carries none: --config is needed, and said so.
+    let out = Command::new(env!("CARGO_BIN_EXE_fusiond"))
+        .args(["replay", "--input"])
+        .arg(dir.path().join("drive.jsonl"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--config is needed"));
 
     check_with_the_mcap_crate(&mcap, &samples);
     check_with_python(&mcap, &samples);

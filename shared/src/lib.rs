@@ -4,6 +4,7 @@
 //!   kind ([`ImuSample`], [`PositionSample`], [`VelocitySample`], …); [`SampleKind`] lists
 //!   the kinds, [`for_each_sample_kind!`] is the list they come from.
 //! - [`snapshot`]: [`StateSnapshot`], what fusiond publishes.
+//! - [`config_record`]: the configuration fusiond publishes for recorders.
 //! - [`exit`]: the exit statuses and the error line of every fusion binary.
 //! - [`geodesy`]: WGS-84 geodetic coordinates ↔ the local ENU frame of a datum.
 //! - [`service`]: service names under a namespace, QoS, and how every side opens them.
@@ -18,6 +19,7 @@
 //! Every type here is `#[repr(C)]` with fixed-width fields only, units in the field
 //! names, SI units, world frame ENU and body frame forward-left-up (REP-103).
 
+pub mod config_record;
 pub mod exit;
 pub mod geodesy;
 #[cfg(feature = "json")]

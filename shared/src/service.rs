@@ -80,6 +80,8 @@ pub struct ServiceNames {
     pub wake: String,
     /// `<ns>/state`.
     pub state: String,
+    /// `<ns>/config`: the configuration fusiond runs with.
+    pub config: String,
 }
 
 impl ServiceNames {
@@ -92,6 +94,7 @@ impl ServiceNames {
             namespace: namespace.to_string(),
             wake: format!("{namespace}/wake"),
             state: format!("{namespace}/state"),
+            config: format!("{namespace}/config"),
         })
     }
 }
@@ -278,6 +281,30 @@ pub fn state_service(
             builder.max_subscribers(max_readers).open_or_create().map_err(|e| classify_open_or_create(&names.state, &e))
         }
         None => builder.open().map_err(|e| classify_open(&names.state, &e)),
+    }
+}
+
+/// Opens `<ns>/config`, where fusiond publishes its configuration once
+/// ([`crate::config_record::ConfigRecord`], history 1); creates it too with
+/// `create` (fusiond), else it must exist.
+pub fn config_service(
+    node: &Node<Ipc>,
+    names: &ServiceNames,
+    create: bool,
+) -> Result<publish_subscribe::PortFactory<Ipc, crate::config_record::ConfigRecord, ()>, ServiceError> {
+    let builder = node
+        .service_builder(&service_name(&names.config)?)
+        .publish_subscribe::<crate::config_record::ConfigRecord>()
+        .enable_safe_overflow(true)
+        .subscriber_max_buffer_size(1)
+        .history_size(1)
+        .max_publishers(1)
+        .max_subscribers(MAX_STATE_SUBSCRIBERS)
+        .max_nodes(MAX_NODES);
+    if create {
+        builder.open_or_create().map_err(|e| classify_open_or_create(&names.config, &e))
+    } else {
+        builder.open().map_err(|e| classify_open(&names.config, &e))
     }
 }
 

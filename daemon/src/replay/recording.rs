@@ -28,6 +28,17 @@ use crate::snapshot::{self, Input};
 /// Differences described one by one in a [`ComparisonReport`].
 pub const DIFFERENCES_REPORTED: usize = 10;
 
+/// The configuration a recording was made with ([`Recording::config`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordedConfig {
+    /// The TOML text of fusiond's configuration file.
+    pub toml: String,
+    /// fusiond's version.
+    pub fusiond_version: String,
+    /// The snapshot wire type fusiond published (`fusion.StateSnapshot.vN`).
+    pub snapshot_wire: String,
+}
+
 /// An MCAP recording, mapped into memory.
 ///
 /// A recording cut off (the recorder killed, or its power lost) has no summary
@@ -77,6 +88,24 @@ impl Recording {
     /// yet written (at most its flush interval) is lost.
     pub fn was_cut_off(&self) -> bool {
         self.cut_off.load(Ordering::Relaxed)
+    }
+
+    /// The configuration fusiond ran with, as the recorder kept it (the
+    /// metadata `fusion.config`, at the start of the file: a cut-off recording
+    /// has it too); `None` for a recording without one.
+    pub fn config(&self) -> Option<RecordedConfig> {
+        use fusion_shared::config_record as c;
+        let records = mcap::read::LinearReader::new_with_options(&self.map, mcap::read::Options::IgnoreEndMagic.into());
+        let metadata = records.ok()?.map_while(Result::ok).find_map(|r| match r {
+            mcap::records::Record::Metadata(m) if m.name == c::METADATA_NAME => Some(m),
+            _ => None,
+        })?;
+        let get = |key: &str| metadata.metadata.get(key).cloned();
+        Some(RecordedConfig {
+            toml: get(c::METADATA_TOML)?,
+            fusiond_version: get(c::METADATA_VERSION).unwrap_or_default(),
+            snapshot_wire: get(c::METADATA_WIRE).unwrap_or_default(),
+        })
     }
 
     /// Whether `bytes` start with the MCAP magic.

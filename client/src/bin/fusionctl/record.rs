@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use fusion_client::{Client, ClientError, Sample, SampleKind, StateSnapshot, now_ns};
+use fusion_shared::config_record::ConfigRecord;
 use fusion_shared::recording::{self, SnapshotJson};
 use fusion_shared::snapshot::INPUT_NONE;
 
@@ -152,6 +153,24 @@ impl<W: Write + std::io::Seek> Recorder<W> {
             snapshots: Batch::default(),
             counts: Counts::default(),
         })
+    }
+
+    /// Keeps fusiond's configuration with the run: the MCAP metadata
+    /// `fusion.config` (its TOML, fusiond's version, the snapshot wire type),
+    /// written at the start of the file so that a cut-off recording has it too.
+    pub fn write_config(&mut self, record: &ConfigRecord) -> anyhow::Result<()> {
+        use fusion_shared::config_record as c;
+        let text = record.text().context("fusiond's configuration is not UTF-8")?;
+        let metadata = [
+            (c::METADATA_TOML, text),
+            (c::METADATA_VERSION, record.version().unwrap_or("unknown")),
+            (c::METADATA_WIRE, c::snapshot_wire()),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+        self.mcap.write_metadata(&mcap::records::Metadata { name: c::METADATA_NAME.into(), metadata })?;
+        Ok(())
     }
 
     /// What was counted so far.
@@ -363,6 +382,13 @@ pub fn run(
     // The same open file, for syncing what was written to the disk.
     let sync = file.try_clone()?;
     let mut recorder = Recorder::new(BufWriter::with_capacity(1 << 20, file), compress)?;
+    match client.fusiond_config(Duration::from_secs(2))? {
+        Some(config) => recorder.write_config(&config)?,
+        None => eprintln!(
+            "fusionctl: fusiond in namespace {namespace:?} publishes no configuration (a version before it did): the \
+             recording will not carry it, and its replay needs --config"
+        ),
+    }
     let mut next_flush = Instant::now() + flush_interval;
     let started = Instant::now();
     let terminal = std::io::stderr().is_terminal();
