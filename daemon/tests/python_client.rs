@@ -374,3 +374,33 @@ fn the_python_typed_accessors_agree_with_the_rust_ones() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     common::typed::assert_agree(&String::from_utf8_lossy(&out.stdout));
 }
+
+/// `pip install ./client/python`, as the guide says, leaves nothing in the
+/// source tree that git would see (setuptools builds in `build/` and writes
+/// `*.egg-info` next to the package: both are ignored).
+#[test]
+fn installing_the_python_client_leaves_the_source_tree_clean() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    // Files git would show as new under client/python (`None`: no git here).
+    let untracked = || {
+        let out = Command::new("git")
+            .args(["ls-files", "--others", "--exclude-standard", "--", "client/python"])
+            .current_dir(&root)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())?;
+        Some(String::from_utf8_lossy(&out.stdout).into_owned())
+    };
+    let before = untracked();
+    let target = tempfile::tempdir().unwrap();
+    let out = Command::new(common::python_venv())
+        .args(["-m", "pip", "install", "--quiet", "--no-deps", "--target"])
+        .arg(target.path())
+        .arg(root.join("client/python"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(target.path().join("fusion_client/__init__.py").exists());
+    assert!(root.join("client/python/build").exists(), "setuptools built in the tree (what this test is about)");
+    assert_eq!(untracked(), before, "pip left files git sees");
+}

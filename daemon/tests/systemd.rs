@@ -193,4 +193,23 @@ fn the_unit_file_runs_what_it_says() {
         }
         Err(e) => eprintln!("systemd-analyze not installed ({e}): the unit's syntax is not verified here"),
     }
+    // The sandbox: `systemd-analyze security` rates the unit safe (it rated it
+    // 8.7 EXPOSED without one), and its documentation is a path the install
+    // steps put there.
+    if let Ok(out) = Command::new("systemd-analyze").args(["security", "--offline=yes"]).arg(&local_unit).output() {
+        let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+        let level: f64 = said
+            .lines()
+            .find_map(|l| l.split("Overall exposure level for fusiond.service: ").nth(1))
+            .and_then(|l| l.split_whitespace().next())
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("no exposure level in: {said}"));
+        assert!(level <= 2.0, "exposure {level}: {said}");
+    }
+    let docs = unit.lines().find_map(|l| l.strip_prefix("Documentation=file:")).expect("a Documentation= file");
+    let guide = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/systemd.md")).unwrap();
+    assert!(guide.contains(&format!("docs/systemd.md {docs}")), "the guide installs {docs}");
+    for line in ["RestrictAddressFamilies=AF_UNIX", "CapabilityBoundingSet=", "SystemCallFilter=@system-service"] {
+        assert!(unit.lines().any(|l| l == line), "{line} missing");
+    }
 }
