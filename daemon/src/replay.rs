@@ -194,6 +194,9 @@ pub struct OutputLine {
     pub nis: Option<f64>,
     /// Whether a measurement was fused, `null` for IMU samples.
     pub accepted: Option<bool>,
+    /// `true` on the lines of a smoothed replay (`--smooth`); absent otherwise.
+    #[serde(default)]
+    pub smoothed: bool,
 }
 
 #[derive(Serialize)]
@@ -207,14 +210,17 @@ struct OutputRef<'a> {
     p: &'a [f64],
     nis: Option<f64>,
     accepted: Option<bool>,
+    /// Only on smoothed lines (`true`): filtered output is as it was.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    smoothed: bool,
 }
 
 fn write_output(
     out: &mut impl Write,
     key: &SampleKey,
     outcome: &StepOutcome,
-    x: &[f64],
-    p: &[f64],
+    (x, p): (&[f64], &[f64]),
+    smoothed: bool,
 ) -> std::io::Result<()> {
     let line = OutputRef {
         t_ns: key.t_ns,
@@ -225,6 +231,7 @@ fn write_output(
         p,
         nis: outcome.nis(),
         accepted: outcome.accepted(),
+        smoothed,
     };
     serde_json::to_writer(&mut *out, &line)?;
     out.write_all(b"\n")
@@ -339,7 +346,7 @@ impl<M: Steps, W: Write> Sink<M, W> {
                 if let Some(output) = &mut self.output {
                     self.cov.resize(M::COV_DIM * M::COV_DIM, 0.0);
                     M::write_covariance(&e.state, &mut self.cov);
-                    if let Err(err) = write_output(output, &e.key, &e.outcome, M::x(&e.state), &self.cov) {
+                    if let Err(err) = write_output(output, &e.key, &e.outcome, (M::x(&e.state), &self.cov), false) {
                         self.error = Some(err);
                     }
                 }
@@ -446,7 +453,7 @@ fn replay_model<M: Steps>(
         if let Some(output) = &mut sink.output {
             for ((key, outcome, _), record) in finals.iter().zip(&smoothed) {
                 let (x, p) = M::record_output(record);
-                write_output(output, key, outcome, x, p)?;
+                write_output(output, key, outcome, (x, p), true)?;
             }
         }
     }

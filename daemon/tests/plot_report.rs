@@ -69,4 +69,112 @@ fn the_example_drive_gives_a_report_with_its_points() {
     // The SVG holds one circle per fused fix plus the legend's.
     let svg = std::fs::read_to_string(report.join("trajectory.svg")).unwrap();
     assert_eq!(svg.matches("<circle").count(), fixes - gated + 1);
+
+    // For people: time since the start (the start in each page's title), a
+    // metre as long east as north, a legend for the ±3σ lines, units on the axes.
+    let t0 = lines[0].t_ns as f64 * 1e-9;
+    assert_eq!(json["t0_s"].as_f64().unwrap(), t0);
+    assert_eq!(json["smoothed"], false);
+    let scales = &json["scales"];
+    let (east, north) =
+        (scales["trajectory.east_m_per_px"].as_f64().unwrap(), scales["trajectory.north_m_per_px"].as_f64().unwrap());
+    assert!((east / north - 1.0).abs() < 1e-9, "{scales}");
+    let page = |name: &str| std::fs::read_to_string(report.join(format!("{name}.svg"))).unwrap();
+    for name in ["trajectory", "errors", "nis"] {
+        assert!(page(name).contains(&format!("t = 0 at {t0:.3} s of CLOCK_MONOTONIC")), "{name}");
+    }
+    let errors = page("errors");
+    assert_eq!(errors.matches("t since start, s").count(), 6);
+    assert_eq!(errors.matches("±3σ").count(), 6, "a legend entry per panel");
+    assert_eq!(errors.lines().filter(|l| l.trim() == "m/s").count(), 3, "the velocity panels' unit");
+    assert!(!errors.contains("no truth"));
+    // NIS: the scale is the fused values' (a gated outlier does not squash them),
+    // and the outlier is marked on its edge.
+    let nis = page("nis");
+    assert!(nis.contains("NIS (no unit)") && nis.contains("gated, beyond the scale (1)"), "the outlier is marked");
+    let outlier = lines.iter().filter(|l| l.accepted == Some(false)).filter_map(|l| l.nis).fold(0.0, f64::max);
+    let top = scales["nis.position 1.top"].as_f64().unwrap();
+    assert!(top < outlier && top < 20.0, "scale {top}, outlier {outlier}");
+}
+
+/// An `ins` run: the attitude and bias page, fixes named as the antenna's;
+/// smoothed and without truth, the pages say so; with truth, the attitude errors.
+#[test]
+fn an_ins_run_gets_its_attitude_page_and_says_what_it_shows() {
+    let dir = tempfile::tempdir().unwrap();
+    let drive = dir.path().join("drive.jsonl");
+    let truth = dir.path().join("truth.jsonl");
+    let sim = Command::new(workspace_bin("fusion-sim"))
+        .args(["record", "--imu-output", "body", "--duration", "10", "--imu-rate", "100", "--seed", "4", "--output"])
+        .arg(&drive)
+        .arg("--truth")
+        .arg(&truth)
+        .output()
+        .unwrap();
+    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    // The golden ins config, started at the truth.
+    let first: serde_json::Value =
+        serde_json::from_str(std::fs::read_to_string(&truth).unwrap().lines().next().unwrap()).unwrap();
+    let v: Vec<f64> = first["vel"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+    let q: Vec<f64> = first["q_wxyz"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+    let golden = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/ins.toml")).unwrap();
+    let config: String = golden
+        .lines()
+        .map(|l| {
+            if l.starts_with("initial_state") {
+                format!(
+                    "initial_state = [0, 0, 0, {}, {}, {}, {}, {}, {}, {}, 0, 0, 0, 0, 0, 0]",
+                    v[0], v[1], v[2], q[0], q[1], q[2], q[3]
+                )
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let config_path = dir.path().join("ins.toml");
+    std::fs::write(&config_path, config).unwrap();
+    let replay = |smooth: bool| {
+        let out = dir.path().join(if smooth { "smoothed.jsonl" } else { "filtered.jsonl" });
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_fusiond"));
+        cmd.args(["replay", "--config"]).arg(&config_path).arg("--input").arg(&drive).arg("--output").arg(&out);
+        if smooth {
+            cmd.arg("--smooth");
+        }
+        let r = cmd.output().unwrap();
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        out
+    };
+    let plot = |input: &Path, with_truth: bool, to: &str| {
+        let report = dir.path().join(to);
+        let mut cmd = Command::new(workspace_bin("fusionctl"));
+        cmd.args(["plot", "--input"]).arg(input).arg("--samples").arg(&drive).arg("--output-dir").arg(&report);
+        if with_truth {
+            cmd.arg("--truth").arg(&truth);
+        }
+        let out = cmd.output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        report
+    };
+
+    let smoothed = plot(&replay(true), false, "smoothed");
+    let page = |report: &Path, name: &str| std::fs::read_to_string(report.join(format!("{name}.svg"))).unwrap();
+    let attitude = page(&smoothed, "attitude");
+    for needle in ["±3σ attitude about body z (yaw)", "gyro bias z", "deg/h", "m/s²", "RTS-smoothed estimates"] {
+        assert!(attitude.contains(needle), "{needle}");
+    }
+    assert!(page(&smoothed, "trajectory").contains("fix (antenna, as measured)"));
+    assert!(page(&smoothed, "errors").contains("no truth was given"));
+    assert!(page(&smoothed, "errors").contains("RTS-smoothed estimates"));
+
+    let filtered = plot(&replay(false), true, "filtered");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(filtered.join("report.json")).unwrap()).unwrap();
+    assert_eq!(json["smoothed"], false);
+    let points = &json["points"];
+    for axis in 0..3 {
+        assert!(points[format!("attitude.{axis}.error")].as_u64().unwrap() > 500, "{points}");
+    }
+    assert!(page(&filtered, "attitude").contains("attitude error about body z (yaw)"));
+    assert!(!page(&filtered, "attitude").contains("RTS-smoothed"));
 }

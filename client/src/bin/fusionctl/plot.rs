@@ -2,13 +2,19 @@
 //! (`fusionctl record`) or a replay output (`fusiond replay --output`, with its
 //! input for the fixes):
 //!
-//! - `trajectory`: the estimate east/north, the fixes (gated ones as crosses), the truth;
+//! - `trajectory`: the estimate east/north on equal scales, the fixes (gated ones as
+//!   crosses; for `ins` the antenna positions as measured), the truth;
 //! - `errors`: each position and velocity component's error with its ±3σ band
-//!   (with truth), or the ±3σ band alone;
-//! - `nis`: the NIS of each measuring sensor with its two-sided 95 % χ² bounds,
-//!   gated measurements as crosses;
+//!   (with truth), or the ±3σ band alone (the page says so);
+//! - `attitude` (`ins`): the attitude error (with truth) or its ±3σ band, and each
+//!   IMU bias estimate with its ±3σ band;
+//! - `nis`: the NIS of each measuring sensor with its two-sided 95 % χ² bounds, the
+//!   scale clipped to the fused values, gated measurements as crosses (beyond the
+//!   scale: triangles on its edge);
 //! - `latency` (a live recording): the histogram of sample sent → snapshot published.
 //!
+//! Times are seconds since the first estimate; each page's title gives that start
+//! (CLOCK_MONOTONIC) and says whether the estimates are RTS-smoothed.
 //! `report.json` lists the files and how many points each series has.
 
 use std::collections::{BTreeMap, HashMap};
@@ -25,12 +31,25 @@ use statrs::distribution::{ChiSquared, ContinuousCDF};
 const MAX_POINTS: usize = 4000;
 const SIZE: (u32, u32) = (1200, 900);
 
-/// The estimate at one time: position and velocity with standard deviations.
+/// The estimate at one time: position and velocity with standard deviations,
+/// and for `ins` the attitude and the IMU biases.
 #[derive(Debug, Clone, Copy)]
 struct Estimate {
     t: f64,
     pv: [f64; 6],
     sd: [f64; 6],
+    ins: Option<InsPart>,
+}
+
+/// The `ins` part of an estimate: attitude (body → ENU, `[w, x, y, z]`), its
+/// error's σ about the body axes (rad), the biases (accelerometer m/s², then
+/// gyroscope rad/s) and their σ.
+#[derive(Debug, Clone, Copy)]
+struct InsPart {
+    q_wxyz: [f64; 4],
+    att_sd: [f64; 3],
+    bias: [f64; 6],
+    bias_sd: [f64; 6],
 }
 
 /// A position fix in the ENU frame; `gated` when the filter refused it.
@@ -51,12 +70,16 @@ struct Nis {
 
 #[derive(Default)]
 struct Data {
+    /// The first estimate's time, CLOCK_MONOTONIC s: every time here is since it.
+    t0: f64,
+    /// The estimates are RTS-smoothed (a `fusiond replay --smooth` output).
+    smoothed: bool,
     estimates: Vec<Estimate>,
     fixes: Vec<Fix>,
     /// Per sensor ("position 1"): its measurement dimension and NIS values.
     nis: BTreeMap<String, (usize, Vec<Nis>)>,
-    /// (t, position and velocity).
-    truth: Vec<(f64, [f64; 6])>,
+    /// (t, position and velocity, attitude `[w, x, y, z]` or NaN).
+    truth: Vec<(f64, [f64; 6], [f64; 4])>,
     /// Sent → published, µs, of the samples processed in order.
     latency_us: Vec<f64>,
 }
@@ -75,10 +98,17 @@ fn estimate(t_ns: u64, x: &[f64], p: &[f64]) -> Option<Estimate> {
     if x.len() < 6 || n < 6 {
         return None;
     }
-    let mut e = Estimate { t: t_ns as f64 * 1e-9, pv: [0.0; 6], sd: [0.0; 6] };
-    for i in 0..6 {
-        e.pv[i] = x[i];
-        e.sd[i] = p[i * n + i].max(0.0).sqrt();
+    let sd = |i: usize| p[i * n + i].max(0.0).sqrt();
+    let mut e =
+        Estimate { t: t_ns as f64 * 1e-9, pv: std::array::from_fn(|i| x[i]), sd: std::array::from_fn(sd), ins: None };
+    // The ins layout: x = [p, v, q_wxyz, b_a, b_g], P over [δp, δv, δθ, δb_a, δb_g].
+    if x.len() >= 16 && n >= 15 {
+        e.ins = Some(InsPart {
+            q_wxyz: [x[6], x[7], x[8], x[9]],
+            att_sd: [sd(6), sd(7), sd(8)],
+            bias: std::array::from_fn(|k| x[10 + k]),
+            bias_sd: std::array::from_fn(|k| sd(9 + k)),
+        });
     }
     Some(e)
 }
@@ -175,6 +205,7 @@ fn from_replay(output: &Path, input: Option<&Path>) -> anyhow::Result<Data> {
             v[k].as_array().map(|a| a.iter().filter_map(|x| x.as_f64()).collect()).unwrap_or_default()
         };
         let t_ns = v["t_ns"].as_u64().unwrap_or(0);
+        data.smoothed |= v["smoothed"].as_bool() == Some(true);
         data.estimates.extend(estimate(t_ns, &nums("x"), &nums("P")));
         let (Some(kind), Some(sensor), Some(seq)) =
             (v["kind"].as_str().and_then(kind_of), v["sensor"].as_u64(), v["seq"].as_u64())
@@ -200,30 +231,49 @@ fn from_replay(output: &Path, input: Option<&Path>) -> anyhow::Result<Data> {
     Ok(data)
 }
 
+/// A truth entry: time, position and velocity, attitude `[w, x, y, z]` (NaN
+/// when the truth has none).
+type Truth = (f64, [f64; 6], [f64; 4]);
+
 /// Reads `fusion-sim record --truth` lines.
-fn read_truth(path: &Path) -> anyhow::Result<Vec<(f64, [f64; 6])>> {
+fn read_truth(path: &Path) -> anyhow::Result<Vec<Truth>> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut truth = Vec::new();
     for line in text.lines().filter(|l| !l.trim().is_empty()) {
         let v: serde_json::Value = serde_json::from_str(line)?;
         let get = |k: &str, i: usize| v[k][i].as_f64().unwrap_or(f64::NAN);
         let t = v["t_ns"].as_u64().context("truth line without t_ns")? as f64 * 1e-9;
-        truth.push((t, [get("pos", 0), get("pos", 1), get("pos", 2), get("vel", 0), get("vel", 1), get("vel", 2)]));
+        let pv = [get("pos", 0), get("pos", 1), get("pos", 2), get("vel", 0), get("vel", 1), get("vel", 2)];
+        truth.push((t, pv, std::array::from_fn(|k| get("q_wxyz", k))));
     }
     truth.sort_by(|a, b| a.0.total_cmp(&b.0));
     Ok(truth)
 }
 
-/// The truth at `t`, linearly interpolated; `None` outside it.
-fn truth_at(truth: &[(f64, [f64; 6])], t: f64) -> Option<[f64; 6]> {
-    let i = truth.partition_point(|(tt, _)| *tt < t);
+/// The truth's position and velocity at `t`, linearly interpolated, and the
+/// attitude of the nearest earlier entry; `None` outside it.
+fn truth_at(truth: &[Truth], t: f64) -> Option<([f64; 6], [f64; 4])> {
+    let i = truth.partition_point(|(tt, _, _)| *tt < t);
     let b = truth.get(i)?;
     if b.0 == t || i == 0 {
-        return (b.0 == t).then_some(b.1);
+        return (b.0 == t).then_some((b.1, b.2));
     }
     let a = truth[i - 1];
     let w = (t - a.0) / (b.0 - a.0);
-    Some(std::array::from_fn(|k| a.1[k] + w * (b.1[k] - a.1[k])))
+    Some((std::array::from_fn(|k| a.1[k] + w * (b.1[k] - a.1[k])), a.2))
+}
+
+/// The attitude error `δθ` (deg, about the estimate's body axes) of the
+/// estimate `q_est` against the truth `q_true`, both `[w, x, y, z]`:
+/// `q_true = q_est ⊗ Exp(δθ)` (the filter's local error, Solà 2017 §5.3.3).
+fn attitude_error_deg(q_est: [f64; 4], q_true: [f64; 4]) -> Option<[f64; 3]> {
+    use nalgebra::{Quaternion, UnitQuaternion};
+    if q_true.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let q = |c: [f64; 4]| UnitQuaternion::from_quaternion(Quaternion::new(c[0], c[1], c[2], c[3]));
+    let d = (q(q_est).inverse() * q(q_true)).scaled_axis();
+    Some([d.x.to_degrees(), d.y.to_degrees(), d.z.to_degrees()])
 }
 
 /// Every `k`-th item so that at most [`MAX_POINTS`] remain.
@@ -250,21 +300,42 @@ fn percentile(values: impl Iterator<Item = f64>, q: f64) -> f64 {
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
+/// `x` and `y` widened (about their middles) so that a metre is as long on
+/// both axes of a plotting area of `w` × `h` pixels: a circle stays a circle.
+fn equal_scales(x: std::ops::Range<f64>, y: std::ops::Range<f64>, (w, h): (u32, u32)) -> [std::ops::Range<f64>; 2] {
+    let (w, h) = (f64::from(w.max(1)), f64::from(h.max(1)));
+    let per_px = ((x.end - x.start) / w).max((y.end - y.start) / h);
+    let around = |r: std::ops::Range<f64>, px: f64| {
+        let mid = 0.5 * (r.start + r.end);
+        mid - 0.5 * per_px * px..mid + 0.5 * per_px * px
+    };
+    [around(x, w), around(y, h)]
+}
+
 fn draw_trajectory<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, d: &Data, counts: &mut Counts) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
-    root.fill(&WHITE)?;
     let est = thin(&d.estimates);
     let truth = thin(&d.truth);
     let xs = est.iter().map(|e| e.pv[0]).chain(d.fixes.iter().map(|f| f.east)).chain(truth.iter().map(|t| t.1[0]));
     let ys = est.iter().map(|e| e.pv[1]).chain(d.fixes.iter().map(|f| f.north)).chain(truth.iter().map(|t| t.1[1]));
-    let mut chart = ChartBuilder::on(root)
-        .caption("trajectory (ENU)", ("sans-serif", 28))
-        .margin(15)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(range(xs), range(ys))?;
+    let (xs, ys) = (range(xs), range(ys));
+    let builder = |x: std::ops::Range<f64>, y: std::ops::Range<f64>| {
+        root.fill(&WHITE)?;
+        ChartBuilder::on(root)
+            .caption("trajectory (ENU), equal scales", ("sans-serif", 24))
+            .margin(15)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x, y)
+    };
+    // Built once to learn the plotting area's size, then on equal scales.
+    let area = builder(xs.clone(), ys.clone())?.plotting_area().dim_in_pixel();
+    let [xs, ys] = equal_scales(xs, ys, area);
+    counts.scale("trajectory.east_m_per_px", (xs.end - xs.start) / f64::from(area.0.max(1)));
+    counts.scale("trajectory.north_m_per_px", (ys.end - ys.start) / f64::from(area.1.max(1)));
+    let mut chart = builder(xs, ys)?;
     chart.configure_mesh().x_desc("east, m").y_desc("north, m").draw()?;
     if !truth.is_empty() {
         chart
@@ -272,19 +343,24 @@ where
             .label("truth")
             .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
     }
+    let ins = d.estimates.first().is_some_and(|e| e.ins.is_some());
     chart
         .draw_series(LineSeries::new(est.iter().map(|e| (e.pv[0], e.pv[1])), BLUE.stroke_width(2)))?
-        .label("estimate")
+        .label(if ins { "estimate (IMU)" } else { "estimate" })
         .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLUE));
     let fused: Vec<_> = d.fixes.iter().filter(|f| !f.gated).collect();
     let gated: Vec<_> = d.fixes.iter().filter(|f| f.gated).collect();
+    // The ins model fuses fixes at their antenna through the lever arm: drawn
+    // as measured, they lie a lever arm beside the IMU's track.
+    let (fix, gated_fix) =
+        if ins { ("fix (antenna, as measured)", "gated fix (antenna)") } else { ("fix", "gated fix") };
     chart
         .draw_series(fused.iter().map(|f| Circle::new((f.east, f.north), 3, GREEN.filled())))?
-        .label("fix")
+        .label(fix)
         .legend(|(x, y)| Circle::new((x + 10, y), 3, GREEN.filled()));
     chart
         .draw_series(gated.iter().map(|f| Cross::new((f.east, f.north), 6, RED.stroke_width(2))))?
-        .label("gated fix")
+        .label(gated_fix)
         .legend(|(x, y)| Cross::new((x + 10, y), 6, RED));
     chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
     counts.insert("trajectory.estimate", est.len());
@@ -295,43 +371,127 @@ where
     Ok(())
 }
 
+/// A panel of a value over time with its ±3σ band: `series` are (t, value)
+/// (an error about 0, or an estimate), `band` (t, centre, 3σ). Both in the legend.
+#[allow(clippy::too_many_arguments)]
+fn draw_band_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    unit: &str,
+    t: std::ops::Range<f64>,
+    series: &[(f64, f64)],
+    series_label: &str,
+    band: &[(f64, f64, f64)],
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    // The scale of the run after the start (the initial covariance and the
+    // first errors would flatten everything; they run off the top): the 95th
+    // percentile of |value| and the 75th of |centre ± 3σ|.
+    let edge = band.iter().flat_map(|b| [(b.1 + b.2).abs(), (b.1 - b.2).abs()]);
+    let top = 1.3 * percentile(series.iter().map(|e| e.1.abs()), 0.95).max(percentile(edge, 0.75)).max(1e-9);
+    let y = -top..top;
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 16))
+        .margin(8)
+        .x_label_area_size(30)
+        .y_label_area_size(60)
+        .build_cartesian_2d(t, y)?;
+    chart.configure_mesh().x_desc("t since start, s").y_desc(unit).draw()?;
+    chart
+        .draw_series(LineSeries::new(band.iter().map(|b| (b.0, b.1 + b.2)), RED.stroke_width(1)))?
+        .label("±3σ")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED));
+    chart.draw_series(LineSeries::new(band.iter().map(|b| (b.0, b.1 - b.2)), RED.stroke_width(1)))?;
+    if !series.is_empty() {
+        chart
+            .draw_series(LineSeries::new(series.iter().copied(), BLUE.stroke_width(1)))?
+            .label(series_label)
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLUE));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 12))
+        .draw()?;
+    Ok(())
+}
+
 fn draw_errors<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, d: &Data, counts: &mut Counts) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
     let est = thin(&d.estimates);
-    let names = ["east m", "north m", "up m", "v east m/s", "v north m/s", "v up m/s"];
+    let names = ["east", "north", "up", "v east", "v north", "v up"];
     let with_truth = !d.truth.is_empty();
     let t = range(est.iter().map(|e| e.t));
+    let root = if with_truth {
+        root.clone()
+    } else {
+        root.titled("±3σ bands only: no truth was given (fusionctl plot --truth), so no errors", ("sans-serif", 16))?
+    };
     for (i, area) in root.split_evenly((3, 2)).iter().enumerate() {
         // Panels column-major: position on the left, velocity on the right.
         let k = (i % 2) * 3 + i / 2;
         let errors: Vec<(f64, f64)> = if with_truth {
-            est.iter().filter_map(|e| truth_at(&d.truth, e.t).map(|tr| (e.t, e.pv[k] - tr[k]))).collect()
+            est.iter().filter_map(|e| truth_at(&d.truth, e.t).map(|(tr, _)| (e.t, e.pv[k] - tr[k]))).collect()
         } else {
             Vec::new()
         };
-        let band: Vec<(f64, f64)> = est.iter().map(|e| (e.t, 3.0 * e.sd[k])).collect();
-        // The scale of the run after the start (the initial covariance would
-        // flatten everything): the 98th percentile of |error| and of 3σ.
-        let top = percentile(errors.iter().map(|e| e.1.abs()), 0.98).max(percentile(band.iter().map(|b| b.1), 0.98));
-        let y = -1.2 * top..1.2 * top.max(1e-9);
+        let band: Vec<(f64, f64, f64)> = est.iter().map(|e| (e.t, 0.0, 3.0 * e.sd[k])).collect();
         let title = if with_truth { format!("error {}", names[k]) } else { format!("±3σ {}", names[k]) };
-        let mut chart = ChartBuilder::on(area)
-            .caption(title, ("sans-serif", 18))
-            .margin(8)
-            .x_label_area_size(30)
-            .y_label_area_size(55)
-            .build_cartesian_2d(t.clone(), y)?;
-        chart.configure_mesh().x_desc("t, s").draw()?;
-        chart.draw_series(LineSeries::new(band.iter().copied(), RED.stroke_width(1)))?;
-        chart.draw_series(LineSeries::new(band.iter().map(|b| (b.0, -b.1)), RED.stroke_width(1)))?;
-        if with_truth {
-            chart.draw_series(LineSeries::new(errors.iter().copied(), BLUE.stroke_width(1)))?;
-        }
+        draw_band_panel(area, &title, if k < 3 { "m" } else { "m/s" }, t.clone(), &errors, "error", &band)?;
         counts.insert(&format!("errors.{k}.error"), errors.len());
         counts.insert(&format!("errors.{k}.band"), band.len());
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// The `ins` page: the attitude error about each body axis (with truth) or its
+/// ±3σ band, and each bias estimate inside its ±3σ band.
+fn draw_attitude<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, d: &Data, counts: &mut Counts) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let est: Vec<(f64, InsPart)> = thin(&d.estimates).iter().filter_map(|e| Some((e.t, e.ins?))).collect();
+    let t = range(est.iter().map(|e| e.0));
+    let panels = root.split_evenly((3, 3));
+    for axis in 0..3 {
+        let errors: Vec<(f64, f64)> = est
+            .iter()
+            .filter_map(|(t, e)| {
+                let (_, q_true) = truth_at(&d.truth, *t)?;
+                Some((*t, attitude_error_deg(e.q_wxyz, q_true)?[axis]))
+            })
+            .collect();
+        let band: Vec<(f64, f64, f64)> =
+            est.iter().map(|(t, e)| (*t, 0.0, 3.0 * e.att_sd[axis].to_degrees())).collect();
+        let name = ["x (roll)", "y (pitch)", "z (yaw)"][axis];
+        let title = if errors.is_empty() {
+            format!("±3σ attitude about body {name}")
+        } else {
+            format!("attitude error about body {name}")
+        };
+        draw_band_panel(&panels[axis], &title, "deg", t.clone(), &errors, "error", &band)?;
+        counts.insert(&format!("attitude.{axis}.error"), errors.len());
+        counts.insert(&format!("attitude.{axis}.band"), band.len());
+    }
+    let bias_names = ["accel bias x", "accel bias y", "accel bias z", "gyro bias x", "gyro bias y", "gyro bias z"];
+    for k in 0..6 {
+        // Gyroscope biases in deg/h, the unit of their data sheets.
+        let scale = if k < 3 { 1.0 } else { 3600.0_f64.to_degrees() };
+        let values: Vec<(f64, f64)> = est.iter().map(|(t, e)| (*t, e.bias[k] * scale)).collect();
+        let band: Vec<(f64, f64, f64)> =
+            est.iter().map(|(t, e)| (*t, e.bias[k] * scale, 3.0 * e.bias_sd[k] * scale)).collect();
+        let unit = if k < 3 { "m/s²" } else { "deg/h" };
+        draw_band_panel(&panels[3 + k], bias_names[k], unit, t.clone(), &values, "estimate", &band)?;
+        counts.insert(&format!("attitude.bias{k}"), values.len());
     }
     root.present()?;
     Ok(())
@@ -348,23 +508,50 @@ where
         let chi2 = ChiSquared::new(*dof as f64)?;
         let (lo, hi) = (chi2.inverse_cdf(0.025), chi2.inverse_cdf(0.975));
         let values = thin(values);
-        let top = values.iter().map(|v| v.value).fold(hi * 1.5, f64::max).min(hi * 20.0);
+        let (gated, fused): (Vec<Nis>, Vec<Nis>) = values.iter().partition(|v| v.gated);
+        // The scale of the fused values (gated outliers would squash them):
+        // their 99th percentile, at least 1.5 × the upper bound.
+        let top = (1.1 * percentile(fused.iter().map(|v| v.value), 0.99)).max(hi * 1.5);
         let mut chart = ChartBuilder::on(area)
-            .caption(format!("NIS {sensor} (dof {dof}, 95 % χ² bounds)"), ("sans-serif", 18))
+            .caption(format!("NIS {sensor} (dof {dof}, 95 % χ² bounds)"), ("sans-serif", 16))
             .margin(8)
             .x_label_area_size(30)
-            .y_label_area_size(55)
+            .y_label_area_size(60)
             .build_cartesian_2d(t.clone(), 0.0..top)?;
-        chart.configure_mesh().x_desc("t, s").draw()?;
-        for bound in [lo, hi] {
-            chart.draw_series(LineSeries::new([(t.start, bound), (t.end, bound)], RED.stroke_width(1)))?;
-        }
-        let clip = |v: f64| v.min(top);
-        let (gated, fused): (Vec<Nis>, Vec<Nis>) = values.iter().partition(|v| v.gated);
-        chart.draw_series(fused.iter().map(|v| Circle::new((v.t, clip(v.value)), 2, BLUE.filled())))?;
-        chart.draw_series(gated.iter().map(|v| Cross::new((v.t, clip(v.value)), 5, RED.stroke_width(2))))?;
+        chart.configure_mesh().x_desc("t since start, s").y_desc("NIS (no unit)").draw()?;
+        chart
+            .draw_series(LineSeries::new([(t.start, hi), (t.end, hi)], RED.stroke_width(1)))?
+            .label(format!("χ² 2.5 % and 97.5 % ({lo:.2}, {hi:.2})"))
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED));
+        chart.draw_series(LineSeries::new([(t.start, lo), (t.end, lo)], RED.stroke_width(1)))?;
+        let (beyond, within): (Vec<Nis>, Vec<Nis>) = gated.iter().partition(|v| v.value > top);
+        let above = fused.iter().filter(|v| v.value > top).count();
+        chart
+            .draw_series(
+                fused.iter().filter(|v| v.value <= top).map(|v| Circle::new((v.t, v.value), 2, BLUE.filled())),
+            )?
+            .label(if above > 0 { format!("fused ({above} above the scale)") } else { "fused".to_string() })
+            .legend(|(x, y)| Circle::new((x + 10, y), 2, BLUE.filled()));
+        chart
+            .draw_series(within.iter().map(|v| Cross::new((v.t, v.value), 5, RED.stroke_width(2))))?
+            .label("gated")
+            .legend(|(x, y)| Cross::new((x + 10, y), 5, RED));
+        // Gated outliers beyond the scale: on its edge, as triangles.
+        chart
+            .draw_series(beyond.iter().map(|v| TriangleMarker::new((v.t, top * 0.97), 6, RED.filled())))?
+            .label(format!("gated, beyond the scale ({})", beyond.len()))
+            .legend(|(x, y)| TriangleMarker::new((x + 10, y), 6, RED.filled()));
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 12))
+            .draw()?;
         counts.insert(&format!("nis.{sensor}"), values.len());
         counts.insert(&format!("nis.{sensor}.gated"), gated.len());
+        counts.insert(&format!("nis.{sensor}.beyond"), beyond.len());
+        counts.scale(&format!("nis.{sensor}.top"), top);
     }
     root.present()?;
     Ok(())
@@ -404,13 +591,17 @@ where
     Ok(())
 }
 
-/// Points per series, for `report.json`.
+/// Points per series, and the scales of some panels, for `report.json`.
 #[derive(Default)]
-struct Counts(BTreeMap<String, usize>);
+struct Counts(BTreeMap<String, usize>, BTreeMap<String, f64>);
 
 impl Counts {
     fn insert(&mut self, k: &str, n: usize) {
         self.0.insert(k.to_string(), n);
+    }
+
+    fn scale(&mut self, k: &str, v: f64) {
+        self.1.insert(k.to_string(), v);
     }
 }
 
@@ -419,6 +610,7 @@ impl Counts {
 enum Page {
     Trajectory,
     Errors,
+    Attitude,
     Nis,
     Latency,
 }
@@ -428,6 +620,7 @@ impl Page {
         match self {
             Page::Trajectory => "trajectory",
             Page::Errors => "errors",
+            Page::Attitude => "attitude",
             Page::Nis => "nis",
             Page::Latency => "latency",
         }
@@ -437,11 +630,21 @@ impl Page {
     where
         DB::ErrorType: 'static,
     {
+        // Every page says when its time 0 is and what its estimates are.
+        root.fill(&WHITE)?;
+        let title = format!(
+            "{}: t = 0 at {:.3} s of CLOCK_MONOTONIC{}",
+            self.name(),
+            d.t0,
+            if d.smoothed { "; RTS-smoothed estimates (fusiond replay --smooth)" } else { "" }
+        );
+        let root = root.titled(&title, ("sans-serif", 18))?;
         match self {
-            Page::Trajectory => draw_trajectory(root, d, counts),
-            Page::Errors => draw_errors(root, d, counts),
-            Page::Nis => draw_nis(root, d, counts),
-            Page::Latency => draw_latency(root, d, counts),
+            Page::Trajectory => draw_trajectory(&root, d, counts),
+            Page::Errors => draw_errors(&root, d, counts),
+            Page::Attitude => draw_attitude(&root, d, counts),
+            Page::Nis => draw_nis(&root, d, counts),
+            Page::Latency => draw_latency(&root, d, counts),
         }
     }
 }
@@ -461,8 +664,17 @@ pub fn run(input: &Path, samples: Option<&Path>, truth: Option<&Path>, dir: &Pat
     if let Some(truth) = truth {
         data.truth = read_truth(truth)?;
     }
+    // Times since the first estimate (CLOCK_MONOTONIC seconds say nothing).
+    data.t0 = data.estimates.iter().map(|e| e.t).fold(f64::INFINITY, f64::min);
+    let t0 = data.t0;
+    data.estimates.iter_mut().for_each(|e| e.t -= t0);
+    data.truth.iter_mut().for_each(|t| t.0 -= t0);
+    data.nis.values_mut().flat_map(|(_, v)| v.iter_mut()).for_each(|v| v.t -= t0);
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut pages = vec![Page::Trajectory, Page::Errors, Page::Nis];
+    if data.estimates.iter().any(|e| e.ins.is_some()) {
+        pages.insert(2, Page::Attitude);
+    }
     if !data.latency_us.is_empty() {
         pages.push(Page::Latency);
     }
@@ -480,7 +692,14 @@ pub fn run(input: &Path, samples: Option<&Path>, truth: Option<&Path>, dir: &Pat
     }
     let report = dir.join("report.json");
     let names: Vec<String> = files.iter().filter_map(|f| f.file_name()).map(|f| f.to_string_lossy().into()).collect();
-    let json = serde_json::json!({ "input": input.display().to_string(), "files": names, "points": counts.0 });
+    let json = serde_json::json!({
+        "input": input.display().to_string(),
+        "files": names,
+        "t0_s": data.t0,
+        "smoothed": data.smoothed,
+        "points": counts.0,
+        "scales": counts.1,
+    });
     std::fs::write(&report, serde_json::to_string_pretty(&json)?)?;
     files.push(report);
     Ok(files)
