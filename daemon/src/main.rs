@@ -141,6 +141,15 @@ fn progress_bar(len: Option<u64>, bytes: bool) -> indicatif::ProgressBar {
     }
 }
 
+/// A replay that processed nothing: its summary (every refused line with its
+/// reason) goes to stderr first.
+fn say_why(e: replay::ReplayError) -> replay::ReplayError {
+    if let replay::ReplayError::NothingProcessed(summary) = &e {
+        eprint!("{summary}");
+    }
+    e
+}
+
 /// The configuration of a replay: `--config` if given (with a warning when
 /// the recording was made with another), else the one the recording carries.
 fn replay_config(
@@ -261,7 +270,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     }
                 };
                 let (summary, comparison) =
-                    replay::recording::replay_recording(&config, &recording, writer, smooth, compare, tick)?;
+                    replay::recording::replay_recording(&config, &recording, writer, smooth, compare, tick)
+                        .map_err(say_why)?;
                 bar.finish_and_clear();
                 eprint!("{summary}");
                 if recording.was_cut_off() {
@@ -283,7 +293,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let bar = progress_bar(file.metadata().ok().map(|m| m.len()), true);
             let summary = replay::replay(&config, BufReader::new(bar.wrap_read(file)), writer, smooth);
             bar.finish_and_clear();
-            let summary = summary?;
+            let summary = summary.map_err(say_why)?;
             eprint!("{summary}");
             Ok(())
         }

@@ -46,9 +46,10 @@ pub enum ReplayError {
     /// The configured model could not be built.
     #[error(transparent)]
     Model(#[from] ConfigError),
-    /// No sample of the input could be processed.
-    #[error("no sample could be processed ({0} lines read)")]
-    NothingProcessed(u64),
+    /// No sample of the input could be processed: the summary says why, line
+    /// by line (`fusiond replay` prints it).
+    #[error("no sample could be processed ({} lines read; the reasons are above)", .0.read)]
+    NothingProcessed(Box<ReplaySummary>),
 }
 
 /// Counts of one replay, printed on stderr by `fusiond replay`.
@@ -465,7 +466,7 @@ fn replay_model<M: Steps>(
     // A sample refused for a full sensor table has no sensor to be counted on.
     summary.counts.invalid += unreadable + engine.stats().unknown_sensor;
     if summary.counts.processed == 0 {
-        return Err(ReplayError::NothingProcessed(summary.read));
+        return Err(ReplayError::NothingProcessed(Box::new(summary)));
     }
     Ok(summary)
 }

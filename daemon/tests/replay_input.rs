@@ -25,3 +25,27 @@ fn a_garbage_mcap_is_refused_as_not_mcap() {
     assert!(stderr.contains("named .mcap but not an MCAP file"), "{stderr}");
     assert!(!stderr.contains("read 2 lines"), "{stderr}");
 }
+
+/// A JSON-lines file of nothing but garbage: every line's reason is shown (it
+/// said only "no sample could be processed (3 lines read)").
+#[test]
+fn an_all_garbage_file_gets_every_lines_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("config.toml");
+    std::fs::write(&config, common::linear_config(None)).unwrap();
+    let input = dir.path().join("garbage.jsonl");
+    std::fs::write(&input, "not json\n{\"imu\": 3}\n\u{1}\u{2}\n").unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_fusiond"))
+        .args(["replay", "--config"])
+        .arg(&config)
+        .arg("--input")
+        .arg(&input)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    for line in ["line 1: expected value", "line 2: invalid type", "line 3: expected value"] {
+        assert!(stderr.contains(line), "{line}: {stderr}");
+    }
+    assert!(stderr.contains("no sample could be processed (3 lines read; the reasons are above)"), "{stderr}");
+}
