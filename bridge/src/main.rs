@@ -219,12 +219,24 @@ fn run(cli: Cli, args: Checked) -> anyhow::Result<()> {
     let mut next_status = Instant::now() + status_interval;
     let mut result = Ok(());
     let mut peers = 0;
+    // While --connect endpoints reach no peer, say so (Zenoh keeps retrying
+    // them in silence; the status lines only ever said "forwarded 0").
+    let mut next_unreached = Instant::now() + UNREACHED_WARNING;
     while !stop.load(Ordering::Relaxed) {
         std::thread::sleep(Duration::from_millis(20));
         let now = session.info().peers_zid().wait().count();
         if now != peers {
             tracing::info!("zenoh peers: {now}");
             peers = now;
+        }
+        if peers == 0 && !cli.connect.is_empty() && Instant::now() >= next_unreached {
+            tracing::warn!(
+                connect = ?cli.connect,
+                "no Zenoh peer reached after {:.0} s: is the other bridge running and listening at the --connect \
+                 endpoints, and can this host reach them? Retrying.",
+                UNREACHED_WARNING.as_secs_f64()
+            );
+            next_unreached = Instant::now() + UNREACHED_REPEAT;
         }
         if let Some((name, _, _)) = streams.iter().find(|s| s.2.is_finished())
             && !stop.swap(true, Ordering::Relaxed)
@@ -235,7 +247,7 @@ fn run(cli: Cli, args: Checked) -> anyhow::Result<()> {
         if Instant::now() >= next_status {
             next_status += status_interval;
             for (name, counts, _) in &streams {
-                tracing::info!("{name}: {}", counts.line());
+                tracing::info!("{name}: {}; zenoh peers {peers}", counts.line());
             }
         }
     }
@@ -249,6 +261,11 @@ fn run(cli: Cli, args: Checked) -> anyhow::Result<()> {
     let _ = session.close().wait();
     result
 }
+
+/// How long `--connect` endpoints may reach no peer before the bridge says so.
+const UNREACHED_WARNING: Duration = Duration::from_secs(5);
+/// How often it says so again while none is reached.
+const UNREACHED_REPEAT: Duration = Duration::from_secs(30);
 
 /// A running stream: its name, counts and thread.
 type Stream = (&'static str, Arc<Counts>, std::thread::JoinHandle<anyhow::Result<()>>);

@@ -265,3 +265,19 @@ fn an_endpoint_that_cannot_be_opened_is_a_failure_on_one_line() {
     assert!(last.starts_with("fusion-bridge: cannot open the Zenoh session: "), "{err}");
     assert!(domain.files().is_empty(), "{:?}", domain.files());
 }
+
+/// `--connect` to an endpoint where no bridge listens: the bridge says within
+/// seconds that it reaches no peer (it only ever said "forwarded 0").
+#[test]
+fn an_unreachable_peer_is_reported() {
+    let domain = TestDomain::new("bridge-unreached");
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("bridge.log");
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let started = Instant::now();
+    let b = bridge(&domain, &domain.namespace, &["--state", "in", "--connect", &endpoint], &log);
+    wait_for_log(&log, "no Zenoh peer reached after 5 s");
+    assert!(started.elapsed() < Duration::from_secs(20), "{:?}", started.elapsed());
+    assert!(std::fs::read_to_string(&log).unwrap().contains(&endpoint));
+    drop(b);
+}

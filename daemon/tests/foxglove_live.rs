@@ -115,3 +115,31 @@ fn a_foxglove_client_receives_the_live_estimate() {
     assert!(daemon.terminate().success());
     assert!(domain.files().is_empty(), "left in /dev/shm: {:?}", domain.files());
 }
+
+/// In a namespace where no fusiond runs, the server says so within seconds
+/// (it served an empty stream without a word), and says so again when one starts.
+#[test]
+fn a_server_without_fusiond_says_so() {
+    let domain = TestDomain::new("foxglove-none");
+    let mut server = Running(
+        Command::new(workspace_bin("fusionctl"))
+            .args(["foxglove", "--namespace", &domain.namespace, "--port", "0"])
+            .env(DOMAIN_ENV, &domain.domain)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let mut stderr = BufReader::new(server.0.stderr.take().unwrap());
+    let started = Instant::now();
+    let mut line = String::new();
+    stderr.read_line(&mut line).unwrap();
+    assert!(started.elapsed() < Duration::from_secs(10), "{:?}", started.elapsed());
+    assert!(line.contains(&format!("no fusiond runs in namespace \"{}\"", domain.namespace)), "{line}");
+    let mut daemon = Daemon::start(&domain, &common::linear_config(Some(0.999)), "event");
+    line.clear();
+    stderr.read_line(&mut line).unwrap();
+    assert!(line.contains("fusiond is running in namespace") && line.contains("serving it"), "{line}");
+    drop(server);
+    assert!(daemon.terminate().success());
+}

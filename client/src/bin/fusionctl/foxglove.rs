@@ -20,7 +20,13 @@ fn channel(topic: &str, schema_name: &str, schema: String) -> anyhow::Result<Arc
     Ok(foxglove::ChannelBuilder::new(topic).message_encoding(recording::MESSAGE_ENCODING).schema(schema).build_raw()?)
 }
 
-/// Serves namespace `namespace` on `host:port` (0: any free port) until `stop`.
+/// How long the server waits for fusiond before it says none runs.
+const NO_DAEMON_WARNING: Duration = Duration::from_secs(2);
+/// How often it says so again while none runs.
+const NO_DAEMON_REPEAT: Duration = Duration::from_secs(30);
+
+/// Serves namespace `namespace` on `host:port` (0: any free port) until `stop`;
+/// says so on stderr while no fusiond runs there.
 pub fn run(namespace: &str, host: &str, port: u16, stop: &AtomicBool) -> anyhow::Result<()> {
     let client = Client::connect(namespace)?;
     let mut samples = client.sample_subscriber()?;
@@ -39,6 +45,10 @@ pub fn run(namespace: &str, host: &str, port: u16, stop: &AtomicBool) -> anyhow:
     }
     let mut reader = None;
     let mut buf = Vec::with_capacity(8192);
+    // While no fusiond runs in the namespace, say so after NO_DAEMON_WARNING
+    // and again every NO_DAEMON_REPEAT (a wrong namespace serves nothing).
+    let started = std::time::Instant::now();
+    let mut next_warning = started + NO_DAEMON_WARNING;
     while !stop.load(Ordering::Relaxed) {
         let mut busy = false;
         while let Some(s) = samples.try_next()? {
@@ -51,8 +61,23 @@ pub fn run(namespace: &str, host: &str, port: u16, stop: &AtomicBool) -> anyhow:
         if reader.is_none() {
             // fusiond may start after this server.
             match client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER) {
-                Ok(r) => reader = Some(r),
-                Err(ClientError::DaemonNotRunning { .. }) => {}
+                Ok(r) => {
+                    if std::time::Instant::now() >= started + NO_DAEMON_WARNING {
+                        eprintln!("fusionctl foxglove: fusiond is running in namespace {namespace:?} now: serving it");
+                    }
+                    reader = Some(r);
+                }
+                Err(ClientError::DaemonNotRunning { .. }) => {
+                    if std::time::Instant::now() >= next_warning {
+                        eprintln!(
+                            "fusionctl foxglove: no fusiond runs in namespace {namespace:?} after {:.0} s: serving \
+                             nothing but the samples published there; waiting for fusiond (is the namespace right? \
+                             `fusionctl state --namespace NS` asks one)",
+                            started.elapsed().as_secs_f64()
+                        );
+                        next_warning += NO_DAEMON_REPEAT;
+                    }
+                }
                 Err(e) => return Err(e.into()),
             }
         }
