@@ -99,14 +99,38 @@ fn a_foxglove_client_receives_the_live_estimate() {
         let pose: serde_json::Value = serde_json::from_slice(&data[13..]).unwrap();
         poses += 1;
         let p = &pose["pose"]["position"];
-        if pose["timestamp"]["nsec"].as_u64() == Some(last.t_ns % 1_000_000_000)
-            && p["x"].as_f64() == Some(last.x[0])
-            && p["y"].as_f64() == Some(last.x[1])
-        {
+        if p["x"].as_f64() == Some(last.x[0]) && p["y"].as_f64() == Some(last.x[1]) {
+            // The timestamp is the estimate's time on the wall clock (a date
+            // in Foxglove, not 1970): within a few ms of ours.
+            let stamp = pose["timestamp"]["sec"].as_u64().unwrap() * 1_000_000_000
+                + pose["timestamp"]["nsec"].as_u64().unwrap();
+            let ours = last.t_ns + fusion_shared::time::wall_minus_monotonic_ns();
+            assert!(stamp.abs_diff(ours) < 50_000_000, "pose at {stamp}, estimate at {ours} on the wall clock");
             break;
         }
     }
     assert!(poses > 1, "one pose per snapshot");
+
+    // The subprotocols the server takes, as docs/recording.md says: the SDK's
+    // two, and not the older name (the SDK answers 400).
+    for (offered, accepted) in
+        [("foxglove.sdk.v1.1", true), ("foxglove.sdk.v1", true), ("foxglove.websocket.v1", false)]
+    {
+        let mut request = format!("ws://127.0.0.1:{port}").into_client_request().unwrap();
+        request.headers_mut().insert("Sec-WebSocket-Protocol", offered.parse().unwrap());
+        match tungstenite::connect(request) {
+            Ok((mut s, response)) => {
+                assert!(accepted, "{offered} was accepted");
+                assert_eq!(response.headers()["Sec-WebSocket-Protocol"], offered);
+                s.close(None).unwrap();
+            }
+            Err(tungstenite::Error::Http(response)) => {
+                assert!(!accepted, "{offered} was refused");
+                assert_eq!(response.status(), 400, "{offered}");
+            }
+            Err(e) => panic!("{offered}: {e}"),
+        }
+    }
     socket.close(None).unwrap();
     let _ = Command::new("kill").args(["-INT", &server.0.id().to_string()]).status();
     assert!(server.wait_for(Duration::from_secs(10)).expect("fusionctl foxglove did not stop").success());

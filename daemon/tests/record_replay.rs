@@ -91,6 +91,9 @@ fn replay(dir: &Path, config: &str, mcap: &Path, extra: &[&str]) -> (bool, Strin
     (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
+/// 2020-01-01 on the wall clock, ns since the Unix epoch.
+const WALL_2020_NS: u64 = 1_577_836_800_000_000_000;
+
 /// The `mcap` crate's view: every channel has a JSON Schema, and the sample
 /// and snapshot channels hold what was recorded.
 fn check_with_the_mcap_crate(mcap: &Path, samples: &[Sample]) {
@@ -105,8 +108,16 @@ fn check_with_the_mcap_crate(mcap: &Path, samples: &[Sample]) {
         serde_json::from_slice::<serde_json::Value>(&schema.data).unwrap();
         serde_json::from_slice::<serde_json::Value>(&m.data).unwrap();
         *per_topic.entry(m.channel.topic.clone()).or_default() += 1;
+        // Log times are dates (wall clock), for Foxglove and PlotJuggler; the
+        // times in fusiond's own messages stay its CLOCK_MONOTONIC.
+        assert!(m.log_time > WALL_2020_NS, "{}: log time {}", m.channel.topic, m.log_time);
+        if m.channel.topic == recording::POSE_TOPIC {
+            let pose: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+            assert!(pose["timestamp"]["sec"].as_u64().unwrap() > WALL_2020_NS / 1_000_000_000, "{pose}");
+        }
         if m.channel.topic == recording::STATE_TOPIC {
             let s: recording::SnapshotJson = serde_json::from_slice(&m.data).unwrap();
+            assert!(s.publish_ns < WALL_2020_NS && m.log_time - s.publish_ns > WALL_2020_NS);
             provisional += u64::from(s.has_input() && s.pending.is_some());
             landed += u64::from(!s.has_input() && s.pending.is_none() && s.background_steps > 0);
         }

@@ -350,15 +350,24 @@ fn foxglove_time(t_ns: u64) -> serde_json::Value {
     serde_json::json!({"sec": t_ns / 1_000_000_000, "nsec": t_ns % 1_000_000_000})
 }
 
+/// The name of the MCAP metadata record of a recording's clocks.
+pub const CLOCK_METADATA: &str = "fusion.clock";
+/// Its key: the wall clock's lead over CLOCK_MONOTONIC when the recording
+/// started, ns. The log and publish times of every message are wall-clock
+/// (that CLOCK_MONOTONIC time plus it); the times inside the messages stay
+/// CLOCK_MONOTONIC (fusiond's clock), but for the `foxglove.*` messages' `timestamp`.
+pub const CLOCK_OFFSET_KEY: &str = "wall_minus_monotonic_ns";
+
 /// The `foxglove.PoseInFrame` of a snapshot: position in the ENU frame and, for
-/// `ins`, the attitude (body → ENU); identity for `linear`.
-pub fn pose_in_frame(s: &StateSnapshot) -> serde_json::Value {
+/// `ins`, the attitude (body → ENU); identity for `linear`. Its timestamp is
+/// wall-clock: the estimate's time plus `wall_offset_ns` (see [`CLOCK_OFFSET_KEY`]).
+pub fn pose_in_frame(s: &StateSnapshot, wall_offset_ns: u64) -> serde_json::Value {
     let x = s.state();
     let p = |i: usize| x.get(i).copied().unwrap_or(0.0);
     // ins: x = [p, v, q_wxyz, b_a, b_g].
     let (qw, qx, qy, qz) = if s.model == model::INS { (p(6), p(7), p(8), p(9)) } else { (1.0, 0.0, 0.0, 0.0) };
     serde_json::json!({
-        "timestamp": foxglove_time(s.t_ns),
+        "timestamp": foxglove_time(s.t_ns.saturating_add(wall_offset_ns)),
         "frame_id": WORLD_FRAME,
         "pose": {
             "position": {"x": p(0), "y": p(1), "z": p(2)},
@@ -369,13 +378,13 @@ pub fn pose_in_frame(s: &StateSnapshot) -> serde_json::Value {
 
 /// The `foxglove.LocationFix` of a snapshot's position, once a datum is set,
 /// with the position covariance (ENU, m²).
-pub fn location_fix(s: &StateSnapshot) -> Option<serde_json::Value> {
+pub fn location_fix(s: &StateSnapshot, wall_offset_ns: u64) -> Option<serde_json::Value> {
     let (lat, lon, height) = s.position_geodetic()?;
     let n = s.cov_dim as usize;
     let cov = s.covariance();
     let c: Vec<f64> = (0..3).flat_map(|r| (0..3).map(move |c| (r, c))).map(|(r, c)| cov[r * n + c]).collect();
     Some(serde_json::json!({
-        "timestamp": foxglove_time(s.t_ns),
+        "timestamp": foxglove_time(s.t_ns.saturating_add(wall_offset_ns)),
         "frame_id": WORLD_FRAME,
         "latitude": lat,
         "longitude": lon,
@@ -443,7 +452,11 @@ mod tests {
         let back: SnapshotJson = serde_json::from_str(&serde_json::to_string(&j).unwrap()).unwrap();
         assert_eq!(back, j);
         assert!(j.has_input());
-        assert_eq!(pose_in_frame(&s)["pose"]["orientation"]["w"], 1.0);
-        assert!(location_fix(&s).is_none(), "no datum, no location");
+        assert_eq!(pose_in_frame(&s, 0)["pose"]["orientation"]["w"], 1.0);
+        assert!(location_fix(&s, 0).is_none(), "no datum, no location");
+        // The foxglove timestamp is wall-clock: the estimate's time plus the offset.
+        s.t_ns = 5_500_000_000;
+        assert_eq!(pose_in_frame(&s, 1_700_000_000_000_000_000)["timestamp"]["sec"], 1_700_000_005u64);
+        assert_eq!(pose_in_frame(&s, 1_700_000_000_000_000_000)["timestamp"]["nsec"], 500_000_000u64);
     }
 }

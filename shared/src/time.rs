@@ -14,6 +14,24 @@ pub fn now_ns() -> u64 {
     (ts.tv_sec as u64).saturating_mul(1_000_000_000).saturating_add(ts.tv_nsec as u64)
 }
 
+/// How far the wall clock (CLOCK_REALTIME, ns since the Unix epoch) is ahead
+/// of [`now_ns`], read now: add it to a CLOCK_MONOTONIC time to show it as a
+/// date (recordings, Foxglove). The two clocks are read back to back (the
+/// smaller of three tries' gaps), so the offset is good to about a microsecond,
+/// and it changes when the wall clock is set.
+pub fn wall_minus_monotonic_ns() -> u64 {
+    (0..3)
+        .map(|_| {
+            let before = now_ns();
+            let wall = clock_gettime(ClockId::Realtime);
+            let after = now_ns();
+            let wall = (wall.tv_sec as u64).saturating_mul(1_000_000_000).saturating_add(wall.tv_nsec as u64);
+            (after - before, wall.saturating_sub(before + (after - before) / 2))
+        })
+        .min_by_key(|(gap, _)| *gap)
+        .map_or(0, |(_, offset)| offset)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -90,16 +90,32 @@ impl Recording {
         self.cut_off.load(Ordering::Relaxed)
     }
 
+    /// The metadata record `name` (they are written at the start of the file:
+    /// a cut-off recording has them too).
+    fn metadata(&self, name: &str) -> Option<mcap::records::Metadata> {
+        let records = mcap::read::LinearReader::new_with_options(&self.map, mcap::read::Options::IgnoreEndMagic.into());
+        records.ok()?.map_while(Result::ok).find_map(|r| match r {
+            mcap::records::Record::Metadata(m) if m.name == name => Some(m),
+            _ => None,
+        })
+    }
+
+    /// How far the log times are ahead of fusiond's clock (CLOCK_MONOTONIC):
+    /// the recorder writes wall-clock log times and keeps the offset in the
+    /// metadata `fusion.clock`; 0 for a recording without it (its log times
+    /// are CLOCK_MONOTONIC).
+    pub fn log_time_offset(&self) -> u64 {
+        self.metadata(recording::CLOCK_METADATA)
+            .and_then(|m| m.metadata.get(recording::CLOCK_OFFSET_KEY)?.parse().ok())
+            .unwrap_or(0)
+    }
+
     /// The configuration fusiond ran with, as the recorder kept it (the
     /// metadata `fusion.config`, at the start of the file: a cut-off recording
     /// has it too); `None` for a recording without one.
     pub fn config(&self) -> Option<RecordedConfig> {
         use fusion_shared::config_record as c;
-        let records = mcap::read::LinearReader::new_with_options(&self.map, mcap::read::Options::IgnoreEndMagic.into());
-        let metadata = records.ok()?.map_while(Result::ok).find_map(|r| match r {
-            mcap::records::Record::Metadata(m) if m.name == c::METADATA_NAME => Some(m),
-            _ => None,
-        })?;
+        let metadata = self.metadata(c::METADATA_NAME)?;
         let get = |key: &str| metadata.metadata.get(key).cloned();
         Some(RecordedConfig {
             toml: get(c::METADATA_TOML)?,
@@ -439,6 +455,8 @@ pub fn replay_recording(
 ) -> Result<(ReplaySummary, Option<ComparisonReport>), ReplayError> {
     std::thread::scope(|scope| {
         let (tx, rx) = crossbeam::channel::bounded::<RawBatch>(8);
+        // The engine's clock is fusiond's: log times back to CLOCK_MONOTONIC.
+        let offset = recording.log_time_offset();
         scope.spawn(move || {
             let messages = match recording.sample_messages() {
                 Ok(messages) => messages,
@@ -452,7 +470,12 @@ pub fn replay_recording(
                 batch.messages.push(m.map(|m| {
                     let start = batch.data.len();
                     batch.data.extend_from_slice(&m.data);
-                    (i as u64 + 1, m.log_time, sample_kind(&m.channel.topic), start..batch.data.len())
+                    (
+                        i as u64 + 1,
+                        m.log_time.saturating_sub(offset),
+                        sample_kind(&m.channel.topic),
+                        start..batch.data.len(),
+                    )
                 }));
                 // The replay stopped (an error) when the channel is closed.
                 if batch.messages.len() == READ_BATCH && tx.send(std::mem::take(&mut batch)).is_err() {

@@ -45,6 +45,9 @@ pub fn run(namespace: &str, host: &str, port: u16, stop: &AtomicBool) -> anyhow:
     }
     let mut reader = None;
     let mut buf = Vec::with_capacity(8192);
+    // The pose and location timestamps are shown as dates (the SDK stamps its
+    // log times with the wall clock itself).
+    let wall_offset = fusion_shared::time::wall_minus_monotonic_ns();
     // While no fusiond runs in the namespace, say so after NO_DAEMON_WARNING
     // and again every NO_DAEMON_REPEAT (a wrong namespace serves nothing).
     let started = std::time::Instant::now();
@@ -93,10 +96,10 @@ pub fn run(namespace: &str, host: &str, port: u16, stop: &AtomicBool) -> anyhow:
                     continue;
                 }
                 if pose.has_sinks() {
-                    pose.log(&serde_json::to_vec(&recording::pose_in_frame(s))?);
+                    pose.log(&serde_json::to_vec(&recording::pose_in_frame(s, wall_offset))?);
                 }
                 if location.has_sinks()
-                    && let Some(fix) = recording::location_fix(s)
+                    && let Some(fix) = recording::location_fix(s, wall_offset)
                 {
                     location.log(&serde_json::to_vec(&fix)?);
                 }

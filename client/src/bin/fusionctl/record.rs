@@ -109,11 +109,17 @@ pub struct Recorder<W: Write + std::io::Seek> {
     samples: Batch,
     snapshots: Batch,
     counts: Counts,
+    /// The wall clock's lead over CLOCK_MONOTONIC at the start: added to every
+    /// log and publish time (and the `foxglove.*` timestamps), so that other
+    /// tools show the run's date and time.
+    wall_offset_ns: u64,
 }
 
 impl<W: Write + std::io::Seek> Recorder<W> {
-    /// Starts a recording in `out` with every channel declared.
-    pub fn new(out: W, compress: bool) -> anyhow::Result<Self> {
+    /// Starts a recording in `out` with every channel declared, and the
+    /// wall clock's lead over CLOCK_MONOTONIC (`wall_offset_ns`) in the
+    /// metadata `fusion.clock`.
+    pub fn new(out: W, compress: bool, wall_offset_ns: u64) -> anyhow::Result<Self> {
         let compression = compress.then_some(mcap::Compression::Zstd);
         let mut mcap = mcap::WriteOptions::new()
             .compression(compression)
@@ -140,9 +146,12 @@ impl<W: Write + std::io::Seek> Recorder<W> {
                 recording::LOCATION_FIX_JSON_SCHEMA,
             )?,
         };
+        let clock = [(recording::CLOCK_OFFSET_KEY.to_string(), wall_offset_ns.to_string())].into_iter().collect();
+        mcap.write_metadata(&mcap::records::Metadata { name: recording::CLOCK_METADATA.into(), metadata: clock })?;
         Ok(Self {
             mcap,
             channels,
+            wall_offset_ns,
             inputs: VecDeque::new(),
             unreported: VecDeque::new(),
             highest_seq: HashMap::new(),
@@ -178,8 +187,12 @@ impl<W: Write + std::io::Seek> Recorder<W> {
         self.counts
     }
 
-    /// Adds the message in `buf` to its batch, writing the batch when it is full.
+    /// Adds the message in `buf` to its batch, writing the batch when it is
+    /// full. `log_time` and `publish_time` are CLOCK_MONOTONIC (0: unknown); the
+    /// record gets them wall-clock.
     fn write(&mut self, channel_id: u16, log_time: u64, publish_time: u64) -> anyhow::Result<()> {
+        let wall = |t: u64| if t == 0 { 0 } else { t.saturating_add(self.wall_offset_ns) };
+        let (log_time, publish_time) = (wall(log_time), wall(publish_time));
         let header = mcap::records::MessageHeader { channel_id, sequence: self.sequence, log_time, publish_time };
         self.sequence = self.sequence.wrapping_add(1);
         let sample = self.channels.samples.contains(&channel_id);
@@ -245,9 +258,9 @@ impl<W: Write + std::io::Seek> Recorder<W> {
             return Ok(());
         }
         self.buf.clear();
-        serde_json::to_writer(&mut self.buf, &recording::pose_in_frame(s))?;
+        serde_json::to_writer(&mut self.buf, &recording::pose_in_frame(s, self.wall_offset_ns))?;
         self.write(self.channels.pose, s.publish_ns, s.t_ns)?;
-        if let Some(fix) = recording::location_fix(s) {
+        if let Some(fix) = recording::location_fix(s, self.wall_offset_ns) {
             self.buf.clear();
             serde_json::to_writer(&mut self.buf, &fix)?;
             self.write(self.channels.location, s.publish_ns, s.t_ns)?;
@@ -381,7 +394,8 @@ pub fn run(
     let file = File::create(output).with_context(|| format!("cannot create {}", output.display()))?;
     // The same open file, for syncing what was written to the disk.
     let sync = file.try_clone()?;
-    let mut recorder = Recorder::new(BufWriter::with_capacity(1 << 20, file), compress)?;
+    let wall_offset = fusion_shared::time::wall_minus_monotonic_ns();
+    let mut recorder = Recorder::new(BufWriter::with_capacity(1 << 20, file), compress, wall_offset)?;
     match client.fusiond_config(Duration::from_secs(2))? {
         Some(config) => recorder.write_config(&config)?,
         None => eprintln!(
