@@ -77,7 +77,8 @@ lockout_fixes = 5
 # sample kind: <kind>_timeout_ns. The health stays "initialising" until samples
 # of {required} were processed.
 {timeouts}# NIS test over the last nis_window measurements of each sensor: degraded when
-# their sum leaves the two-sided chi-square band at nis_probability.
+# their sum stays out of the two-sided chi-square band at nis_probability for
+# nis_window measurements in a row.
 nis_window = 20
 nis_probability = 0.999
 

@@ -12,7 +12,13 @@
 //!   when more than half of them were gated (the filter locked itself out). Too
 //!   large means filter and sensor disagree, too small that the filter is far too
 //!   pessimistic. A gated outlier now and then is the gate doing its job and
-//!   leaves the sum alone.
+//!   leaves the sum alone. "Persistently": the window is out of its band for
+//!   a window's worth of that sensor's measurements in a row ([`PERSISTENCE`]),
+//!   so that a stretch of large but normal values (the χ² tail, an outlier just
+//!   inside the gate) evaluated in window after overlapping window does not
+//!   flag a consistent filter. A measurement the model refuses before it can use
+//!   it (odometry before the attitude is known) is no evidence either way and
+//!   does not enter the window.
 //! - Samples are lost when a sensor's sequence numbers had a gap recently.
 //! - The filter re-initialised itself from the fixes recently, after a lock-out
 //!   ([`crate::model::lockout`]).
@@ -151,7 +157,18 @@ struct NisWindow {
     len: usize,
     fused: usize,
     sum: f64,
+    /// Measurements recorded, and as of the last evaluation.
+    records: u64,
+    evaluated: u64,
+    /// Measurements in a row after which the full window was out of its band.
+    streak: u64,
 }
+
+/// How long a sensor's NIS window must stay out of its band before the health
+/// says so, in windows' worth of that sensor's measurements in a row: one
+/// (a real inconsistency is flagged after two windows, 2 s of 10 Hz fixes with
+/// the default window of 20).
+pub const PERSISTENCE: (usize, usize) = (1, 1);
 
 /// Tracks what the health needs beyond the engine's counters.
 #[derive(Debug, Clone)]
@@ -183,7 +200,16 @@ impl HealthMonitor {
                 }
             }
         }
-        let empty = NisWindow { values: [None; MAX_NIS_WINDOW], next: 0, len: 0, fused: 0, sum: 0.0 };
+        let empty = NisWindow {
+            values: [None; MAX_NIS_WINDOW],
+            next: 0,
+            len: 0,
+            fused: 0,
+            sum: 0.0,
+            records: 0,
+            evaluated: 0,
+            streak: 0,
+        };
         let mut needed_groups = [0; KINDS];
         for &k in SampleKind::ALL {
             if let Some(group) = measurement::needed(k) {
@@ -212,13 +238,16 @@ impl HealthMonitor {
     pub fn record(&mut self, slot: usize, outcome: &StepOutcome) {
         let value = match outcome {
             StepOutcome::Fused { nis } => Some(*nis),
-            StepOutcome::Gated { .. } | StepOutcome::Refused => None,
-            StepOutcome::Propagated => return,
+            StepOutcome::Gated { .. } => None,
+            // Not a test of the filter's consistency: the model could not use
+            // the measurement yet (or its innovation covariance; counted as refused).
+            StepOutcome::Refused | StepOutcome::Propagated => return,
         };
         let Some(w) = self.windows.get_mut(slot) else { return };
         w.values[w.next] = value;
         w.next = (w.next + 1) % self.config.nis_window;
         w.len = (w.len + 1).min(self.config.nis_window);
+        w.records += 1;
         let fused = w.values[..w.len].iter().flatten();
         (w.fused, w.sum) = fused.fold((0, 0.0), |(k, sum), v| (k + 1, sum + v));
     }
@@ -249,13 +278,30 @@ impl HealthMonitor {
                 self.last_loss_ns = Some(now_ns);
             }
             self.lost_seen[i] = s.stats.lost;
-            let w = &self.windows[i];
-            if w.len == self.config.nis_window {
-                let (k, sum) = (w.fused, w.sum);
-                let (lo, hi) = self.nis_band(s.kind.innovation_dim(), k);
-                if 2 * k < w.len || sum < lo || sum > hi {
-                    reasons |= health::NIS_OUT_OF_BOUNDS;
-                }
+            let window = self.config.nis_window;
+            let (lo, hi) = self.nis_band(s.kind.innovation_dim(), self.windows[i].fused);
+            let w = &mut self.windows[i];
+            // The measurements since the last evaluation count towards the
+            // streak only once the window is full (each after it filled).
+            let new = w.records - w.evaluated;
+            w.evaluated = w.records;
+            if w.len < window {
+                w.streak = 0;
+                continue;
+            }
+            let full_for = w.records.saturating_sub(window as u64 - 1);
+            let (k, sum) = (w.fused, w.sum);
+            let out = 2 * k < w.len || sum < lo || sum > hi;
+            w.streak = if out {
+                w.streak + new.min(full_for)
+            } else if new > 0 {
+                0
+            } else {
+                w.streak
+            };
+            let persist = (window * PERSISTENCE.0).div_ceil(PERSISTENCE.1).max(1) as u64;
+            if w.streak >= persist {
+                reasons |= health::NIS_OUT_OF_BOUNDS;
             }
         }
         if self.last_loss_ns.is_some_and(|t| now_ns.saturating_sub(t) < LOSS_HOLD_NS) {
@@ -355,20 +401,55 @@ mod tests {
         // χ²₃₀ at 0.0005 and 0.9995 (tables: 10.80 and 62.16).
         assert!((lo - 10.80).abs() < 0.01 && (hi - 62.16).abs() < 0.01, "{lo} {hi}");
         let e = fix_engine();
-        for _ in 0..10 {
+        // Out of the band from the first full window on: flagged after a
+        // window more (persistently).
+        for i in 0..19 {
             h.record(1, &StepOutcome::Fused { nis: 9.0 });
+            let flagged = h.evaluate(e.sensors(), 0, true, 0).reasons == health::NIS_OUT_OF_BOUNDS;
+            assert_eq!(flagged, i >= 18, "after {} measurements", i + 1);
         }
         assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::DEGRADED, health::NIS_OUT_OF_BOUNDS));
         for _ in 0..10 {
             h.record(1, &StepOutcome::Fused { nis: 3.0 });
         }
         assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::OK, 0));
-        for _ in 0..10 {
+        for _ in 0..20 {
             h.record(1, &StepOutcome::Fused { nis: 0.05 });
         }
         assert_eq!(h.evaluate(e.sensors(), 0, true, 0).reasons, health::NIS_OUT_OF_BOUNDS, "far too pessimistic");
         // IMU steps carry no NIS and change nothing.
         h.record(0, &StepOutcome::Propagated);
+    }
+
+    /// A cluster of large but normal values (the χ² tail, values just inside
+    /// the gate) takes the window out of its band while it is in it, shorter
+    /// than a window: no alarm, the health stays ok throughout.
+    #[test]
+    fn a_stretch_out_of_band_shorter_than_a_window_is_not_persistent() {
+        let mut h = HealthMonitor::new(HealthConfig { nis_window: 10, ..Default::default() });
+        let e = fix_engine();
+        let (_, hi) = h.nis_band(3, 10);
+        let mut out = 0;
+        let values = [3.0; 10].into_iter().chain([12.0; 4]).chain([3.0; 12]);
+        for nis in values {
+            h.record(1, &StepOutcome::Fused { nis });
+            assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::OK, 0));
+            let w = &h.windows[1];
+            out += usize::from(w.sum > hi);
+        }
+        assert!(out >= 5, "the window was out of its band for {out} measurements");
+    }
+
+    /// Measurements the model refused before it could use them (odometry
+    /// before the attitude is known) are no evidence: no alarm however many.
+    #[test]
+    fn measurements_the_model_cannot_use_yet_are_no_evidence() {
+        let mut h = HealthMonitor::new(HealthConfig { nis_window: 10, ..Default::default() });
+        let e = fix_engine();
+        for _ in 0..30 {
+            h.record(1, &StepOutcome::Refused);
+            assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::OK, 0));
+        }
     }
 
     #[test]
@@ -380,7 +461,7 @@ mod tests {
             h.record(1, &o);
         }
         assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::OK, 0));
-        for _ in 0..6 {
+        for _ in 0..15 {
             h.record(1, &StepOutcome::Gated { nis: 50.0 });
         }
         assert_eq!(h.evaluate(e.sensors(), 0, true, 0).reasons, health::NIS_OUT_OF_BOUNDS, "most fixes gated");
