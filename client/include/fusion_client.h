@@ -529,7 +529,10 @@ enum FusionStatus fusion_publisher_new(const struct FusionClient *client,
                                        uint32_t sensor,
                                        struct FusionPublisher **out);
 
-// Releases a publisher (NULL: nothing).
+// Releases a publisher (NULL: nothing). If its last sample reached fusiond
+// less than 100 ms ago, it waits for the rest of those 100 ms first: fusiond
+// takes a publisher's samples only once it has connected to it, and a program
+// that publishes once and exits at once would otherwise lose them.
 //
 // # Safety
 // `publisher` is null or came from [`fusion_publisher_new`] and was not released.
@@ -627,7 +630,7 @@ const char *fusion_health_name(uint32_t health);
 const char *fusion_rejection_name(uint32_t code);
 
 // The configuration setting that decides refusals of a rejection code (for
-// `FUSION_REJECTION_PAST_TIMESTAMP`: "[validation] max_past_ns"), a static
+// `FUSION_REJECTION_PAST_TIMESTAMP`: `"[validation] max_past_ns"`), a static
 // string; NULL when none does (the publisher's values are to fix).
 const char *fusion_rejection_setting(uint32_t code);
 

@@ -350,7 +350,10 @@ pub unsafe extern "C" fn fusion_publisher_new(
     })
 }
 
-/// Releases a publisher (NULL: nothing).
+/// Releases a publisher (NULL: nothing). If its last sample reached fusiond
+/// less than 100 ms ago, it waits for the rest of those 100 ms first: fusiond
+/// takes a publisher's samples only once it has connected to it, and a program
+/// that publishes once and exits at once would otherwise lose them.
 ///
 /// # Safety
 /// `publisher` is null or came from [`fusion_publisher_new`] and was not released.
@@ -610,7 +613,7 @@ pub extern "C" fn fusion_rejection_name(code: u32) -> *const c_char {
 }
 
 /// The configuration setting that decides refusals of a rejection code (for
-/// `FUSION_REJECTION_PAST_TIMESTAMP`: "[validation] max_past_ns"), a static
+/// `FUSION_REJECTION_PAST_TIMESTAMP`: `"[validation] max_past_ns"`), a static
 /// string; NULL when none does (the publisher's values are to fix).
 #[unsafe(no_mangle)]
 pub extern "C" fn fusion_rejection_setting(code: u32) -> *const c_char {

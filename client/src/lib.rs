@@ -46,9 +46,10 @@ pub use fusion_shared::snapshot::{Health, HealthReason, Model, Outcome};
 pub use fusion_shared::{StateSnapshot, now_ns};
 // The wire contract's modules, documented with the client.
 pub use fusion_shared::{
-    for_each_model, for_each_sample_kind, geodesy, permissions, sample, service, snapshot, time, transport,
+    config_record, for_each_model, for_each_sample_kind, geodesy, permissions, sample, service, snapshot, time,
+    transport,
 };
-pub use publisher::{ImuPublisher, PositionPublisher, SamplePublisher, SensorPublishers};
+pub use publisher::{DEFAULT_LINGER, ImuPublisher, PositionPublisher, SamplePublisher, SensorPublishers};
 pub use subscriber::{SampleSubscriber, StateSubscriber};
 
 use fusion_shared::service::ServiceNames;
@@ -136,7 +137,7 @@ impl Client {
     }
 
     /// The configuration fusiond runs with (the text of its configuration file
-    /// and its version, [`fusion_shared::config_record::ConfigRecord`]), waiting
+    /// and its version, [`config_record::ConfigRecord`]), waiting
     /// up to `timeout` for it; `None` when no fusiond publishes one in the
     /// namespace (none runs, or one of a version without `<ns>/config`).
     pub fn fusiond_config(

@@ -258,6 +258,8 @@ fn new_segments_are_never_open_to_another_user_not_even_while_they_are_made() {
     while started.elapsed() < Duration::from_secs(3) {
         let client = domain.client();
         let mut imu = client.imu_publisher(7).unwrap();
+        // Come and go at once (no wait for fusiond to take the sample).
+        imu.set_linger(Duration::ZERO);
         imu.publish_sample(ImuSample::new(fusion_shared::now_ns(), 7, made, [0.0; 3], [0.0; 3])).unwrap();
         let reader = client.state_subscriber().unwrap();
         drop((reader, imu, client));

@@ -404,3 +404,32 @@ fn installing_the_python_client_leaves_the_source_tree_clean() {
     assert!(root.join("client/python/build").exists(), "setuptools built in the tree (what this test is about)");
     assert_eq!(untracked(), before, "pip left files git sees");
 }
+
+/// A Python script that publishes one sample and ends at once, run again and
+/// again: every sample reaches fusiond (the interpreter's exit waits until
+/// fusiond could connect to the publisher).
+#[test]
+fn one_shot_python_scripts_lose_no_sample() {
+    let domain = TestDomain::new("py-oneshot");
+    let mut daemon = Daemon::start(&domain, &common::linear_config(None), "event");
+    let runs = 12u64;
+    for _ in 0..runs {
+        let out =
+            common::python_command(&domain.domain, "tests/oneshot.py", &[&domain.namespace, "43"]).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    let client = domain.client();
+    let mut reader = client.state_subscriber().unwrap();
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    let received = loop {
+        let row = reader.latest().unwrap().and_then(|s| s.sensor_counters().iter().find(|c| c.sensor == 43).copied());
+        let received = row.map_or(0, |r| r.counts.received);
+        if received >= runs || std::time::Instant::now() > deadline {
+            break received;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(received, runs, "samples of one-shot scripts that reached fusiond");
+    drop((reader, client));
+    assert!(daemon.terminate().success());
+}

@@ -16,10 +16,12 @@ Rust crates) with ctypes mirrors of the wire types (:mod:`fusion_client.wire`)::
 Like the Rust client, a client and its ports belong to the thread that made them.
 """
 
+import atexit
 import ctypes
 import math
 import os
 import time
+import weakref
 
 import iceoryx2 as iox2
 import numpy as np
@@ -212,8 +214,30 @@ class Client:
         return StateReader(subscriber, self._event("state"))
 
 
+#: How long a publisher keeps its samples available after the last one that
+#: reached fusiond, for fusiond to connect and take them (as the Rust client's
+#: ``DEFAULT_LINGER``): ``close()`` and the interpreter's exit wait for it.
+LINGER_S = 0.1
+
+#: Publishers that may still hold samples fusiond has not connected to.
+_LINGERING = weakref.WeakSet()
+
+
+@atexit.register
+def _linger_at_exit():
+    # A script that publishes and ends at once: its publishers go with the
+    # interpreter, before fusiond may have connected to them.
+    for p in list(_LINGERING):
+        p.close()
+
+
 class Publisher:
-    """Publishes one sensor's samples of one kind and wakes fusiond."""
+    """Publishes one sensor's samples of one kind and wakes fusiond.
+
+    iceoryx2 hands fusiond a publisher's samples only once fusiond has
+    connected to it (on its next look, after the wake-up); ``close()`` waits up
+    to ``LINGER_S`` after the last sample that reached fusiond so that none is
+    lost, and the interpreter's exit does the same for every open publisher."""
 
     def __init__(self, sample_type, sensor, publisher, wake):
         self.sample_type = sample_type
@@ -221,6 +245,22 @@ class Publisher:
         self.next_seq = 0
         self._publisher = publisher
         self._wake = wake
+        self._last_delivered = None
+        _LINGERING.add(self)
+
+    def close(self, linger: float = LINGER_S) -> None:
+        """Releases the publisher, first waiting until ``linger`` seconds have
+        passed since its last sample that reached fusiond."""
+        if self._publisher is None:
+            return
+        if self._last_delivered is not None:
+            left = self._last_delivered + linger - time.monotonic()
+            if left > 0:
+                self._wake.notify()
+                time.sleep(left)
+        self._publisher = None
+        self._wake = None
+        _LINGERING.discard(self)
 
     def publish(self, sample, t_ns=None) -> int:
         """Publishes ``sample`` as this sensor's next sample: stamps its header's
@@ -238,7 +278,11 @@ class Publisher:
         sample.header.seq = self.next_seq
         sample.header.kind = self.sample_type.KIND
         sample.header.sent_ns = now_ns()
+        if self._publisher is None:
+            raise FusionError("the publisher is closed")
         reached = self._publisher.send_copy(sample)
+        if reached:
+            self._last_delivered = time.monotonic()
         self.next_seq += 1
         self._wake.notify()
         return reached
