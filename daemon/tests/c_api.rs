@@ -162,18 +162,7 @@ fn one_shot_c_programs_lose_no_sample() {
             .unwrap();
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     }
-    let client = domain.client();
-    let mut reader = client.state_subscriber().unwrap();
-    let deadline = std::time::Instant::now() + Duration::from_secs(10);
-    let received = loop {
-        let row = reader.latest().unwrap().and_then(|s| s.sensor_counters().iter().find(|c| c.sensor == 42).copied());
-        let received = row.map_or(0, |r| r.counts.received);
-        if received >= runs || std::time::Instant::now() > deadline {
-            break received;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
+    let received = common::live::received_by(&domain, 42, runs);
     assert_eq!(received, runs, "samples of one-shot programs that reached fusiond");
-    drop((reader, client));
     assert!(daemon.terminate().success());
 }

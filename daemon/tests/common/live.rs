@@ -379,3 +379,20 @@ pub fn snapshot_of(reader: &mut StateSubscriber, sample: &Sample) -> StateSnapsh
         }
     }
 }
+
+/// How many samples of sensor `sensor` fusiond has received, as its latest
+/// snapshot says, waiting (at most 10 s) until it is `n`.
+pub fn received_by(domain: &TestDomain, sensor: u32, n: u64) -> u64 {
+    let client = domain.client();
+    let mut reader = client.state_subscriber().unwrap();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        let row =
+            reader.latest().unwrap().and_then(|s| s.sensor_counters().iter().find(|c| c.sensor == sensor).copied());
+        let received = row.map_or(0, |r| r.counts.received);
+        if received >= n || Instant::now() > deadline {
+            return received;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
