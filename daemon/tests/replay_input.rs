@@ -4,15 +4,14 @@ mod common;
 
 use std::process::Command;
 
-/// A file named `.mcap` that is not MCAP is refused as such, not read as JSON
-/// lines (which reported every line invalid).
-#[test]
-fn a_garbage_mcap_is_refused_as_not_mcap() {
+/// Runs `fusiond replay` (the linear config) on a file `name` holding
+/// `content`; its exit status and stderr.
+fn replay_file(name: &str, content: &str) -> (Option<i32>, String) {
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("config.toml");
     std::fs::write(&config, common::linear_config(None)).unwrap();
-    let input = dir.path().join("run.mcap");
-    std::fs::write(&input, "{\"imu\": {\"t_ns\": 1}}\ngarbage\n").unwrap();
+    let input = dir.path().join(name);
+    std::fs::write(&input, content).unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_fusiond"))
         .args(["replay", "--config"])
         .arg(&config)
@@ -20,8 +19,15 @@ fn a_garbage_mcap_is_refused_as_not_mcap() {
         .arg(&input)
         .output()
         .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// A file named `.mcap` that is not MCAP is refused as such, not read as JSON
+/// lines (which reported every line invalid).
+#[test]
+fn a_garbage_mcap_is_refused_as_not_mcap() {
+    let (code, stderr) = replay_file("run.mcap", "{\"imu\": {\"t_ns\": 1}}\ngarbage\n");
+    assert_eq!(code, Some(1), "{stderr}");
     assert!(stderr.contains("named .mcap but not an MCAP file"), "{stderr}");
     assert!(!stderr.contains("read 2 lines"), "{stderr}");
 }
@@ -30,20 +36,8 @@ fn a_garbage_mcap_is_refused_as_not_mcap() {
 /// said only "no sample could be processed (3 lines read)").
 #[test]
 fn an_all_garbage_file_gets_every_lines_reason() {
-    let dir = tempfile::tempdir().unwrap();
-    let config = dir.path().join("config.toml");
-    std::fs::write(&config, common::linear_config(None)).unwrap();
-    let input = dir.path().join("garbage.jsonl");
-    std::fs::write(&input, "not json\n{\"imu\": 3}\n\u{1}\u{2}\n").unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_fusiond"))
-        .args(["replay", "--config"])
-        .arg(&config)
-        .arg("--input")
-        .arg(&input)
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    let (code, stderr) = replay_file("garbage.jsonl", "not json\n{\"imu\": 3}\n\u{1}\u{2}\n");
+    assert_eq!(code, Some(1), "{stderr}");
     for line in ["line 1: expected value", "line 2: invalid type", "line 3: expected value"] {
         assert!(stderr.contains(line), "{line}: {stderr}");
     }
