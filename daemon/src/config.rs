@@ -161,8 +161,10 @@ max_readers = 8
 #   accelerometer_random_walk = 0.001      # m/s^3/sqrt(Hz)
 #   gyroscope_random_walk = 1.0e-5         # rad/s^2/sqrt(Hz)
 #   gravity_mps2 = 9.80665
-#   [model.alignment]                      # optional static alignment
-#   static_samples = 400                   # roll/pitch from the mean specific force, yaw from initial_state
+#   [model.alignment]                      # optional alignment
+#   static_samples = 400                   # at rest: roll/pitch from the mean specific force, yaw from initial_state
+#   heading_from_velocity_mps = 3.0        # an unknown heading (>0.2 rad) from the course of a velocity this fast
+#   heading_sideslip_std_deg = 2.0         #   (vehicle moving forward), the angle between body x and track, 1 sigma
 #   [model.constraints]                    # optional, land vehicles: no sideways or vertical body velocity
 #   nonholonomic_std_mps = 0.1             # how far the vehicle violates it (slip, suspension), 1 sigma
 #   nonholonomic_interval_ns = 50_000_000  # applied at most this often

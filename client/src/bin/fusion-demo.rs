@@ -101,6 +101,10 @@ history_ns = 1_000_000_000
 [gating]
 probability = 0.999
 
+[model.alignment]
+# the heading, unknown at start, from the GNSS course once the car drives 3 m/s
+heading_from_velocity_mps = 3.0
+
 [model.constraints]
 # a car: no sideways or vertical body velocity, up to 0.1 m/s
 nonholonomic_std_mps = 0.1

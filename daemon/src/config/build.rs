@@ -6,7 +6,7 @@ use super::{Config, ConfigError, ModelConfig, Tables, invalid, positive};
 use crate::engine::EngineConfig;
 use crate::frames::{Frames, MountedSensor};
 use crate::measurement::Steps;
-use crate::model::ins::{self, ImuNoise, InsModel, OdometryScale};
+use crate::model::ins::{self, AlignmentParams, CourseAlignment, ImuNoise, InsModel, OdometryScale};
 use crate::model::linear::{self, LinearModel};
 
 /// Runs something generic over the model type with the configured model.
@@ -270,13 +270,29 @@ impl InsModel {
             ));
         }
         let alignment = p.alignment.map_or(0, |a| a.static_samples);
+        let course = match p.alignment {
+            Some(AlignmentParams {
+                heading_from_velocity_mps: Some(speed), heading_sideslip_std_deg: slip, ..
+            }) => {
+                if !(speed.is_finite() && speed > 0.0) {
+                    let why = format!("must be a finite speed > 0 m/s, got {speed}");
+                    return Err(invalid("model.alignment.heading_from_velocity_mps", why));
+                }
+                if !(slip.is_finite() && (0.0..90.0).contains(&slip)) {
+                    let why = format!("must be a finite angle in [0, 90) degrees, got {slip}");
+                    return Err(invalid("model.alignment.heading_sideslip_std_deg", why));
+                }
+                Some(CourseAlignment { min_speed_mps: speed, sideslip_std_rad: slip.to_radians() })
+            }
+            _ => None,
+        };
         let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
         if let Some(m) = frames.sensors().iter().find(|m| !crate::measurement::accepts::<InsModel>(m.kind)) {
             return Err(invalid("sensor", format!("{:?}: the ins model cannot fuse {}", m.name, m.kind.name())));
         }
         Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)
             .map(|m| {
-                let m = m.with_nonholonomic(p.constraints).with_standstill(p.standstill);
+                let m = m.with_nonholonomic(p.constraints).with_standstill(p.standstill).with_course_alignment(course);
                 m.with_frames(frames).with_lockout(config.lockout)
             })
             .map_err(|e| invalid("filter.initial_state", e.to_string()))

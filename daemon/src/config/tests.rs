@@ -86,6 +86,24 @@ fn ins_config_uses_kalibr_names() {
     assert!(bad("nonholonomic_std_mps = 0.1\nnonholonomic_min_speed_mps = -1\n").contains("min_speed"));
     assert!(err(&format!("{MIN}[constraints]\nnonholonomic_std_mps = 0.1\n")).contains("[model.constraints]"));
     assert!(err(&INS.replace("kind = \"ins\"", "kind = \"ins\"\naccel_noise_std = 1")).contains("accel_noise_std"));
+    // The heading from the course over ground: opt-in, checked, with or without a
+    // static alignment.
+    let course = |keys: &str| {
+        let c = Config::parse(&INS.replace("static_samples = 400\n", keys))?;
+        let crate::config::InsBuilt::Core(m) = crate::config::InsBuilt::from_config(&c)? else { panic!("15 states") };
+        Ok::<_, ConfigError>(m.course_alignment().copied())
+    };
+    assert_eq!(course("static_samples = 400\n").unwrap(), None);
+    let on = course("heading_from_velocity_mps = 3.0\n").unwrap().unwrap();
+    assert_eq!(on.min_speed_mps, 3.0);
+    assert!((on.sideslip_std_rad - 2f64.to_radians()).abs() < 1e-15);
+    let slip = course("heading_from_velocity_mps = 5\nheading_sideslip_std_deg = 0\n").unwrap().unwrap();
+    assert_eq!((slip.min_speed_mps, slip.sideslip_std_rad), (5.0, 0.0));
+    let bad = |keys: &str| course(keys).unwrap_err().to_string();
+    assert!(bad("heading_from_velocity_mps = 0.0\n").contains("model.alignment.heading_from_velocity_mps"));
+    assert!(bad("heading_from_velocity_mps = nan\n").contains("model.alignment.heading_from_velocity_mps"));
+    let slip = bad("heading_from_velocity_mps = 3.0\nheading_sideslip_std_deg = -1\n");
+    assert!(slip.contains("model.alignment.heading_sideslip_std_deg"), "{slip}");
     assert!(err("[model]\nkind = \"linear\"\naccel_noise_std = 0.3\n").contains("filter"));
 }
 

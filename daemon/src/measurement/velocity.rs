@@ -7,7 +7,9 @@
 //!   Through the cross-covariances the velocity also corrects attitude and
 //!   accelerometer bias (Groves 2013, §14.2.7, loosely coupled velocity update).
 //!   A sensor with a lever arm (a GNSS antenna off the IMU) measures
-//!   `v + R (ω × l)` ([`super::lever_arm`]).
+//!   `v + R (ω × l)` ([`super::lever_arm`]). With `[model.alignment]
+//!   heading_from_velocity_mps` an unknown heading is first aligned to the course
+//!   over ground ([`crate::model::ins::course`]).
 //!
 //! Validation: finite, covariance symmetric positive definite. Not required by
 //! the health (a vehicle may have no such sensor); stale after 1 s once seen.
@@ -47,8 +49,16 @@ impl<const D: usize> Fuse<InsModel<D>> for VelocitySample {
         let R = Matrix3::from_row_slice(&self.cov_m2ps2);
         let mount = model.frames().mount(SampleKind::Velocity, self.header.sensor);
         let rotational = lever_arm::velocity(s, &mount.lever_arm).0 - s.v();
-        model.observe_velocity(s, self.header.t_ns, &(z - rotational), &R);
-        lever_arm::fuse_velocity(model, s, mount, &z, &R)
+        let at_origin = z - rotational;
+        model.observe_velocity(s, self.header.t_ns, &at_origin, &R);
+        let turned = model.align_course(s, &at_origin, &R);
+        let (outcome, injected) = lever_arm::fuse_velocity(model, s, mount, &z, &R);
+        // The smoother's record holds the whole change of the nominal state.
+        let injected = match (turned, injected) {
+            (Some(t), Some(dx)) => Some(t + dx),
+            (t, dx) => t.or(dx),
+        };
+        (outcome, injected)
     }
 }
 

@@ -68,6 +68,7 @@
 use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
 
 pub mod clock;
+pub mod course;
 mod error_state;
 mod linearised;
 pub mod nonholonomic;
@@ -85,6 +86,7 @@ use crate::filter::{ChiSquareGate, FilterError, KalmanFilter, RtsStep, StepLog, 
 use crate::frames::Frames;
 use crate::model::held_imu::{Held, HeldImu};
 use crate::model::lockout::{Lockout, LockoutConfig};
+pub use course::CourseAlignment;
 pub use nonholonomic::Nonholonomic;
 pub use odometry_scale::OdometryScale;
 pub use params::{AlignmentParams, ImuNoise, InsParams};
@@ -113,6 +115,7 @@ pub struct InsModel<const D: usize = N> {
     gate: Option<ChiSquareGate>,
     lockout: Option<LockoutConfig>,
     alignment_samples: u32,
+    course: Option<CourseAlignment>,
     nonholonomic: Option<Nonholonomic>,
     standstill: Option<Standstill>,
     odometry_scale: Option<OdometryScale>,
@@ -262,6 +265,7 @@ impl InsModel {
             gate,
             lockout: None,
             alignment_samples,
+            course: None,
             nonholonomic: None,
             standstill: None,
             odometry_scale: None,

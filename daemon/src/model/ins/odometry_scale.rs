@@ -73,6 +73,7 @@ impl InsModel {
             gate: self.gate,
             lockout: self.lockout,
             alignment_samples: self.alignment_samples,
+            course: self.course,
             nonholonomic: self.nonholonomic,
             standstill: self.standstill,
             odometry_scale: Some(scale),

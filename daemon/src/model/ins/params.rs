@@ -48,10 +48,27 @@ impl InsParams {
     }
 }
 
-/// `[model.alignment]`: roll, pitch and gyro bias from the first samples at rest.
+/// `[model.alignment]`: roll, pitch and gyro bias from the first samples at
+/// rest, and the heading from the course over ground.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AlignmentParams {
-    /// IMU samples averaged.
+    /// IMU samples averaged at rest (0: none, the initial state's attitude is
+    /// used).
+    #[serde(default)]
     pub static_samples: u32,
+    /// Least horizontal speed at which an unknown heading (1σ above 0.2 rad) is
+    /// taken from a velocity sample's course over ground, m/s; unset: never
+    /// ([`super::course`]).
+    pub heading_from_velocity_mps: Option<f64>,
+    /// Standard deviation of the angle between the body's forward axis and the
+    /// velocity when the heading is aligned (sideslip), degrees (default 2).
+    #[serde(default = "AlignmentParams::default_sideslip_deg")]
+    pub heading_sideslip_std_deg: f64,
+}
+
+impl AlignmentParams {
+    fn default_sideslip_deg() -> f64 {
+        2.0
+    }
 }
