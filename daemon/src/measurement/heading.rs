@@ -29,6 +29,7 @@ use fusion_shared::HeadingSample;
 use nalgebra::{Matrix1, SMatrix, SVector, Vector1, Vector3};
 
 use super::{Fuse, Limits, Measurement, Needed, Rejection, finite};
+use crate::frames::wrap_angle as wrap;
 use crate::model::StepOutcome;
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
@@ -56,11 +57,6 @@ impl Measurement for HeadingSample {
     }
 }
 
-/// An angle wrapped into (−π, π].
-pub fn wrap(a: f64) -> f64 {
-    let w = a.rem_euclid(2.0 * PI); // [0, 2π)
-    if w > PI { w - 2.0 * PI } else { w }
-}
 
 /// `h` and `H` of the yaw; `None` with the forward axis near vertical.
 pub fn yaw<const D: usize>(s: &InsState<D>) -> Option<(f64, SMatrix<f64, 1, D>)> {

@@ -33,6 +33,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 
 use super::{InsModel, InsState};
+use crate::frames::wrap_angle as wrap;
 
 /// Heading uncertainty (1σ, rad) above which a velocity sample aligns the
 /// heading: 0.2 rad (11°), twice where the motion constraint starts
@@ -108,12 +109,6 @@ impl<const D: usize> InsModel<D> {
         change.fixed_rows_mut::<3>(6).copy_from(&(u * delta));
         Some(change)
     }
-}
-
-/// `a` wrapped into (−π, π].
-fn wrap(a: f64) -> f64 {
-    let w = a.rem_euclid(std::f64::consts::TAU);
-    if w > std::f64::consts::PI { w - std::f64::consts::TAU } else { w }
 }
 
 #[cfg(test)]
@@ -207,12 +202,5 @@ mod tests {
         let untouched = fresh;
         assert!(m.align_course(&mut fresh, &v, &R).is_none(), "no IMU sample yet");
         assert_eq!(fresh, untouched);
-    }
-
-    #[test]
-    fn angles_wrap_to_the_shorter_way() {
-        assert!((wrap(3.5 * std::f64::consts::PI) + 0.5 * std::f64::consts::PI).abs() < 1e-12);
-        assert!((wrap(-0.25) + 0.25).abs() < 1e-15);
-        assert_eq!(wrap(std::f64::consts::PI), std::f64::consts::PI);
     }
 }
