@@ -30,6 +30,9 @@
 // A heading (`FusionHeadingSample`).
 #define FUSION_KIND_HEADING 6
 
+// A magnetometer's field (`FusionMagnetometerSample`).
+#define FUSION_KIND_MAGNETOMETER 7
+
 // `FusionGeodeticSample.fix_type`: not reported.
 #define FUSION_FIX_UNKNOWN 0
 
@@ -302,6 +305,23 @@ typedef struct FusionHeadingSample {
 // its NIS.
 #define FusionHeadingSample_INNOVATION_DIM 1
 
+// The magnetic field a three-axis magnetometer measures, in its own axes (its
+// mounting into the body frame is configuration: `[[sensor]] axes`,
+// `rotation_rpy_deg`), calibrated for hard and soft iron (the publisher's
+// calibration, as PX4's and ArduPilot's drivers publish it), in microtesla,
+// with its covariance. The Earth's field is about 25–65 µT.
+typedef struct FusionMagnetometerSample {
+  // Time, sensor, sequence number, kind [`SampleKind::Magnetometer`].
+  struct FusionSampleHeader header;
+  // Field, µT, sensor axes; |field| ≤ 1000 µT.
+  double field_ut[3];
+  // Covariance of `field_ut`, µT², row-major 3×3; symmetric positive definite.
+  double cov_ut2[9];
+} FusionMagnetometerSample;
+// Values one sample gives a measurement update (the 3-D field; fused as a
+// heading, one): the χ² degrees of freedom of its NIS.
+#define FusionMagnetometerSample_INNOVATION_DIM 3
+
 // What became of the samples of one sensor (or of several, added up): the one
 // counters type of the engine, the snapshot and the replay summary.
 // `fused`, `gated` and `refused` describe the current estimates: a rewind that
@@ -315,7 +335,7 @@ typedef struct FusionCounters {
   uint64_t fused;
   // Measurements refused by the gate.
   uint64_t gated;
-  // Measurements the filter refused (innovation covariance not positive definite).
+  // Measurements the model refused (see [`outcome::REFUSED`]).
   uint64_t refused;
   // Samples processed late, by rewind and replay.
   uint64_t late;
@@ -587,6 +607,14 @@ enum FusionStatus fusion_publish_odometry(struct FusionPublisher *publisher,
 enum FusionStatus fusion_publish_heading(struct FusionPublisher *publisher,
                                          const struct FusionHeadingSample *sample,
                                          size_t *reached);
+
+// Publishes a magnetometer's field (µT in the sensor's axes, covariance µT²).
+//
+// # Safety
+// As [`fusion_publish_imu`].
+enum FusionStatus fusion_publish_magnetometer(struct FusionPublisher *publisher,
+                                              const struct FusionMagnetometerSample *sample,
+                                              size_t *reached);
 
 // A reader of `<ns>/state`, keeping up to 64 unread snapshots, to release with
 // [`fusion_state_reader_free`]. [`FusionStatus::FusionErrorNotRunning`] when no

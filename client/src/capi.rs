@@ -19,8 +19,8 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::time::Duration;
 
 use fusion_shared::{
-    GeodeticSample, HeadingSample, ImuSample, KindFn, OdometrySample, PositionSample, SampleKind, StateSnapshot,
-    VelocitySample, WireSample,
+    GeodeticSample, HeadingSample, ImuSample, KindFn, MagnetometerSample, OdometrySample, PositionSample, SampleKind,
+    StateSnapshot, VelocitySample, WireSample,
 };
 
 use crate::{Client, ClientError, SamplePublisher, StateSubscriber};
@@ -69,6 +69,8 @@ pub const FUSION_KIND_GEODETIC: u32 = 4;
 pub const FUSION_KIND_ODOMETRY: u32 = 5;
 /// A heading (`FusionHeadingSample`).
 pub const FUSION_KIND_HEADING: u32 = 6;
+/// A magnetometer's field (`FusionMagnetometerSample`).
+pub const FUSION_KIND_MAGNETOMETER: u32 = 7;
 
 /// `FusionGeodeticSample.fix_type`: not reported.
 pub const FUSION_FIX_UNKNOWN: u32 = 0;
@@ -148,6 +150,7 @@ const _: () = {
     assert!(FUSION_KIND_GEODETIC == SampleKind::Geodetic as u32);
     assert!(FUSION_KIND_ODOMETRY == SampleKind::Odometry as u32);
     assert!(FUSION_KIND_HEADING == SampleKind::Heading as u32);
+    assert!(FUSION_KIND_MAGNETOMETER == SampleKind::Magnetometer as u32);
     {
         use fusion_shared::fix;
         assert!(FUSION_FIX_UNKNOWN == fix::UNKNOWN && FUSION_FIX_NONE == fix::NONE && FUSION_FIX_2D == fix::TWO_D);
@@ -155,7 +158,7 @@ const _: () = {
         assert!(FUSION_FIX_RTK_FLOAT == fix::RTK_FLOAT && FUSION_FIX_RTK_FIXED == fix::RTK_FIXED);
         assert!(fix::COUNT == 7);
     }
-    assert!(SampleKind::COUNT == 6, "a new kind needs its FUSION_KIND_ constant and fusion_publish_ function");
+    assert!(SampleKind::COUNT == 7, "a new kind needs its FUSION_KIND_ constant and fusion_publish_ function");
     assert!(FUSION_HEALTH_INITIALISING == health::INITIALISING);
     assert!(FUSION_HEALTH_OK == health::OK);
     assert!(FUSION_HEALTH_DEGRADED == health::DEGRADED);
@@ -494,6 +497,20 @@ pub unsafe extern "C" fn fusion_publish_odometry(
 pub unsafe extern "C" fn fusion_publish_heading(
     publisher: *mut FusionPublisher,
     sample: *const HeadingSample,
+    reached: *mut usize,
+) -> FusionStatus {
+    // SAFETY: forwarded contract.
+    unsafe { publish(publisher, sample, reached) }
+}
+
+/// Publishes a magnetometer's field (µT in the sensor's axes, covariance µT²).
+///
+/// # Safety
+/// As [`fusion_publish_imu`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_publish_magnetometer(
+    publisher: *mut FusionPublisher,
+    sample: *const MagnetometerSample,
     reached: *mut usize,
 ) -> FusionStatus {
     // SAFETY: forwarded contract.

@@ -142,6 +142,18 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   id = 0
 #   kinds = ["odometry"]
 #   lever_arm_m = [-1.3, 0.0, -0.3]        # middle of the rear axle
+#   [[sensor]]
+#   name = "compass"
+#   id = 0
+#   kinds = ["magnetometer"]               # ins only
+#   axes = "frd"                           # its axes, as an IMU's
+#   rotation_rpy_deg = [0.0, 0.0, 0.0]
+#   [sensor.magnetic]                      # required: the Earth's field at the site (World Magnetic Model)
+#   declination_deg = 3.5                  # east of true north
+#   inclination_deg = 64.5                 # below the horizontal
+#   strength_ut = 48.5                     # microtesla
+#   max_strength_deviation = 0.15          # a sample this far off in strength is disturbed: refused
+#   max_inclination_deviation_deg = 10.0   # or this far off in inclination (once roll and pitch are known)
 # Several IMUs: "average" the samples of each instant (IMUs on one clock), or
 # "failover" (different clocks or rates): the first listed alive IMU is used.
 [imu]

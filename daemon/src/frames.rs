@@ -28,6 +28,7 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 
 use crate::gnss_quality::{GnssQuality, QualityConfig};
+use crate::magnetic::{EarthField, MagneticConfig};
 use crate::setting::{ConfigError, invalid};
 
 /// The `[datum]` table: the origin of the world frame, checked by [`Datum::new`].
@@ -81,11 +82,11 @@ pub struct SensorConfig {
     /// The kinds of sample it publishes under that id (a GNSS receiver:
     /// `["geodetic", "velocity"]`).
     pub kinds: Vec<String>,
-    /// Its axis convention (IMU only).
+    /// Its axis convention (IMU and magnetometer only).
     #[serde(default)]
     pub axes: Axes,
     /// Rotation of its (FLU) axes into the body frame: roll, pitch, yaw in
-    /// degrees, applied as `Rz(yaw) Ry(pitch) Rx(roll)` (IMU only).
+    /// degrees, applied as `Rz(yaw) Ry(pitch) Rx(roll)` (IMU and magnetometer only).
     #[serde(default)]
     pub rotation_rpy_deg: [f64; 3],
     /// Position of its reference point in the body frame, m (not for an IMU: the
@@ -102,6 +103,10 @@ pub struct SensorConfig {
     /// types are refused (`[sensor.quality]`; [`crate::gnss_quality`]).
     #[serde(default)]
     pub quality: Option<QualityConfig>,
+    /// The Earth's field at the site and the disturbance check of its
+    /// magnetometer samples (`[sensor.magnetic]`; [`crate::magnetic`]).
+    #[serde(default)]
+    pub magnetic: Option<MagneticConfig>,
 }
 
 /// The largest `[[sensor]] time_offset_ns` either way, ns (10 s): a sensor whose
@@ -222,6 +227,8 @@ pub struct MountedSensor {
     pub time_offset_ns: i64,
     /// Its fixes' quality mapping (geodetic only; the default elsewhere).
     pub quality: GnssQuality,
+    /// The Earth's field it measures (magnetometer only).
+    pub magnetic: Option<EarthField>,
 }
 
 /// The datum of the world frame (set once) and the sensors' mounts.
@@ -280,6 +287,24 @@ impl Frames {
                 Some(q) => GnssQuality::from_config(q, |f| key(&format!("quality.{f}")))?,
                 None => GnssQuality::default(),
             };
+            let has = |kind: SampleKind| s.kinds.iter().any(|k| k == kind.name());
+            let magnetic = match &s.magnetic {
+                Some(_) if !has(SampleKind::Magnetometer) => {
+                    return Err(invalid(
+                        key("magnetic"),
+                        "applies to a magnetometer: the sensor has no kind \"magnetometer\"",
+                    ));
+                }
+                Some(m) => Some(EarthField::from_config(m, |f| key(&format!("magnetic.{f}")))?),
+                None if has(SampleKind::Magnetometer) => {
+                    return Err(invalid(
+                        key("magnetic"),
+                        "a magnetometer needs the Earth's field at the site: declination_deg, inclination_deg and \
+                         strength_ut (the World Magnetic Model's)",
+                    ));
+                }
+                None => None,
+            };
             let arm = Vector3::from(s.lever_arm_m);
             if !(arm.iter().all(|v| v.is_finite()) && arm.norm() <= MAX_LEVER_ARM_M) {
                 return Err(invalid(
@@ -307,10 +332,12 @@ impl Frames {
                         return Err(invalid(key("id"), format!("at most {MAX_IMUS} IMUs")));
                     }
                     frames.imus.ids.push(s.id);
-                } else if rotated {
+                } else if rotated && kind != SampleKind::Magnetometer {
                     return Err(invalid(
                         key("rotation_rpy_deg"),
-                        format!("a rotation or axis convention applies to an imu only, not to {name}"),
+                        format!(
+                            "a rotation or axis convention applies to an imu or a magnetometer only, not to {name}"
+                        ),
                     ));
                 }
                 let rpy = s.rotation_rpy_deg.map(f64::to_radians);
@@ -323,6 +350,7 @@ impl Frames {
                     mount,
                     time_offset_ns,
                     quality,
+                    magnetic,
                 });
             }
         }
@@ -352,6 +380,11 @@ impl Frames {
             .iter()
             .find(|m| m.kind == SampleKind::Geodetic && m.id == sensor)
             .map_or_else(GnssQuality::default, |m| m.quality)
+    }
+
+    /// The Earth's field magnetometer `sensor` measures (`None`: not configured).
+    pub fn magnetic(&self, sensor: u32) -> Option<&EarthField> {
+        self.sensors.iter().find(|m| m.kind == SampleKind::Magnetometer && m.id == sensor)?.magnetic.as_ref()
     }
 
     /// How late the timestamps of sensor `sensor` of `kind` are, ns (0 if not
@@ -389,6 +422,7 @@ mod tests {
             lever_arm_m: [0.0; 3],
             time_offset_ns: 0,
             quality: None,
+            magnetic: None,
         }
     }
 
@@ -433,7 +467,7 @@ mod tests {
         assert!(err(&[sensor("x", 0, &[])]).contains("names no kind"));
         let mut rotated_gnss = gnss.clone();
         rotated_gnss.rotation_rpy_deg = [0.0, 0.0, 10.0];
-        assert!(err(&[rotated_gnss]).contains("imu only"));
+        assert!(err(&[rotated_gnss]).contains("an imu or a magnetometer only"));
         let mut imu_arm = imu.clone();
         imu_arm.lever_arm_m = [0.1, 0.0, 0.0];
         assert!(err(&[imu_arm]).contains("body origin"));
@@ -442,6 +476,27 @@ mod tests {
         assert!(err(&[far]).contains("lever_arm_m"));
         let many: Vec<SensorConfig> = (0..=MAX_IMUS as u32).map(|i| sensor("i", i, &["imu"])).collect();
         assert!(err(&many).contains("at most"));
+        // A magnetometer: rotated like an IMU, with the Earth's field, which no
+        // other kind takes.
+        let mut mag = sensor("compass", 2, &["magnetometer"]);
+        assert!(err(std::slice::from_ref(&mag)).contains("needs the Earth's field"));
+        let field = crate::magnetic::MagneticConfig {
+            declination_deg: 3.5,
+            inclination_deg: 64.5,
+            strength_ut: 48.5,
+            max_strength_deviation: 0.15,
+            max_inclination_deviation_deg: 10.0,
+        };
+        (mag.axes, mag.rotation_rpy_deg, mag.magnetic) = (Axes::Frd, [0.0, 0.0, 90.0], Some(field));
+        let f = Frames::from_config(None, std::slice::from_ref(&mag), ImuConfig::default()).unwrap();
+        assert!((f.magnetic(2).unwrap().world_ut.norm() - 48.5).abs() < 1e-12);
+        assert!(f.magnetic(3).is_none());
+        assert!(!f.mount(SampleKind::Magnetometer, 2).unrotated);
+        let mut gnss_field = gnss.clone();
+        gnss_field.magnetic = Some(field);
+        assert!(err(&[gnss_field]).contains("applies to a magnetometer"));
+        mag.magnetic = Some(crate::magnetic::MagneticConfig { strength_ut: -1.0, ..field });
+        assert!(err(&[mag]).contains("sensor[0] (\"compass\").magnetic.strength_ut"));
     }
 
     #[test]

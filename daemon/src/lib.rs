@@ -33,6 +33,7 @@ pub mod gnss_quality;
 pub mod health;
 pub mod ipc;
 pub mod live;
+pub mod magnetic;
 pub mod measurement;
 pub mod model;
 pub mod reorder;

@@ -96,11 +96,12 @@ pub fn format(s: &Summary) -> String {
         None => "-".to_string(),
     };
     format!(
-        "{}: fused {}, gated {}, late {}, too late {}, duplicate {}, invalid {}, lost {}, rate-limited {}, restarts {}; \
-         {} snapshots; publish latency p50/p99/max {}; health {}{}{}",
+        "{}: fused {}, gated {}, refused {}, late {}, too late {}, duplicate {}, invalid {}, lost {}, rate-limited {}, \
+         restarts {}; {} snapshots; publish latency p50/p99/max {}; health {}{}{}",
         rates.join(", "),
         total.fused,
         total.gated,
+        total.refused,
         total.late,
         total.too_late,
         total.duplicate,

@@ -1,5 +1,6 @@
 //! Bad input of the vehicle sensor kinds through the `ins` engine: impossible
-//! odometry, headings and fixes (and fixes with an impossible quality), mixed
+//! odometry, headings, magnetometer fields and fixes (and fixes with an
+//! impossible quality), mixed
 //! into a drive, are rejected with their
 //! reason and counted, and the estimate after the drive is bit for bit the one of
 //! the same drive without them. A linear model refuses odometry and heading at
@@ -7,20 +8,26 @@
 
 use std::sync::Arc;
 
-use fusion_client::sim::{GeodeticConfig, HeadingConfig, ImuOutput, OdometryConfig, Scenario, ScenarioConfig};
+use fusion_client::sim::{
+    GeodeticConfig, HeadingConfig, ImuOutput, MagnetometerConfig, OdometryConfig, Scenario, ScenarioConfig,
+};
 use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig, Insert};
 use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::InsModel;
 use fusion_daemon::validate::Rejection;
-use fusion_shared::{GeodeticSample, HeadingSample, ImuSample, OdometrySample, Sample, SampleKind, fix};
+use fusion_shared::{
+    GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, Sample, SampleKind, fix,
+};
 
 const INS: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
     accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\
     [filter]\ninitial_state = [0, 0, 0, 10, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0]\n\
     initial_covariance_diagonal = [1, 1, 1, 100, 100, 4, 0.01, 0.01, 1, 0.0025, 0.0025, 0.0025, 1e-6, 1e-6, 1e-6]\n\
     [gating]\nprobability = 0.999\n\
-    [[sensor]]\nname = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\nlever_arm_m = [-1.3, 0.0, -0.3]\n";
+    [[sensor]]\nname = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\nlever_arm_m = [-1.3, 0.0, -0.3]\n\
+    [[sensor]]\nname = \"compass\"\nid = 0\nkinds = [\"magnetometer\"]\n\
+    [sensor.magnetic]\ndeclination_deg = 3.5\ninclination_deg = 64.5\nstrength_ut = 48.5\n";
 
 fn engine() -> Engine<InsModel> {
     let config = Config::parse(INS).unwrap();
@@ -38,6 +45,7 @@ fn bad(t: u64, seq: u64) -> Vec<(Sample, Rejection)> {
     };
     let odometry = |speed, var| Sample::Odometry(OdometrySample::new(t, 0, seq, speed, var));
     let heading = |yaw, var| Sample::Heading(HeadingSample::new(t, 0, seq, yaw, var));
+    let field = |field, cov| Sample::Magnetometer(MagnetometerSample::new(t, 0, seq, field, cov));
     vec![
         (geodetic(91.0, 11.5, cov), Rejection::OutOfRange),
         (geodetic(-90.5, 11.5, cov), Rejection::OutOfRange),
@@ -56,6 +64,9 @@ fn bad(t: u64, seq: u64) -> Vec<(Sample, Rejection)> {
         (heading(1e9, 1e-4), Rejection::OutOfRange),
         (heading(f64::INFINITY, 1e-4), Rejection::NonFinite),
         (heading(0.3, 0.0), Rejection::VarianceNotPositive),
+        (field([20.0, f64::NAN, -43.0], cov), Rejection::NonFinite),
+        (field([2000.0, 0.0, 0.0], cov), Rejection::OutOfRange),
+        (field([20.0, 1.0, -43.0], not_spd), Rejection::CovarianceNotPositiveDefinite),
         (Sample::Imu(ImuSample::new(t, 0, seq, [f64::NAN, 0.0, 9.8], [0.0; 3])), Rejection::NonFinite),
     ]
 }
@@ -69,6 +80,7 @@ fn impossible_vehicle_samples_are_rejected_counted_and_change_nothing() {
     c.aiding.push(Arc::new(GeodeticConfig::default()));
     c.aiding.push(Arc::new(OdometryConfig::default()));
     c.aiding.push(Arc::new(HeadingConfig::default()));
+    c.aiding.push(Arc::new(MagnetometerConfig::default()));
     let samples: Vec<Sample> = Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect();
     let (mut clean, mut dirty) = (engine(), engine());
     let mut expected = [0u64; SampleKind::COUNT];
@@ -95,6 +107,7 @@ fn impossible_vehicle_samples_are_rejected_counted_and_change_nothing() {
     // The good samples of the new kinds were fused.
     assert!(clean.totals(Some(SampleKind::Odometry)).fused > 300);
     assert!(clean.totals(Some(SampleKind::Heading)).fused > 30);
+    assert!(clean.totals(Some(SampleKind::Magnetometer)).fused > 150);
 }
 
 #[test]
@@ -104,6 +117,9 @@ fn the_linear_model_refuses_odometry_heading_and_mounts_at_start_up() {
     let err = |sensor: &str| Config::parse(&format!("{linear}[[sensor]]\n{sensor}")).unwrap_err().to_string();
     assert!(err("name = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\n").contains("cannot fuse odometry"));
     assert!(err("name = \"compass\"\nid = 0\nkinds = [\"heading\"]\n").contains("cannot fuse heading"));
+    let magnetometer = "name = \"mag\"\nid = 0\nkinds = [\"magnetometer\"]\n\
+        [sensor.magnetic]\ndeclination_deg = 3.5\ninclination_deg = 64.5\nstrength_ut = 48.5\n";
+    assert!(err(magnetometer).contains("cannot fuse magnetometer"));
     assert!(
         err("name = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [1, 0, 1]\n")
             .contains("no rotation or lever arm")

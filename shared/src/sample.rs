@@ -112,6 +112,8 @@ macro_rules! for_each_sample_kind {
             Odometry = 5, "odometry", odometry, OdometrySample;
             /// [`HeadingSample`](crate::sample::HeadingSample): the yaw angle (dual-antenna GNSS, compass).
             Heading = 6, "heading", heading, HeadingSample;
+            /// [`MagnetometerSample`](crate::sample::MagnetometerSample): the magnetic field vector in the sensor's axes.
+            Magnetometer = 7, "magnetometer", magnetometer, MagnetometerSample;
         }
     };
 }
@@ -123,6 +125,8 @@ mod geodetic;
 pub use geodetic::fix;
 mod heading;
 mod imu;
+mod magnetometer;
+pub use magnetometer::earth_field_enu;
 mod odometry;
 mod position;
 mod velocity;

@@ -109,7 +109,9 @@ pub mod outcome {
     pub const FUSED: u32 = 1;
     /// Measurement refused by the gate.
     pub const GATED: u32 = 2;
-    /// Measurement refused by the filter (innovation covariance not positive definite).
+    /// Measurement refused by the model: one it cannot use (a GNSS fix type its
+    /// quality refuses, odometry before the attitude is known, a disturbed
+    /// magnetometer sample) or an innovation covariance not positive definite.
     pub const REFUSED: u32 = 3;
 }
 
@@ -129,7 +131,7 @@ pub struct Counters {
     pub fused: u64,
     /// Measurements refused by the gate.
     pub gated: u64,
-    /// Measurements the filter refused (innovation covariance not positive definite).
+    /// Measurements the model refused (see [`outcome::REFUSED`]).
     pub refused: u64,
     /// Samples processed late, by rewind and replay.
     pub late: u64,

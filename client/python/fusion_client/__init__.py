@@ -43,6 +43,7 @@ from .wire import (
     GeodeticSample,
     HeadingSample,
     ImuSample,
+    MagnetometerSample,
     OdometrySample,
     PositionSample,
     SampleHeader,
@@ -53,7 +54,7 @@ from .wire import (
 
 __all__ = [
     "ALL_TYPES", "Client", "Counters", "DaemonNotRunning", "FusionError", "GeodeticSample", "HeadingSample",
-    "ImuSample", "INPUT_NONE", "OdometrySample", "PositionSample", "Publisher", "SampleHeader",
+    "ImuSample", "INPUT_NONE", "MagnetometerSample", "OdometrySample", "PositionSample", "Publisher", "SampleHeader",
     "SensorCounters", "Snapshot", "StateReader", "StateSnapshot", "VelocitySample", "now_ns",
 ]
 

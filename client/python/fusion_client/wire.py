@@ -14,7 +14,10 @@ MAX_SENSORS = 16
 
 #: Sample kind codes (``SampleHeader.kind``), and their service names.
 KIND_IMU, KIND_POSITION, KIND_VELOCITY, KIND_GEODETIC, KIND_ODOMETRY, KIND_HEADING = 1, 2, 3, 4, 5, 6
-KIND_NAMES = {1: "imu", 2: "position", 3: "velocity", 4: "geodetic", 5: "odometry", 6: "heading"}
+KIND_MAGNETOMETER = 7
+KIND_NAMES = {
+    1: "imu", 2: "position", 3: "velocity", 4: "geodetic", 5: "odometry", 6: "heading", 7: "magnetometer",
+}
 #: ``StateSnapshot.input_kind`` of a snapshot sent because the health changed.
 INPUT_NONE = 0
 
@@ -146,7 +149,17 @@ class HeadingSample(_Sample):
     _fields_ = [("header", SampleHeader), ("yaw_rad", ctypes.c_double), ("var_rad2", ctypes.c_double)]
 
 
-SAMPLE_TYPES = (ImuSample, PositionSample, VelocitySample, GeodeticSample, OdometrySample, HeadingSample)
+class MagnetometerSample(_Sample):
+    """A magnetometer's field, µT in the sensor's axes (calibrated), with its covariance (µT², row-major 3×3)."""
+
+    TYPE_NAME = "fusion.MagnetometerSample.v2"
+    KIND = KIND_MAGNETOMETER
+    _fields_ = [("header", SampleHeader), ("field_ut", f64x3), ("cov_ut2", f64x9)]
+
+
+SAMPLE_TYPES = (
+    ImuSample, PositionSample, VelocitySample, GeodeticSample, OdometrySample, HeadingSample, MagnetometerSample,
+)
 
 
 class Counters(_Wire):

@@ -3,7 +3,8 @@
 //! - `fusion-sim run`: publish live to a running fusiond, paced by the clock:
 //!   every sensor (IMUs, one per `--imu-mount`; position; velocity with
 //!   `--velocity-rate`, geodetic GNSS with `--geodetic-rate`, wheel odometry with
-//!   `--odometry-rate`, heading with `--heading-rate`), or the IMUs (`--imu-only`,
+//!   `--odometry-rate`, heading with `--heading-rate`, a magnetometer with
+//!   `--magnetometer-rate`), or the IMUs (`--imu-only`,
 //!   some of them with `--imu-ids`) or the other sensors alone (`--position-only`)
 //!   so they can run as separate processes on the same trajectory and start
 //!   time; or a file (`--input`), as fast as the daemon takes it or paced by its
@@ -24,8 +25,9 @@ use std::time::Duration;
 
 use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
 use fusion_client::sim::{
-    Arrival, FixPhase, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, ImuSim, OdometryConfig, Outage,
-    PositionConfig, Scenario, ScenarioConfig, Stop, VelocityConfig, without_outages,
+    Arrival, FixPhase, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, ImuSim, MagneticDisturbance,
+    MagnetometerConfig, OdometryConfig, Outage, PositionConfig, Scenario, ScenarioConfig, Stop, VelocityConfig,
+    without_outages,
 };
 use fusion_client::{Client, SampleKind, SensorPublishers, now_ns};
 use fusion_shared::geodesy::Datum;
@@ -174,6 +176,25 @@ struct SimArgs {
     /// Heading noise, degrees.
     #[arg(long, default_value_t = 0.5)]
     heading_noise_deg: f64,
+    /// Magnetometer rate, Hz; 0: none (sensor id 0; `--dropouts` applies).
+    #[arg(long, default_value_t = 0.0)]
+    magnetometer_rate: f64,
+    /// Magnetometer noise per axis, µT.
+    #[arg(long, default_value_t = 0.5)]
+    magnetometer_noise_ut: f64,
+    /// The magnetometer's mount, `AXES:ROLL,PITCH,YAW` (degrees; body ← sensor),
+    /// as `--imu-mount`.
+    #[arg(long, default_value = "flu:0,0,0")]
+    magnetometer_mount: String,
+    /// The Earth's field: declination (degrees east), inclination (degrees
+    /// down), strength (µT) (default: Munich, 3.5,64.5,48.5).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    magnetic_field: Option<Vec<f64>>,
+    /// A magnetic disturbance, `AT:SECONDS:MICROTESLA`: a field of MICROTESLA
+    /// pointing east adds to the Earth's from AT s into the drive for SECONDS (a
+    /// passing lorry, a steel bridge). Repeatable.
+    #[arg(long, value_name = "AT:SECONDS:MICROTESLA")]
+    magnetic_disturbance: Vec<String>,
     /// Where trajectory position 0 is: latitude (deg), longitude (deg), height
     /// above the WGS-84 ellipsoid (m) (default: Munich, 48.1316,11.5494,519).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
@@ -288,6 +309,29 @@ impl SimArgs {
                 ..defaults
             }));
         }
+        if self.magnetometer_rate > 0.0 {
+            let defaults = MagnetometerConfig::default();
+            let field = match self.magnetic_field.as_deref() {
+                None => [defaults.declination_deg, defaults.inclination_deg, defaults.strength_ut],
+                Some(&[d, i, b]) => [d, i, b],
+                Some(_) => {
+                    anyhow::bail!("--magnetic-field: expected DECLINATION,INCLINATION,STRENGTH, e.g. 3.5,64.5,48.5")
+                }
+            };
+            let disturbances =
+                self.magnetic_disturbance.iter().map(|d| parse_disturbance(d)).collect::<Result<_, _>>()?;
+            c.aiding.push(Arc::new(MagnetometerConfig {
+                rate_hz: self.magnetometer_rate,
+                noise_std_ut: self.magnetometer_noise_ut,
+                declination_deg: field[0],
+                inclination_deg: field[1],
+                strength_ut: field[2],
+                rotation: parse_mount(&self.magnetometer_mount)?,
+                dropout_probability: self.dropouts,
+                disturbances,
+                ..defaults
+            }));
+        }
         if self.heading_rate > 0.0 {
             c.aiding.push(Arc::new(HeadingConfig {
                 rate_hz: self.heading_rate,
@@ -331,9 +375,10 @@ fn triple(name: &str, values: Option<&[f64]>) -> anyhow::Result<Option<[f64; 3]>
         .transpose()
 }
 
-/// An IMU mount, `AXES:ROLL,PITCH,YAW` (degrees), as the rotation body ← IMU.
+/// A sensor mount (`--imu-mount`, `--magnetometer-mount`), `AXES:ROLL,PITCH,YAW`
+/// (degrees), as the rotation body ← sensor.
 fn parse_mount(text: &str) -> anyhow::Result<Matrix3<f64>> {
-    let bad = || anyhow::anyhow!("--imu-mount {text:?}: expected AXES:ROLL,PITCH,YAW, e.g. frd:3,-2,90");
+    let bad = || anyhow::anyhow!("mount {text:?}: expected AXES:ROLL,PITCH,YAW, e.g. frd:3,-2,90");
     let (axes, angles) = text.split_once(':').ok_or_else(bad)?;
     let flip = match axes {
         "flu" => Vector3::new(1.0, 1.0, 1.0),
@@ -345,6 +390,18 @@ fn parse_mount(text: &str) -> anyhow::Result<Matrix3<f64>> {
     let [roll, pitch, yaw] = <[f64; 3]>::try_from(rpy).map_err(|_| bad())?.map(f64::to_radians);
     Ok(UnitQuaternion::from_euler_angles(roll, pitch, yaw).to_rotation_matrix().into_inner()
         * Matrix3::from_diagonal(&flip))
+}
+
+/// A magnetic disturbance, `AT:SECONDS:MICROTESLA` (a field pointing east).
+fn parse_disturbance(text: &str) -> anyhow::Result<MagneticDisturbance> {
+    let bad = || anyhow::anyhow!("--magnetic-disturbance {text:?}: expected AT:SECONDS:MICROTESLA, e.g. 12:3:20");
+    let values: Vec<f64> =
+        text.split(':').map(|v| v.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| bad())?;
+    let [at_s, duration_s, ut] = <[f64; 3]>::try_from(values).map_err(|_| bad())?;
+    if !(at_s >= 0.0 && duration_s > 0.0 && ut.is_finite()) {
+        return Err(bad());
+    }
+    Ok(MagneticDisturbance { at_s, duration_s, field_ut: [ut, 0.0, 0.0] })
 }
 
 fn main() -> ExitCode {

@@ -149,6 +149,7 @@ mod tests {
             lever_arm_m: [0.0; 3],
             time_offset_ns: 0,
             quality: None,
+            magnetic: None,
         };
         let config = crate::frames::ImuConfig { combine, failover_after_ns: 20 };
         crate::frames::Frames::from_config(None, &[imu("a", 4), imu("b", 9)], config).unwrap()

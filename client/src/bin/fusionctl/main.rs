@@ -346,11 +346,12 @@ fn describe(s: &StateSnapshot) -> String {
         );
     }
     o += &format!(
-        "\n  {:<12} {:>9} {:>9} {:>7} {:>6} {:>8} {:>9} {:>7} {:>6} {:>12} {:>8} {:>9}\n",
+        "\n  {:<14} {:>9} {:>9} {:>7} {:>7} {:>6} {:>8} {:>9} {:>7} {:>6} {:>12} {:>8} {:>9}\n",
         "sensor",
         "received",
         "fused",
         "gated",
+        "refused",
         "late",
         "too late",
         "duplicate",
@@ -362,11 +363,12 @@ fn describe(s: &StateSnapshot) -> String {
     );
     for c in s.sensor_counters() {
         o += &format!(
-            "  {:<12} {:>9} {:>9} {:>7} {:>6} {:>8} {:>9} {:>7} {:>6} {:>12} {:>8} {:>9}\n",
+            "  {:<14} {:>9} {:>9} {:>7} {:>7} {:>6} {:>8} {:>9} {:>7} {:>6} {:>12} {:>8} {:>9}\n",
             format!("{} {}", kind_name(c.kind), c.sensor),
             c.counts.received,
             c.counts.fused,
             c.counts.gated,
+            c.counts.refused,
             c.counts.late,
             c.counts.too_late,
             c.counts.duplicate,

@@ -183,14 +183,14 @@ pub fn draw(frame: &mut Frame, view: &View) {
     frame.render_widget(Paragraph::new(lines).block(Block::new().borders(Borders::TOP).title(title)), header);
 
     let wide = area.width >= WIDE;
-    let head = if wide {
-        [
-            "sensor", "rate Hz", "received", "fused", "gated", "late", "too late", "dup", "invalid", "lost", "limited",
-            "restarts", "last NIS",
+    let head: &[&str] = if wide {
+        &[
+            "sensor", "rate Hz", "received", "fused", "gated", "refused", "late", "too late", "dup", "invalid", "lost",
+            "limited", "restarts", "last NIS",
         ]
     } else {
         // Narrow: duplicates, rate-limited and restarts added up as "other".
-        ["sensor", "Hz", "recv", "fused", "gated", "late", "2late", "inval", "lost", "other", "NIS", "", ""]
+        &["sensor", "Hz", "recv", "fused", "gated", "refus", "late", "2late", "inval", "lost", "other", "NIS"]
     };
     let stale_rows: Vec<(u32, u32)> = s.stale_sensor_counters().map(|c| (c.kind, c.sensor)).collect();
     let rows = s.sensor_counters().iter().map(|c| {
@@ -200,25 +200,27 @@ pub fn draw(frame: &mut Frame, view: &View) {
         let style =
             if stale_rows.contains(&(c.kind, c.sensor)) { Style::default().fg(Color::Red) } else { Style::default() };
         let name = format!("{} {}", crate::kind_name(c.kind), c.sensor);
-        let [received, fused, gated, late, too_late, invalid, lost] =
-            [n.received, n.fused, n.gated, n.late, n.too_late, n.invalid, n.lost].map(|v| v.to_string());
+        let [received, fused, gated, refused, late, too_late, invalid, lost] =
+            [n.received, n.fused, n.gated, n.refused, n.late, n.too_late, n.invalid, n.lost].map(|v| v.to_string());
         let cells = if wide {
             let [dup, limited, restarts] = [n.duplicate, n.rate_limited, n.restarts].map(|v| v.to_string());
-            [name, rate, received, fused, gated, late, too_late, dup, invalid, lost, limited, restarts, nis]
+            vec![
+                name, rate, received, fused, gated, refused, late, too_late, dup, invalid, lost, limited, restarts, nis,
+            ]
         } else {
             let other = (n.duplicate + n.rate_limited + n.restarts).to_string();
-            let [e1, e2] = [String::new(), String::new()];
-            [name, rate, received, fused, gated, late, too_late, invalid, lost, other, nis, e1, e2]
+            vec![name, rate, received, fused, gated, refused, late, too_late, invalid, lost, other, nis]
         };
-        Row::new(cells.map(Cell::from)).style(style)
+        Row::new(cells.into_iter().map(Cell::from)).style(style)
     });
     let widths: Vec<Constraint> = if wide {
-        std::iter::once(12).chain([9; 12]).map(Constraint::Length).collect()
+        std::iter::once(14).chain([9; 13]).map(Constraint::Length).collect()
     } else {
-        [11, 5, 7, 7, 5, 5, 5, 5, 5, 5, 5, 0, 0].map(Constraint::Length).to_vec()
+        // 80 columns: "magnetometer 0" and the counts up to 6 digits.
+        [14, 5, 6, 6, 5, 5, 4, 5, 5, 4, 5, 5].map(Constraint::Length).to_vec()
     };
     let table = Table::new(rows, widths)
-        .header(Row::new(head).style(Style::default().add_modifier(Modifier::BOLD)))
+        .header(Row::new(head.to_vec()).style(Style::default().add_modifier(Modifier::BOLD)))
         .block(Block::new().borders(Borders::TOP).title(" sensors "));
     frame.render_widget(table, sensors);
 
@@ -383,18 +385,20 @@ mod tests {
             state_len: 17,
             cov_dim: 16,
             aux_states: aux::ODOMETRY_SCALE,
-            sensor_count: 5,
+            sensor_count: 6,
             ..Default::default()
         };
         s.x[6] = 1.0;
         s.x[16] = 1.0098;
         (0..16).for_each(|i| s.cov[i * 16 + i] = 1e-4);
         let kinds = [(SampleKind::Imu, 0), (SampleKind::Imu, 1), (SampleKind::Geodetic, 3), (SampleKind::Velocity, 3)];
-        for (i, (kind, id)) in kinds.iter().chain([(SampleKind::Odometry, 0)].iter()).enumerate() {
+        let more = [(SampleKind::Odometry, 0), (SampleKind::Magnetometer, 0)];
+        for (i, (kind, id)) in kinds.iter().chain(more.iter()).enumerate() {
             s.sensors[i].kind = *kind as u32;
             s.sensors[i].sensor = *id;
             s.sensors[i].counts.received = 123_456;
         }
+        s.sensors[5].counts.refused = 4321;
         let mut view = View::new("vehicle");
         view.add(&s, Instant::now());
         let text = screen_of(&view, 80, 24);
@@ -411,9 +415,12 @@ mod tests {
             "geodetic 3",
             "velocity 3",
             "odometry 0",
+            "magnetometer 0",
             "recv",
             "fused",
             "gated",
+            "refus",
+            "4321",
             "2late",
             "inval",
             "lost",

@@ -1,0 +1,170 @@
+//! Simulated magnetometer: the Earth's field in the sensor's axes plus white
+//! noise, with its mounting, random dropouts and disturbances (a passing lorry, a
+//! steel bridge: a field added for a while).
+
+use fusion_shared::{MagnetometerSample, Sample, SampleKind, earth_field_enu};
+use nalgebra::{Matrix3, Vector3};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use super::AidingSim;
+use super::scenario::{Arrival, schedule};
+use super::trajectory::CarTrajectory;
+
+/// A disturbance: from `at_s` into the drive for `duration_s`, `field_ut` (world
+/// frame, ENU) adds to the Earth's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MagneticDisturbance {
+    /// Start, s since the start of the drive.
+    pub at_s: f64,
+    /// Length, s.
+    pub duration_s: f64,
+    /// The field it adds, µT, ENU.
+    pub field_ut: [f64; 3],
+}
+
+/// Magnetometer simulation settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MagnetometerConfig {
+    /// Rate, Hz.
+    pub rate_hz: f64,
+    /// Standard deviation of the white noise per axis, µT (reported in the covariance).
+    pub noise_std_ut: f64,
+    /// The Earth's field: declination (degrees east), inclination (degrees
+    /// down), strength (µT). Default: Munich (WMM 2025: 3.5°, 64.5°, 48.5 µT).
+    pub declination_deg: f64,
+    /// See `declination_deg`.
+    pub inclination_deg: f64,
+    /// See `declination_deg`.
+    pub strength_ut: f64,
+    /// `C_bs`: the sensor's axes into the body frame (body ← sensor); the sensor
+    /// reports `C_bsᵀ` times the body-frame field.
+    pub rotation: Matrix3<f64>,
+    /// Probability that a sample is lost.
+    pub dropout_probability: f64,
+    /// Disturbances.
+    pub disturbances: Vec<MagneticDisturbance>,
+    /// Delay from time of validity to publication: uniform in [min, max], ns.
+    pub delay_min_ns: u64,
+    /// See `delay_min_ns`.
+    pub delay_max_ns: u64,
+    /// Sensor id.
+    pub sensor: u32,
+}
+
+impl Default for MagnetometerConfig {
+    fn default() -> Self {
+        Self {
+            rate_hz: 20.0,
+            noise_std_ut: 0.5,
+            declination_deg: 3.5,
+            inclination_deg: 64.5,
+            strength_ut: 48.5,
+            rotation: Matrix3::identity(),
+            dropout_probability: 0.0,
+            disturbances: Vec::new(),
+            delay_min_ns: 1_000_000,
+            delay_max_ns: 5_000_000,
+            sensor: 0,
+        }
+    }
+}
+
+/// Simulated magnetometer samples (an endless iterator).
+#[derive(Debug, Clone)]
+pub struct MagnetometerSim {
+    trajectory: CarTrajectory,
+    config: MagnetometerConfig,
+    earth: Vector3<f64>,
+    start_ns: u64,
+    index: u64,
+    rng: ChaCha8Rng,
+}
+
+impl MagnetometerSim {
+    /// Samples on `trajectory`, the first at `start_ns` (trajectory time 0).
+    pub fn new(trajectory: CarTrajectory, config: MagnetometerConfig, start_ns: u64, seed: u64) -> Self {
+        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6d61_6700 ^ (u64::from(config.sensor) << 40));
+        let earth = Vector3::from(earth_field_enu(config.declination_deg, config.inclination_deg, config.strength_ut));
+        Self { trajectory, config, earth, start_ns, index: 0, rng }
+    }
+}
+
+impl Iterator for MagnetometerSim {
+    type Item = Arrival;
+
+    fn next(&mut self) -> Option<Arrival> {
+        loop {
+            let c = &self.config;
+            let (offset_ns, delay) = schedule(&mut self.rng, self.index, c.rate_hz, c.delay_min_ns, c.delay_max_ns);
+            let noise = Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut self.rng)) * c.noise_std_ut;
+            let lost = self.rng.random::<f64>() < c.dropout_probability;
+            let seq = self.index;
+            self.index += 1;
+            if lost {
+                continue;
+            }
+            let t_s = offset_ns as f64 * 1e-9;
+            let truth = self.trajectory.at(t_s);
+            let added: Vector3<f64> = c
+                .disturbances
+                .iter()
+                .filter(|d| (d.at_s..d.at_s + d.duration_s).contains(&t_s))
+                .map(|d| Vector3::from(d.field_ut))
+                .sum();
+            let body = truth.attitude.inverse_transform_vector(&(self.earth + added));
+            let field = c.rotation.transpose() * body + noise;
+            let var = c.noise_std_ut * c.noise_std_ut;
+            let cov = [var, 0.0, 0.0, 0.0, var, 0.0, 0.0, 0.0, var];
+            let t_ns = self.start_ns + offset_ns;
+            let sample = MagnetometerSample::new(t_ns, c.sensor, seq, field.into(), cov);
+            return Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Magnetometer(sample), outlier: false });
+        }
+    }
+}
+
+impl AidingSim for MagnetometerConfig {
+    fn kind(&self) -> SampleKind {
+        SampleKind::Magnetometer
+    }
+
+    fn sensor(&self) -> u32 {
+        self.sensor
+    }
+
+    fn arrivals(&self, trajectory: &CarTrajectory, start_ns: u64, seed: u64) -> Box<dyn Iterator<Item = Arrival> + Send> {
+        Box::new(MagnetometerSim::new(trajectory.clone(), self.clone(), start_ns, seed))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::trajectory::CarTrajectory;
+
+    /// Without noise the sensor reads the Earth's field turned into its axes:
+    /// strength kept, the mount undone; a disturbance adds its field; dropouts
+    /// leave gaps in the sequence numbers.
+    #[test]
+    fn it_reads_the_field_in_its_axes() {
+        let trajectory = CarTrajectory::new(3);
+        let rotation = nalgebra::Rotation3::from_euler_angles(0.0, 0.0, 1.0).into_inner();
+        let disturbance = MagneticDisturbance { at_s: 1.0, duration_s: 1.0, field_ut: [0.0, 0.0, -20.0] };
+        let c = MagnetometerConfig { noise_std_ut: 0.0, rotation, disturbances: vec![disturbance], ..Default::default() };
+        let earth = Vector3::from(earth_field_enu(3.5, 64.5, 48.5));
+        for a in MagnetometerSim::new(trajectory.clone(), c.clone(), 0, 1).take(60) {
+            let Sample::Magnetometer(m) = a.sample else { panic!() };
+            let t = m.header.t_ns as f64 * 1e-9;
+            let truth = trajectory.at(t);
+            let world = truth.attitude * (rotation * Vector3::from(m.field_ut));
+            let disturbed = (1.0..2.0).contains(&t);
+            let expected = if disturbed { earth + Vector3::new(0.0, 0.0, -20.0) } else { earth };
+            assert!((world - expected).norm() < 1e-9, "{t}: {world} vs {expected}");
+        }
+        let lossy = MagnetometerConfig { dropout_probability: 0.5, ..c };
+        let seqs: Vec<u64> = MagnetometerSim::new(trajectory, lossy, 0, 1).take(100).map(|a| a.sample.header().seq).collect();
+        assert!(seqs.windows(2).any(|w| w[1] > w[0] + 1) && seqs.windows(2).all(|w| w[1] > w[0]));
+        assert!(seqs[99] > 150 && seqs[99] < 260, "about half lost: {}", seqs[99]);
+    }
+}

@@ -1,0 +1,232 @@
+//! The magnetometer: the Earth's magnetic field in the body frame, fused as a
+//! 3-D vector against the field of `[sensor.magnetic]` ([`crate::magnetic`]).
+//!
+//! With `m_w` the configured field (ENU), the sample `m_s` in the sensor's axes
+//! and its mounting `C_bs` (body ← sensor):
+//!
+//! ```text
+//! z = C_bs m_s,   R = C_bs Σ C_bsᵀ,   h(x) = Rᵀ m_w
+//! ```
+//!
+//! With the local attitude error `R_true = R (I + [δθ]×)`,
+//! `R_trueᵀ m_w ≈ (I − [δθ]×) Rᵀ m_w = h + h × δθ`, so
+//! `H = [0  0  [h]×  0  0]` (Groves 2013, §10.4.2 and §16.2.1 for the field
+//! model; PX4 EKF2 fuses the same 3-D field, without learning it). The field
+//! informs the heading, and the attitude about the horizontal axes as far as the
+//! field is not vertical; it is a heading aid wherever the inclination leaves a
+//! horizontal component (|I| below about 80°).
+//!
+//! - `ins`: the update above, Joseph form, gated, injected and reset; refused
+//!   and counted as refused when the sensor has no `[sensor.magnetic]` (an
+//!   unconfigured id) and when the sample is disturbed: its strength, or (once
+//!   the tilt is known to 0.1 rad) its inclination in the estimated world frame,
+//!   off the configured field by more than the limits.
+//! - `linear`: refused (no attitude); a config naming a magnetometer is refused
+//!   at start-up.
+//!
+//! Hard- and soft-iron calibration is the publisher's: the sample is the
+//! calibrated field. Validation: finite, |field| ≤ [`MAX_FIELD_UT`], covariance
+//! symmetric positive definite. Not required by the health; stale after 1 s once
+//! seen.
+
+#![allow(non_snake_case)]
+
+use fusion_shared::{MagnetometerSample, SampleKind};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+
+use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite};
+use crate::model::{Model, StepOutcome};
+use crate::model::ins::nonholonomic::MAX_ATTITUDE_SD;
+use crate::model::ins::{InsModel, InsState};
+use crate::model::linear::{LinearModel, LinearState};
+
+/// Largest field strength accepted, µT (the Earth's is 25–65 µT; a sensor next
+/// to a motor saturates well below this).
+pub const MAX_FIELD_UT: f64 = 1000.0;
+
+impl Measurement for MagnetometerSample {
+    const RANK: u8 = 2;
+    const TIMEOUT_NS: u64 = 1_000_000_000;
+    const NEEDED: Option<Needed> = None;
+
+    fn validate(&self, _: &Limits) -> Result<(), Rejection> {
+        finite(&self.field_ut)?;
+        if Vector3::from(self.field_ut).norm() > MAX_FIELD_UT {
+            return Err(Rejection::OutOfRange);
+        }
+        covariance3(&self.cov_ut2)
+    }
+}
+
+/// `h` and `H` of the field in the body frame, for the world field `world`.
+pub fn field<const D: usize>(s: &InsState<D>, world: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, D>) {
+    let h = s.q().inverse_transform_vector(world);
+    let mut H = SMatrix::<f64, 3, D>::zeros();
+    H.fixed_view_mut::<3, 3>(0, 6).copy_from(&h.cross_matrix());
+    (h, H)
+}
+
+/// Whether roll and pitch are known to [`MAX_ATTITUDE_SD`]: the variances of the
+/// attitude error about the world's horizontal axes.
+fn tilt_known<const D: usize>(s: &InsState<D>) -> bool {
+    let R = s.q().to_rotation_matrix().into_inner();
+    let P = s.filter().P();
+    let world = R * P.fixed_view::<3, 3>(6, 6) * R.transpose();
+    world[(0, 0)].max(world[(1, 1)]) <= MAX_ATTITUDE_SD * MAX_ATTITUDE_SD
+}
+
+impl Fuse<LinearModel> for MagnetometerSample {
+    /// The linear model has no attitude: a configured sensor of this kind is an
+    /// error at start-up, and a sample of an unconfigured one is refused.
+    const ACCEPTS: bool = false;
+
+    fn fuse(&self, _: &LinearModel, _: &mut LinearState) -> (StepOutcome, ()) {
+        (StepOutcome::Refused, ())
+    }
+}
+
+impl<const D: usize> Fuse<InsModel<D>> for MagnetometerSample {
+    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
+        let frames = model.frames();
+        let Some(earth) = frames.magnetic(self.header.sensor) else { return (StepOutcome::Refused, None) };
+        let C = frames.mount(SampleKind::Magnetometer, self.header.sensor).rotation;
+        let z = C * Vector3::from(self.field_ut);
+        let world = tilt_known(s).then(|| s.q().transform_vector(&z));
+        if earth.check(z.norm(), world.as_ref()).is_err() {
+            return (StepOutcome::Refused, None);
+        }
+        let R = C * Matrix3::from_row_slice(&self.cov_ut2) * C.transpose();
+        let (h, H) = field(s, &earth.world_ut);
+        model.update_residual(s, &(z - h), &H, &R)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::UnitQuaternion;
+
+    use super::*;
+    use crate::frames::{Frames, SensorConfig};
+    use crate::magnetic::MagneticConfig;
+    use crate::model::ins::tests_support::{model, moving_scaled_state, moving_state, numeric_jacobian};
+
+    const COV: [f64; 9] = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.25];
+    const MUNICH: MagneticConfig = MagneticConfig {
+        declination_deg: 3.5,
+        inclination_deg: 64.5,
+        strength_ut: 48.5,
+        max_strength_deviation: 0.15,
+        max_inclination_deviation_deg: 10.0,
+    };
+
+    /// An `ins` model with magnetometer 2 mounted upside down and turned 90°
+    /// (FRD axes, yaw 90°), and the field of Munich.
+    fn mounted() -> InsModel {
+        let toml = "name = \"mag\"\nid = 2\nkinds = [\"magnetometer\"]\naxes = \"frd\"\nrotation_rpy_deg = [0, 0, 90]\n\
+                    [magnetic]\ndeclination_deg = 3.5\ninclination_deg = 64.5\nstrength_ut = 48.5\n";
+        let sensor: SensorConfig = toml::from_str(toml).unwrap();
+        let frames = Frames::from_config(None, &[sensor], Default::default()).unwrap();
+        model().with_frames(frames)
+    }
+
+    fn earth() -> Vector3<f64> {
+        crate::magnetic::EarthField::from_config(&MUNICH, |k| k.into()).unwrap().world_ut
+    }
+
+    /// What magnetometer 2 of [`mounted`] reads in state `s`, without noise.
+    fn reading(m: &InsModel, s: &InsState, world: &Vector3<f64>) -> [f64; 3] {
+        let C = m.frames().mount(SampleKind::Magnetometer, 2).rotation;
+        (C.transpose() * s.q().inverse_transform_vector(world)).into()
+    }
+
+    #[test]
+    fn every_bad_value_has_its_reason() {
+        let limits = Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 };
+        let mag = |field, cov| MagnetometerSample::new(0, 0, 0, field, cov).validate(&limits);
+        assert_eq!(mag([20.0, 1.0, -43.0], COV), Ok(()));
+        assert_eq!(mag([f64::NAN, 1.0, -43.0], COV), Err(Rejection::NonFinite));
+        assert_eq!(mag([2000.0, 1.0, -43.0], COV), Err(Rejection::OutOfRange));
+        let mut asym = COV;
+        asym[1] = 0.1;
+        assert_eq!(mag([20.0, 1.0, -43.0], asym), Err(Rejection::CovarianceNotSymmetric));
+        let mut neg = COV;
+        neg[4] = -0.25;
+        assert_eq!(mag([20.0, 1.0, -43.0], neg), Err(Rejection::CovarianceNotPositiveDefinite));
+    }
+
+    #[test]
+    fn jacobian_matches_numerical_differentiation() {
+        let w = earth();
+        let s = moving_state();
+        let (h, H) = field(&s, &w);
+        let numeric = numeric_jacobian(&s, |x| field(x, &w).0);
+        assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+        assert!((h - s.q().inverse_transform_vector(&w)).norm() < 1e-12);
+        // With the odometry scale state: its column is zero.
+        let s = moving_scaled_state();
+        let (_, H) = field(&s, &w);
+        let numeric = numeric_jacobian(&s, |x| field(x, &w).0);
+        assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+    }
+
+    /// A reading in the sensor's own (FRD, turned) axes is taken into the body
+    /// frame by its mount: with the tilt known (level, 0.01 rad) and the heading
+    /// not, the exact reading of the true attitude takes a yaw error of 0.2 rad
+    /// to nearly zero. (With the tilt unknown too, the rotation about the field
+    /// itself, mostly vertical at 64.5° inclination, is not observable from one
+    /// vector: the correction would spread over roll and pitch.)
+    #[test]
+    fn the_mounted_sensor_corrects_the_heading() {
+        let m = mounted();
+        let mut s = m.initial_state();
+        s.kf.reset_error(|P| {
+            P[(6, 6)] = 1e-4;
+            P[(7, 7)] = 1e-4;
+        });
+        let truth = UnitQuaternion::from_euler_angles(0.0, 0.0, 1.0);
+        let mut wrong = s;
+        wrong.set(s.p(), s.v(), UnitQuaternion::from_euler_angles(0.0, 0.0, 1.2), s.b_a(), s.b_g());
+        s = wrong;
+        let sample = MagnetometerSample::new(1, 2, 0, reading(&m, &{
+            let mut t = s;
+            t.set(s.p(), s.v(), truth, s.b_a(), s.b_g());
+            t
+        }, &earth()), [0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.01]);
+        let (out, injected) = sample.fuse(&m, &mut s);
+        assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
+        assert!(injected.is_some());
+        let (_, _, yaw) = s.q().euler_angles();
+        assert!((yaw - 1.0).abs() < 0.01, "yaw {yaw} (was 1.2, truth 1.0)");
+    }
+
+    /// Disturbed samples (strength, inclination), an unconfigured sensor and the
+    /// `linear` model: refused, the state bit for bit unchanged.
+    #[test]
+    fn disturbed_and_unconfigured_samples_are_refused() {
+        let m = mounted();
+        let mut s = m.initial_state();
+        // Tilt known (0.05 rad), heading not.
+        s.kf.reset_error(|P| {
+            P[(6, 6)] = 0.0025;
+            P[(7, 7)] = 0.0025;
+        });
+        let before = s;
+        let good = reading(&m, &s, &earth());
+        let strong = good.map(|v| v * 1.3);
+        let flat = {
+            // 17° steeper: a rotation about east turns north into up.
+            let w = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), -0.3) * earth();
+            reading(&m, &s, &w)
+        };
+        for (field, sensor) in [(strong, 2), (flat, 2), (good, 7)] {
+            let (out, injected) = MagnetometerSample::new(1, sensor, 0, field, COV).fuse(&m, &mut s);
+            assert_eq!((out, injected), (StepOutcome::Refused, None), "{field:?} of sensor {sensor}");
+            assert_eq!(s, before);
+        }
+        let (out, _) = MagnetometerSample::new(1, 2, 0, good, COV).fuse(&m, &mut s);
+        assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
+        let linear = LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap();
+        let mut ls = linear.initial_state();
+        assert_eq!(MagnetometerSample::new(1, 2, 0, good, COV).fuse(&linear, &mut ls).0, StepOutcome::Refused);
+    }
+}
