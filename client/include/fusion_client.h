@@ -33,6 +33,9 @@
 // A magnetometer's field (`FusionMagnetometerSample`).
 #define FUSION_KIND_MAGNETOMETER 7
 
+// A twist from visual or lidar odometry (`FusionTwistSample`).
+#define FUSION_KIND_TWIST 8
+
 // `FusionGeodeticSample.fix_type`: not reported.
 #define FUSION_FIX_UNKNOWN 0
 
@@ -321,6 +324,25 @@ typedef struct FusionMagnetometerSample {
 // Values one sample gives a measurement update (the 3-D field; fused as a
 // heading, one): the χ² degrees of freedom of its NIS.
 #define FusionMagnetometerSample_INNOVATION_DIM 3
+
+// The linear and angular velocity of the sensor's frame, in its own axes (its
+// mounting on the body is configuration: `[[sensor]] axes`, `rotation_rpy_deg`,
+// `lever_arm_m`), with their 6×6 covariance: a ROS `TwistWithCovariance` in the
+// child frame, from visual or lidar odometry.
+typedef struct FusionTwistSample {
+  // Time, sensor, sequence number, kind [`SampleKind::Twist`].
+  struct FusionSampleHeader header;
+  // Linear velocity of the sensor's origin, m/s, sensor axes; |v| ≤ 150 m/s.
+  double linear_mps[3];
+  // Angular velocity, rad/s, sensor axes; |ω| ≤ `[validation] gyro_range_radps`.
+  double angular_radps[3];
+  // Covariance of `[linear, angular]`, row-major 6×6 (m²/s², m·rad/s², rad²/s²);
+  // symmetric positive definite.
+  double cov[36];
+} FusionTwistSample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionTwistSample_INNOVATION_DIM 6
 
 // What became of the samples of one sensor (or of several, added up): the one
 // counters type of the engine, the snapshot and the replay summary.
@@ -615,6 +637,15 @@ enum FusionStatus fusion_publish_heading(struct FusionPublisher *publisher,
 enum FusionStatus fusion_publish_magnetometer(struct FusionPublisher *publisher,
                                               const struct FusionMagnetometerSample *sample,
                                               size_t *reached);
+
+// Publishes a twist (linear m/s and angular rad/s velocity in the sensor's
+// axes, row-major 6×6 covariance).
+//
+// # Safety
+// As [`fusion_publish_imu`].
+enum FusionStatus fusion_publish_twist(struct FusionPublisher *publisher,
+                                       const struct FusionTwistSample *sample,
+                                       size_t *reached);
 
 // A reader of `<ns>/state`, keeping up to 64 unread snapshots, to release with
 // [`fusion_state_reader_free`]. [`FusionStatus::FusionErrorNotRunning`] when no

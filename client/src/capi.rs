@@ -20,7 +20,7 @@ use std::time::Duration;
 
 use fusion_shared::{
     GeodeticSample, HeadingSample, ImuSample, KindFn, MagnetometerSample, OdometrySample, PositionSample, SampleKind,
-    StateSnapshot, VelocitySample, WireSample,
+    StateSnapshot, TwistSample, VelocitySample, WireSample,
 };
 
 use crate::{Client, ClientError, SamplePublisher, StateSubscriber};
@@ -71,6 +71,8 @@ pub const FUSION_KIND_ODOMETRY: u32 = 5;
 pub const FUSION_KIND_HEADING: u32 = 6;
 /// A magnetometer's field (`FusionMagnetometerSample`).
 pub const FUSION_KIND_MAGNETOMETER: u32 = 7;
+/// A twist from visual or lidar odometry (`FusionTwistSample`).
+pub const FUSION_KIND_TWIST: u32 = 8;
 
 /// `FusionGeodeticSample.fix_type`: not reported.
 pub const FUSION_FIX_UNKNOWN: u32 = 0;
@@ -151,6 +153,7 @@ const _: () = {
     assert!(FUSION_KIND_ODOMETRY == SampleKind::Odometry as u32);
     assert!(FUSION_KIND_HEADING == SampleKind::Heading as u32);
     assert!(FUSION_KIND_MAGNETOMETER == SampleKind::Magnetometer as u32);
+    assert!(FUSION_KIND_TWIST == SampleKind::Twist as u32);
     {
         use fusion_shared::fix;
         assert!(FUSION_FIX_UNKNOWN == fix::UNKNOWN && FUSION_FIX_NONE == fix::NONE && FUSION_FIX_2D == fix::TWO_D);
@@ -158,7 +161,7 @@ const _: () = {
         assert!(FUSION_FIX_RTK_FLOAT == fix::RTK_FLOAT && FUSION_FIX_RTK_FIXED == fix::RTK_FIXED);
         assert!(fix::COUNT == 7);
     }
-    assert!(SampleKind::COUNT == 7, "a new kind needs its FUSION_KIND_ constant and fusion_publish_ function");
+    assert!(SampleKind::COUNT == 8, "a new kind needs its FUSION_KIND_ constant and fusion_publish_ function");
     assert!(FUSION_HEALTH_INITIALISING == health::INITIALISING);
     assert!(FUSION_HEALTH_OK == health::OK);
     assert!(FUSION_HEALTH_DEGRADED == health::DEGRADED);
@@ -511,6 +514,21 @@ pub unsafe extern "C" fn fusion_publish_heading(
 pub unsafe extern "C" fn fusion_publish_magnetometer(
     publisher: *mut FusionPublisher,
     sample: *const MagnetometerSample,
+    reached: *mut usize,
+) -> FusionStatus {
+    // SAFETY: forwarded contract.
+    unsafe { publish(publisher, sample, reached) }
+}
+
+/// Publishes a twist (linear m/s and angular rad/s velocity in the sensor's
+/// axes, row-major 6×6 covariance).
+///
+/// # Safety
+/// As [`fusion_publish_imu`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_publish_twist(
+    publisher: *mut FusionPublisher,
+    sample: *const TwistSample,
     reached: *mut usize,
 ) -> FusionStatus {
     // SAFETY: forwarded contract.

@@ -154,6 +154,13 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   strength_ut = 48.5                     # microtesla
 #   max_strength_deviation = 0.15          # a sample this far off in strength is disturbed: refused
 #   max_inclination_deviation_deg = 10.0   # or this far off in inclination (once roll and pitch are known)
+#   [[sensor]]
+#   name = "camera"
+#   id = 0
+#   kinds = ["twist"]                      # ins only: visual/lidar odometry's velocity, sensor axes
+#   axes = "frd"
+#   rotation_rpy_deg = [0.0, 10.0, 0.0]    # body <- sensor
+#   lever_arm_m = [0.8, 0.0, 1.2]          # its optical centre, m
 # Several IMUs: "average" the samples of each instant (IMUs on one clock), or
 # "failover" (different clocks or rates): the first listed alive IMU is used.
 [imu]

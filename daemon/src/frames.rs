@@ -50,6 +50,11 @@ impl DatumTable {
 /// Most IMUs combined ([`ImuSet`]).
 pub const MAX_IMUS: usize = 8;
 
+/// The kinds whose samples are in the sensor's own axes, so a rotation and an
+/// axis convention apply (the others are in the world frame, or a scalar along
+/// the body's x axis).
+pub const ROTATED_KINDS: [SampleKind; 3] = [SampleKind::Imu, SampleKind::Magnetometer, SampleKind::Twist];
+
 /// An angle wrapped into (−π, π], rad.
 pub fn wrap_angle(a: f64) -> f64 {
     use std::f64::consts::PI;
@@ -82,11 +87,11 @@ pub struct SensorConfig {
     /// The kinds of sample it publishes under that id (a GNSS receiver:
     /// `["geodetic", "velocity"]`).
     pub kinds: Vec<String>,
-    /// Its axis convention (IMU and magnetometer only).
+    /// Its axis convention ([`ROTATED_KINDS`] only).
     #[serde(default)]
     pub axes: Axes,
     /// Rotation of its (FLU) axes into the body frame: roll, pitch, yaw in
-    /// degrees, applied as `Rz(yaw) Ry(pitch) Rx(roll)` (IMU and magnetometer only).
+    /// degrees, applied as `Rz(yaw) Ry(pitch) Rx(roll)` ([`ROTATED_KINDS`] only).
     #[serde(default)]
     pub rotation_rpy_deg: [f64; 3],
     /// Position of its reference point in the body frame, m (not for an IMU: the
@@ -332,11 +337,12 @@ impl Frames {
                         return Err(invalid(key("id"), format!("at most {MAX_IMUS} IMUs")));
                     }
                     frames.imus.ids.push(s.id);
-                } else if rotated && kind != SampleKind::Magnetometer {
+                } else if rotated && !ROTATED_KINDS.contains(&kind) {
                     return Err(invalid(
                         key("rotation_rpy_deg"),
                         format!(
-                            "a rotation or axis convention applies to an imu or a magnetometer only, not to {name}"
+                            "a rotation or axis convention applies to an imu, a magnetometer or a twist sensor only, \
+                             not to {name}"
                         ),
                     ));
                 }
@@ -467,7 +473,7 @@ mod tests {
         assert!(err(&[sensor("x", 0, &[])]).contains("names no kind"));
         let mut rotated_gnss = gnss.clone();
         rotated_gnss.rotation_rpy_deg = [0.0, 0.0, 10.0];
-        assert!(err(&[rotated_gnss]).contains("an imu or a magnetometer only"));
+        assert!(err(&[rotated_gnss]).contains("an imu, a magnetometer or a twist sensor only"));
         let mut imu_arm = imu.clone();
         imu_arm.lever_arm_m = [0.1, 0.0, 0.0];
         assert!(err(&[imu_arm]).contains("body origin"));

@@ -15,7 +15,7 @@ use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_shared::snapshot::{Counters, SensorCounters};
 use fusion_shared::{
     GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, PositionSample, SampleHeader,
-    SampleKind, StateSnapshot, VelocitySample,
+    SampleKind, StateSnapshot, TwistSample, VelocitySample,
 };
 use iceoryx2::prelude::ZeroCopySend;
 use serde_json::{Value, json};
@@ -52,6 +52,7 @@ fn rust_layout() -> Value {
         layout!(OdometrySample { header, speed_mps, var_m2ps2 }),
         layout!(HeadingSample { header, yaw_rad, var_rad2 }),
         layout!(MagnetometerSample { header, field_ut, cov_ut2 }),
+        layout!(TwistSample { header, linear_mps, angular_radps, cov }),
         layout!(Counters {
             received,
             processed,
@@ -218,7 +219,7 @@ fn the_python_mirrors_have_the_rust_layout() {
     let out = common::python_command("unused", "tests/check_layout.py", &[path.to_str().unwrap()]).output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
-    assert!(said.contains("11 types, 45 constants: 0 differences"), "{said}");
+    assert!(said.contains("12 types, 46 constants: 0 differences"), "{said}");
 
     // The check sees a difference: a layout with one offset moved fails it.
     let mut broken = rust_layout();

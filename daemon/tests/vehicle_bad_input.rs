@@ -1,5 +1,5 @@
 //! Bad input of the vehicle sensor kinds through the `ins` engine: impossible
-//! odometry, headings, magnetometer fields and fixes (and fixes with an
+//! odometry, headings, magnetometer fields, twists and fixes (and fixes with an
 //! impossible quality), mixed
 //! into a drive, are rejected with their
 //! reason and counted, and the estimate after the drive is bit for bit the one of
@@ -9,7 +9,7 @@
 use std::sync::Arc;
 
 use fusion_client::sim::{
-    GeodeticConfig, HeadingConfig, ImuOutput, MagnetometerConfig, OdometryConfig, Scenario, ScenarioConfig,
+    GeodeticConfig, HeadingConfig, ImuOutput, MagnetometerConfig, OdometryConfig, Scenario, ScenarioConfig, TwistConfig,
 };
 use fusion_daemon::config::Config;
 use fusion_daemon::engine::{Engine, EngineConfig, Insert};
@@ -17,7 +17,7 @@ use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::InsModel;
 use fusion_daemon::validate::Rejection;
 use fusion_shared::{
-    GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, Sample, SampleKind, fix,
+    GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, Sample, SampleKind, TwistSample, fix,
 };
 
 const INS: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
@@ -46,6 +46,10 @@ fn bad(t: u64, seq: u64) -> Vec<(Sample, Rejection)> {
     let odometry = |speed, var| Sample::Odometry(OdometrySample::new(t, 0, seq, speed, var));
     let heading = |yaw, var| Sample::Heading(HeadingSample::new(t, 0, seq, yaw, var));
     let field = |field, cov| Sample::Magnetometer(MagnetometerSample::new(t, 0, seq, field, cov));
+    let twist_cov = TwistSample::diagonal_cov([0.05; 3], [0.01; 3]);
+    let mut twist_not_spd = twist_cov;
+    (twist_not_spd[1], twist_not_spd[6]) = (1.0, 1.0);
+    let twist = |lin, ang, cov| Sample::Twist(TwistSample::new(t, 0, seq, lin, ang, cov));
     vec![
         (geodetic(91.0, 11.5, cov), Rejection::OutOfRange),
         (geodetic(-90.5, 11.5, cov), Rejection::OutOfRange),
@@ -67,6 +71,9 @@ fn bad(t: u64, seq: u64) -> Vec<(Sample, Rejection)> {
         (field([20.0, f64::NAN, -43.0], cov), Rejection::NonFinite),
         (field([2000.0, 0.0, 0.0], cov), Rejection::OutOfRange),
         (field([20.0, 1.0, -43.0], not_spd), Rejection::CovarianceNotPositiveDefinite),
+        (twist([10.0, f64::NAN, 0.0], [0.0; 3], twist_cov), Rejection::NonFinite),
+        (twist([10.0, 0.0, 0.0], [0.0, 0.0, 100.0], twist_cov), Rejection::OutOfRange),
+        (twist([10.0, 0.0, 0.0], [0.0; 3], twist_not_spd), Rejection::CovarianceNotPositiveDefinite),
         (Sample::Imu(ImuSample::new(t, 0, seq, [f64::NAN, 0.0, 9.8], [0.0; 3])), Rejection::NonFinite),
     ]
 }
@@ -81,6 +88,7 @@ fn impossible_vehicle_samples_are_rejected_counted_and_change_nothing() {
     c.aiding.push(Arc::new(OdometryConfig::default()));
     c.aiding.push(Arc::new(HeadingConfig::default()));
     c.aiding.push(Arc::new(MagnetometerConfig::default()));
+    c.aiding.push(Arc::new(TwistConfig::default()));
     let samples: Vec<Sample> = Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect();
     let (mut clean, mut dirty) = (engine(), engine());
     let mut expected = [0u64; SampleKind::COUNT];
@@ -108,6 +116,7 @@ fn impossible_vehicle_samples_are_rejected_counted_and_change_nothing() {
     assert!(clean.totals(Some(SampleKind::Odometry)).fused > 300);
     assert!(clean.totals(Some(SampleKind::Heading)).fused > 30);
     assert!(clean.totals(Some(SampleKind::Magnetometer)).fused > 150);
+    assert!(clean.totals(Some(SampleKind::Twist)).fused > 100);
 }
 
 #[test]
@@ -120,6 +129,7 @@ fn the_linear_model_refuses_odometry_heading_and_mounts_at_start_up() {
     let magnetometer = "name = \"mag\"\nid = 0\nkinds = [\"magnetometer\"]\n\
         [sensor.magnetic]\ndeclination_deg = 3.5\ninclination_deg = 64.5\nstrength_ut = 48.5\n";
     assert!(err(magnetometer).contains("cannot fuse magnetometer"));
+    assert!(err("name = \"vio\"\nid = 0\nkinds = [\"twist\"]\n").contains("cannot fuse twist"));
     assert!(
         err("name = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [1, 0, 1]\n")
             .contains("no rotation or lever arm")

@@ -114,6 +114,8 @@ macro_rules! for_each_sample_kind {
             Heading = 6, "heading", heading, HeadingSample;
             /// [`MagnetometerSample`](crate::sample::MagnetometerSample): the magnetic field vector in the sensor's axes.
             Magnetometer = 7, "magnetometer", magnetometer, MagnetometerSample;
+            /// [`TwistSample`](crate::sample::TwistSample): linear and angular velocity in the sensor's axes (visual or lidar odometry).
+            Twist = 8, "twist", twist, TwistSample;
         }
     };
 }
@@ -129,6 +131,7 @@ mod magnetometer;
 pub use magnetometer::earth_field_enu;
 mod odometry;
 mod position;
+mod twist;
 mod velocity;
 
 /// Re-exports each kind's wire type, generates [`SampleKind`], [`Sample`] and the [`WireSample`]
@@ -207,9 +210,12 @@ macro_rules! sample_kinds {
         }
 
         /// A sample of any kind (not a wire type: each kind has its own service).
-        /// In JSON lines: `{"<kind name>": {…}}`.
+        /// In JSON lines: `{"<kind name>": {…}}`. As large as the largest wire type
+        /// (a twist's 6×6 covariance): samples live inline in the engine's
+        /// fixed-capacity history, never boxed, so the hot path does not allocate.
         #[derive(Debug, Clone, Copy, PartialEq)]
         #[cfg_attr(feature = "json", derive(serde::Serialize, serde::Deserialize))]
+        #[allow(clippy::large_enum_variant)]
         pub enum Sample {
             $($(#[$doc])* #[cfg_attr(feature = "json", serde(rename = $name))] $variant($ty),)*
         }

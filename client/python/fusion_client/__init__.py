@@ -49,13 +49,14 @@ from .wire import (
     SampleHeader,
     SensorCounters,
     StateSnapshot,
+    TwistSample,
     VelocitySample,
 )
 
 __all__ = [
     "ALL_TYPES", "Client", "Counters", "DaemonNotRunning", "FusionError", "GeodeticSample", "HeadingSample",
     "ImuSample", "INPUT_NONE", "MagnetometerSample", "OdometrySample", "PositionSample", "Publisher", "SampleHeader",
-    "SensorCounters", "Snapshot", "StateReader", "StateSnapshot", "VelocitySample", "now_ns",
+    "SensorCounters", "Snapshot", "StateReader", "StateSnapshot", "TwistSample", "VelocitySample", "now_ns",
 ]
 
 #: Environment variable naming the iceoryx2 domain (as for every fusiond process).

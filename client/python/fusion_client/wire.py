@@ -14,9 +14,10 @@ MAX_SENSORS = 16
 
 #: Sample kind codes (``SampleHeader.kind``), and their service names.
 KIND_IMU, KIND_POSITION, KIND_VELOCITY, KIND_GEODETIC, KIND_ODOMETRY, KIND_HEADING = 1, 2, 3, 4, 5, 6
-KIND_MAGNETOMETER = 7
+KIND_MAGNETOMETER, KIND_TWIST = 7, 8
 KIND_NAMES = {
     1: "imu", 2: "position", 3: "velocity", 4: "geodetic", 5: "odometry", 6: "heading", 7: "magnetometer",
+    8: "twist",
 }
 #: ``StateSnapshot.input_kind`` of a snapshot sent because the health changed.
 INPUT_NONE = 0
@@ -157,8 +158,18 @@ class MagnetometerSample(_Sample):
     _fields_ = [("header", SampleHeader), ("field_ut", f64x3), ("cov_ut2", f64x9)]
 
 
+class TwistSample(_Sample):
+    """Linear (m/s) and angular (rad/s) velocity in the sensor's axes, with their covariance
+    (row-major 6×6, linear then angular): visual or lidar odometry."""
+
+    TYPE_NAME = "fusion.TwistSample.v2"
+    KIND = KIND_TWIST
+    _fields_ = [("header", SampleHeader), ("linear_mps", f64x3), ("angular_radps", f64x3), ("cov", ctypes.c_double * 36)]
+
+
 SAMPLE_TYPES = (
     ImuSample, PositionSample, VelocitySample, GeodeticSample, OdometrySample, HeadingSample, MagnetometerSample,
+    TwistSample,
 )
 
 

@@ -4,7 +4,7 @@
 //!   every sensor (IMUs, one per `--imu-mount`; position; velocity with
 //!   `--velocity-rate`, geodetic GNSS with `--geodetic-rate`, wheel odometry with
 //!   `--odometry-rate`, heading with `--heading-rate`, a magnetometer with
-//!   `--magnetometer-rate`), or the IMUs (`--imu-only`,
+//!   `--magnetometer-rate`, visual/lidar odometry's twist with `--twist-rate`), or the IMUs (`--imu-only`,
 //!   some of them with `--imu-ids`) or the other sensors alone (`--position-only`)
 //!   so they can run as separate processes on the same trajectory and start
 //!   time; or a file (`--input`), as fast as the daemon takes it or paced by its
@@ -26,8 +26,8 @@ use std::time::Duration;
 use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
 use fusion_client::sim::{
     Arrival, FixPhase, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, ImuSim, MagneticDisturbance,
-    MagnetometerConfig, OdometryConfig, Outage, PositionConfig, Scenario, ScenarioConfig, Stop, VelocityConfig,
-    without_outages,
+    MagnetometerConfig, OdometryConfig, Outage, PositionConfig, Scenario, ScenarioConfig, Stop, TwistConfig,
+    VelocityConfig, without_outages,
 };
 use fusion_client::{Client, SampleKind, SensorPublishers, now_ns};
 use fusion_shared::geodesy::Datum;
@@ -190,6 +190,19 @@ struct SimArgs {
     /// down), strength (µT) (default: Munich, 3.5,64.5,48.5).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     magnetic_field: Option<Vec<f64>>,
+    /// Twist (visual or lidar odometry) rate, Hz; 0: none (sensor id 0;
+    /// `--dropouts` applies).
+    #[arg(long, default_value_t = 0.0)]
+    twist_rate: f64,
+    /// Twist noise per axis: linear m/s, angular rad/s.
+    #[arg(long, value_delimiter = ',', default_value = "0.05,0.01")]
+    twist_noise: Vec<f64>,
+    /// The twist sensor's mount, `AXES:ROLL,PITCH,YAW` (degrees; body ← sensor).
+    #[arg(long, default_value = "flu:0,0,0")]
+    twist_mount: String,
+    /// The twist sensor's origin in the body frame: x,y,z, m.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    twist_lever_arm: Option<Vec<f64>>,
     /// A magnetic disturbance, `AT:SECONDS:MICROTESLA`: a field of MICROTESLA
     /// pointing east adds to the Earth's from AT s into the drive for SECONDS (a
     /// passing lorry, a steel bridge). Repeatable.
@@ -332,6 +345,24 @@ impl SimArgs {
                 ..defaults
             }));
         }
+        if self.twist_rate > 0.0 {
+            let [linear, angular] = <[f64; 2]>::try_from(self.twist_noise.clone())
+                .map_err(|_| anyhow::anyhow!("--twist-noise: expected LINEAR,ANGULAR, e.g. 0.05,0.01"))?;
+            let arm = match self.twist_lever_arm.as_deref() {
+                None => [0.0; 3],
+                Some(&[x, y, z]) => [x, y, z],
+                Some(_) => anyhow::bail!("--twist-lever-arm: expected x,y,z in metres"),
+            };
+            c.aiding.push(Arc::new(TwistConfig {
+                rate_hz: self.twist_rate,
+                linear_noise_mps: linear,
+                angular_noise_radps: angular,
+                rotation: parse_mount(&self.twist_mount)?,
+                lever_arm_m: arm,
+                dropout_probability: self.dropouts,
+                ..Default::default()
+            }));
+        }
         if self.heading_rate > 0.0 {
             c.aiding.push(Arc::new(HeadingConfig {
                 rate_hz: self.heading_rate,
@@ -375,7 +406,7 @@ fn triple(name: &str, values: Option<&[f64]>) -> anyhow::Result<Option<[f64; 3]>
         .transpose()
 }
 
-/// A sensor mount (`--imu-mount`, `--magnetometer-mount`), `AXES:ROLL,PITCH,YAW`
+/// A sensor mount (`--imu-mount`, `--magnetometer-mount`, `--twist-mount`), `AXES:ROLL,PITCH,YAW`
 /// (degrees), as the rotation body ← sensor.
 fn parse_mount(text: &str) -> anyhow::Result<Matrix3<f64>> {
     let bad = || anyhow::anyhow!("mount {text:?}: expected AXES:ROLL,PITCH,YAW, e.g. frd:3,-2,90");

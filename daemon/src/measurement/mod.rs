@@ -19,7 +19,7 @@
 pub mod lever_arm;
 
 use fusion_shared::{Sample, SampleKind, WireSample};
-use nalgebra::Matrix3;
+use nalgebra::SMatrix;
 
 use crate::frames::Frames;
 use crate::model::{Model, StepOutcome};
@@ -89,8 +89,13 @@ pub fn finite(values: &[f64]) -> Result<(), Rejection> {
 /// Checks a 3×3 row-major covariance: finite, symmetric to 1e-9 of its largest
 /// entry, with a Cholesky factor (positive definite).
 pub fn covariance3(cov: &[f64; 9]) -> Result<(), Rejection> {
+    covariance::<3>(cov)
+}
+
+/// Checks an `N`×`N` row-major covariance (`N²` values) as [`covariance3`].
+pub fn covariance<const N: usize>(cov: &[f64]) -> Result<(), Rejection> {
     finite(cov)?;
-    let c = Matrix3::from_row_slice(cov);
+    let c = SMatrix::<f64, N, N>::from_row_slice(cov);
     if (c - c.transpose()).amax() > SYMMETRY_TOLERANCE * c.amax() {
         return Err(Rejection::CovarianceNotSymmetric);
     }
@@ -191,7 +196,7 @@ macro_rules! registry {
 fusion_shared::for_each_sample_kind!(registry);
 
 /// The largest innovation dimension of any kind (the health's NIS bands).
-pub const MAX_INNOVATION_DIM: usize = 3;
+pub const MAX_INNOVATION_DIM: usize = 6;
 
 const _: () = {
     let mut i = 0;

@@ -25,6 +25,8 @@ pub struct HeldImu {
     /// Samples in the sums (all of the instant `t_ns`); 0: nothing held yet.
     count: u32,
     t_ns: u64,
+    /// Time from the instant before to the one held, ns (0: not yet known).
+    interval_ns: u64,
     /// Failover: the index of the IMU in use.
     active: u8,
     /// Bit `i`: IMU `i` sent a sample; `last_t_ns[i]`: the time of its latest.
@@ -58,6 +60,7 @@ impl HeldImu {
         sum_w: Vector3::new(0.0, 0.0, 0.0),
         count: 0,
         t_ns: 0,
+        interval_ns: 0,
         active: 0,
         seen: 0,
         mask: 0,
@@ -74,6 +77,12 @@ impl HeldImu {
             1 => Some((self.sum_f, self.sum_w, 1)),
             n => Some((self.sum_f / f64::from(n), self.sum_w / f64::from(n), n)),
         }
+    }
+
+    /// The time between the last two instants held, s: the IMU's sampling
+    /// interval (`None` before the second).
+    pub fn interval_s(&self) -> Option<f64> {
+        (self.interval_ns > 0).then_some(self.interval_ns as f64 * 1e-9)
     }
 
     /// The configured index of the IMU in use (failover).
@@ -120,6 +129,9 @@ impl HeldImu {
             }
         };
         self.note(i, t_ns);
+        if self.count > 0 && t_ns > self.t_ns {
+            self.interval_ns = t_ns - self.t_ns;
+        }
         (self.sum_f, self.sum_w, self.count, self.t_ns) = (f, w, 1, t_ns);
         outcome
     }

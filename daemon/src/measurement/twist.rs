@@ -1,0 +1,214 @@
+//! Twist: the linear and angular velocity of a sensor's frame in its own axes,
+//! from visual or lidar odometry.
+//!
+//! With the sensor's mounting `C = C_bs` (body ← sensor) and lever arm `l`, the
+//! attitude `R`, the body rate `ω = ω_m − b_g` (the held IMU rate less the gyro
+//! bias) and `v_b = Rᵀ v`, the sensor's frame moves with
+//!
+//! ```text
+//! z = [ Cᵀ (v_b + ω × l) ]  + n,   n ~ N(0, Σ)   (Σ: the sample's 6×6 covariance)
+//!     [ Cᵀ ω             ]
+//!
+//! H = [ 0   CᵀRᵀ   Cᵀ[v_b]×   0   Cᵀ[l]× ]
+//!     [ 0   0      0          0   −Cᵀ    ]
+//! ```
+//!
+//! (local attitude error `R_trueᵀ ≈ (I − [δθ]×) Rᵀ`, so `δ(Rᵀ v) = Rᵀ δv + [v_b]× δθ`;
+//! `ω_true = ω − δb_g`, so `δ(ω × l) = [l]× δb_g`; Groves 2013, eq. 14.121 and
+//! §16.2.1, as for wheel odometry). The held IMU rate carries the gyro's white
+//! noise, which enters `h` too: with the gyro noise density `σ_g` over the IMU's
+//! sampling interval `Δt` (the mean of `n` IMUs: `σ_g²/n`),
+//! `R = Σ + G (σ_g²/(n Δt)) Gᵀ`, `G = [−Cᵀ[l]×; Cᵀ]`. The linear part observes the
+//! velocity and, through the attitude, heading and tilt; the angular part the gyro
+//! bias.
+//!
+//! - `ins`: the update above, Joseph form, gated, injected and reset; refused
+//!   until the attitude is known to [`nonholonomic::MAX_ATTITUDE_SD`] (as wheel
+//!   odometry: a body-frame velocity linearised about a wrong heading makes the
+//!   filter sure of it). While the vehicle stands, `ω` is held at 0 and the bias
+//!   columns are 0.
+//! - `linear`: refused (no attitude); a config naming a twist sensor is refused
+//!   at start-up.
+//!
+//! Validation: finite; |linear| ≤ [`MAX_SPEED_MPS`](super::odometry::MAX_SPEED_MPS),
+//! |angular| ≤ `[validation] gyro_range_radps`; covariance symmetric positive
+//! definite. Not required by the health; stale after 1 s once seen.
+
+#![allow(non_snake_case)]
+
+use fusion_shared::{SampleKind, TwistSample};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector6};
+
+use super::odometry::MAX_SPEED_MPS;
+use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance, finite};
+use crate::frames::Mount;
+use crate::model::ins::nonholonomic;
+use crate::model::ins::{InsModel, InsState};
+use crate::model::linear::{LinearModel, LinearState};
+use crate::model::{Model, StepOutcome};
+
+impl Measurement for TwistSample {
+    const RANK: u8 = 2;
+    const TIMEOUT_NS: u64 = 1_000_000_000;
+    const NEEDED: Option<Needed> = None;
+
+    fn validate(&self, limits: &Limits) -> Result<(), Rejection> {
+        finite(&self.linear_mps)?;
+        finite(&self.angular_radps)?;
+        if Vector3::from(self.linear_mps).norm() > MAX_SPEED_MPS
+            || Vector3::from(self.angular_radps).norm() > limits.gyro_range_radps
+        {
+            return Err(Rejection::OutOfRange);
+        }
+        covariance::<6>(&self.cov)
+    }
+}
+
+/// `h` and `H` of the twist of a sensor mounted at `mount`.
+pub fn twist<const D: usize>(s: &InsState<D>, mount: &Mount) -> (Vector6<f64>, SMatrix<f64, 6, D>) {
+    let R = s.q().to_rotation_matrix().into_inner();
+    let Ct = mount.rotation.transpose();
+    let l = mount.lever_arm;
+    let v_b = R.transpose() * s.v();
+    let w = InsModel::<D>::body_rate(s);
+    let mut h = Vector6::zeros();
+    h.fixed_rows_mut::<3>(0).copy_from(&(Ct * (v_b + w.cross(&l))));
+    h.fixed_rows_mut::<3>(3).copy_from(&(Ct * w));
+    let mut H = SMatrix::<f64, 6, D>::zeros();
+    H.fixed_view_mut::<3, 3>(0, 3).copy_from(&(Ct * R.transpose()));
+    H.fixed_view_mut::<3, 3>(0, 6).copy_from(&(Ct * v_b.cross_matrix()));
+    // While standing `ω` is 0 whatever `b_g` is ([`InsModel::body_rate`]).
+    if !s.standing() {
+        H.fixed_view_mut::<3, 3>(0, 12).copy_from(&(Ct * l.cross_matrix()));
+        H.fixed_view_mut::<3, 3>(3, 12).copy_from(&(-Ct));
+    }
+    (h, H)
+}
+
+/// The gyro's white noise in `h` (see the module doc), 6×6; zero while standing
+/// and before the IMU's interval is known.
+fn gyro_noise<const D: usize>(model: &InsModel<D>, s: &InsState<D>, mount: &Mount) -> SMatrix<f64, 6, 6> {
+    let (Some(dt), Some((_, _, n))) = (s.imu.interval_s(), s.imu.mean()) else { return SMatrix::zeros() };
+    if s.standing() {
+        return SMatrix::zeros();
+    }
+    let q = model.noise().gyroscope_noise_density.powi(2) / (f64::from(n) * dt);
+    let Ct = mount.rotation.transpose();
+    let mut G = SMatrix::<f64, 6, 3>::zeros();
+    G.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-Ct * mount.lever_arm.cross_matrix()));
+    G.fixed_view_mut::<3, 3>(3, 0).copy_from(&Ct);
+    G * (Matrix3::identity() * q) * G.transpose()
+}
+
+impl Fuse<LinearModel> for TwistSample {
+    /// The linear model has no attitude: a configured sensor of this kind is an
+    /// error at start-up, and a sample of an unconfigured one is refused.
+    const ACCEPTS: bool = false;
+
+    fn fuse(&self, _: &LinearModel, _: &mut LinearState) -> (StepOutcome, ()) {
+        (StepOutcome::Refused, ())
+    }
+}
+
+impl<const D: usize> Fuse<InsModel<D>> for TwistSample {
+    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
+        if !nonholonomic::attitude_known(s) {
+            return (StepOutcome::Refused, None);
+        }
+        let mount = model.frames().mount(SampleKind::Twist, self.header.sensor);
+        let mut z = Vector6::zeros();
+        z.fixed_rows_mut::<3>(0).copy_from(&Vector3::from(self.linear_mps));
+        z.fixed_rows_mut::<3>(3).copy_from(&Vector3::from(self.angular_radps));
+        let (h, H) = twist(s, mount);
+        let R = SMatrix::<f64, 6, 6>::from_row_slice(&self.cov) + gyro_noise(model, s, mount);
+        model.update_residual(s, &(z - h), &H, &R)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frames::Axes;
+    use crate::model::ins::tests_support::{model, moving_scaled_state, moving_state, numeric_jacobian};
+
+    fn cov() -> [f64; 36] {
+        TwistSample::diagonal_cov([0.05; 3], [0.01; 3])
+    }
+
+    #[test]
+    fn every_bad_value_has_its_reason() {
+        let limits = Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 };
+        let twist = |lin, ang, cov| TwistSample::new(0, 0, 0, lin, ang, cov).validate(&limits);
+        assert_eq!(twist([10.0, 0.0, 0.0], [0.0, 0.0, 0.3], cov()), Ok(()));
+        assert_eq!(twist([f64::NAN, 0.0, 0.0], [0.0; 3], cov()), Err(Rejection::NonFinite));
+        assert_eq!(twist([0.0; 3], [0.0, f64::INFINITY, 0.0], cov()), Err(Rejection::NonFinite));
+        assert_eq!(twist([200.0, 0.0, 0.0], [0.0; 3], cov()), Err(Rejection::OutOfRange));
+        assert_eq!(twist([0.0; 3], [0.0, 0.0, 40.0], cov()), Err(Rejection::OutOfRange));
+        let mut asym = cov();
+        asym[1] = 1e-3;
+        assert_eq!(twist([0.0; 3], [0.0; 3], asym), Err(Rejection::CovarianceNotSymmetric));
+        let mut not_spd = cov();
+        (not_spd[5], not_spd[30]) = (0.1, 0.1);
+        assert_eq!(twist([0.0; 3], [0.0; 3], not_spd), Err(Rejection::CovarianceNotPositiveDefinite));
+    }
+
+    /// Against central differences, for a mounted sensor (rotated FRD axes, a
+    /// lever arm), with and without the odometry scale state.
+    #[test]
+    fn jacobian_matches_numerical_differentiation() {
+        let mount = Mount::new(Axes::Frd, [0.1, -0.2, 1.3], [0.4, -0.3, 0.8]);
+        let s = moving_state();
+        let (h, H) = twist(&s, &mount);
+        let numeric = numeric_jacobian(&s, |x| twist(x, &mount).0);
+        assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+        let w = InsModel::body_rate(&s);
+        let v_b = s.q().inverse_transform_vector(&s.v());
+        let expected_linear = mount.rotation.transpose() * (v_b + w.cross(&mount.lever_arm));
+        assert!((h.fixed_rows::<3>(0) - expected_linear).norm() < 1e-12);
+        let s = moving_scaled_state();
+        let numeric = numeric_jacobian(&s, |x| twist(x, &mount).0);
+        assert!((twist(&s, &mount).1 - numeric).amax() < 1e-7);
+    }
+
+    /// The gyro's noise in `h`: the angular block gets `σ_g²/Δt` per axis, the
+    /// linear block `|l|²`-sized terms across the lever arm.
+    #[test]
+    fn the_held_rates_noise_is_in_r() {
+        let m = model();
+        let mut s = moving_state();
+        let mount = Mount::new(Axes::Flu, [0.0; 3], [0.0, 0.0, 1.0]);
+        assert_eq!(gyro_noise(&m, &s, &mount), SMatrix::<f64, 6, 6>::zeros(), "interval unknown");
+        let frames = crate::frames::Frames::default();
+        s.imu.hold(frames.imus(), 0, 5_000_000, Vector3::new(0.3, 4.8, 9.8), Vector3::new(0.01, -0.02, 0.4));
+        let q = gyro_noise(&m, &s, &mount);
+        let expected = 0.001f64.powi(2) / 0.005;
+        assert!((q[(5, 5)] - expected).abs() < 1e-15 && (q[(3, 3)] - expected).abs() < 1e-15);
+        // l along z: x and y linear components see the rate noise about y and x.
+        assert!((q[(0, 0)] - expected).abs() < 1e-15 && q[(2, 2)].abs() < 1e-18, "{q}");
+    }
+
+    /// Before the attitude is known the sample is refused; afterwards a twist of
+    /// the true motion leaves the state nearly where it is, and one that says
+    /// the vehicle goes 1 m/s faster moves the velocity towards it.
+    #[test]
+    fn it_is_fused_once_the_attitude_is_known() {
+        let m = model();
+        let mut s = moving_state();
+        let (h, _) = twist(&s, &Mount::IDENTITY);
+        let sample = |lin: Vector3<f64>| {
+            TwistSample::new(1, 0, 0, lin.into(), h.fixed_rows::<3>(3).into_owned().into(), cov())
+        };
+        let before = s;
+        assert_eq!(sample(h.fixed_rows::<3>(0).into()).fuse(&m, &mut s), (StepOutcome::Refused, None));
+        assert_eq!(s, before);
+        s.kf.reset_error(|P| (6..9).for_each(|i| P[(i, i)] = 1e-4));
+        let faster = h.fixed_rows::<3>(0) + Vector3::new(1.0, 0.0, 0.0);
+        let speed = s.v().norm();
+        let (out, _) = sample(faster).fuse(&m, &mut s);
+        assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
+        assert!(s.v().norm() > speed + 0.5, "{} -> {}", speed, s.v().norm());
+        let linear = LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap();
+        let mut ls = linear.initial_state();
+        assert_eq!(sample(faster).fuse(&linear, &mut ls).0, StepOutcome::Refused);
+    }
+}
