@@ -288,7 +288,7 @@ impl SimArgs {
         c.position.clock_lag_ns = self.fix_clock_lag_ms.saturating_mul(1_000_000);
         let mounts = if self.imu_mount.is_empty() { vec!["flu:0,0,0".to_string()] } else { self.imu_mount.clone() };
         for (i, mount) in mounts.iter().enumerate() {
-            let imu = ImuConfig { sensor: i as u32, rotation: parse_mount(mount)?, ..c.imu.clone() };
+            let imu = ImuConfig { sensor: i as u32, rotation: parse_mount("--imu-mount", mount)?, ..c.imu.clone() };
             if i == 0 {
                 c.imu = imu;
             } else {
@@ -339,7 +339,7 @@ impl SimArgs {
                 declination_deg: field[0],
                 inclination_deg: field[1],
                 strength_ut: field[2],
-                rotation: parse_mount(&self.magnetometer_mount)?,
+                rotation: parse_mount("--magnetometer-mount", &self.magnetometer_mount)?,
                 dropout_probability: self.dropouts,
                 disturbances,
                 ..defaults
@@ -357,7 +357,7 @@ impl SimArgs {
                 rate_hz: self.twist_rate,
                 linear_noise_mps: linear,
                 angular_noise_radps: angular,
-                rotation: parse_mount(&self.twist_mount)?,
+                rotation: parse_mount("--twist-mount", &self.twist_mount)?,
                 lever_arm_m: arm,
                 dropout_probability: self.dropouts,
                 ..Default::default()
@@ -408,8 +408,8 @@ fn triple(name: &str, values: Option<&[f64]>) -> anyhow::Result<Option<[f64; 3]>
 
 /// A sensor mount (`--imu-mount`, `--magnetometer-mount`, `--twist-mount`), `AXES:ROLL,PITCH,YAW`
 /// (degrees), as the rotation body ← sensor.
-fn parse_mount(text: &str) -> anyhow::Result<Matrix3<f64>> {
-    let bad = || anyhow::anyhow!("mount {text:?}: expected AXES:ROLL,PITCH,YAW, e.g. frd:3,-2,90");
+fn parse_mount(flag: &str, text: &str) -> anyhow::Result<Matrix3<f64>> {
+    let bad = || anyhow::anyhow!("{flag} {text:?}: expected AXES:ROLL,PITCH,YAW, e.g. frd:3,-2,90");
     let (axes, angles) = text.split_once(':').ok_or_else(bad)?;
     let flip = match axes {
         "flu" => Vector3::new(1.0, 1.0, 1.0),

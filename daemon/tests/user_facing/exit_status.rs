@@ -55,6 +55,19 @@ fn path_like_namespaces_and_bad_values_are_usage_errors_of_every_binary() {
     assert_usage(&domain, &fusiond(), &["run", "--config", config, "--summary-interval", "0"], "seconds");
     assert_usage(&domain, &fusiond(), &["run", "--config", config, "--wait", "busy"], "busy");
     assert_usage(&domain, &sim, &["run", "--imu-mount", "sideways"], "--imu-mount");
+    assert_usage(
+        &domain,
+        &sim,
+        &["run", "--magnetometer-rate", "20", "--magnetometer-mount", "up"],
+        "--magnetometer-mount",
+    );
+    assert_usage(
+        &domain,
+        &sim,
+        &["run", "--magnetometer-rate", "20", "--magnetic-disturbance", "3:x:1"],
+        "--magnetic-disturbance",
+    );
+    assert_usage(&domain, &sim, &["run", "--twist-rate", "20", "--twist-noise", "0.1"], "--twist-noise");
     assert_usage(&domain, &sim, &["run", "--imu-ids", "7"], "--imu-ids");
     assert_usage(&domain, &sim, &["record", "--output", "/dev/null", "--lever-arm", "1,2"], "--lever-arm");
     assert_usage(&domain, &ctl, &["record", "--output", "/dev/null", "--duration=-1"], "seconds");
