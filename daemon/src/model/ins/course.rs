@@ -6,9 +6,10 @@
 //! large for seconds while the heading converges through the cross-covariances.
 //! A land vehicle or a fixed-wing aircraft moving forward faster than a few m/s
 //! points along its velocity, so its yaw is the course over ground
-//! `ψ = atan2(v_N, v_E)` (ENU; body forward-left-up) up to the sideslip
-//! (Groves 2013, §6.1.4 and §14.4.1 "coarse heading from the trajectory"; PX4
-//! EKF2 aligns yaw to the GNSS course for fixed-wing vehicles the same way).
+//! `ψ = atan2(v_N, v_E)` (ENU; body forward-left-up) up to the sideslip. PX4
+//! EKF2 (`Ekf::realignYawGPS`: fixed-wing vehicles after launch, from 5 m/s and a
+//! velocity error below 15 % of the speed) and ArduPilot's EKF3
+//! (`NavEKF3_core::realignYawGPS`) align the yaw to the GNSS course the same way.
 //!
 //! When a velocity sample arrives with the horizontal speed (at the body origin:
 //! the lever arm's rotational part removed) at least `heading_from_velocity_mps`
