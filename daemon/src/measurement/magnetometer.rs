@@ -10,8 +10,10 @@
 //!
 //! With the local attitude error `R_true = R (I + [δθ]×)`,
 //! `R_trueᵀ m_w ≈ (I − [δθ]×) Rᵀ m_w = h + h × δθ`, so
-//! `H = [0  0  [h]×  0  0]` (Groves 2013, §10.4.2 and §16.2.1 for the field
-//! model; PX4 EKF2 fuses the same 3-D field, without learning it). The field
+//! `H = [0  0  [h]×  0  0]` (the field model of magnetic heading: Groves 2013,
+//! §6.1.1; PX4 EKF2's `fuseMag` fuses the same 3-D field, with the Earth's field
+//! and the sensor's bias as states, where fusiond takes the field from the
+//! configuration and the calibration from the publisher). The field
 //! informs the heading, and the attitude about the horizontal axes as far as the
 //! field is not vertical; it is a heading aid wherever the inclination leaves a
 //! horizontal component (|I| below about 80°).
