@@ -30,7 +30,7 @@
 //! - `linear`: refused (no attitude); a config naming a twist sensor is refused
 //!   at start-up.
 //!
-//! Validation: finite; |linear| ≤ [`MAX_SPEED_MPS`](super::odometry::MAX_SPEED_MPS),
+//! Validation: finite; |linear| ≤ [`MAX_SPEED_MPS`],
 //! |angular| ≤ `[validation] gyro_range_radps`; covariance symmetric positive
 //! definite. Not required by the health; stale after 1 s once seen.
 
