@@ -486,13 +486,7 @@ mod tests {
         // other kind takes.
         let mut mag = sensor("compass", 2, &["magnetometer"]);
         assert!(err(std::slice::from_ref(&mag)).contains("needs the Earth's field"));
-        let field = crate::magnetic::MagneticConfig {
-            declination_deg: 3.5,
-            inclination_deg: 64.5,
-            strength_ut: 48.5,
-            max_strength_deviation: 0.15,
-            max_inclination_deviation_deg: 10.0,
-        };
+        let field = crate::magnetic::MUNICH;
         (mag.axes, mag.rotation_rpy_deg, mag.magnetic) = (Axes::Frd, [0.0, 0.0, 90.0], Some(field));
         let f = Frames::from_config(None, std::slice::from_ref(&mag), ImuConfig::default()).unwrap();
         assert!((f.magnetic(2).unwrap().world_ut.norm() - 48.5).abs() < 1e-12);

@@ -117,17 +117,19 @@ impl EarthField {
     }
 }
 
+/// Munich's field (WMM 2025) with the default limits, for tests.
+#[cfg(test)]
+pub(crate) const MUNICH: MagneticConfig = MagneticConfig {
+    declination_deg: 3.5,
+    inclination_deg: 64.5,
+    strength_ut: 48.5,
+    max_strength_deviation: 0.15,
+    max_inclination_deviation_deg: 10.0,
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    const MUNICH: MagneticConfig = MagneticConfig {
-        declination_deg: 3.5,
-        inclination_deg: 64.5,
-        strength_ut: 48.5,
-        max_strength_deviation: 0.15,
-        max_inclination_deviation_deg: 10.0,
-    };
 
     #[test]
     fn the_field_points_north_east_and_down() {

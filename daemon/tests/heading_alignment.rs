@@ -28,7 +28,6 @@ use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::InsModel;
 use fusion_shared::Sample;
 use fusion_shared::geodesy::Datum;
-use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Uniform};
 
@@ -68,15 +67,10 @@ fn run(seed: u64, aligned: bool) -> Run {
     let mut scenario = Scenario::generate(&c);
     scenario.arrivals.retain(|a| !matches!(a.sample, Sample::Position(_)));
     // The prior's draw, then the heading turned by an angle anywhere.
-    let (t0, prior) = common::ins_start_from_prior(&scenario, seed, SIGMA0);
-    let mut x0 = parse_list(&prior, "initial_state");
+    let (t0, mut x0, mut p0) = common::ins_start_values(&scenario, seed, SIGMA0);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xbead);
     let initial = Uniform::new(-PI, PI).unwrap().sample(&mut rng);
-    let q = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), initial)
-        * UnitQuaternion::new_normalize(nalgebra::Quaternion::new(x0[6], x0[7], x0[8], x0[9]));
-    let qc = q.quaternion().coords;
-    x0[6..10].copy_from_slice(&[qc[3], qc[0], qc[1], qc[2]]);
-    let mut p0: Vec<f64> = SIGMA0.iter().flat_map(|s| [s * s; 3]).collect();
+    common::turn_heading(&mut x0, initial);
     p0[8] = HEADING_SD * HEADING_SD;
     let fmt = common::toml_list;
     let sensors = format!(
@@ -105,27 +99,6 @@ fn run(seed: u64, aligned: bool) -> Run {
     out
 }
 
-fn parse_list(toml: &str, key: &str) -> Vec<f64> {
-    let line = toml.lines().find(|l| l.starts_with(key)).unwrap();
-    let list = line.split('[').nth(1).unwrap().trim_end_matches(']');
-    list.split(',').map(|v| v.trim().parse().unwrap()).collect()
-}
-
-/// The heading error (estimate − truth, wrapped) and its σ (about world up).
-fn heading_error(state: &fusion_daemon::model::ins::InsState, cov: &[f64], truth: &UnitQuaternion<f64>) -> (f64, f64) {
-    let q = state.q();
-    let yaw = |q: &UnitQuaternion<f64>| {
-        let x = q.transform_vector(&Vector3::x());
-        x.y.atan2(x.x)
-    };
-    let e = (yaw(&q) - yaw(truth) + PI).rem_euclid(2.0 * PI) - PI;
-    let u = q.inverse_transform_vector(&Vector3::z());
-    let n = (cov.len() as f64).sqrt().round() as usize;
-    let var: f64 =
-        (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| u[i] * cov[(6 + i) * n + 6 + j] * u[j]).sum();
-    (e, var.sqrt())
-}
-
 fn drive(model: InsModel, config: &Config, scenario: &Scenario, t0: u64) -> Run {
     let mut engine = Engine::new(model, EngineConfig::from_config(config));
     let mut out = Run::default();
@@ -151,7 +124,7 @@ fn drive(model: InsModel, config: &Config, scenario: &Scenario, t0: u64) -> Run 
         }
         let n = (cov.len() as f64).sqrt().round() as usize;
         out.outside += u64::from((0..6).any(|i| err[i].abs() > 3.0 * cov[i * n + i].sqrt()));
-        let (e, sd) = heading_error(&e.state, &cov, &truth.attitude);
+        let (e, sd) = common::heading_error(&e.state.q(), &cov, &truth.attitude);
         out.worst_heading = out.worst_heading.max(e.abs() / sd);
         if out.at_2s == (0.0, 0.0) && t >= 2.0 {
             out.at_2s = (e, sd);

@@ -30,7 +30,7 @@ use fusion_client::sim::{
 };
 use fusion_daemon::config::{Config, InsBuilt};
 use fusion_daemon::engine::{Engine, EngineConfig, Entry};
-use fusion_daemon::model::ins::{InsModel, InsState};
+use fusion_daemon::model::ins::InsModel;
 use fusion_daemon::model::{Model, StepOutcome};
 use fusion_shared::geodesy::Datum;
 use fusion_shared::{Sample, SampleKind};
@@ -94,20 +94,8 @@ fn run(seed: u64, guard: Guard) -> Run {
     }));
     let mut scenario = Scenario::generate(&c);
     scenario.arrivals.retain(|a| !matches!(a.sample, Sample::Position(_)));
-    let sigma0 = SIGMA0;
-    let (t0, prior) = common::ins_start_from_prior(&scenario, seed, sigma0);
-    // The heading drawn with its own σ on top of the prior's draw.
-    let mut x0: Vec<f64> = prior
-        .lines()
-        .next()
-        .unwrap()
-        .split('[')
-        .nth(1)
-        .unwrap()
-        .trim_end_matches(']')
-        .split(',')
-        .map(|v| v.trim().parse().unwrap())
-        .collect();
+    // The prior's draw, then the heading turned with its own σ.
+    let (t0, mut x0, mut p0) = common::ins_start_values(&scenario, seed, SIGMA0);
     let turn: f64 = {
         use rand::SeedableRng;
         use rand_distr::{Distribution, StandardNormal};
@@ -115,11 +103,7 @@ fn run(seed: u64, guard: Guard) -> Run {
         let n: f64 = StandardNormal.sample(&mut rng);
         n * HEADING_SD
     };
-    let q = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), turn)
-        * UnitQuaternion::new_normalize(nalgebra::Quaternion::new(x0[6], x0[7], x0[8], x0[9]));
-    let qc = q.quaternion().coords;
-    x0[6..10].copy_from_slice(&[qc[3], qc[0], qc[1], qc[2]]);
-    let mut p0: Vec<f64> = SIGMA0.iter().flat_map(|s| [s * s; 3]).collect();
+    common::turn_heading(&mut x0, turn);
     p0[8] = HEADING_SD * HEADING_SD;
     let fmt = common::toml_list;
     let sensors = format!(
@@ -147,21 +131,6 @@ fn run(seed: u64, guard: Guard) -> Run {
     .unwrap();
     let InsBuilt::Core(model) = InsBuilt::from_config(&config).unwrap() else { unreachable!("no scale state") };
     drive(model, &config, &scenario, t0)
-}
-
-/// The heading error (estimate − truth, wrapped) and its σ (about world up).
-fn heading_error(state: &InsState, cov: &[f64], truth: &UnitQuaternion<f64>) -> (f64, f64) {
-    let q = state.q();
-    let yaw = |q: &UnitQuaternion<f64>| {
-        let x = q.transform_vector(&Vector3::x());
-        x.y.atan2(x.x)
-    };
-    let e = (yaw(&q) - yaw(truth) + PI).rem_euclid(2.0 * PI) - PI;
-    let u = q.inverse_transform_vector(&Vector3::z());
-    let n = (cov.len() as f64).sqrt().round() as usize;
-    let var: f64 =
-        (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| u[i] * cov[(6 + i) * n + 6 + j] * u[j]).sum();
-    (e, var.sqrt())
 }
 
 fn drive(model: InsModel, config: &Config, scenario: &Scenario, t0: u64) -> Run {
@@ -192,7 +161,7 @@ fn drive(model: InsModel, config: &Config, scenario: &Scenario, t0: u64) -> Run 
         let (_, nees) = common::pv_error_and_nees(x, &cov, &truth);
         out.nees.0 += nees;
         out.nees.1 += 1;
-        let (err, sd) = heading_error(&e.state, &cov, &truth.attitude);
+        let (err, sd) = common::heading_error(&e.state.q(), &cov, &truth.attitude);
         out.heading.0 += (err / sd).powi(2);
         out.heading.1 += 1;
         if (DISTURBANCE.at_s..DISTURBANCE.at_s + DISTURBANCE.duration_s).contains(&t) {

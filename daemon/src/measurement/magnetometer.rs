@@ -109,17 +109,10 @@ mod tests {
 
     use super::*;
     use crate::frames::{Frames, SensorConfig};
-    use crate::magnetic::MagneticConfig;
+    use crate::magnetic::MUNICH;
     use crate::model::ins::tests_support::{model, moving_scaled_state, moving_state, numeric_jacobian};
 
     const COV: [f64; 9] = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.25];
-    const MUNICH: MagneticConfig = MagneticConfig {
-        declination_deg: 3.5,
-        inclination_deg: 64.5,
-        strength_ut: 48.5,
-        max_strength_deviation: 0.15,
-        max_inclination_deviation_deg: 10.0,
-    };
 
     /// An `ins` model with magnetometer 2 mounted upside down and turned 90°
     /// (FRD axes, yaw 90°), and the field of Munich.

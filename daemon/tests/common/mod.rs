@@ -102,6 +102,14 @@ pub fn toml_list(v: &[f64]) -> String {
 /// `t0` (standard deviations `sigma0` of δp, δv, δθ, δb_a, δb_g; biases 0) with
 /// that prior as its covariance. The draw comes from its own stream of `seed`.
 pub fn ins_start_from_prior(scenario: &Scenario, seed: u64, sigma0: [f64; 5]) -> (u64, String) {
+    let (t0, x0, p0) = ins_start_values(scenario, seed, sigma0);
+    let filter = format!("initial_state = [{}]\ninitial_covariance_diagonal = [{}]\n", toml_list(&x0), toml_list(&p0));
+    (t0, filter)
+}
+
+/// [`ins_start_from_prior`] as values: `t0`, the nominal start state (16) and the
+/// diagonal of its covariance (15).
+pub fn ins_start_values(scenario: &Scenario, seed: u64, sigma0: [f64; 5]) -> (u64, Vec<f64>, Vec<f64>) {
     use nalgebra::{UnitQuaternion, Vector3};
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
@@ -114,10 +122,40 @@ pub fn ins_start_from_prior(scenario: &Scenario, seed: u64, sigma0: [f64; 5]) ->
     let v = truth0.vel_mps + draw(sigma0[1]);
     let q = truth0.attitude * UnitQuaternion::from_scaled_axis(draw(sigma0[2]));
     let qc = q.quaternion().coords;
-    let x0 = [p.x, p.y, p.z, v.x, v.y, v.z, qc[3], qc[0], qc[1], qc[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let x0 = vec![p.x, p.y, p.z, v.x, v.y, v.z, qc[3], qc[0], qc[1], qc[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
     let p0: Vec<f64> = sigma0.iter().flat_map(|s| [s * s; 3]).collect();
-    let filter = format!("initial_state = [{}]\ninitial_covariance_diagonal = [{}]\n", toml_list(&x0), toml_list(&p0));
-    (t0, filter)
+    (t0, x0, p0)
+}
+
+/// Turns the attitude `[w, x, y, z]` at entries 6..10 of a nominal `ins` state
+/// about world up by `angle`, rad (roll and pitch kept).
+pub fn turn_heading(x0: &mut [f64], angle: f64) {
+    use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+    let q = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), angle)
+        * UnitQuaternion::new_normalize(Quaternion::new(x0[6], x0[7], x0[8], x0[9]));
+    let c = q.quaternion().coords;
+    x0[6..10].copy_from_slice(&[c[3], c[0], c[1], c[2]]);
+}
+
+/// The heading error of attitude `q` against `truth` (the yaw of the body's x
+/// axis, wrapped into [−π, π)) and its σ about world up under the row-major
+/// error-state covariance `cov` (δθ at 6..9, local).
+pub fn heading_error(
+    q: &nalgebra::UnitQuaternion<f64>,
+    cov: &[f64],
+    truth: &nalgebra::UnitQuaternion<f64>,
+) -> (f64, f64) {
+    use std::f64::consts::PI;
+    let yaw = |q: &nalgebra::UnitQuaternion<f64>| {
+        let x = q.transform_vector(&nalgebra::Vector3::x());
+        x.y.atan2(x.x)
+    };
+    let e = (yaw(q) - yaw(truth) + PI).rem_euclid(2.0 * PI) - PI;
+    let u = q.inverse_transform_vector(&nalgebra::Vector3::z());
+    let n = (cov.len() as f64).sqrt().round() as usize;
+    let var: f64 =
+        (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| u[i] * cov[(6 + i) * n + 6 + j] * u[j]).sum();
+    (e, var.sqrt())
 }
 
 /// Position-and-velocity error of an `ins` estimate `x` (nominal state) against
