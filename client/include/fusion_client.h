@@ -170,180 +170,6 @@ typedef struct FusionPublisher FusionPublisher;
 // A reader of fusiond's snapshots (opaque).
 typedef struct FusionStateReader FusionStateReader;
 
-// The header every sample starts with.
-typedef struct FusionSampleHeader {
-  // Time of validity, ns of CLOCK_MONOTONIC.
-  uint64_t t_ns;
-  // When the publisher sent it, ns of CLOCK_MONOTONIC (stamped by the client
-  // crate; 0 in files). Latency is measured from here.
-  uint64_t sent_ns;
-  // Sequence number, increasing by one per sample of this sensor.
-  uint64_t seq;
-  // Sensor id, unique among the sensors of this kind.
-  uint32_t sensor;
-  // [`SampleKind`] code of the payload that follows. The daemon rejects a sample
-  // whose code is not the kind of the service it arrived on (0 never is: a
-  // zeroed sample is refused).
-  uint32_t kind;
-} FusionSampleHeader;
-
-// One inertial measurement.
-//
-// What `accel_mps2` means depends on the model the daemon runs: for `linear` it
-// is the world-frame (ENU) acceleration with gravity removed; for `ins` it is the
-// body-frame specific force `f = Rᵀ (a − g)`. `gyro_radps` is the body-frame
-// angular rate.
-typedef struct FusionImuSample {
-  // Time, sensor, sequence number, kind [`SampleKind::Imu`].
-  struct FusionSampleHeader header;
-  // Acceleration or specific force, m/s² (see the type's docs for the frame).
-  double accel_mps2[3];
-  // Angular rate, rad/s, body frame.
-  double gyro_radps[3];
-} FusionImuSample;
-// None: the IMU drives the propagation; it is no measurement update (and has
-// no NIS).
-#define FusionImuSample_INNOVATION_DIM 0
-
-// One position fix with its covariance.
-typedef struct FusionPositionSample {
-  // Time, sensor, sequence number, kind [`SampleKind::Position`].
-  struct FusionSampleHeader header;
-  // Position, m, world frame ENU.
-  double pos_m[3];
-  // Covariance of `pos_m`, m², row-major 3×3; must be symmetric positive definite.
-  double cov_m2[9];
-} FusionPositionSample;
-// Values one sample gives a measurement update: the χ² degrees of freedom of
-// its NIS.
-#define FusionPositionSample_INNOVATION_DIM 3
-
-// One velocity measurement in the world frame with its covariance, as a GNSS
-// receiver derives it from Doppler shifts (for example u-blox `NAV-PVT`
-// `velN/velE/velD` with `sAcc`, turned into ENU).
-typedef struct FusionVelocitySample {
-  // Time, sensor, sequence number, kind [`SampleKind::Velocity`].
-  struct FusionSampleHeader header;
-  // Velocity, m/s, world frame ENU.
-  double vel_mps[3];
-  // Covariance of `vel_mps`, m²/s², row-major 3×3; must be symmetric positive definite.
-  double cov_m2ps2[9];
-} FusionVelocitySample;
-// Values one sample gives a measurement update: the χ² degrees of freedom of
-// its NIS.
-#define FusionVelocitySample_INNOVATION_DIM 3
-
-// One GNSS position fix in WGS-84 geodetic coordinates, as a receiver reports it
-// (for example u-blox `NAV-PVT` `lat`/`lon`/`height`, NMEA `GGA` with the geoid
-// separation added back), with its covariance in the local east-north-up frame at
-// the fix (a receiver's horizontal and vertical accuracy give
-// `diag(h², h², v²)`; a full 3×3 is accepted). fusiond turns it into its local ENU
-// frame about the datum ([`crate::geodesy::Datum`]) exactly, through ECEF.
-//
-// The receiver's own view of the fix's quality comes with it: its fix type
-// ([`fix`]), the satellites used and its dilutions of precision. fusiond maps
-// them to the noise it fuses the fix with and refuses the fix types it is
-// configured to refuse (`[sensor.quality]`). A field a receiver does not report
-// is 0.
-typedef struct FusionGeodeticSample {
-  // Time, sensor, sequence number, kind [`SampleKind::Geodetic`].
-  struct FusionSampleHeader header;
-  // Geodetic latitude, degrees (WGS-84), in [−90, 90].
-  double lat_deg;
-  // Longitude, degrees (WGS-84), in [−180, 180].
-  double lon_deg;
-  // Height above the WGS-84 ellipsoid (not above mean sea level), m.
-  double height_m;
-  // Covariance of the position in the local ENU frame, m², row-major 3×3; must
-  // be symmetric positive definite. The receiver's own accuracy estimate.
-  double cov_enu_m2[9];
-  // Fix type, a code of [`fix`] (0: not reported).
-  uint32_t fix_type;
-  // Satellites used in the fix (0: not reported; at most
-  // [`fix::MAX_SATELLITES`]).
-  int32_t satellites;
-  // Horizontal dilution of precision (0: not reported).
-  double hdop;
-  // Vertical dilution of precision (0: not reported).
-  double vdop;
-} FusionGeodeticSample;
-// Values one sample gives a measurement update: the χ² degrees of freedom of
-// its NIS.
-#define FusionGeodeticSample_INNOVATION_DIM 3
-
-// The forward speed of the vehicle at the odometry's reference point (for
-// example the middle of the rear axle, whose position in the body frame is the
-// sensor's configured lever arm), along the body's forward axis, as wheel
-// encoders or a CAN speed signal give it, with its variance. A signed speed:
-// negative when reversing. The sideways and vertical body velocity are not
-// measured (the `ins` model's motion constraint covers them).
-typedef struct FusionOdometrySample {
-  // Time, sensor, sequence number, kind [`SampleKind::Odometry`].
-  struct FusionSampleHeader header;
-  // Forward speed, m/s, body frame (negative: reversing).
-  double speed_mps;
-  // Variance of `speed_mps`, m²/s²; must be > 0.
-  double var_m2ps2;
-} FusionOdometrySample;
-// Values one sample gives a measurement update: the χ² degrees of freedom of
-// its NIS.
-#define FusionOdometrySample_INNOVATION_DIM 1
-
-// The yaw of the body frame in the world frame, as a dual-antenna GNSS receiver
-// or a tilt-compensated magnetometer (declination applied) gives it, with its
-// variance. Yaw is the ENU convention (REP-103): the angle of the body's forward
-// axis from east, counter-clockwise, in radians; any value is taken modulo 2π.
-// A compass heading (from north, clockwise) converts with
-// [`HeadingSample::from_compass`].
-typedef struct FusionHeadingSample {
-  // Time, sensor, sequence number, kind [`SampleKind::Heading`].
-  struct FusionSampleHeader header;
-  // Yaw, rad, ENU (from east, counter-clockwise); |yaw| ≤ 1000 (a wrapped angle
-  // or a few turns of an unwrapped one).
-  double yaw_rad;
-  // Variance of `yaw_rad`, rad²; must be > 0.
-  double var_rad2;
-} FusionHeadingSample;
-// Values one sample gives a measurement update: the χ² degrees of freedom of
-// its NIS.
-#define FusionHeadingSample_INNOVATION_DIM 1
-
-// The magnetic field a three-axis magnetometer measures, in its own axes (its
-// mounting into the body frame is configuration: `[[sensor]] axes`,
-// `rotation_rpy_deg`), calibrated for hard and soft iron (the publisher's
-// calibration, as PX4's and ArduPilot's drivers publish it), in microtesla,
-// with its covariance. The Earth's field is about 25–65 µT.
-typedef struct FusionMagnetometerSample {
-  // Time, sensor, sequence number, kind [`SampleKind::Magnetometer`].
-  struct FusionSampleHeader header;
-  // Field, µT, sensor axes; |field| ≤ 1000 µT.
-  double field_ut[3];
-  // Covariance of `field_ut`, µT², row-major 3×3; symmetric positive definite.
-  double cov_ut2[9];
-} FusionMagnetometerSample;
-// Values one sample gives a measurement update (the 3-D field; fused as a
-// heading, one): the χ² degrees of freedom of its NIS.
-#define FusionMagnetometerSample_INNOVATION_DIM 3
-
-// The linear and angular velocity of the sensor's frame, in its own axes (its
-// mounting on the body is configuration: `[[sensor]] axes`, `rotation_rpy_deg`,
-// `lever_arm_m`), with their 6×6 covariance: a ROS `TwistWithCovariance` in the
-// child frame, from visual or lidar odometry.
-typedef struct FusionTwistSample {
-  // Time, sensor, sequence number, kind [`SampleKind::Twist`].
-  struct FusionSampleHeader header;
-  // Linear velocity of the sensor's origin, m/s, sensor axes; |v| ≤ 150 m/s.
-  double linear_mps[3];
-  // Angular velocity, rad/s, sensor axes; |ω| ≤ `[validation] gyro_range_radps`.
-  double angular_radps[3];
-  // Covariance of `[linear, angular]`, row-major 6×6 (m²/s², m·rad/s², rad²/s²);
-  // symmetric positive definite.
-  double cov[36];
-} FusionTwistSample;
-// Values one sample gives a measurement update: the χ² degrees of freedom of
-// its NIS.
-#define FusionTwistSample_INNOVATION_DIM 6
-
 // What became of the samples of one sensor (or of several, added up): the one
 // counters type of the engine, the snapshot and the replay summary.
 // `fused`, `gated` and `refused` describe the current estimates: a rewind that
@@ -531,6 +357,180 @@ typedef struct FusionStateSnapshot {
   uint64_t rejections[MAX_REJECTIONS];
 } FusionStateSnapshot;
 
+// The header every sample starts with.
+typedef struct FusionSampleHeader {
+  // Time of validity, ns of CLOCK_MONOTONIC.
+  uint64_t t_ns;
+  // When the publisher sent it, ns of CLOCK_MONOTONIC (stamped by the client
+  // crate; 0 in files). Latency is measured from here.
+  uint64_t sent_ns;
+  // Sequence number, increasing by one per sample of this sensor.
+  uint64_t seq;
+  // Sensor id, unique among the sensors of this kind.
+  uint32_t sensor;
+  // [`SampleKind`] code of the payload that follows. The daemon rejects a sample
+  // whose code is not the kind of the service it arrived on (0 never is: a
+  // zeroed sample is refused).
+  uint32_t kind;
+} FusionSampleHeader;
+
+// One inertial measurement.
+//
+// What `accel_mps2` means depends on the model the daemon runs: for `linear` it
+// is the world-frame (ENU) acceleration with gravity removed; for `ins` it is the
+// body-frame specific force `f = Rᵀ (a − g)`. `gyro_radps` is the body-frame
+// angular rate.
+typedef struct FusionImuSample {
+  // Time, sensor, sequence number, kind [`SampleKind::Imu`].
+  struct FusionSampleHeader header;
+  // Acceleration or specific force, m/s² (see the type's docs for the frame).
+  double accel_mps2[3];
+  // Angular rate, rad/s, body frame.
+  double gyro_radps[3];
+} FusionImuSample;
+// None: the IMU drives the propagation; it is no measurement update (and has
+// no NIS).
+#define FusionImuSample_INNOVATION_DIM 0
+
+// One position fix with its covariance.
+typedef struct FusionPositionSample {
+  // Time, sensor, sequence number, kind [`SampleKind::Position`].
+  struct FusionSampleHeader header;
+  // Position, m, world frame ENU.
+  double pos_m[3];
+  // Covariance of `pos_m`, m², row-major 3×3; must be symmetric positive definite.
+  double cov_m2[9];
+} FusionPositionSample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionPositionSample_INNOVATION_DIM 3
+
+// One velocity measurement in the world frame with its covariance, as a GNSS
+// receiver derives it from Doppler shifts (for example u-blox `NAV-PVT`
+// `velN/velE/velD` with `sAcc`, turned into ENU).
+typedef struct FusionVelocitySample {
+  // Time, sensor, sequence number, kind [`SampleKind::Velocity`].
+  struct FusionSampleHeader header;
+  // Velocity, m/s, world frame ENU.
+  double vel_mps[3];
+  // Covariance of `vel_mps`, m²/s², row-major 3×3; must be symmetric positive definite.
+  double cov_m2ps2[9];
+} FusionVelocitySample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionVelocitySample_INNOVATION_DIM 3
+
+// One GNSS position fix in WGS-84 geodetic coordinates, as a receiver reports it
+// (for example u-blox `NAV-PVT` `lat`/`lon`/`height`, NMEA `GGA` with the geoid
+// separation added back), with its covariance in the local east-north-up frame at
+// the fix (a receiver's horizontal and vertical accuracy give
+// `diag(h², h², v²)`; a full 3×3 is accepted). fusiond turns it into its local ENU
+// frame about the datum ([`crate::geodesy::Datum`]) exactly, through ECEF.
+//
+// The receiver's own view of the fix's quality comes with it: its fix type
+// ([`fix`]), the satellites used and its dilutions of precision. fusiond maps
+// them to the noise it fuses the fix with and refuses the fix types it is
+// configured to refuse (`[sensor.quality]`). A field a receiver does not report
+// is 0.
+typedef struct FusionGeodeticSample {
+  // Time, sensor, sequence number, kind [`SampleKind::Geodetic`].
+  struct FusionSampleHeader header;
+  // Geodetic latitude, degrees (WGS-84), in [−90, 90].
+  double lat_deg;
+  // Longitude, degrees (WGS-84), in [−180, 180].
+  double lon_deg;
+  // Height above the WGS-84 ellipsoid (not above mean sea level), m.
+  double height_m;
+  // Covariance of the position in the local ENU frame, m², row-major 3×3; must
+  // be symmetric positive definite. The receiver's own accuracy estimate.
+  double cov_enu_m2[9];
+  // Fix type, a code of [`fix`] (0: not reported).
+  uint32_t fix_type;
+  // Satellites used in the fix (0: not reported; at most
+  // [`fix::MAX_SATELLITES`]).
+  int32_t satellites;
+  // Horizontal dilution of precision (0: not reported).
+  double hdop;
+  // Vertical dilution of precision (0: not reported).
+  double vdop;
+} FusionGeodeticSample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionGeodeticSample_INNOVATION_DIM 3
+
+// The forward speed of the vehicle at the odometry's reference point (for
+// example the middle of the rear axle, whose position in the body frame is the
+// sensor's configured lever arm), along the body's forward axis, as wheel
+// encoders or a CAN speed signal give it, with its variance. A signed speed:
+// negative when reversing. The sideways and vertical body velocity are not
+// measured (the `ins` model's motion constraint covers them).
+typedef struct FusionOdometrySample {
+  // Time, sensor, sequence number, kind [`SampleKind::Odometry`].
+  struct FusionSampleHeader header;
+  // Forward speed, m/s, body frame (negative: reversing).
+  double speed_mps;
+  // Variance of `speed_mps`, m²/s²; must be > 0.
+  double var_m2ps2;
+} FusionOdometrySample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionOdometrySample_INNOVATION_DIM 1
+
+// The yaw of the body frame in the world frame, as a dual-antenna GNSS receiver
+// or a tilt-compensated magnetometer (declination applied) gives it, with its
+// variance. Yaw is the ENU convention (REP-103): the angle of the body's forward
+// axis from east, counter-clockwise, in radians; any value is taken modulo 2π.
+// A compass heading (from north, clockwise) converts with
+// [`HeadingSample::from_compass`].
+typedef struct FusionHeadingSample {
+  // Time, sensor, sequence number, kind [`SampleKind::Heading`].
+  struct FusionSampleHeader header;
+  // Yaw, rad, ENU (from east, counter-clockwise); |yaw| ≤ 1000 (a wrapped angle
+  // or a few turns of an unwrapped one).
+  double yaw_rad;
+  // Variance of `yaw_rad`, rad²; must be > 0.
+  double var_rad2;
+} FusionHeadingSample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionHeadingSample_INNOVATION_DIM 1
+
+// The magnetic field a three-axis magnetometer measures, in its own axes (its
+// mounting into the body frame is configuration: `[[sensor]] axes`,
+// `rotation_rpy_deg`), calibrated for hard and soft iron (the publisher's
+// calibration, as PX4's and ArduPilot's drivers publish it), in microtesla,
+// with its covariance. The Earth's field is about 25–65 µT.
+typedef struct FusionMagnetometerSample {
+  // Time, sensor, sequence number, kind [`SampleKind::Magnetometer`].
+  struct FusionSampleHeader header;
+  // Field, µT, sensor axes; |field| ≤ 1000 µT.
+  double field_ut[3];
+  // Covariance of `field_ut`, µT², row-major 3×3; symmetric positive definite.
+  double cov_ut2[9];
+} FusionMagnetometerSample;
+// Values one sample gives a measurement update (the 3-D field; fused as a
+// heading, one): the χ² degrees of freedom of its NIS.
+#define FusionMagnetometerSample_INNOVATION_DIM 3
+
+// The linear and angular velocity of the sensor's frame, in its own axes (its
+// mounting on the body is configuration: `[[sensor]] axes`, `rotation_rpy_deg`,
+// `lever_arm_m`), with their 6×6 covariance: a ROS `TwistWithCovariance` in the
+// child frame, from visual or lidar odometry.
+typedef struct FusionTwistSample {
+  // Time, sensor, sequence number, kind [`SampleKind::Twist`].
+  struct FusionSampleHeader header;
+  // Linear velocity of the sensor's origin, m/s, sensor axes; |v| ≤ 150 m/s.
+  double linear_mps[3];
+  // Angular velocity, rad/s, sensor axes; |ω| ≤ `[validation] gyro_range_radps`.
+  double angular_radps[3];
+  // Covariance of `[linear, angular]`, row-major 6×6 (m²/s², m·rad/s², rad²/s²);
+  // symmetric positive definite.
+  double cov[36];
+} FusionTwistSample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionTwistSample_INNOVATION_DIM 6
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -579,6 +579,52 @@ enum FusionStatus fusion_publisher_new(const struct FusionClient *client,
 // # Safety
 // `publisher` is null or came from [`fusion_publisher_new`] and was not released.
 void fusion_publisher_free(struct FusionPublisher *publisher);
+
+// A reader of `<ns>/state`, keeping up to 64 unread snapshots, to release with
+// [`fusion_state_reader_free`]. [`FusionStatus::FusionErrorNotRunning`] when no
+// fusiond ever started in the namespace.
+//
+// # Safety
+// `client` is null or a live client; `out` is null or writable.
+enum FusionStatus fusion_state_reader_new(const struct FusionClient *client,
+                                          struct FusionStateReader **out);
+
+// Releases a reader (NULL: nothing).
+//
+// # Safety
+// `reader` is null or came from [`fusion_state_reader_new`] and was not released.
+void fusion_state_reader_free(struct FusionStateReader *reader);
+
+// The newest snapshot into `*out`, skipping older unread ones (the last one
+// again if nothing new came); [`FusionStatus::FusionNoData`] if none ever came.
+// Never blocks.
+//
+// # Safety
+// `reader` is null or live; `out` is null or writable.
+enum FusionStatus fusion_state_latest(struct FusionStateReader *reader,
+                                      struct FusionStateSnapshot *out);
+
+// The next unread snapshot into `*out`, in publication order, sleeping until
+// one arrives or `timeout_ns` passes ([`FusionStatus::FusionNoData`]).
+//
+// # Safety
+// `reader` is null or live; `out` is null or writable.
+enum FusionStatus fusion_state_wait_next(struct FusionStateReader *reader,
+                                         uint64_t timeout_ns,
+                                         struct FusionStateSnapshot *out);
+
+// The name of a `FusionStateSnapshot.health` value ("ok", "degraded", ...), a
+// static string.
+const char *fusion_health_name(uint32_t health);
+
+// The name of a rejection code (`FUSION_REJECTION_*`: an index of
+// `FusionStateSnapshot.rejections`), a static string; "unknown" for none.
+const char *fusion_rejection_name(uint32_t code);
+
+// The configuration setting that decides refusals of a rejection code (for
+// `FUSION_REJECTION_PAST_TIMESTAMP`: `"[validation] max_past_ns"`), a static
+// string; NULL when none does (the publisher's values are to fix).
+const char *fusion_rejection_setting(uint32_t code);
 
 // Publishes an IMU sample (see the type for what `accel_mps2` is per model).
 // `*reached` (if not NULL) is the number of readers it reached: 0 when no
@@ -646,52 +692,6 @@ enum FusionStatus fusion_publish_magnetometer(struct FusionPublisher *publisher,
 enum FusionStatus fusion_publish_twist(struct FusionPublisher *publisher,
                                        const struct FusionTwistSample *sample,
                                        size_t *reached);
-
-// A reader of `<ns>/state`, keeping up to 64 unread snapshots, to release with
-// [`fusion_state_reader_free`]. [`FusionStatus::FusionErrorNotRunning`] when no
-// fusiond ever started in the namespace.
-//
-// # Safety
-// `client` is null or a live client; `out` is null or writable.
-enum FusionStatus fusion_state_reader_new(const struct FusionClient *client,
-                                          struct FusionStateReader **out);
-
-// Releases a reader (NULL: nothing).
-//
-// # Safety
-// `reader` is null or came from [`fusion_state_reader_new`] and was not released.
-void fusion_state_reader_free(struct FusionStateReader *reader);
-
-// The newest snapshot into `*out`, skipping older unread ones (the last one
-// again if nothing new came); [`FusionStatus::FusionNoData`] if none ever came.
-// Never blocks.
-//
-// # Safety
-// `reader` is null or live; `out` is null or writable.
-enum FusionStatus fusion_state_latest(struct FusionStateReader *reader,
-                                      struct FusionStateSnapshot *out);
-
-// The next unread snapshot into `*out`, in publication order, sleeping until
-// one arrives or `timeout_ns` passes ([`FusionStatus::FusionNoData`]).
-//
-// # Safety
-// `reader` is null or live; `out` is null or writable.
-enum FusionStatus fusion_state_wait_next(struct FusionStateReader *reader,
-                                         uint64_t timeout_ns,
-                                         struct FusionStateSnapshot *out);
-
-// The name of a `FusionStateSnapshot.health` value ("ok", "degraded", ...), a
-// static string.
-const char *fusion_health_name(uint32_t health);
-
-// The name of a rejection code (`FUSION_REJECTION_*`: an index of
-// `FusionStateSnapshot.rejections`), a static string; "unknown" for none.
-const char *fusion_rejection_name(uint32_t code);
-
-// The configuration setting that decides refusals of a rejection code (for
-// `FUSION_REJECTION_PAST_TIMESTAMP`: `"[validation] max_past_ns"`), a static
-// string; NULL when none does (the publisher's values are to fix).
-const char *fusion_rejection_setting(uint32_t code);
 
 // Position, m, world frame (ENU about the datum), into `out[0..3]`; every model.
 //

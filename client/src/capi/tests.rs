@@ -1,5 +1,6 @@
 use fusion_shared::{KindVisitor, SampleKind};
 
+use super::publish::payload_is_finite;
 use super::*;
 
 /// What `payload_is_finite` relies on: every kind's payload is f64s right

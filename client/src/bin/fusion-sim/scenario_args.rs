@@ -1,96 +1,21 @@
-//! `fusion-sim`: simulated IMU and position sensors on one ground-truth trajectory.
-//!
-//! - `fusion-sim run`: publish live to a running fusiond, paced by the clock:
-//!   every sensor (IMUs, one per `--imu-mount`; position; velocity with
-//!   `--velocity-rate`, geodetic GNSS with `--geodetic-rate`, wheel odometry with
-//!   `--odometry-rate`, heading with `--heading-rate`, a magnetometer with
-//!   `--magnetometer-rate`, visual/lidar odometry's twist with `--twist-rate`), or the IMUs (`--imu-only`,
-//!   some of them with `--imu-ids`) or the other sensors alone (`--position-only`)
-//!   so they can run as separate processes on the same trajectory and start
-//!   time; or a file (`--input`), as fast as the daemon takes it or paced by its
-//!   timestamps.
-//! - `fusion-sim record`: write a drive as replay input (JSON lines, arrival
-//!   order) and its truth (JSON lines, one per sample, timestamp order).
+//! `fusion-sim`'s simulated drive as flags: the trajectory, the IMUs and every
+//! aiding sensor's rate, noise, mounting and faults, built into a
+//! [`ScenarioConfig`].
 
-use std::io::{BufWriter, Write};
-use std::path::PathBuf;
+use std::sync::Arc;
 
 use anyhow::Context;
-use clap::{Args, CommandFactory, Parser, Subcommand};
-use std::io::BufRead;
-use std::process::ExitCode;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
-
-use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
+use clap::Args;
 use fusion_client::sim::{
-    Arrival, FixPhase, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, ImuSim, MagneticDisturbance,
-    MagnetometerConfig, OdometryConfig, Outage, PositionConfig, Scenario, ScenarioConfig, Stop, TwistConfig,
-    VelocityConfig, without_outages,
+    FixPhase, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, MagneticDisturbance, MagnetometerConfig,
+    OdometryConfig, Outage, PositionConfig, ScenarioConfig, Stop, TwistConfig, VelocityConfig,
 };
-use fusion_client::{Client, SampleKind, SensorPublishers, now_ns};
 use fusion_shared::geodesy::Datum;
-use fusion_shared::jsonl::{format_sample, parse_sample};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
-
-#[derive(Parser)]
-#[command(name = "fusion-sim", version, about = "Simulated IMU and position sensors for fusiond")]
-struct Cli {
-    #[command(subcommand)]
-    command: Command,
-}
-
-#[derive(Subcommand)]
-enum Command {
-    /// Publish simulated sensors (or a file) live to fusiond.
-    Run {
-        /// Namespace of the services.
-        #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE,
-              value_parser = fusion_shared::service::namespace_arg)]
-        namespace: String,
-        /// Exit 0 even if no fusiond received the samples (by default a run
-        /// that reached no daemon is an error).
-        #[arg(long)]
-        allow_no_daemon: bool,
-        /// Publish only the IMUs.
-        #[arg(long, conflicts_with = "position_only")]
-        imu_only: bool,
-        /// Publish only the IMUs with these sensor ids (default: all).
-        #[arg(long, value_delimiter = ',')]
-        imu_ids: Option<Vec<u32>>,
-        /// Publish only the sensors besides the IMUs (positions, velocities, geodetic fixes, odometry, heading).
-        #[arg(long)]
-        position_only: bool,
-        /// Publish this file (replay input format) instead of simulating.
-        #[arg(long, conflicts_with_all = ["imu_only", "position_only"])]
-        input: Option<PathBuf>,
-        /// With --input: pace by the samples' timestamps instead of as fast as the daemon takes them.
-        #[arg(long, requires = "input")]
-        realtime: bool,
-        /// Trajectory time 0 on CLOCK_MONOTONIC, ns (default: now + 100 ms). Give
-        /// the same value to separate --imu-only and --position-only processes.
-        #[arg(long)]
-        start_at_ns: Option<u64>,
-        #[command(flatten)]
-        sim: SimArgs,
-    },
-    /// Write a simulated drive to files: samples in arrival order, and the truth.
-    Record {
-        /// Samples (replay input format).
-        #[arg(long)]
-        output: PathBuf,
-        /// Truth at every sample time: {"t_ns", "pos", "vel", "acc", "q_wxyz", "yaw"} per line.
-        #[arg(long)]
-        truth: Option<PathBuf>,
-        #[command(flatten)]
-        sim: SimArgs,
-    },
-}
 
 /// Sensor and trajectory settings.
 #[derive(Args, Clone)]
-struct SimArgs {
+pub(crate) struct SimArgs {
     /// Seed of the trajectory and all noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -247,13 +172,13 @@ struct SimArgs {
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
-enum ImuKind {
+pub(crate) enum ImuKind {
     World,
     Body,
 }
 
 impl SimArgs {
-    fn scenario(&self) -> anyhow::Result<ScenarioConfig> {
+    pub(crate) fn scenario(&self) -> anyhow::Result<ScenarioConfig> {
         let mut c = ScenarioConfig {
             seed: self.seed,
             duration_s: self.duration,
@@ -433,250 +358,4 @@ fn parse_disturbance(text: &str) -> anyhow::Result<MagneticDisturbance> {
         return Err(bad());
     }
     Ok(MagneticDisturbance { at_s, duration_s, field_ut: [ut, 0.0, 0.0] })
-}
-
-fn main() -> ExitCode {
-    match run(Cli::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("fusion-sim: {}", fusion_shared::exit::error_line(e.as_ref()));
-            ExitCode::from(fusion_shared::exit::FAILURE)
-        }
-    }
-}
-
-/// Refuses invalid arguments before anything starts: clap's usage error (status 2).
-fn usage_error(e: anyhow::Error) -> ! {
-    Cli::command().error(clap::error::ErrorKind::ValueValidation, fusion_shared::exit::error_line(e.as_ref())).exit()
-}
-
-fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {
-        Command::Run {
-            namespace,
-            allow_no_daemon,
-            imu_only,
-            imu_ids,
-            position_only,
-            input,
-            realtime,
-            start_at_ns,
-            sim,
-        } => {
-            let config = sim.scenario().unwrap_or_else(|e| usage_error(e));
-            if let Some(ids) = &imu_ids
-                && !config.imus().any(|i| ids.contains(&i.sensor))
-            {
-                usage_error(anyhow::anyhow!("--imu-ids names no simulated IMU (ids 0..{})", config.imus().count()));
-            }
-            let stop = Arc::new(AtomicBool::new(false));
-            for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-                signal_hook::flag::register(signal, Arc::clone(&stop))?;
-            }
-            let client = Client::connect(&namespace)?;
-            if let Some(path) = input {
-                return publish_file(&client, &path, realtime, allow_no_daemon, &stop);
-            }
-            let mut daemon_seen = daemon_runs(&client);
-            let start = start_at_ns.unwrap_or_else(|| now_ns() + 100_000_000);
-            let trajectory = config.trajectory().map_err(|e| anyhow::anyhow!("--stop: {e}"))?;
-            let end_ns = start + (config.duration_s * 1e9) as u64;
-            let mut publishers = SensorPublishers::default();
-            let mut imus = Vec::new();
-            for imu in
-                config.imus().filter(|i| !position_only && imu_ids.as_ref().is_none_or(|ids| ids.contains(&i.sensor)))
-            {
-                publishers.open(&client, SampleKind::Imu, imu.sensor)?;
-                imus.push(ImuSim::new(trajectory.clone(), imu.clone(), config.imu_output, start, config.seed));
-            }
-            // The first IMU paces the run; the others (same instants) merge in by arrival.
-            let mut imus = imus.into_iter();
-            let imu_sim = imus.next();
-            let mut delayed: Vec<Box<dyn Iterator<Item = Arrival> + Send>> = Vec::new();
-            for imu in imus {
-                delayed.push(Box::new(imu));
-            }
-            if !imu_only {
-                for sim in config.aiding_sims() {
-                    let arrivals = sim.arrivals(&trajectory, start, config.seed);
-                    delayed.push(Box::new(without_outages(arrivals, config.outages.clone(), start)));
-                    publishers.open(&client, sim.kind(), sim.sensor())?;
-                }
-            }
-            let played = play(ArrivalMerge::new(imu_sim, delayed), &mut publishers, end_ns, &stop)?;
-            let counts: Vec<String> = SampleKind::ALL
-                .iter()
-                .zip(played.published)
-                .filter(|(_, n)| *n > 0)
-                .map(|(k, n)| format!("{n} {} samples", k.name()))
-                .collect();
-            let published: u64 = played.published.iter().sum();
-            let missed = published - played.delivered;
-            let reached = if missed == 0 { String::new() } else { format!(" ({missed} reached no reader)") };
-            eprintln!("fusion-sim: published {} to namespace {namespace:?}{reached}", counts.join(", "));
-            daemon_seen |= daemon_runs(&client);
-            // Other readers (a recorder) take samples too: whether fusiond ran is
-            // whether its state service was there.
-            if published > 0 && (played.delivered == 0 || !daemon_seen) && !allow_no_daemon {
-                anyhow::bail!(
-                    "no fusiond received the samples: none runs in namespace {namespace:?} (--allow-no-daemon to \
-                     publish anyway)"
-                );
-            }
-            Ok(())
-        }
-        Command::Record { output, truth, sim } => {
-            let scenario = Scenario::generate(&sim.scenario().unwrap_or_else(|e| usage_error(e)));
-            let mut out = BufWriter::new(std::fs::File::create(&output).with_context(|| output.display().to_string())?);
-            for a in &scenario.arrivals {
-                writeln!(out, "{}", format_sample(&a.sample))?;
-            }
-            out.flush()?;
-            if let Some(path) = truth {
-                let mut out = BufWriter::new(std::fs::File::create(&path).with_context(|| path.display().to_string())?);
-                let mut times: Vec<u64> = scenario.arrivals.iter().map(|a| a.sample.t_ns()).collect();
-                times.sort_unstable();
-                times.dedup();
-                for t in times {
-                    let s = scenario.truth_at(t);
-                    let v = |x: nalgebra::Vector3<f64>| [x.x, x.y, x.z];
-                    let q = s.attitude.quaternion().coords;
-                    let line = serde_json::json!({
-                        "t_ns": t, "pos": v(s.pos_m), "vel": v(s.vel_mps), "acc": v(s.acc_mps2),
-                        "q_wxyz": [q[3], q[0], q[1], q[2]], "yaw": s.yaw_rad(),
-                    });
-                    writeln!(out, "{line}")?;
-                }
-                out.flush()?;
-            }
-            eprintln!("fusion-sim: wrote {} samples to {}", scenario.arrivals.len(), output.display());
-            Ok(())
-        }
-    }
-}
-
-/// How long `--input` waits for the snapshot of a sample before going on (a
-/// rejected, duplicate or too-late sample produces none).
-const ACK_TIMEOUT: Duration = Duration::from_millis(50);
-
-/// How long `--input` goes on while fusiond answers none of its samples, before
-/// it gives up: fusiond refuses them all.
-const SILENCE: Duration = Duration::from_secs(2);
-
-/// Whether a fusiond runs in the client's namespace (its state service is there).
-fn daemon_runs(client: &Client) -> bool {
-    !matches!(client.state_subscriber_with_buffer(1), Err(fusion_client::ClientError::DaemonNotRunning { .. }))
-}
-
-/// Publishes a file in file order: paced by its timestamps (`realtime`), or in
-/// lockstep with the daemon: each sample after the snapshot of the one before, so
-/// the daemon sees exactly the file's order and any reader can keep up with the
-/// snapshots.
-fn publish_file(
-    client: &Client,
-    path: &std::path::Path,
-    realtime: bool,
-    allow_no_daemon: bool,
-    stop: &AtomicBool,
-) -> anyhow::Result<()> {
-    let file = std::io::BufReader::new(std::fs::File::open(path).with_context(|| path.display().to_string())?);
-    let mut publishers = SensorPublishers::all(client)?;
-    // Lockstep needs the daemon's snapshots; paced by the clock, it may start later.
-    let mut state = match client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER) {
-        Ok(s) => Some(s),
-        Err(fusion_client::ClientError::DaemonNotRunning { .. }) if realtime => None,
-        Err(e) => return Err(e.into()),
-    };
-    let (mut published, mut delivered, mut skipped, mut unacknowledged) = (0u64, 0u64, 0u64, 0u64);
-    let (mut last_answer, mut unanswered) = (std::time::Instant::now(), 0u64);
-    // fusiond's refusal counters, as its latest snapshot gave them.
-    let mut rejections = [0u64; fusion_shared::snapshot::rejection::MAX];
-    let mut pace: Option<(u64, u64)> = None; // (first timestamp, wall time of it)
-    for (i, line) in file.lines().enumerate() {
-        if stop.load(Ordering::Relaxed) {
-            break;
-        }
-        let line = line?;
-        if line.trim().is_empty() {
-            continue;
-        }
-        let sample = match parse_sample(&line) {
-            Ok(s) => s,
-            Err(e) => {
-                eprintln!("fusion-sim: line {}: {e}", i + 1);
-                skipped += 1;
-                continue;
-            }
-        };
-        if realtime {
-            let (t0, wall0) = *pace.get_or_insert((sample.t_ns(), now_ns()));
-            sleep_until(wall0 + sample.t_ns().saturating_sub(t0), stop);
-        }
-        delivered += u64::from(publishers.publish(sample)?.is_some_and(|readers| readers > 0));
-        published += 1;
-        if let Some(state) = state.as_mut().filter(|_| !realtime) {
-            let deadline = std::time::Instant::now() + ACK_TIMEOUT;
-            let acknowledged = loop {
-                let left = deadline.saturating_duration_since(std::time::Instant::now());
-                match state.wait_next(left)? {
-                    Some(s)
-                        if s.input_kind == sample.kind() as u32
-                            && s.input_sensor == sample.sensor()
-                            && s.input_seq == sample.seq()
-                            && s.input_t_ns == sample.t_ns() =>
-                    {
-                        break true;
-                    }
-                    Some(s) => rejections = s.rejections,
-                    None => break false,
-                }
-            };
-            unacknowledged += u64::from(!acknowledged);
-            if acknowledged {
-                (last_answer, unanswered) = (std::time::Instant::now(), 0);
-                continue;
-            }
-            unanswered += 1;
-            if last_answer.elapsed() > SILENCE {
-                use fusion_shared::snapshot::rejection;
-                let reasons: Vec<String> = rejection::ALL
-                    .iter()
-                    .filter(|(code, _)| rejections[*code as usize] > 0)
-                    .map(|(code, name)| format!("{} {name}: {}", rejections[*code as usize], rejection::advice(*code)))
-                    .collect();
-                if !reasons.is_empty() {
-                    anyhow::bail!(
-                        "fusiond answered none of the last {unanswered} samples in {:.0} s: its refusal counters \
-                         (`fusionctl state`) say {}",
-                        SILENCE.as_secs_f64(),
-                        reasons.join("; ")
-                    );
-                }
-                anyhow::bail!(
-                    "fusiond answered none of the last {unanswered} samples in {:.0} s: it refuses them \
-                     (`fusionctl state` and its log say why; samples stamped on another clock than fusiond's, \
-                     as a recording's, are too far in the past: raise [validation] max_past_ns, or run \
-                     `fusiond replay` on the file)",
-                    SILENCE.as_secs_f64()
-                );
-            }
-        }
-    }
-    eprintln!(
-        "fusion-sim: published {published} samples from {} ({skipped} unreadable lines, {unacknowledged} without a \
-         snapshot, {} reached no reader)",
-        path.display(),
-        published - delivered
-    );
-    if published == 0 && skipped > 0 {
-        anyhow::bail!("{}: none of its {skipped} lines is a sample (see the lines above)", path.display());
-    }
-    let daemon_seen = state.is_some() || daemon_runs(client);
-    if published > 0 && (delivered == 0 || !daemon_seen) && !allow_no_daemon {
-        anyhow::bail!(
-            "no fusiond received the samples: none runs in namespace {:?} (--allow-no-daemon to publish anyway)",
-            client.names().namespace
-        );
-    }
-    Ok(())
 }

@@ -1,0 +1,176 @@
+//! Publishing samples from C: one `fusion_publish_<kind>` per sample kind, each
+//! checking its pointers, the publisher's kind and that every value is finite.
+
+use fusion_shared::{
+    GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, PositionSample, TwistSample,
+    VelocitySample, WireSample,
+};
+
+use super::{Failure, FusionPublisher, FusionStatus, guard, null};
+use crate::SamplePublisher;
+
+/// Every value of the payload of `sample` (the fields after the header, all
+/// `f64` in every kind: checked in the tests) is finite.
+pub(super) fn payload_is_finite<T: WireSample>(sample: &T) -> bool {
+    let header = std::mem::size_of::<fusion_shared::SampleHeader>();
+    let values = (std::mem::size_of::<T>() - header) / 8;
+    let base = (sample as *const T).cast::<u8>();
+    (0..values).all(|i| {
+        // SAFETY: within `sample`, which is `#[repr(C)]` with its f64 fields
+        // right after the header (8-byte aligned); read unaligned all the same.
+        let v = unsafe { base.add(header + 8 * i).cast::<f64>().read_unaligned() };
+        v.is_finite()
+    })
+}
+
+/// Publishes `sample` as this publisher's next: the header's `t_ns` is the
+/// caller's; sensor id, sequence number, kind and send time are stamped.
+///
+/// # Safety
+/// Pointers null or valid.
+unsafe fn publish<T: WireSample>(
+    publisher: *mut FusionPublisher,
+    sample: *const T,
+    reached: *mut usize,
+) -> FusionStatus {
+    guard(|| {
+        // SAFETY: null or a live publisher / a sample, by the caller's contract.
+        let p = unsafe { publisher.as_mut() }.ok_or_else(|| null("publisher"))?;
+        let sample = *unsafe { sample.as_ref() }.ok_or_else(|| null("sample"))?;
+        let kind = p.kind;
+        let typed = p.publisher.downcast_mut::<SamplePublisher<T>>().ok_or_else(|| {
+            let name = fusion_shared::SampleKind::from_code(kind).map_or("unknown", |k| k.name());
+            Failure(
+                FusionStatus::FusionErrorWrongKind,
+                format!("a {} sample given to a {name} publisher", T::KIND.name()),
+            )
+        })?;
+        if !payload_is_finite(&sample) {
+            return Err(Failure(
+                FusionStatus::FusionErrorInvalidArgument,
+                format!("{} sample with a NaN or infinite value", T::KIND.name()),
+            ));
+        }
+        let n = typed.publish_next(sample)?;
+        // SAFETY: null or writable, by the caller's contract.
+        if let Some(r) = unsafe { reached.as_mut() } {
+            *r = n;
+        }
+        Ok(FusionStatus::FusionOk)
+    })
+}
+
+/// Publishes an IMU sample (see the type for what `accel_mps2` is per model).
+/// `*reached` (if not NULL) is the number of readers it reached: 0 when no
+/// fusiond runs.
+///
+/// # Safety
+/// `publisher` null or live; `sample` null or valid; `reached` null or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_publish_imu(
+    publisher: *mut FusionPublisher,
+    sample: *const ImuSample,
+    reached: *mut usize,
+) -> FusionStatus {
+    // SAFETY: forwarded contract.
+    unsafe { publish(publisher, sample, reached) }
+}
+
+/// Publishes a position fix (m ENU, covariance m² row-major).
+///
+/// # Safety
+/// As [`fusion_publish_imu`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_publish_position(
+    publisher: *mut FusionPublisher,
+    sample: *const PositionSample,
+    reached: *mut usize,
+) -> FusionStatus {
+    // SAFETY: forwarded contract.
+    unsafe { publish(publisher, sample, reached) }
+}
+
+/// Publishes a velocity (m/s ENU, covariance m²/s² row-major).
+///
+/// # Safety
+/// As [`fusion_publish_imu`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_publish_velocity(
+    publisher: *mut FusionPublisher,
+    sample: *const VelocitySample,
+    reached: *mut usize,
+) -> FusionStatus {
+    // SAFETY: forwarded contract.
+    unsafe { publish(publisher, sample, reached) }
+}
+
+/// Publishes a geodetic GNSS fix (WGS-84 degrees, height m; ENU covariance m²).
+///
+/// # Safety
+/// As [`fusion_publish_imu`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_publish_geodetic(
+    publisher: *mut FusionPublisher,
+    sample: *const GeodeticSample,
+    reached: *mut usize,
+) -> FusionStatus {
+    // SAFETY: forwarded contract.
+    unsafe { publish(publisher, sample, reached) }
+}
+
+/// Publishes a wheel-odometry forward speed (m/s, variance m²/s²).
+///
+/// # Safety
+/// As [`fusion_publish_imu`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_publish_odometry(
+    publisher: *mut FusionPublisher,
+    sample: *const OdometrySample,
+    reached: *mut usize,
+) -> FusionStatus {
+    // SAFETY: forwarded contract.
+    unsafe { publish(publisher, sample, reached) }
+}
+
+/// Publishes a heading (yaw rad ENU, variance rad²).
+///
+/// # Safety
+/// As [`fusion_publish_imu`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_publish_heading(
+    publisher: *mut FusionPublisher,
+    sample: *const HeadingSample,
+    reached: *mut usize,
+) -> FusionStatus {
+    // SAFETY: forwarded contract.
+    unsafe { publish(publisher, sample, reached) }
+}
+
+/// Publishes a magnetometer's field (µT in the sensor's axes, covariance µT²).
+///
+/// # Safety
+/// As [`fusion_publish_imu`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_publish_magnetometer(
+    publisher: *mut FusionPublisher,
+    sample: *const MagnetometerSample,
+    reached: *mut usize,
+) -> FusionStatus {
+    // SAFETY: forwarded contract.
+    unsafe { publish(publisher, sample, reached) }
+}
+
+/// Publishes a twist (linear m/s and angular rad/s velocity in the sensor's
+/// axes, row-major 6×6 covariance).
+///
+/// # Safety
+/// As [`fusion_publish_imu`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_publish_twist(
+    publisher: *mut FusionPublisher,
+    sample: *const TwistSample,
+    reached: *mut usize,
+) -> FusionStatus {
+    // SAFETY: forwarded contract.
+    unsafe { publish(publisher, sample, reached) }
+}
