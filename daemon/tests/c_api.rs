@@ -1,6 +1,7 @@
 //! The C API against a live fusiond: the C example (`client/examples/c/`), the
 //! error checks (`client/tests/c/errors.c`) and the typed accessors
-//! (`client/tests/c/typed.c`, against the Rust ones) compiled with the system C
+//! (`client/tests/c/typed.c`, against the Rust ones), the robot kinds
+//! (`client/tests/c/robot.c`: a magnetometer and a twist) compiled with the system C
 //! compiler and linked with `libfusion_client.a`; the header compiled as C++.
 
 mod common;
@@ -164,5 +165,22 @@ fn one_shot_c_programs_lose_no_sample() {
     }
     let received = common::live::received_by(&domain, 42, runs);
     assert_eq!(received, runs, "samples of one-shot programs that reached fusiond");
+    assert!(daemon.terminate().success());
+}
+
+/// The robot kinds from C: a magnetometer and a twist reach an `ins` fusiond
+/// and are fused; a NaN in a 6×6 covariance is refused by the C API.
+#[test]
+fn fusiond_fuses_the_magnetometer_and_twist_c_publishes() {
+    let build = tempfile::tempdir().unwrap();
+    let robot =
+        compile("cc", &["-std=c11", "-D_POSIX_C_SOURCE=199309L"], &client_dir().join("tests/c/robot.c"), build.path());
+    let domain = TestDomain::new("c-robot");
+    let mut daemon = Daemon::start(&domain, common::ROBOT_INS_CONFIG, "event");
+    let (ok, stdout, stderr) = run(&robot, &domain, &domain.namespace);
+    assert!(ok, "{stdout}{stderr}");
+    assert!(stdout.contains("refused: twist sample with a NaN or infinite value"), "{stdout}");
+    assert!(stdout.contains("published 240 samples"), "{stdout}");
+    common::assert_robot_samples_fused(&domain);
     assert!(daemon.terminate().success());
 }

@@ -340,30 +340,14 @@ fn fusiond_fuses_what_python_publishes_and_python_refuses_bad_samples() {
 #[test]
 fn fusiond_fuses_the_magnetometer_and_twist_python_publishes() {
     let domain = TestDomain::new("py-robot");
-    let config = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
-        accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\
-        [filter]\ninitial_state = [0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0]\n\
-        initial_covariance_diagonal = [1, 1, 1, 1, 1, 1, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-8, 1e-8, 1e-8]\n\
-        [[sensor]]\nname = \"compass\"\nid = 2\nkinds = [\"magnetometer\"]\n\
-        [sensor.magnetic]\ndeclination_deg = 3.5\ninclination_deg = 64.5\nstrength_ut = 48.5\n\
-        [[sensor]]\nname = \"camera\"\nid = 4\nkinds = [\"twist\"]\n";
-    let mut daemon = Daemon::start(&domain, config, "event");
+    let mut daemon = Daemon::start(&domain, common::ROBOT_INS_CONFIG, "event");
     let out = common::python_command(&domain.domain, "tests/publish_robot.py", &[&domain.namespace]).output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
     assert!(said.contains("refused: TwistSample with a NaN or infinite value"), "{said}");
     assert!(said.contains("published 240 samples, reached 240"), "{said}");
 
-    let client = domain.client();
-    let mut reader = client.state_subscriber().unwrap();
-    let s = *reader.wait_next(Duration::from_secs(10)).unwrap().expect("the latest snapshot");
-    let counters = |kind: SampleKind| *s.sensor_counters().iter().find(|c| c.sample_kind() == Some(kind)).unwrap();
-    let (mag, twist) = (counters(SampleKind::Magnetometer), counters(SampleKind::Twist));
-    assert_eq!((mag.sensor, mag.counts.received, mag.counts.fused, mag.counts.invalid), (2, 20, 20, 0));
-    assert_eq!((twist.sensor, twist.counts.received, twist.counts.fused, twist.counts.invalid), (4, 20, 20, 0));
-    assert_eq!(twist.counts.lost, 0, "the NaN twist never left Python");
-    drop(reader);
-    drop(client);
+    common::assert_robot_samples_fused(&domain);
     assert!(daemon.terminate().success());
 }
 

@@ -92,6 +92,32 @@ pub mod heartbeat;
 pub mod live;
 pub mod typed;
 
+/// An `ins` fusiond for a robot standing level and facing east (attitude known
+/// to 0.01 rad), with magnetometer 2 (Munich's field) and twist sensor 4: what
+/// `client/python/tests/publish_robot.py` and `client/tests/c/robot.c` publish to.
+pub const ROBOT_INS_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\n\
+    gyroscope_noise_density = 0.001\naccelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\
+    [filter]\ninitial_state = [0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0]\n\
+    initial_covariance_diagonal = [1, 1, 1, 1, 1, 1, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-8, 1e-8, 1e-8]\n\
+    [[sensor]]\nname = \"compass\"\nid = 2\nkinds = [\"magnetometer\"]\n\
+    [sensor.magnetic]\ndeclination_deg = 3.5\ninclination_deg = 64.5\nstrength_ut = 48.5\n\
+    [[sensor]]\nname = \"camera\"\nid = 4\nkinds = [\"twist\"]\n";
+
+/// Checks the latest snapshot of a fusiond fed by `publish_robot.py` or
+/// `robot.c`: 20 magnetometer samples and 20 twists received and fused, none
+/// invalid or lost.
+pub fn assert_robot_samples_fused(domain: &live::TestDomain) {
+    use fusion_shared::SampleKind;
+    let client = domain.client();
+    let mut reader = client.state_subscriber().unwrap();
+    let s = *reader.wait_next(std::time::Duration::from_secs(10)).unwrap().expect("the latest snapshot");
+    let counters = |kind: SampleKind| *s.sensor_counters().iter().find(|c| c.sample_kind() == Some(kind)).unwrap();
+    let (mag, twist) = (counters(SampleKind::Magnetometer), counters(SampleKind::Twist));
+    assert_eq!((mag.sensor, mag.counts.received, mag.counts.fused, mag.counts.invalid), (2, 20, 20, 0));
+    assert_eq!((twist.sensor, twist.counts.received, twist.counts.fused, twist.counts.invalid), (4, 20, 20, 0));
+    assert_eq!(twist.counts.lost, 0, "the NaN twist was never sent");
+}
+
 /// Numbers as a TOML array's contents (`1e0, -2.5e-1`), exactly.
 pub fn toml_list(v: &[f64]) -> String {
     v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(", ")
