@@ -141,4 +141,16 @@ mod tests {
         assert!(line.contains("invalid 1075 (non-finite value 3, timestamp too far in the past 1072)"), "{line}");
         assert!(format(&Summary { interval_s: 1.0, ..Default::default() }).contains("invalid 0,"));
     }
+
+    /// Measurements the model refused (a disturbed magnetometer sample, a fix
+    /// type the quality refuses) are added up over the kinds, beside the gated.
+    #[test]
+    fn model_refusals_are_counted_over_the_kinds() {
+        let mut s = Summary { interval_s: 1.0, ..Default::default() };
+        s.kinds[SampleKind::Magnetometer.index()].refused = 40;
+        s.kinds[SampleKind::Geodetic.index()].refused = 2;
+        s.kinds[SampleKind::Geodetic.index()].gated = 3;
+        let line = format(&s);
+        assert!(line.contains("gated 3, refused 42, late 0"), "{line}");
+    }
 }

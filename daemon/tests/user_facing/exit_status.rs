@@ -68,6 +68,8 @@ fn path_like_namespaces_and_bad_values_are_usage_errors_of_every_binary() {
         "--magnetic-disturbance",
     );
     assert_usage(&domain, &sim, &["run", "--twist-rate", "20", "--twist-noise", "0.1"], "--twist-noise");
+    assert_usage(&domain, &sim, &["run", "--twist-rate", "20", "--twist-lever-arm", "1,2"], "--twist-lever-arm");
+    assert_usage(&domain, &sim, &["run", "--magnetometer-rate", "20", "--magnetic-field", "3,64"], "--magnetic-field");
     assert_usage(&domain, &sim, &["run", "--imu-ids", "7"], "--imu-ids");
     assert_usage(&domain, &sim, &["record", "--output", "/dev/null", "--lever-arm", "1,2"], "--lever-arm");
     assert_usage(&domain, &ctl, &["record", "--output", "/dev/null", "--duration=-1"], "seconds");

@@ -249,13 +249,11 @@ impl SimArgs {
         }
         if self.magnetometer_rate > 0.0 {
             let defaults = MagnetometerConfig::default();
-            let field = match self.magnetic_field.as_deref() {
-                None => [defaults.declination_deg, defaults.inclination_deg, defaults.strength_ut],
-                Some(&[d, i, b]) => [d, i, b],
-                Some(_) => {
-                    anyhow::bail!("--magnetic-field: expected DECLINATION,INCLINATION,STRENGTH, e.g. 3.5,64.5,48.5")
-                }
-            };
+            let field = triple("--magnetic-field", self.magnetic_field.as_deref())?.unwrap_or([
+                defaults.declination_deg,
+                defaults.inclination_deg,
+                defaults.strength_ut,
+            ]);
             let disturbances =
                 self.magnetic_disturbance.iter().map(|d| parse_disturbance(d)).collect::<Result<_, _>>()?;
             c.aiding.push(Arc::new(MagnetometerConfig {
@@ -273,11 +271,7 @@ impl SimArgs {
         if self.twist_rate > 0.0 {
             let [linear, angular] = <[f64; 2]>::try_from(self.twist_noise.clone())
                 .map_err(|_| anyhow::anyhow!("--twist-noise: expected LINEAR,ANGULAR, e.g. 0.05,0.01"))?;
-            let arm = match self.twist_lever_arm.as_deref() {
-                None => [0.0; 3],
-                Some(&[x, y, z]) => [x, y, z],
-                Some(_) => anyhow::bail!("--twist-lever-arm: expected x,y,z in metres"),
-            };
+            let arm = triple("--twist-lever-arm", self.twist_lever_arm.as_deref())?.unwrap_or([0.0; 3]);
             c.aiding.push(Arc::new(TwistConfig {
                 rate_hz: self.twist_rate,
                 linear_noise_mps: linear,

@@ -438,5 +438,16 @@ mod tests {
         assert!(text.contains("+52 ± 3 ms off") && text.contains("add about 52 ms"), "{text}");
         s.velocity_offset_ns = 4.0e6;
         assert!(describe(&s).contains("velocity stamps vs their time_offset_ns: +4.0 ± 3.1 ms"), "{}", describe(&s));
+        // A row's refusals by the model have their column, after the gated.
+        s.sensor_count = 1;
+        s.sensors[0].kind = fusion_shared::SampleKind::Magnetometer as u32;
+        (s.sensors[0].counts.received, s.sensors[0].counts.gated, s.sensors[0].counts.refused) = (60, 1, 40);
+        let text = describe(&s);
+        let header = text.lines().find(|l| l.trim_start().starts_with("sensor ")).unwrap();
+        let row = text.lines().find(|l| l.contains("magnetometer 0")).unwrap();
+        let columns: Vec<&str> = header.split_whitespace().collect();
+        let refused = columns.iter().position(|c| *c == "refused").expect("a refused column");
+        // The row has one more word than the header ("magnetometer 0" and "sensor").
+        assert_eq!(row.split_whitespace().nth(refused + 1), Some("40"), "{header}\n{row}");
     }
 }
