@@ -36,6 +36,12 @@
 // A twist from visual or lidar odometry (`FusionTwistSample`).
 #define FUSION_KIND_TWIST 8
 
+// A barometer's static pressure (`FusionBarometerSample`).
+#define FUSION_KIND_BAROMETER 9
+
+// A pose from a localiser in its map frame (`FusionPoseSample`).
+#define FUSION_KIND_POSE 10
+
 // `FusionGeodeticSample.fix_type`: not reported.
 #define FUSION_FIX_UNKNOWN 0
 
@@ -78,6 +84,14 @@
 // model's states (one more entry of `x` and one more row and column of `cov`).
 #define FUSION_AUX_ODOMETRY_SCALE 1
 
+// `FusionStateSnapshot.aux_states` bit: the barometer's bias, m.
+#define FUSION_AUX_BARO_BIAS 2
+
+// `FusionStateSnapshot.aux_states` bits: a pose sensor's map frame in the
+// world frame (yaw rad, then its origin east, north, up in m; four entries,
+// the four bits 4, 8, 16, 32 together).
+#define FUSION_AUX_POSE_FRAME 60
+
 // `FusionStateSnapshot.rejections` index and `FusionSensorCounters.last_rejection`:
 // a NaN or ±∞ in a value.
 #define FUSION_REJECTION_NON_FINITE 1
@@ -117,13 +131,13 @@
 #define MAX_REJECTIONS 16
 
 // Entries of `FusionStateSnapshot.x` (the first `state_len` are in use).
-#define FUSION_MAX_STATE 17
+#define FUSION_MAX_STATE 22
 
 // Side of the largest covariance (`cov_dim` is in use).
-#define FUSION_MAX_COV 16
+#define FUSION_MAX_COV 21
 
 // Entries of `FusionStateSnapshot.cov`: `cov_dim × cov_dim` row-major in use.
-#define FUSION_MAX_COV_LEN 256
+#define FUSION_MAX_COV_LEN 441
 
 // Entries of `FusionStateSnapshot.sensors` (the first `sensor_count` are in use).
 #define FUSION_MAX_SENSORS 16
@@ -531,6 +545,50 @@ typedef struct FusionTwistSample {
 // its NIS.
 #define FusionTwistSample_INNOVATION_DIM 6
 
+// The static air pressure a barometer measures, Pa, with its variance. fusiond
+// turns it into a pressure altitude (the International Standard Atmosphere's,
+// [`pressure_altitude_m`]) and fuses that against the height with a bias state.
+typedef struct FusionBarometerSample {
+  // Time, sensor, sequence number, kind [`SampleKind::Barometer`].
+  struct FusionSampleHeader header;
+  // Static pressure, Pa; > 0 and at most [`MAX_PRESSURE_PA`].
+  double pressure_pa;
+  // Variance of `pressure_pa`, Pa²; > 0.
+  double var_pa2;
+} FusionBarometerSample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionBarometerSample_INNOVATION_DIM 1
+
+// The pose of the sensor's frame in the localiser's map frame (a ROS
+// `PoseWithCovariance`): its origin's position and the rotation of its axes
+// into the map's, with their 6×6 covariance. The map frame's `z` is up; its
+// yaw and origin in the world are configuration or estimated
+// (`[sensor.pose]`). The sensor's mounting on the body is configuration
+// (`[[sensor]] axes`, `rotation_rpy_deg`, `lever_arm_m`).
+typedef struct FusionPoseSample {
+  // Time, sensor, sequence number, kind [`SampleKind::Pose`].
+  struct FusionSampleHeader header;
+  // Position of the sensor's origin in the map frame, m; |p| ≤ 10⁷ m.
+  double position_m[3];
+  // Rotation of the sensor's axes into the map frame, `[w, x, y, z]`; unit
+  // norm (within 10⁻³).
+  double orientation_wxyz[4];
+  // Covariance of `[position, attitude]`, row-major 6×6 (m², m·rad, rad²):
+  // the attitude error is a small rotation about the sensor's own axes
+  // (`q_true = q ⊗ Exp(δθ)`); symmetric positive definite.
+  double cov[36];
+  // The localiser's re-initialisation counter: it changes when the map
+  // frame jumps (a relocalisation, a new map), and fusiond sets the frame
+  // anew instead of fighting the jump.
+  uint32_t reset_counter;
+  // Zero.
+  uint32_t reserved;
+} FusionPoseSample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS.
+#define FusionPoseSample_INNOVATION_DIM 6
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -693,6 +751,24 @@ enum FusionStatus fusion_publish_twist(struct FusionPublisher *publisher,
                                        const struct FusionTwistSample *sample,
                                        size_t *reached);
 
+// Publishes a barometer's static pressure (Pa, variance Pa²).
+//
+// # Safety
+// As [`fusion_publish_imu`].
+enum FusionStatus fusion_publish_barometer(struct FusionPublisher *publisher,
+                                           const struct FusionBarometerSample *sample,
+                                           size_t *reached);
+
+// Publishes a pose in the localiser's map frame (position m, unit quaternion
+// `[w, x, y, z]` of the sensor's axes into the map, row-major 6×6 covariance,
+// reset counter).
+//
+// # Safety
+// As [`fusion_publish_imu`].
+enum FusionStatus fusion_publish_pose(struct FusionPublisher *publisher,
+                                      const struct FusionPoseSample *sample,
+                                      size_t *reached);
+
 // Position, m, world frame (ENU about the datum), into `out[0..3]`; every model.
 //
 // # Safety
@@ -790,6 +866,25 @@ enum FusionStatus fusion_snapshot_gyro_bias_std(const struct FusionStateSnapshot
 // `snapshot` is null or readable; `out` is null or has room for 2 doubles.
 enum FusionStatus fusion_snapshot_odometry_scale(const struct FusionStateSnapshot *snapshot,
                                                  double *out);
+
+// The barometer's bias (pressure altitude minus height, m) and its standard
+// deviation, into `out[0..2]`; ins with a barometer only (`aux_states` has
+// [`FUSION_AUX_BARO_BIAS`](super::FUSION_AUX_BARO_BIAS)).
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 2 doubles.
+enum FusionStatus fusion_snapshot_baro_bias(const struct FusionStateSnapshot *snapshot,
+                                            double *out);
+
+// A pose sensor's estimated map frame, into `out[0..8]`: yaw (rad), origin
+// east, north, up (m), then their standard deviations; ins with a pose sensor
+// whose frame is estimated only (`aux_states` has
+// [`FUSION_AUX_POSE_FRAME`](super::FUSION_AUX_POSE_FRAME)).
+//
+// # Safety
+// `snapshot` is null or readable; `out` is null or has room for 8 doubles.
+enum FusionStatus fusion_snapshot_pose_frame(const struct FusionStateSnapshot *snapshot,
+                                             double *out);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -70,6 +70,10 @@ pub const FUSION_KIND_HEADING: u32 = 6;
 pub const FUSION_KIND_MAGNETOMETER: u32 = 7;
 /// A twist from visual or lidar odometry (`FusionTwistSample`).
 pub const FUSION_KIND_TWIST: u32 = 8;
+/// A barometer's static pressure (`FusionBarometerSample`).
+pub const FUSION_KIND_BAROMETER: u32 = 9;
+/// A pose from a localiser in its map frame (`FusionPoseSample`).
+pub const FUSION_KIND_POSE: u32 = 10;
 
 /// `FusionGeodeticSample.fix_type`: not reported.
 pub const FUSION_FIX_UNKNOWN: u32 = 0;
@@ -101,6 +105,12 @@ pub const FUSION_MODEL_INS: u32 = 2;
 /// `FusionStateSnapshot.aux_states` bit: the odometry scale factor follows the
 /// model's states (one more entry of `x` and one more row and column of `cov`).
 pub const FUSION_AUX_ODOMETRY_SCALE: u32 = 1;
+/// `FusionStateSnapshot.aux_states` bit: the barometer's bias, m.
+pub const FUSION_AUX_BARO_BIAS: u32 = 2;
+/// `FusionStateSnapshot.aux_states` bits: a pose sensor's map frame in the
+/// world frame (yaw rad, then its origin east, north, up in m; four entries,
+/// the four bits 4, 8, 16, 32 together).
+pub const FUSION_AUX_POSE_FRAME: u32 = 60;
 
 /// `FusionStateSnapshot.rejections` index and `FusionSensorCounters.last_rejection`:
 /// a NaN or ±∞ in a value.
@@ -130,11 +140,11 @@ pub const FUSION_REJECTION_COUNT: u32 = 10;
 pub const MAX_REJECTIONS: usize = 16;
 
 /// Entries of `FusionStateSnapshot.x` (the first `state_len` are in use).
-pub const MAX_STATE: usize = 17;
+pub const MAX_STATE: usize = 22;
 /// Side of the largest covariance (`cov_dim` is in use).
-pub const MAX_COV: usize = 16;
+pub const MAX_COV: usize = 21;
 /// Entries of `FusionStateSnapshot.cov`: `cov_dim × cov_dim` row-major in use.
-pub const MAX_COV_LEN: usize = 256;
+pub const MAX_COV_LEN: usize = 441;
 /// Entries of `FusionStateSnapshot.sensors` (the first `sensor_count` are in use).
 pub const MAX_SENSORS: usize = 16;
 
@@ -151,6 +161,8 @@ const _: () = {
     assert!(FUSION_KIND_HEADING == SampleKind::Heading as u32);
     assert!(FUSION_KIND_MAGNETOMETER == SampleKind::Magnetometer as u32);
     assert!(FUSION_KIND_TWIST == SampleKind::Twist as u32);
+    assert!(FUSION_KIND_BAROMETER == SampleKind::Barometer as u32);
+    assert!(FUSION_KIND_POSE == SampleKind::Pose as u32);
     {
         use fusion_shared::fix;
         assert!(FUSION_FIX_UNKNOWN == fix::UNKNOWN && FUSION_FIX_NONE == fix::NONE && FUSION_FIX_2D == fix::TWO_D);
@@ -158,13 +170,15 @@ const _: () = {
         assert!(FUSION_FIX_RTK_FLOAT == fix::RTK_FLOAT && FUSION_FIX_RTK_FIXED == fix::RTK_FIXED);
         assert!(fix::COUNT == 7);
     }
-    assert!(SampleKind::COUNT == 8, "a new kind needs its FUSION_KIND_ constant and fusion_publish_ function");
+    assert!(SampleKind::COUNT == 10, "a new kind needs its FUSION_KIND_ constant and fusion_publish_ function");
     assert!(FUSION_HEALTH_INITIALISING == health::INITIALISING);
     assert!(FUSION_HEALTH_OK == health::OK);
     assert!(FUSION_HEALTH_DEGRADED == health::DEGRADED);
     assert!(FUSION_MODEL_LINEAR == model::LINEAR);
     assert!(FUSION_MODEL_INS == model::INS);
     assert!(FUSION_AUX_ODOMETRY_SCALE == fusion_shared::snapshot::aux::ODOMETRY_SCALE);
+    assert!(FUSION_AUX_BARO_BIAS == fusion_shared::snapshot::aux::BARO_BIAS);
+    assert!(FUSION_AUX_POSE_FRAME == fusion_shared::snapshot::aux::POSE_FRAME);
     {
         use fusion_shared::snapshot::rejection as r;
         assert!(FUSION_REJECTION_NON_FINITE == r::NON_FINITE);

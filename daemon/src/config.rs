@@ -161,6 +161,27 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   axes = "frd"
 #   rotation_rpy_deg = [0.0, 10.0, 0.0]    # body <- sensor
 #   lever_arm_m = [0.8, 0.0, 1.2]          # its optical centre, m
+#   [[sensor]]
+#   name = "baro"
+#   id = 0
+#   kinds = ["barometer"]                  # ins only; one per fusiond
+#   lever_arm_m = [0.0, 0.0, 0.3]          # its static port, m
+#   [sensor.barometer]                     # optional: its bias state (set at the first sample)
+#   bias_random_walk_m = 0.05              # how fast the weather moves it, m/sqrt(s)
+#   [[sensor]]
+#   name = "slam"
+#   id = 0
+#   kinds = ["pose"]                       # ins only: a localiser's pose in its map frame
+#   axes = "frd"
+#   rotation_rpy_deg = [0.0, 10.0, 0.0]    # body <- sensor
+#   lever_arm_m = [0.8, 0.0, 1.2]
+#   [sensor.pose]                          # optional: the map frame in the world
+#   frame_yaw_deg = 30.0                   # configured (with frame_origin_m), or without both: estimated
+#   frame_origin_m = [20.0, -15.0, 0.5]    #   (4 states, set at the first pose and at each localiser reset)
+#   frame_yaw_random_walk_deg = 0.01       # estimated frame's drift, degrees/sqrt(s)
+#   frame_origin_random_walk_m = 0.01      # and m/sqrt(s)
+#   realign_after_gated = 5                # this many gated poses in a row: the map jumped, set the frame again
+#   relative = false                       # true: fuse only the change between poses (a drifting localiser)
 # Several IMUs: "average" the samples of each instant (IMUs on one clock), or
 # "failover" (different clocks or rates): the first listed alive IMU is used.
 [imu]
@@ -194,7 +215,7 @@ max_readers = 8
 #   max_speed_mps = 0.3                    # estimated speed at most this (without recent odometry)
 #   odometry_speed_mps = 0.01              # odometry speed at most this (when odometry came)
 #   velocity_std_mps = 0.01                # sigma of the zero-velocity update
-#   [model.odometry_scale]                 # optional: the odometry's scale factor k as a 16th state
+#   [model.odometry_scale]                 # optional: the odometry's scale factor k as a state
 #   initial = 1.0                          #   (odometry speed = k x true speed), at start
 #   initial_std = 0.02                     # its sigma at start (2 %)
 #   random_walk = 1.0e-5                   # how fast it wanders, 1/sqrt(s)

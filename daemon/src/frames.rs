@@ -29,6 +29,7 @@ use serde::Deserialize;
 
 use crate::gnss_quality::{GnssQuality, QualityConfig};
 use crate::magnetic::{EarthField, MagneticConfig};
+use crate::sensor_states::{BarometerConfig, PoseConfig};
 use crate::setting::{ConfigError, invalid};
 
 /// The `[datum]` table: the origin of the world frame, checked by [`Datum::new`].
@@ -53,7 +54,8 @@ pub const MAX_IMUS: usize = 8;
 /// The kinds whose samples are in the sensor's own axes, so a rotation and an
 /// axis convention apply (the others are in the world frame, or a scalar along
 /// the body's x axis).
-pub const ROTATED_KINDS: [SampleKind; 3] = [SampleKind::Imu, SampleKind::Magnetometer, SampleKind::Twist];
+pub const ROTATED_KINDS: [SampleKind; 4] =
+    [SampleKind::Imu, SampleKind::Magnetometer, SampleKind::Twist, SampleKind::Pose];
 
 /// An angle wrapped into (−π, π], rad.
 pub fn wrap_angle(a: f64) -> f64 {
@@ -112,6 +114,12 @@ pub struct SensorConfig {
     /// magnetometer samples (`[sensor.magnetic]`; [`crate::magnetic`]).
     #[serde(default)]
     pub magnetic: Option<MagneticConfig>,
+    /// Its barometer's bias state (`[sensor.barometer]`; defaults without it).
+    #[serde(default)]
+    pub barometer: Option<BarometerConfig>,
+    /// Its pose samples' map frame (`[sensor.pose]`; estimated without it).
+    #[serde(default)]
+    pub pose: Option<PoseConfig>,
 }
 
 /// The largest `[[sensor]] time_offset_ns` either way, ns (10 s): a sensor whose
@@ -234,6 +242,10 @@ pub struct MountedSensor {
     pub quality: GnssQuality,
     /// The Earth's field it measures (magnetometer only).
     pub magnetic: Option<EarthField>,
+    /// Its bias state's settings (barometer only).
+    pub barometer: Option<BarometerConfig>,
+    /// Its map frame (pose only).
+    pub pose: Option<PoseConfig>,
 }
 
 /// The datum of the world frame (set once) and the sensors' mounts.
@@ -310,6 +322,23 @@ impl Frames {
                 }
                 None => None,
             };
+            let barometer = match &s.barometer {
+                Some(_) if !has(SampleKind::Barometer) => {
+                    return Err(invalid(
+                        key("barometer"),
+                        "applies to a barometer: the sensor has no kind \"barometer\"",
+                    ));
+                }
+                Some(b) => Some(b.check(|f| key(&format!("barometer.{f}")))?),
+                None => has(SampleKind::Barometer).then(BarometerConfig::default),
+            };
+            let pose = match &s.pose {
+                Some(_) if !has(SampleKind::Pose) => {
+                    return Err(invalid(key("pose"), "applies to a pose sensor: the sensor has no kind \"pose\""));
+                }
+                Some(p) => Some(p.check(|f| key(&format!("pose.{f}")))?),
+                None => has(SampleKind::Pose).then(PoseConfig::default),
+            };
             let arm = Vector3::from(s.lever_arm_m);
             if !(arm.iter().all(|v| v.is_finite()) && arm.norm() <= MAX_LEVER_ARM_M) {
                 return Err(invalid(
@@ -341,8 +370,8 @@ impl Frames {
                     return Err(invalid(
                         key("rotation_rpy_deg"),
                         format!(
-                            "a rotation or axis convention applies to an imu, a magnetometer or a twist sensor only, \
-                             not to {name}"
+                            "a rotation or axis convention applies to an imu, a magnetometer, a twist or a pose \
+                             sensor only, not to {name}"
                         ),
                     ));
                 }
@@ -357,6 +386,8 @@ impl Frames {
                     time_offset_ns,
                     quality,
                     magnetic,
+                    barometer: (kind == SampleKind::Barometer).then_some(barometer).flatten(),
+                    pose: (kind == SampleKind::Pose).then_some(pose).flatten(),
                 });
             }
         }
@@ -391,6 +422,11 @@ impl Frames {
     /// The Earth's field magnetometer `sensor` measures (`None`: not configured).
     pub fn magnetic(&self, sensor: u32) -> Option<&EarthField> {
         self.sensors.iter().find(|m| m.kind == SampleKind::Magnetometer && m.id == sensor)?.magnetic.as_ref()
+    }
+
+    /// The map frame settings of pose sensor `sensor` (`None`: not configured).
+    pub fn pose(&self, sensor: u32) -> Option<&PoseConfig> {
+        self.sensors.iter().find(|m| m.kind == SampleKind::Pose && m.id == sensor)?.pose.as_ref()
     }
 
     /// How late the timestamps of sensor `sensor` of `kind` are, ns (0 if not
@@ -429,6 +465,8 @@ mod tests {
             time_offset_ns: 0,
             quality: None,
             magnetic: None,
+            barometer: None,
+            pose: None,
         }
     }
 
@@ -473,7 +511,7 @@ mod tests {
         assert!(err(&[sensor("x", 0, &[])]).contains("names no kind"));
         let mut rotated_gnss = gnss.clone();
         rotated_gnss.rotation_rpy_deg = [0.0, 0.0, 10.0];
-        assert!(err(&[rotated_gnss]).contains("an imu, a magnetometer or a twist sensor only"));
+        assert!(err(&[rotated_gnss]).contains("an imu, a magnetometer, a twist or a pose sensor only"));
         let mut imu_arm = imu.clone();
         imu_arm.lever_arm_m = [0.1, 0.0, 0.0];
         assert!(err(&[imu_arm]).contains("body origin"));

@@ -38,6 +38,7 @@ pub mod measurement;
 pub mod model;
 pub mod reorder;
 pub mod replay;
+pub mod sensor_states;
 pub mod sensor_table;
 pub mod setting;
 pub mod snapshot;

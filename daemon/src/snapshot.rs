@@ -74,7 +74,7 @@ pub fn fill<M: Steps>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Optio
         const { assert!(M::COV_DIM <= MAX_COV, "the snapshot holds the covariance") };
         M::write_covariance(&latest.state, &mut snap.cov[..M::COV_DIM * M::COV_DIM]);
         snap.cov_dim = M::COV_DIM as u32;
-        snap.aux_states = M::AUX_STATES;
+        snap.aux_states = M::aux_states(&latest.state);
         let (tau, sd, n) = M::velocity_time_offset(&latest.state).unwrap_or((0.0, 0.0, 0));
         (snap.velocity_offset_ns, snap.velocity_offset_std_ns, snap.velocity_offset_samples) = (tau * 1e9, sd * 1e9, n);
         snap.reinitialisations = M::reinitialisations(&latest.state);

@@ -126,7 +126,8 @@ fn run(seed: u64, setup: Setup) -> Run {
     .unwrap();
     match InsBuilt::from_config(&config).unwrap() {
         InsBuilt::Core(m) => drive(m, &config, &scenario),
-        InsBuilt::OdometryScale(m) => drive(m, &config, &scenario),
+        InsBuilt::Aux1(m) => drive(m, &config, &scenario),
+        other => unreachable!("no barometer or pose sensor: {other:?}"),
     }
 }
 

@@ -14,8 +14,8 @@ use common::live::{Daemon, Running, TestDomain, publish_in_lockstep, wait_for_st
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_shared::snapshot::{Counters, SensorCounters};
 use fusion_shared::{
-    GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, PositionSample, SampleHeader,
-    SampleKind, StateSnapshot, TwistSample, VelocitySample,
+    BarometerSample, GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, PoseSample,
+    PositionSample, SampleHeader, SampleKind, StateSnapshot, TwistSample, VelocitySample,
 };
 use iceoryx2::prelude::ZeroCopySend;
 use serde_json::{Value, json};
@@ -53,6 +53,8 @@ fn rust_layout() -> Value {
         layout!(HeadingSample { header, yaw_rad, var_rad2 }),
         layout!(MagnetometerSample { header, field_ut, cov_ut2 }),
         layout!(TwistSample { header, linear_mps, angular_radps, cov }),
+        layout!(BarometerSample { header, pressure_pa, var_pa2 }),
+        layout!(PoseSample { header, position_m, orientation_wxyz, cov, reset_counter, reserved }),
         layout!(Counters {
             received,
             processed,
@@ -162,6 +164,8 @@ fn rust_layout() -> Value {
         fusion_shared::snapshot::aux::ALL.iter().map(|(bit, name)| (bit.to_string(), json!(name))).collect();
     constants["AUX_NAMES"] = Value::Object(aux);
     constants["AUX_ODOMETRY_SCALE"] = json!(fusion_shared::snapshot::aux::ODOMETRY_SCALE);
+    constants["AUX_BARO_BIAS"] = json!(fusion_shared::snapshot::aux::BARO_BIAS);
+    constants["AUX_POSE_FRAME"] = json!(fusion_shared::snapshot::aux::POSE_FRAME);
     let fixes: serde_json::Map<_, _> =
         fusion_shared::fix::NAMES.iter().enumerate().map(|(code, name)| (code.to_string(), json!(name))).collect();
     constants["FIX_NAMES"] = Value::Object(fixes);
@@ -219,7 +223,7 @@ fn the_python_mirrors_have_the_rust_layout() {
     let out = common::python_command("unused", "tests/check_layout.py", &[path.to_str().unwrap()]).output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
-    assert!(said.contains("12 types, 46 constants: 0 differences"), "{said}");
+    assert!(said.contains("14 types, 50 constants: 0 differences"), "{said}");
 
     // The check sees a difference: a layout with one offset moved fails it.
     let mut broken = rust_layout();

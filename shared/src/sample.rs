@@ -116,6 +116,10 @@ macro_rules! for_each_sample_kind {
             Magnetometer = 7, "magnetometer", magnetometer, MagnetometerSample;
             /// [`TwistSample`](crate::sample::TwistSample): linear and angular velocity in the sensor's axes (visual or lidar odometry).
             Twist = 8, "twist", twist, TwistSample;
+            /// [`BarometerSample`](crate::sample::BarometerSample): static air pressure (a pressure altitude).
+            Barometer = 9, "barometer", barometer, BarometerSample;
+            /// [`PoseSample`](crate::sample::PoseSample): position and attitude in a localiser's map frame (SLAM, VIO).
+            Pose = 10, "pose", pose, PoseSample;
         }
     };
 }
@@ -123,6 +127,8 @@ macro_rules! for_each_sample_kind {
 // Each kind's file. Declared here rather than by the macro below, so that tools
 // that read the source without expanding macros (cbindgen, for the C header)
 // find the wire types; a kind missing here fails to compile.
+mod barometer;
+pub use barometer::{ISA_SEA_LEVEL_PA, MAX_PRESSURE_PA, pressure_altitude_m, pressure_altitude_slope};
 mod geodetic;
 pub use geodetic::fix;
 mod heading;
@@ -130,6 +136,7 @@ mod imu;
 mod magnetometer;
 pub use magnetometer::earth_field_enu;
 mod odometry;
+mod pose;
 mod position;
 mod twist;
 mod velocity;
@@ -211,7 +218,7 @@ macro_rules! sample_kinds {
 
         /// A sample of any kind (not a wire type: each kind has its own service).
         /// In JSON lines: `{"<kind name>": {…}}`. As large as the largest wire type
-        /// (a twist's 6×6 covariance): samples live inline in the engine's
+        /// (a pose's 6×6 covariance): samples live inline in the engine's
         /// fixed-capacity history, never boxed, so the hot path does not allocate.
         #[derive(Debug, Clone, Copy, PartialEq)]
         #[cfg_attr(feature = "json", derive(serde::Serialize, serde::Deserialize))]

@@ -1,7 +1,7 @@
 //! `StateSnapshot`: what fusiond publishes after every processed sample.
 //!
-//! A fixed-capacity, self-describing record: the estimate (up to 17 states and a
-//! 16×16 covariance, enough for the INS model with its auxiliary states), the sample it is the estimate at,
+//! A fixed-capacity, self-describing record: the estimate (up to 22 states and a
+//! 21×21 covariance, enough for the INS model with every auxiliary state), the sample it is the estimate at,
 //! the input sample that triggered it (with its send time, so any reader can
 //! measure latency), health, and per-sensor counters.
 
@@ -15,9 +15,9 @@ mod typed;
 pub use typed::{Health, HealthReason, Model, Outcome};
 
 /// Largest state vector a snapshot carries.
-pub const MAX_STATE: usize = 17;
+pub const MAX_STATE: usize = 22;
 /// Largest covariance side a snapshot carries.
-pub const MAX_COV: usize = 16;
+pub const MAX_COV: usize = 21;
 /// Entries of the covariance array (`MAX_COV²`).
 pub const MAX_COV_LEN: usize = MAX_COV * MAX_COV;
 /// Most sensors (of all kinds) a snapshot reports.
@@ -94,16 +94,39 @@ pub mod aux {
     /// The odometry scale factor `k` (odometry speed = `k` × true speed;
     /// `ins` with `[model.odometry_scale]`).
     pub const ODOMETRY_SCALE: u32 = 1;
+    /// The barometer's bias `b`, m (pressure altitude = height + `b`; `ins`
+    /// with a barometer).
+    pub const BARO_BIAS: u32 = 2;
+    /// The yaw `ψ` of a pose sensor's map frame in the world frame, rad (`ins`
+    /// with a pose sensor whose frame is estimated; the four `POSE_FRAME_*`
+    /// bits come together).
+    pub const POSE_FRAME_YAW: u32 = 4;
+    /// The east component of the map frame's origin in the world frame, m.
+    pub const POSE_FRAME_EAST: u32 = 8;
+    /// The north component of the map frame's origin in the world frame, m.
+    pub const POSE_FRAME_NORTH: u32 = 16;
+    /// The up component of the map frame's origin in the world frame, m.
+    pub const POSE_FRAME_UP: u32 = 32;
+    /// The four bits of the pose sensor's map frame.
+    pub const POSE_FRAME: u32 = POSE_FRAME_YAW | POSE_FRAME_EAST | POSE_FRAME_NORTH | POSE_FRAME_UP;
 
     /// Every auxiliary state with its bit and its name (with unit), in state order.
-    pub const ALL: [(u32, &str); 1] = [(ODOMETRY_SCALE, "odometry_scale")];
+    pub const ALL: [(u32, &str); 6] = [
+        (ODOMETRY_SCALE, "odometry_scale"),
+        (BARO_BIAS, "baro_bias_m"),
+        (POSE_FRAME_YAW, "pose_frame_yaw_rad"),
+        (POSE_FRAME_EAST, "pose_frame_east_m"),
+        (POSE_FRAME_NORTH, "pose_frame_north_m"),
+        (POSE_FRAME_UP, "pose_frame_up_m"),
+    ];
 }
 
 pub mod health;
 
 /// Outcome codes of [`StateSnapshot::outcome`].
 pub mod outcome {
-    /// IMU sample: propagated and held.
+    /// IMU sample: propagated and held; or a measurement that set a reference
+    /// state (a barometer's bias, a pose sensor's map frame) and fused nothing.
     pub const PROPAGATED: u32 = 0;
     /// Measurement fused.
     pub const FUSED: u32 = 1;
@@ -259,7 +282,7 @@ impl SensorCounters {
 /// §5.3.3). Because the quaternion's 4 entries share 3 error states,
 /// covariance row `i` lines up with state entry `i` only for `i < 6`.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("fusion.StateSnapshot.v10")]
+#[type_name("fusion.StateSnapshot.v11")]
 #[repr(C)]
 pub struct StateSnapshot {
     /// Sequence number of this snapshot (one per processed sample, from 0 per daemon run).

@@ -28,8 +28,10 @@ import numpy as np
 
 from .wire import (
     ALL_TYPES,
+    AUX_BARO_BIAS,
     AUX_NAMES,
     AUX_ODOMETRY_SCALE,
+    AUX_POSE_FRAME,
     HEALTH_NAMES,
     INPUT_NONE,
     KIND_NAMES,
@@ -39,12 +41,14 @@ from .wire import (
     MODEL_NAMES,
     REJECTION_NAMES,
     SAMPLE_TYPES,
+    BarometerSample,
     Counters,
     GeodeticSample,
     HeadingSample,
     ImuSample,
     MagnetometerSample,
     OdometrySample,
+    PoseSample,
     PositionSample,
     SampleHeader,
     SensorCounters,
@@ -54,8 +58,9 @@ from .wire import (
 )
 
 __all__ = [
-    "ALL_TYPES", "Client", "Counters", "DaemonNotRunning", "FusionError", "GeodeticSample", "HeadingSample",
-    "ImuSample", "INPUT_NONE", "MagnetometerSample", "OdometrySample", "PositionSample", "Publisher", "SampleHeader",
+    "ALL_TYPES", "BarometerSample", "Client", "Counters", "DaemonNotRunning", "FusionError", "GeodeticSample", "HeadingSample",
+    "ImuSample", "INPUT_NONE", "MagnetometerSample", "OdometrySample", "PoseSample", "PositionSample",
+    "Publisher", "SampleHeader",
     "SensorCounters", "Snapshot", "StateReader", "StateSnapshot", "TwistSample", "VelocitySample", "now_ns",
 ]
 
@@ -494,6 +499,22 @@ class Snapshot:
         its standard deviation, ``ins`` with ``[model.odometry_scale]`` only."""
         v = self._aux(AUX_ODOMETRY_SCALE)
         return None if v is None else np.array(v, dtype=np.float64)
+
+    @property
+    def baro_bias(self):
+        """The barometer's bias (pressure altitude minus height, m) and its standard deviation, ``ins``
+        with a barometer only."""
+        v = self._aux(AUX_BARO_BIAS)
+        return None if v is None else np.array(v, dtype=np.float64)
+
+    @property
+    def pose_frame(self):
+        """A pose sensor's estimated map frame: yaw (rad), origin east, north, up (m), then their four
+        standard deviations (8 values), ``ins`` with a pose sensor whose frame is estimated only."""
+        rows = [self._aux(bit) for bit in sorted(b for b in AUX_NAMES if b & AUX_POSE_FRAME)]
+        if any(r is None for r in rows):
+            return None
+        return np.array([r[0] for r in rows] + [r[1] for r in rows], dtype=np.float64)
 
 
 class StateReader:

@@ -7,17 +7,17 @@ every size, offset and type name against the Rust build.
 
 import ctypes
 
-MAX_STATE = 17
-MAX_COV = 16
+MAX_STATE = 22
+MAX_COV = 21
 MAX_COV_LEN = MAX_COV * MAX_COV
 MAX_SENSORS = 16
 
 #: Sample kind codes (``SampleHeader.kind``), and their service names.
 KIND_IMU, KIND_POSITION, KIND_VELOCITY, KIND_GEODETIC, KIND_ODOMETRY, KIND_HEADING = 1, 2, 3, 4, 5, 6
-KIND_MAGNETOMETER, KIND_TWIST = 7, 8
+KIND_MAGNETOMETER, KIND_TWIST, KIND_BAROMETER, KIND_POSE = 7, 8, 9, 10
 KIND_NAMES = {
     1: "imu", 2: "position", 3: "velocity", 4: "geodetic", 5: "odometry", 6: "heading", 7: "magnetometer",
-    8: "twist",
+    8: "twist", 9: "barometer", 10: "pose",
 }
 #: ``StateSnapshot.input_kind`` of a snapshot sent because the health changed.
 INPUT_NONE = 0
@@ -30,8 +30,11 @@ MODEL_NAMES = {1: "linear", 2: "ins"}
 #: Each model's own state length and covariance side (before auxiliary states).
 MODEL_DIMS = {1: [6, 6], 2: [16, 15]}
 #: ``StateSnapshot.aux_states`` bits: auxiliary states after the model's own, in bit order.
-AUX_ODOMETRY_SCALE = 1
-AUX_NAMES = {1: "odometry_scale"}
+AUX_ODOMETRY_SCALE, AUX_BARO_BIAS, AUX_POSE_FRAME = 1, 2, 60
+AUX_NAMES = {
+    1: "odometry_scale", 2: "baro_bias_m", 4: "pose_frame_yaw_rad", 8: "pose_frame_east_m",
+    16: "pose_frame_north_m", 32: "pose_frame_up_m",
+}
 #: Why a sample was refused in validation: the index of ``StateSnapshot.rejections``
 #: and ``SensorCounters.last_rejection`` (entry 0 unused).
 MAX_REJECTIONS = 16
@@ -167,9 +170,34 @@ class TwistSample(_Sample):
     _fields_ = [("header", SampleHeader), ("linear_mps", f64x3), ("angular_radps", f64x3), ("cov", ctypes.c_double * 36)]
 
 
+class BarometerSample(_Sample):
+    """Static air pressure, Pa, with its variance (Pa²)."""
+
+    TYPE_NAME = "fusion.BarometerSample.v1"
+    KIND = KIND_BAROMETER
+    _fields_ = [("header", SampleHeader), ("pressure_pa", ctypes.c_double), ("var_pa2", ctypes.c_double)]
+
+
+class PoseSample(_Sample):
+    """A localiser's pose in its map frame: position (m), unit quaternion ``[w, x, y, z]`` of the
+    sensor's axes into the map, covariance (row-major 6×6, position then attitude about the sensor's
+    axes) and the localiser's reset counter."""
+
+    TYPE_NAME = "fusion.PoseSample.v1"
+    KIND = KIND_POSE
+    _fields_ = [
+        ("header", SampleHeader),
+        ("position_m", f64x3),
+        ("orientation_wxyz", ctypes.c_double * 4),
+        ("cov", ctypes.c_double * 36),
+        ("reset_counter", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+    ]
+
+
 SAMPLE_TYPES = (
     ImuSample, PositionSample, VelocitySample, GeodeticSample, OdometrySample, HeadingSample, MagnetometerSample,
-    TwistSample,
+    TwistSample, BarometerSample, PoseSample,
 )
 
 
@@ -203,9 +231,9 @@ class SensorCounters(_Wire):
 
 
 class StateSnapshot(_Wire):
-    """The fusion state after one processed sample (``fusion.StateSnapshot.v10``)."""
+    """The fusion state after one processed sample (``fusion.StateSnapshot.v11``)."""
 
-    TYPE_NAME = "fusion.StateSnapshot.v10"
+    TYPE_NAME = "fusion.StateSnapshot.v11"
     _fields_ = [
         ("seq", ctypes.c_uint64),
         ("publish_ns", ctypes.c_uint64),

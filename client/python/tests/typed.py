@@ -13,7 +13,7 @@ import fusion_client as fc
 NAMES = (
     "position", "velocity", "attitude", "roll_pitch_yaw", "accel_bias", "gyro_bias",
     "position_std", "velocity_std", "attitude_std", "roll_pitch_yaw_std", "accel_bias_std", "gyro_bias_std",
-    "odometry_scale",
+    "odometry_scale", "baro_bias", "pose_frame",
 )
 
 

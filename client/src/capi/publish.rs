@@ -2,8 +2,8 @@
 //! checking its pointers, the publisher's kind and that every value is finite.
 
 use fusion_shared::{
-    GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, PositionSample, TwistSample,
-    VelocitySample, WireSample,
+    BarometerSample, GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, PoseSample,
+    PositionSample, TwistSample, VelocitySample, WireSample,
 };
 
 use super::{Failure, FusionPublisher, FusionStatus, guard, null};
@@ -169,6 +169,36 @@ pub unsafe extern "C" fn fusion_publish_magnetometer(
 pub unsafe extern "C" fn fusion_publish_twist(
     publisher: *mut FusionPublisher,
     sample: *const TwistSample,
+    reached: *mut usize,
+) -> FusionStatus {
+    // SAFETY: forwarded contract.
+    unsafe { publish(publisher, sample, reached) }
+}
+
+/// Publishes a barometer's static pressure (Pa, variance Pa²).
+///
+/// # Safety
+/// As [`fusion_publish_imu`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_publish_barometer(
+    publisher: *mut FusionPublisher,
+    sample: *const BarometerSample,
+    reached: *mut usize,
+) -> FusionStatus {
+    // SAFETY: forwarded contract.
+    unsafe { publish(publisher, sample, reached) }
+}
+
+/// Publishes a pose in the localiser's map frame (position m, unit quaternion
+/// `[w, x, y, z]` of the sensor's axes into the map, row-major 6×6 covariance,
+/// reset counter).
+///
+/// # Safety
+/// As [`fusion_publish_imu`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_publish_pose(
+    publisher: *mut FusionPublisher,
+    sample: *const PoseSample,
     reached: *mut usize,
 ) -> FusionStatus {
     // SAFETY: forwarded contract.

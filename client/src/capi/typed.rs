@@ -164,3 +164,26 @@ pub unsafe extern "C" fn fusion_snapshot_gyro_bias_std(snapshot: *const StateSna
 pub unsafe extern "C" fn fusion_snapshot_odometry_scale(snapshot: *const StateSnapshot, out: *mut f64) -> FusionStatus {
     unsafe { write(snapshot, out, |s| Some([s.odometry_scale()?, s.odometry_scale_std()?])) }
 }
+
+/// The barometer's bias (pressure altitude minus height, m) and its standard
+/// deviation, into `out[0..2]`; ins with a barometer only (`aux_states` has
+/// [`FUSION_AUX_BARO_BIAS`](super::FUSION_AUX_BARO_BIAS)).
+///
+/// # Safety
+/// `snapshot` is null or readable; `out` is null or has room for 2 doubles.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_snapshot_baro_bias(snapshot: *const StateSnapshot, out: *mut f64) -> FusionStatus {
+    unsafe { write(snapshot, out, StateSnapshot::baro_bias) }
+}
+
+/// A pose sensor's estimated map frame, into `out[0..8]`: yaw (rad), origin
+/// east, north, up (m), then their standard deviations; ins with a pose sensor
+/// whose frame is estimated only (`aux_states` has
+/// [`FUSION_AUX_POSE_FRAME`](super::FUSION_AUX_POSE_FRAME)).
+///
+/// # Safety
+/// `snapshot` is null or readable; `out` is null or has room for 8 doubles.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_snapshot_pose_frame(snapshot: *const StateSnapshot, out: *mut f64) -> FusionStatus {
+    unsafe { write(snapshot, out, StateSnapshot::pose_frame) }
+}

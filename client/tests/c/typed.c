@@ -25,6 +25,8 @@ static const struct {
     {"accel_bias_std", fusion_snapshot_accel_bias_std, 3},
     {"gyro_bias_std", fusion_snapshot_gyro_bias_std, 3},
     {"odometry_scale", fusion_snapshot_odometry_scale, 2},
+    {"baro_bias", fusion_snapshot_baro_bias, 2},
+    {"pose_frame", fusion_snapshot_pose_frame, 8},
 };
 
 int main(int argc, char **argv) {

@@ -6,8 +6,10 @@ use super::{Config, ConfigError, ModelConfig, Tables, invalid, positive};
 use crate::engine::EngineConfig;
 use crate::frames::{Frames, MountedSensor};
 use crate::measurement::Steps;
+use crate::model::Model;
 use crate::model::ins::{self, AlignmentParams, CourseAlignment, ImuNoise, InsModel, OdometryScale};
 use crate::model::linear::{self, LinearModel};
+use fusion_shared::SampleKind;
 
 /// Runs something generic over the model type with the configured model.
 pub trait WithModel {
@@ -38,15 +40,24 @@ impl Build for LinearModel {
     }
 }
 
-/// The `ins` model as configured: the core 15 error states, or with the
-/// odometry scale factor as the 16th (`[model.odometry_scale]`).
+/// The `ins` model as configured: the core 15 error states and the auxiliary
+/// states the config brings ([`ins::aux`]: the odometry scale factor, a
+/// barometer's bias, a pose sensor's map frame), one variant per dimension.
 #[derive(Debug, Clone)]
 #[allow(clippy::large_enum_variant, reason = "one value per config, built once at start-up")]
 pub enum InsBuilt {
     /// Without auxiliary states.
     Core(InsModel),
-    /// With the odometry scale factor.
-    OdometryScale(InsModel<{ ins::MAX_N }>),
+    /// With one (the odometry scale factor or a barometer's bias).
+    Aux1(InsModel<{ ins::N + 1 }>),
+    /// With both of those.
+    Aux2(InsModel<{ ins::N + 2 }>),
+    /// With a pose sensor's map frame.
+    Aux4(InsModel<{ ins::N + 4 }>),
+    /// With a pose sensor's map frame and one more.
+    Aux5(InsModel<{ ins::N + 5 }>),
+    /// With every auxiliary state.
+    Aux6(InsModel<{ ins::N + 6 }>),
 }
 
 impl InsBuilt {
@@ -56,24 +67,68 @@ impl InsBuilt {
             return Err(invalid("model.kind", "not \"ins\""));
         };
         let core = InsModel::core_from_config(config)?;
+        let aux = aux_states(p.odometry_scale, core.frames())?;
         let form = |e: crate::filter::FilterError| invalid("filter.initial_state", e.to_string());
-        Ok(match p.odometry_scale {
-            None => Self::Core(core.with_form(config.filter.form).map_err(form)?),
-            Some(k) => {
-                check_odometry_scale(&k)?;
-                let scaled = core.with_odometry_scale(k).map_err(form)?;
-                Self::OdometryScale(scaled.with_form(config.filter.form).map_err(form)?)
+        let f = config.filter.form;
+        Ok(match aux.len() {
+            0 => Self::Core(core.with_form(f).map_err(form)?),
+            1 => Self::Aux1(core.with_aux(aux).and_then(|m| m.with_form(f)).map_err(form)?),
+            2 => Self::Aux2(core.with_aux(aux).and_then(|m| m.with_form(f)).map_err(form)?),
+            4 => Self::Aux4(core.with_aux(aux).and_then(|m| m.with_form(f)).map_err(form)?),
+            5 => Self::Aux5(core.with_aux(aux).and_then(|m| m.with_form(f)).map_err(form)?),
+            n => {
+                debug_assert_eq!(n, 6, "the auxiliary states number 0, 1, 2, 4, 5 or 6");
+                Self::Aux6(core.with_aux(aux).and_then(|m| m.with_form(f)).map_err(form)?)
             }
         })
     }
 
-    /// The model with the odometry scale factor, if the config has it.
-    pub fn scaled(self) -> Option<InsModel<{ ins::MAX_N }>> {
+    /// The model with the odometry scale factor as its one auxiliary state, if
+    /// the config has it so.
+    pub fn scaled(self) -> Option<InsModel<{ ins::N + 1 }>> {
         match self {
-            Self::OdometryScale(m) => Some(m),
-            Self::Core(_) => None,
+            Self::Aux1(m) if m.odometry_scale().is_some() => Some(m),
+            _ => None,
         }
     }
+}
+
+/// The auxiliary states of a config: `[model.odometry_scale]`, a barometer's
+/// bias (at most one barometer), a pose sensor's map frame when it is
+/// estimated (at most one such sensor).
+fn aux_states(scale: Option<OdometryScale>, frames: &Frames) -> Result<ins::AuxStates, ConfigError> {
+    if let Some(k) = &scale {
+        check_odometry_scale(k)?;
+    }
+    let of = |kind: SampleKind| frames.sensors().iter().filter(move |m| m.kind == kind);
+    let mut baros = of(SampleKind::Barometer);
+    let barometer = baros.next().map(|m| m.barometer.unwrap_or_default());
+    if let Some(second) = baros.next() {
+        return Err(invalid(
+            "sensor",
+            format!("{:?}: one barometer per fusiond (its bias is one state); fuse the best one", second.name),
+        ));
+    }
+    let mut estimated = of(SampleKind::Pose).filter(|m| m.pose.unwrap_or_default().estimated());
+    let pose = estimated.next().map(|m| m.pose.unwrap_or_default());
+    if let Some(second) = estimated.next() {
+        return Err(invalid(
+            "sensor",
+            format!(
+                "{:?}: one pose sensor with an estimated map frame per fusiond (the frame is four states); give \
+                 the others' frames ([sensor.pose] frame_yaw_deg, frame_origin_m) or fuse them relative",
+                second.name
+            ),
+        ));
+    }
+    let relative = of(SampleKind::Pose).filter(|m| m.pose.is_some_and(|p| p.relative)).nth(1);
+    if let Some(second) = relative {
+        return Err(invalid(
+            "sensor",
+            format!("{:?}: one relative pose sensor per fusiond (its last pose is kept in the state)", second.name),
+        ));
+    }
+    Ok(ins::AuxStates { odometry_scale: scale, barometer, pose })
 }
 
 /// `[model.odometry_scale]`'s values: `initial` in (0.5, 2), `initial_std` in
@@ -105,7 +160,11 @@ impl Build for InsModel {
     fn run<F: WithModel>(built: InsBuilt, f: F) -> F::Output {
         match built {
             InsBuilt::Core(m) => f.run(m),
-            InsBuilt::OdometryScale(m) => f.run(m),
+            InsBuilt::Aux1(m) => f.run(m),
+            InsBuilt::Aux2(m) => f.run(m),
+            InsBuilt::Aux4(m) => f.run(m),
+            InsBuilt::Aux5(m) => f.run(m),
+            InsBuilt::Aux6(m) => f.run(m),
         }
     }
 }
@@ -210,14 +269,15 @@ impl LinearModel {
 }
 
 impl InsModel {
-    /// The model of a config with `kind = "ins"` and without
-    /// `[model.odometry_scale]` (see [`InsBuilt::from_config`] for every config).
+    /// The model of a config with `kind = "ins"` and without auxiliary states
+    /// (see [`InsBuilt::from_config`] for every config).
     pub fn from_config(config: &Tables) -> Result<Self, ConfigError> {
         match InsBuilt::from_config(config)? {
             InsBuilt::Core(m) => Ok(m),
-            InsBuilt::OdometryScale(_) => Err(invalid(
-                "model.odometry_scale",
-                "the model has the odometry scale state: build it with InsBuilt::from_config",
+            _ => Err(invalid(
+                "model",
+                "the model has auxiliary states (odometry scale, barometer bias, pose frame): build it with \
+                 InsBuilt::from_config",
             )),
         }
     }

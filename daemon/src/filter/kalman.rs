@@ -41,6 +41,14 @@ pub enum FilterError {
     /// Cholesky factor to decorrelate the components with).
     #[error("measurement noise R is not positive definite")]
     MeasurementNoiseNotPositiveDefinite,
+    /// A model was asked for another state dimension than its states have.
+    #[error("state dimension {got} is not the model's {expected}")]
+    StateDimension {
+        /// The dimension asked for.
+        got: usize,
+        /// The model's.
+        expected: usize,
+    },
 }
 
 /// How a [`KalmanFilter`] holds and updates its covariance (`[filter] form`).

@@ -174,7 +174,7 @@ mod tests {
         let m = scaled_model();
         let mut s = moving_scaled_state();
         set_scale(&mut s, 1.0);
-        let mut P = SMatrix::<f64, { crate::model::ins::MAX_N }, { crate::model::ins::MAX_N }>::zeros();
+        let mut P = SMatrix::<f64, { N + 1 }, { N + 1 }>::zeros();
         for i in 0..N {
             P[(i, i)] = 1e-8;
         }

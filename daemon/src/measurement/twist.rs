@@ -87,7 +87,7 @@ pub fn twist<const D: usize>(s: &InsState<D>, mount: &Mount) -> (Vector6<f64>, S
 
 /// The gyro's white noise in `h` (see the module doc), 6×6; zero while standing
 /// and before the IMU's interval is known.
-fn gyro_noise<const D: usize>(model: &InsModel<D>, s: &InsState<D>, mount: &Mount) -> SMatrix<f64, 6, 6> {
+pub(super) fn gyro_noise<const D: usize>(model: &InsModel<D>, s: &InsState<D>, mount: &Mount) -> SMatrix<f64, 6, 6> {
     let (Some(dt), Some((_, _, n))) = (s.imu.interval_s(), s.imu.mean()) else { return SMatrix::zeros() };
     if s.standing() {
         return SMatrix::zeros();

@@ -162,6 +162,8 @@ mod tests {
             time_offset_ns: 0,
             quality: None,
             magnetic: None,
+            barometer: None,
+            pose: None,
         };
         let config = crate::frames::ImuConfig { combine, failover_after_ns: 20 };
         crate::frames::Frames::from_config(None, &[imu("a", 4), imu("b", 9)], config).unwrap()

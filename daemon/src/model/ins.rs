@@ -13,13 +13,16 @@
 //! | 6..10 | q = [w, x, y, z] | – | rotates body (forward-left-up) into world |
 //! | 10..13 | b_a, accelerometer bias | m/s² | body |
 //! | 13..16 | b_g, gyroscope bias | rad/s | body |
-//! | 16 | k, odometry scale factor (only with `[model.odometry_scale]`) | – | – |
+//! | 16.. | auxiliary states, as configured ([`aux`]) | | |
 //!
-//! Error state `δx` (15, the covariance): `[δp, δv, δθ, δb_a, δb_g]`, and `δk`
-//! (16) with the scale factor ([`OdometryScale`]: a random walk, constant in
-//! `F`), with the **local** attitude error `q_true = q ⊗ Exp(δθ)` (δθ in the
-//! body frame; Solà §5.3.3). The model is generic over this dimension
-//! (`InsModel<15>`, `InsModel<16>`).
+//! Error state `δx` (15, the covariance): `[δp, δv, δθ, δb_a, δb_g]`, then the
+//! auxiliary states' errors (each a random walk, constant in `F`): the
+//! odometry scale factor ([`OdometryScale`]), the barometer's bias
+//! ([`BaroBias`]), a pose sensor's map frame ([`PoseFrame`]: yaw and origin),
+//! with the **local** attitude error `q_true = q ⊗ Exp(δθ)` (δθ in the body
+//! frame; Solà §5.3.3). The model is generic over this dimension (`InsModel<15>`
+//! to `InsModel<21>`); which auxiliary states it has is a set of
+//! [`fusion_shared::snapshot::aux`] bits, in whose order they follow the core.
 //!
 //! IMU model (Kalibr): `f_m = Rᵀ (a − g) + b_a + n_a`, `ω_m = ω + b_g + n_g`,
 //! `ḃ_a = n_aw`, `ḃ_g = n_gw`, `g = [0, 0, −gravity]`, white noises with densities
@@ -67,6 +70,7 @@
 
 use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
 
+pub mod aux;
 pub mod clock;
 pub mod course;
 mod error_state;
@@ -86,6 +90,7 @@ use crate::filter::{ChiSquareGate, FilterError, KalmanFilter, RtsStep, StepLog, 
 use crate::frames::Frames;
 use crate::model::held_imu::{Held, HeldImu};
 use crate::model::lockout::{Lockout, LockoutConfig};
+pub use aux::{AuxStates, BaroBias, PoseFrame};
 pub use course::CourseAlignment;
 pub use nonholonomic::Nonholonomic;
 pub use odometry_scale::OdometryScale;
@@ -96,16 +101,16 @@ pub use standstill::Standstill;
 pub const N: usize = 15;
 /// Nominal state length of the core model.
 pub const NOMINAL: usize = 16;
-/// Error-state index of the odometry scale factor, when it is estimated
-/// ([`OdometryScale`]); its nominal index is `NOMINAL`.
-pub const SCALE: usize = N;
+/// The most auxiliary error states: the odometry scale factor (1), the
+/// barometer's bias (1), a pose sensor's map frame (4).
+pub const MAX_AUX: usize = 6;
 /// The largest error-state dimension (the core and every auxiliary state).
-pub const MAX_N: usize = N + 1;
+pub const MAX_N: usize = N + MAX_AUX;
 /// Room for the nominal state of any dimension.
 const NOMINAL_MAX: usize = MAX_N + 1;
 
 /// The `ins` model: `D` is the error-state dimension, [`N`] for the core
-/// states and [`MAX_N`] with the odometry scale factor ([`OdometryScale`]).
+/// states and up to [`MAX_N`] with the auxiliary states ([`aux`]).
 #[derive(Debug, Clone)]
 pub struct InsModel<const D: usize = N> {
     noise: ImuNoise,
@@ -118,7 +123,10 @@ pub struct InsModel<const D: usize = N> {
     course: Option<CourseAlignment>,
     nonholonomic: Option<Nonholonomic>,
     standstill: Option<Standstill>,
-    odometry_scale: Option<OdometryScale>,
+    aux: AuxStates,
+    /// Random-walk variance per second of each auxiliary error state (index
+    /// `N + i`).
+    aux_noise: [f64; MAX_AUX],
     frames: Frames,
 }
 
@@ -157,12 +165,17 @@ pub struct InsState<const D: usize = N> {
     pub(crate) still: standstill::Detector,
     /// The velocity sensors' time offset estimate ([`clock`]).
     pub(crate) clock: clock::ClockEstimate,
+    /// Which auxiliary states follow the core ([`fusion_shared::snapshot::aux`] bits).
+    aux_bits: u32,
+    /// Where the auxiliary states that are set from a first measurement stand
+    /// ([`aux::AuxProgress`]).
+    pub(crate) aux: aux::AuxProgress,
 }
 
 impl<const D: usize> InsState<D> {
     /// A state before any sample: nominal state and error-state filter.
-    fn new(nominal: [f64; NOMINAL_MAX], kf: KalmanFilter<f64, D>) -> Self {
-        const { assert!(D == N || D == MAX_N, "the ins error state is the core or the core and the scale") };
+    fn new(nominal: [f64; NOMINAL_MAX], kf: KalmanFilter<f64, D>, aux_bits: u32) -> Self {
+        const { assert!(D >= N && D <= MAX_N, "the ins error state is the core and up to MAX_AUX more") };
         Self {
             nominal,
             kf,
@@ -176,7 +189,28 @@ impl<const D: usize> InsState<D> {
             lockout: Lockout::default(),
             still: standstill::Detector::default(),
             clock: clock::ClockEstimate::default(),
+            aux_bits,
+            aux: aux::AuxProgress::default(),
         }
+    }
+
+    /// The error-state index of auxiliary state `bit` ([`aux::index`]), if the
+    /// state has it; its nominal index is one more.
+    #[inline]
+    pub fn aux_index(&self, bit: u32) -> Option<usize> {
+        aux::index(self.aux_bits, bit)
+    }
+
+    /// Where the auxiliary states set from a sample stand (the barometer's
+    /// bias set, the pose frame's alignments).
+    pub fn aux_progress(&self) -> &aux::AuxProgress {
+        &self.aux
+    }
+
+    /// The nominal value of auxiliary error state `i` (`i ≥ N`).
+    #[inline]
+    pub(crate) fn aux_value(&self, i: usize) -> f64 {
+        self.nominal[i + 1]
     }
 
     /// Position, m.
@@ -203,7 +237,7 @@ impl<const D: usize> InsState<D> {
     /// The odometry scale factor `k` (odometry speed = `k` × true speed), if
     /// it is estimated.
     pub fn odometry_scale(&self) -> Option<f64> {
-        (D > N).then_some(self.nominal[NOMINAL])
+        self.aux_index(fusion_shared::snapshot::aux::ODOMETRY_SCALE).map(|i| self.aux_value(i))
     }
     /// The error-state filter.
     pub fn filter(&self) -> &KalmanFilter<f64, D> {
@@ -268,7 +302,8 @@ impl InsModel {
             course: None,
             nonholonomic: None,
             standstill: None,
-            odometry_scale: None,
+            aux: AuxStates::default(),
+            aux_noise: [0.0; MAX_AUX],
             frames: Frames::default(),
         })
     }
@@ -313,7 +348,12 @@ impl<const D: usize> InsModel<D> {
 
     /// The odometry scale state's parameters, if it is estimated.
     pub fn odometry_scale(&self) -> Option<&OdometryScale> {
-        self.odometry_scale.as_ref()
+        self.aux.odometry_scale.as_ref()
+    }
+
+    /// The auxiliary states and their parameters.
+    pub fn aux(&self) -> &AuxStates {
+        &self.aux
     }
 
     /// The IMU noise.
@@ -342,7 +382,7 @@ impl<const D: usize> InsModel<D> {
             theta: qg * dt,
             ba: n.accelerometer_random_walk.powi(2) * dt,
             bg: n.gyroscope_random_walk.powi(2) * dt,
-            scale: self.odometry_scale.map_or(0.0, |k| k.random_walk * k.random_walk * dt),
+            aux: self.aux_noise.map(|q| q * dt),
         }
     }
 
@@ -455,10 +495,12 @@ impl<const D: usize> Model for InsModel<D> {
     type Correction = Option<SVector<f64, D>>;
     type Log = StepLog<f64, D>;
     const CODE: u32 = fusion_shared::snapshot::model::INS;
-    const AUX_STATES: u32 = if D > N { fusion_shared::snapshot::aux::ODOMETRY_SCALE } else { 0 };
+    fn aux_states(s: &InsState<D>) -> u32 {
+        s.aux_bits
+    }
 
     fn initial_state(&self) -> InsState<D> {
-        InsState::new(self.x0, self.initial)
+        InsState::new(self.x0, self.initial, self.aux.bits())
     }
 
     fn frames(&self) -> &Frames {
@@ -530,7 +572,7 @@ impl<const D: usize> Model for InsModel<D> {
         // `inject` works on the nominal part of a state only.
         let placeholder = linearised::placeholder();
         for (r, smoothed) in records.iter_mut().zip(&steps) {
-            let mut s = InsState::<D>::new(r.nominal, placeholder);
+            let mut s = InsState::<D>::new(r.nominal, placeholder, 0);
             inject(&mut s, &smoothed.x_post);
             r.nominal = s.nominal;
             r.step.x_post = SVector::zeros();

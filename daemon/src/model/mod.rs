@@ -36,7 +36,10 @@ pub fn advance_time(t_filter: &mut Option<u64>, t: u64) -> Option<f64> {
 /// What processing one sample did.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum StepOutcome {
-    /// An IMU sample: the state was propagated to its time and its values held.
+    /// An IMU sample: the state was propagated to its time and its values held;
+    /// or a measurement that set a reference state from its value (a
+    /// barometer's bias, a pose sensor's map frame: [`crate::model::ins::aux`])
+    /// and fused nothing else.
     Propagated,
     /// A measurement fused, with its NIS.
     Fused {
@@ -143,9 +146,11 @@ pub trait Model {
     /// Side of the published covariance (the error-state dimension).
     const COV_DIM: usize;
 
-    /// The auxiliary states after the model's own layout, as bits of
-    /// [`fusion_shared::snapshot::aux`] (0: none).
-    const AUX_STATES: u32 = 0;
+    /// The auxiliary states after the model's own layout in `state`, as bits
+    /// of [`fusion_shared::snapshot::aux`] (0: none).
+    fn aux_states(_state: &Self::State) -> u32 {
+        0
+    }
 
     /// Writes the covariance as published, row-major (it is symmetric), into
     /// `out` (`COV_DIM²` entries). In the UDU form it is composed from the factors.

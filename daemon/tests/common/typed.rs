@@ -56,6 +56,31 @@ fn ins_with_scale() -> StateSnapshot {
     s
 }
 
+/// An ins snapshot with every auxiliary state (scale 1.012, bias 480.5 m, a
+/// pose frame [0.6 rad, 20, −15, 0.5 m]), its covariance laid out 21×21.
+fn ins_with_every_aux() -> StateSnapshot {
+    let core = ins_snapshot([0.1, 0.05, -1.0], 1.0);
+    let mut s = StateSnapshot {
+        state_len: 22,
+        cov_dim: 21,
+        aux_states: aux::ODOMETRY_SCALE | aux::BARO_BIAS | aux::POSE_FRAME,
+        ..core
+    };
+    s.cov = [0.0; fusion_shared::snapshot::MAX_COV_LEN];
+    for r in 0..15 {
+        for c in 0..15 {
+            s.cov[r * 21 + c] = core.cov[r * 15 + c];
+        }
+    }
+    for (k, (x, var)) in
+        [(1.012, 9e-6), (480.5, 4.0), (0.6, 1e-4), (20.0, 0.25), (-15.0, 0.36), (0.5, 0.49)].into_iter().enumerate()
+    {
+        s.x[16 + k] = x;
+        s.cov[(15 + k) * 21 + 15 + k] = var;
+    }
+    s
+}
+
 /// A snapshot of `model` as fusiond would publish it: its state length and
 /// covariance side, distinct values in every entry (a unit quaternion where the
 /// layout has one) and distinct variances.
@@ -102,7 +127,7 @@ pub fn cases() -> Vec<(StateSnapshot, Option<usize>)> {
         (linear, Some(4)),
         (StateSnapshot { model: 9, ..ins }, Some(0)),
         (StateSnapshot { state_len: 5, ..ins }, Some(6)),
-        (StateSnapshot { cov_dim: 20, ..ins }, Some(6)),
+        (StateSnapshot { cov_dim: 22, ..ins }, Some(6)),
         (StateSnapshot::default(), Some(0)),
         // The odometry scale after the ins states, and what must not be read
         // as it: the bit without the room, the room without the bit, a bit
@@ -111,6 +136,8 @@ pub fn cases() -> Vec<(StateSnapshot, Option<usize>)> {
         (StateSnapshot { aux_states: aux::ODOMETRY_SCALE, ..ins }, Some(12)),
         (StateSnapshot { aux_states: 0, ..ins_with_scale() }, Some(12)),
         (StateSnapshot { aux_states: aux::ODOMETRY_SCALE | 1 << 7, ..ins_with_scale() }, Some(12)),
+        // Every auxiliary state: the scale, the barometer's bias, the pose frame.
+        (ins_with_every_aux(), Some(15)),
         // Refusals by reason (every code, and one past them the names do not read).
         (
             StateSnapshot { rejections: std::array::from_fn(|c| if c == 0 { 0 } else { 1000 + c as u64 }), ..ins },
@@ -131,7 +158,7 @@ pub fn write_cases(dir: &Path) -> PathBuf {
 type Accessor = fn(&StateSnapshot) -> Option<Vec<f64>>;
 
 /// Every typed accessor, by the name the other languages give it.
-const ACCESSORS: [(&str, Accessor); 13] = [
+const ACCESSORS: [(&str, Accessor); 15] = [
     ("position", |s| s.position().map(Vec::from)),
     ("velocity", |s| s.velocity().map(Vec::from)),
     ("attitude", |s| s.attitude().map(Vec::from)),
@@ -145,6 +172,8 @@ const ACCESSORS: [(&str, Accessor); 13] = [
     ("accel_bias_std", |s| s.accel_bias_std().map(Vec::from)),
     ("gyro_bias_std", |s| s.gyro_bias_std().map(Vec::from)),
     ("odometry_scale", |s| Some(vec![s.odometry_scale()?, s.odometry_scale_std()?])),
+    ("baro_bias", |s| s.baro_bias().map(Vec::from)),
+    ("pose_frame", |s| s.pose_frame().map(Vec::from)),
 ];
 
 /// Asserts that `printed` (a JSON line per case of [`cases`]) has what the Rust

@@ -454,6 +454,24 @@ impl StateSnapshot {
         self.aux(aux::ODOMETRY_SCALE).map(|(_, sd)| sd)
     }
 
+    /// The barometer's bias `b` (pressure altitude minus height, m) and its
+    /// standard deviation (`ins` with a barometer).
+    pub fn baro_bias(&self) -> Option<[f64; 2]> {
+        self.aux(aux::BARO_BIAS).map(|(b, sd)| [b, sd])
+    }
+
+    /// A pose sensor's estimated map frame: yaw (rad), origin east, north, up
+    /// (m), then their four standard deviations (`ins` with a pose sensor
+    /// whose frame is estimated).
+    pub fn pose_frame(&self) -> Option<[f64; 8]> {
+        let bits = [aux::POSE_FRAME_YAW, aux::POSE_FRAME_EAST, aux::POSE_FRAME_NORTH, aux::POSE_FRAME_UP];
+        let mut out = [0.0; 8];
+        for (k, bit) in bits.into_iter().enumerate() {
+            (out[k], out[k + 4]) = self.aux(bit)?;
+        }
+        Some(out)
+    }
+
     /// The health of the estimate (the raw code is the field `health`).
     pub const fn health(&self) -> Health {
         Health::from_code(self.health)

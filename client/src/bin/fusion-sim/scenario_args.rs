@@ -7,8 +7,9 @@ use std::sync::Arc;
 use anyhow::Context;
 use clap::Args;
 use fusion_client::sim::{
-    FixPhase, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, MagneticDisturbance, MagnetometerConfig,
-    OdometryConfig, Outage, PositionConfig, ScenarioConfig, Stop, TwistConfig, VelocityConfig,
+    BarometerConfig, FixPhase, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, LocaliserReset,
+    MagneticDisturbance, MagnetometerConfig, MapFrame, OdometryConfig, Outage, PoseConfig, PositionConfig,
+    ScenarioConfig, Stop, TwistConfig, VelocityConfig,
 };
 use fusion_shared::geodesy::Datum;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
@@ -128,6 +129,36 @@ pub(crate) struct SimArgs {
     /// The twist sensor's origin in the body frame: x,y,z, m.
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     twist_lever_arm: Option<Vec<f64>>,
+    /// Barometer rate, Hz; 0: none (sensor id 0; `--dropouts` applies).
+    #[arg(long, default_value_t = 0.0)]
+    barometer_rate: f64,
+    /// Barometer noise, Pa (1 Pa is about 8 cm of height).
+    #[arg(long, default_value_t = 3.0)]
+    barometer_noise_pa: f64,
+    /// The barometer's port in the body frame: x,y,z, m.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    barometer_lever_arm: Option<Vec<f64>>,
+    /// Pose (a localiser: lidar SLAM, VIO) rate, Hz; 0: none (sensor id 0;
+    /// `--dropouts` applies).
+    #[arg(long, default_value_t = 0.0)]
+    pose_rate: f64,
+    /// Pose noise per axis: position m, attitude rad.
+    #[arg(long, value_delimiter = ',', default_value = "0.05,0.005")]
+    pose_noise: Vec<f64>,
+    /// The pose sensor's mount, `AXES:ROLL,PITCH,YAW` (degrees; body ← sensor).
+    #[arg(long, default_value = "flu:0,0,0")]
+    pose_mount: String,
+    /// The pose sensor's origin in the body frame: x,y,z, m.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pose_lever_arm: Option<Vec<f64>>,
+    /// The localiser's map frame in the world, `YAW:EAST,NORTH,UP` (degrees, m).
+    #[arg(long, default_value = "34.4:20,-15,0.5", allow_hyphen_values = true)]
+    pose_frame: String,
+    /// A re-initialisation of the localiser, `AT:YAW:EAST,NORTH,UP[:silent]`:
+    /// from AT s into the drive its map frame is this one; its reset counter
+    /// says so unless `silent`.
+    #[arg(long, value_name = "AT:YAW:EAST,NORTH,UP[:silent]", allow_hyphen_values = true)]
+    localiser_reset: Option<String>,
     /// A magnetic disturbance, `AT:SECONDS:MICROTESLA`: a field of MICROTESLA
     /// pointing east adds to the Earth's from AT s into the drive for SECONDS (a
     /// passing lorry, a steel bridge). Repeatable.
@@ -282,6 +313,33 @@ impl SimArgs {
                 ..Default::default()
             }));
         }
+        if self.barometer_rate > 0.0 {
+            let arm = triple("--barometer-lever-arm", self.barometer_lever_arm.as_deref())?.unwrap_or([0.0; 3]);
+            c.aiding.push(Arc::new(BarometerConfig {
+                rate_hz: self.barometer_rate,
+                noise_pa: self.barometer_noise_pa,
+                lever_arm_m: arm,
+                dropout_probability: self.dropouts,
+                ..Default::default()
+            }));
+        }
+        if self.pose_rate > 0.0 {
+            let [position, attitude] = <[f64; 2]>::try_from(self.pose_noise.clone())
+                .map_err(|_| anyhow::anyhow!("--pose-noise: expected POSITION,ATTITUDE, e.g. 0.05,0.005"))?;
+            let arm = triple("--pose-lever-arm", self.pose_lever_arm.as_deref())?.unwrap_or([0.0; 3]);
+            let reset = self.localiser_reset.as_deref().map(parse_localiser_reset).transpose()?;
+            c.aiding.push(Arc::new(PoseConfig {
+                rate_hz: self.pose_rate,
+                position_noise_m: position,
+                attitude_noise_rad: attitude,
+                frame: parse_map_frame("--pose-frame", &self.pose_frame)?,
+                reset,
+                rotation: parse_mount("--pose-mount", &self.pose_mount)?,
+                lever_arm_m: arm,
+                dropout_probability: self.dropouts,
+                ..Default::default()
+            }));
+        }
         if self.heading_rate > 0.0 {
             c.aiding.push(Arc::new(HeadingConfig {
                 rate_hz: self.heading_rate,
@@ -352,4 +410,33 @@ fn parse_disturbance(text: &str) -> anyhow::Result<MagneticDisturbance> {
         return Err(bad());
     }
     Ok(MagneticDisturbance { at_s, duration_s, field_ut: [ut, 0.0, 0.0] })
+}
+
+/// A map frame, `YAW:EAST,NORTH,UP` (degrees, m).
+fn parse_map_frame(flag: &str, s: &str) -> anyhow::Result<MapFrame> {
+    let bad = || anyhow::anyhow!("{flag}: expected YAW:EAST,NORTH,UP (degrees, m), e.g. 30:20,-15,0.5; got {s:?}");
+    let (yaw, origin) = s.split_once(':').ok_or_else(bad)?;
+    let yaw: f64 = yaw.parse().map_err(|_| bad())?;
+    let origin: Vec<f64> = origin.split(',').map(str::parse).collect::<Result<_, _>>().map_err(|_| bad())?;
+    let origin: [f64; 3] = origin.try_into().map_err(|_| bad())?;
+    if !(yaw.is_finite() && origin.iter().all(|v| v.is_finite())) {
+        return Err(bad());
+    }
+    Ok(MapFrame { yaw_rad: yaw.to_radians(), origin_m: origin })
+}
+
+/// A localiser reset, `AT:YAW:EAST,NORTH,UP[:silent]`.
+fn parse_localiser_reset(s: &str) -> anyhow::Result<LocaliserReset> {
+    let bad =
+        || anyhow::anyhow!("--localiser-reset: expected AT:YAW:EAST,NORTH,UP[:silent], e.g. 30:-60:5,5,0; got {s:?}");
+    let (at, rest) = s.split_once(':').ok_or_else(bad)?;
+    let at: f64 = at.parse().map_err(|_| bad())?;
+    let (frame, announced) = match rest.strip_suffix(":silent") {
+        Some(frame) => (frame, false),
+        None => (rest, true),
+    };
+    if !(at.is_finite() && at >= 0.0) {
+        return Err(bad());
+    }
+    Ok(LocaliserReset { at_s: at, frame: parse_map_frame("--localiser-reset", frame).map_err(|_| bad())?, announced })
 }

@@ -5,7 +5,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
-use super::{InsState, N, NOMINAL};
+use super::{InsState, MAX_AUX, N};
 use crate::filter::kalman::{Symmetrize, symmetrize_leading};
 
 /// The entries of a 3×3 matrix as rows: `m[(r, c)]` is `row_major(m)[r][c]`.
@@ -44,16 +44,16 @@ pub(super) struct ProcessNoise {
     pub theta: f64,
     pub ba: f64,
     pub bg: f64,
-    /// The odometry scale factor's (when it is a state).
-    pub scale: f64,
+    /// The auxiliary states' (error-state index `N + i`), each a random walk.
+    pub aux: [f64; MAX_AUX],
 }
 
 impl ProcessNoise {
     /// `Q` as a dense matrix (for the UDU form and the tests).
     pub fn dense<const D: usize>(&self) -> SMatrix<f64, D, D> {
         let mut Q = SMatrix::<f64, D, D>::zeros();
-        if D > N {
-            Q[(N, N)] = self.scale;
+        for i in N..D {
+            Q[(i, i)] = self.aux[i - N];
         }
         for i in 0..3 {
             Q[(i, i)] = self.pp;
@@ -69,8 +69,8 @@ impl ProcessNoise {
 
     /// `P += Q`.
     pub fn add_to<const D: usize>(&self, P: &mut SMatrix<f64, D, D>) {
-        if D > N {
-            P[(N, N)] += self.scale;
+        for i in N..D {
+            P[(i, i)] += self.aux[i - N];
         }
         for i in 0..3 {
             P[(i, i)] += self.pp;
@@ -229,7 +229,7 @@ fn propagate_blocks<const D: usize>(
 
 /// Adds an error-state correction to the nominal state:
 /// `p += δp, v += δv, q ← q ⊗ Exp(δθ), b += δb` (Solà eq. 282–286), and
-/// `k += δk` for the odometry scale factor.
+/// `a += δa` for each auxiliary state (nominal index one above its error's).
 pub(super) fn inject<const D: usize>(s: &mut InsState<D>, dx: &SVector<f64, D>) {
     let dp = Vector3::new(dx[0], dx[1], dx[2]);
     let dv = Vector3::new(dx[3], dx[4], dx[5]);
@@ -240,8 +240,8 @@ pub(super) fn inject<const D: usize>(s: &mut InsState<D>, dx: &SVector<f64, D>) 
     q.renormalize();
     let (p, v, b_a, b_g) = (s.p() + dp, s.v() + dv, s.b_a() + dba, s.b_g() + dbg);
     s.set(p, v, q, b_a, b_g);
-    if D > N {
-        s.nominal[NOMINAL] += dx[N];
+    for i in N..D {
+        s.nominal[i + 1] += dx[i];
     }
 }
 

@@ -51,7 +51,7 @@ impl InsModel {
         w_m: Vector3<f64>,
         dt: f64,
     ) -> ([f64; NOMINAL], SMatrix<f64, N, N>, SMatrix<f64, N, N>) {
-        let mut s = InsState::new(pad(*nominal), placeholder());
+        let mut s = InsState::new(pad(*nominal), placeholder(), 0);
         let (p, v, q, F) = self.mechanise(&s, f_m, w_m, dt);
         let (b_a, b_g) = (s.b_a(), s.b_g());
         s.set(p, v, q, b_a, b_g);
@@ -61,7 +61,7 @@ impl InsModel {
     /// Injects the error-state correction `dx` into `nominal` as the model does
     /// after an update, and returns the reset Jacobian `G` (`P ← G P Gᵀ`).
     pub fn inject_error(nominal: &mut [f64; NOMINAL], dx: &SVector<f64, N>) -> SMatrix<f64, N, N> {
-        let mut s = InsState::new(pad(*nominal), placeholder());
+        let mut s = InsState::new(pad(*nominal), placeholder(), 0);
         inject(&mut s, dx);
         *nominal = core(&s.nominal);
         reset_jacobian(&attitude_reset(dx))

@@ -1,14 +1,7 @@
 //! The odometry scale factor as a state of the `ins` model
-//! (`[model.odometry_scale]`): its parameters and the 16-state model made from
-//! the core one. The measurement that uses it is the odometry's
+//! (`[model.odometry_scale]`): its parameters (the state is one of the
+//! auxiliary states, [`super::aux`]). The measurement that uses it is the odometry's
 //! (`crate::measurement::odometry`).
-
-#![allow(non_snake_case)]
-
-use nalgebra::{SMatrix, SVector};
-
-use super::{InsModel, MAX_N, N, NOMINAL, SCALE};
-use crate::filter::{FilterError, KalmanFilter};
 
 /// `[model.odometry_scale]`: the odometry scale factor `k` as a state
 /// (odometry speed = `k` × true speed, one factor for every odometry sensor).
@@ -51,33 +44,5 @@ impl Default for OdometryScale {
             initial_std: Self::default_initial_std(),
             random_walk: Self::default_random_walk(),
         }
-    }
-}
-
-impl InsModel {
-    /// The same model with the odometry scale factor as a state: `k₀` and its
-    /// initial variance appended to `x₀` and `P₀` (uncorrelated).
-    pub fn with_odometry_scale(self, scale: OdometryScale) -> Result<InsModel<MAX_N>, FilterError> {
-        let P = self.initial.P();
-        let mut P1 = SMatrix::<f64, MAX_N, MAX_N>::zeros();
-        P1.fixed_view_mut::<N, N>(0, 0).copy_from(&P);
-        P1[(SCALE, SCALE)] = scale.initial_std * scale.initial_std;
-        let initial = KalmanFilter::new(SVector::zeros(), P1)?;
-        let mut x0 = self.x0;
-        x0[NOMINAL] = scale.initial;
-        Ok(InsModel {
-            noise: self.noise,
-            gravity: self.gravity,
-            x0,
-            initial,
-            gate: self.gate,
-            lockout: self.lockout,
-            alignment_samples: self.alignment_samples,
-            course: self.course,
-            nonholonomic: self.nonholonomic,
-            standstill: self.standstill,
-            odometry_scale: Some(scale),
-            frames: self.frames,
-        })
     }
 }

@@ -251,6 +251,8 @@ fn when_the_imus_in_use_change_the_bias_variances_grow_back() {
         time_offset_ns: 0,
         quality: None,
         magnetic: None,
+        barometer: None,
+        pose: None,
     };
     let f = Vector3::new(0.0, 0.0, G);
     for combine in [Combine::Failover, Combine::Average] {

@@ -5,7 +5,10 @@
 
 use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
 
-use super::{ImuNoise, InsModel, InsState, MAX_N, N, OdometryScale, error_state::inject};
+use super::{ImuNoise, InsModel, InsState, N, OdometryScale, error_state::inject};
+
+/// The error-state dimension with the odometry scale factor.
+pub const SCALED: usize = N + 1;
 use crate::frames::Frames;
 use crate::model::Model;
 
@@ -25,7 +28,7 @@ pub fn model() -> InsModel {
 }
 
 /// [`model`] with the odometry scale factor as a state (k₀ = 1, σ 0.02).
-pub fn scaled_model() -> InsModel<MAX_N> {
+pub fn scaled_model() -> InsModel<SCALED> {
     model().with_odometry_scale(OdometryScale::default()).unwrap()
 }
 
@@ -35,18 +38,24 @@ pub fn moving_state() -> InsState {
 }
 
 /// [`moving_state`] of [`scaled_model`], with an odometry scale factor of 1.03.
-pub fn moving_scaled_state() -> InsState<MAX_N> {
+pub fn moving_scaled_state() -> InsState<SCALED> {
     let mut s = moving(&scaled_model());
     set_scale(&mut s, 1.03);
     s
 }
 
 /// Sets the nominal odometry scale factor of `s`.
-pub fn set_scale(s: &mut InsState<MAX_N>, k: f64) {
+pub fn set_scale(s: &mut InsState<SCALED>, k: f64) {
     s.nominal[super::NOMINAL] = k;
 }
 
-fn moving<const D: usize>(m: &InsModel<D>) -> InsState<D> {
+/// Sets the nominal value of auxiliary error state `i` of `s`.
+pub fn set_aux_value<const D: usize>(s: &mut InsState<D>, i: usize, v: f64) {
+    s.nominal[i + 1] = v;
+}
+
+/// [`moving_state`] of model `m` (with its auxiliary states at their initial values).
+pub fn moving<const D: usize>(m: &InsModel<D>) -> InsState<D> {
     let mut s = m.initial_state();
     let q = UnitQuaternion::from_euler_angles(0.05, -0.08, 2.3);
     let v = q * Vector3::new(12.0, 0.2, 0.0);

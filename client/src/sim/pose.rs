@@ -1,0 +1,191 @@
+//! Simulated pose (a localiser: lidar SLAM, visual-inertial odometry): the
+//! true position and attitude of the sensor's frame in a map frame of its own
+//! (turned and shifted against the world), plus white noise, with its
+//! mounting, random dropouts, arriving after a delay; and a re-initialisation
+//! of the localiser at a set time (its map frame jumps, announced by the reset
+//! counter or not).
+
+use fusion_shared::{PoseSample, Sample, SampleKind};
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use super::AidingSim;
+use super::scenario::{Arrival, schedule};
+use super::trajectory::CarTrajectory;
+
+/// A map frame: its yaw in the world frame (rad) and its origin (ENU, m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapFrame {
+    /// Yaw, rad.
+    pub yaw_rad: f64,
+    /// Origin, m.
+    pub origin_m: [f64; 3],
+}
+
+/// A re-initialisation of the localiser: from `at_s` on its map frame is `frame`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LocaliserReset {
+    /// When, s of trajectory time.
+    pub at_s: f64,
+    /// The map frame after it.
+    pub frame: MapFrame,
+    /// Whether the reset counter says so (false: only the jump shows).
+    pub announced: bool,
+}
+
+/// Pose simulation settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseConfig {
+    /// Rate, Hz.
+    pub rate_hz: f64,
+    /// Standard deviation of the position's white noise per axis, m.
+    pub position_noise_m: f64,
+    /// Standard deviation of the attitude's white noise per axis, rad.
+    pub attitude_noise_rad: f64,
+    /// The localiser's map frame at the start.
+    pub frame: MapFrame,
+    /// A re-initialisation, if any.
+    pub reset: Option<LocaliserReset>,
+    /// `C_bs`: the sensor's axes into the body frame (body ← sensor).
+    pub rotation: Matrix3<f64>,
+    /// The sensor's origin in the body frame, m.
+    pub lever_arm_m: [f64; 3],
+    /// Probability that a sample is lost.
+    pub dropout_probability: f64,
+    /// Delay from time of validity to publication: uniform in [min, max], ns.
+    pub delay_min_ns: u64,
+    /// See `delay_min_ns`.
+    pub delay_max_ns: u64,
+    /// Sensor id.
+    pub sensor: u32,
+}
+
+impl Default for PoseConfig {
+    fn default() -> Self {
+        Self {
+            rate_hz: 10.0,
+            position_noise_m: 0.05,
+            attitude_noise_rad: 0.005,
+            frame: MapFrame { yaw_rad: 0.6, origin_m: [20.0, -15.0, 0.5] },
+            reset: None,
+            rotation: Matrix3::identity(),
+            lever_arm_m: [0.0; 3],
+            dropout_probability: 0.0,
+            delay_min_ns: 40_000_000,
+            delay_max_ns: 100_000_000,
+            sensor: 0,
+        }
+    }
+}
+
+/// Simulated pose samples (an endless iterator).
+#[derive(Debug, Clone)]
+pub struct PoseSim {
+    trajectory: CarTrajectory,
+    config: PoseConfig,
+    start_ns: u64,
+    index: u64,
+    rng: ChaCha8Rng,
+}
+
+impl PoseSim {
+    /// Samples on `trajectory`, the first at `start_ns` (trajectory time 0).
+    pub fn new(trajectory: CarTrajectory, config: PoseConfig, start_ns: u64, seed: u64) -> Self {
+        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x706f_7365 ^ (u64::from(config.sensor) << 40));
+        Self { trajectory, config, start_ns, index: 0, rng }
+    }
+}
+
+impl Iterator for PoseSim {
+    type Item = Arrival;
+
+    fn next(&mut self) -> Option<Arrival> {
+        loop {
+            let c = &self.config;
+            let (offset_ns, delay) = schedule(&mut self.rng, self.index, c.rate_hz, c.delay_min_ns, c.delay_max_ns);
+            let mut normal = || Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut self.rng));
+            let (n_p, n_a) = (normal() * c.position_noise_m, normal() * c.attitude_noise_rad);
+            let lost = self.rng.random::<f64>() < c.dropout_probability;
+            let seq = self.index;
+            self.index += 1;
+            if lost {
+                continue;
+            }
+            let t_s = offset_ns as f64 * 1e-9;
+            let truth = self.trajectory.at(t_s);
+            let (frame, counter) = match c.reset {
+                Some(r) if t_s >= r.at_s => (r.frame, u32::from(r.announced)),
+                _ => (c.frame, 0),
+            };
+            let map = Rotation3::from_axis_angle(&Vector3::z_axis(), frame.yaw_rad).into_inner();
+            let body = truth.attitude.to_rotation_matrix().into_inner();
+            let sensor = truth.pos_m + body * Vector3::from(c.lever_arm_m);
+            let p = map.transpose() * (sensor - Vector3::from(frame.origin_m)) + n_p;
+            let attitude = map.transpose() * body * c.rotation * Rotation3::new(n_a).into_inner();
+            let q = UnitQuaternion::from_matrix(&attitude);
+            let qc = q.quaternion().coords; // [x, y, z, w]
+            let (sp, sa) = (c.position_noise_m, c.attitude_noise_rad);
+            let cov = fusion_shared::TwistSample::diagonal_cov([sp; 3], [sa; 3]);
+            let t_ns = self.start_ns + offset_ns;
+            let sample = PoseSample::new(t_ns, c.sensor, seq, p.into(), [qc[3], qc[0], qc[1], qc[2]], cov, counter);
+            return Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Pose(sample), outlier: false });
+        }
+    }
+}
+
+impl AidingSim for PoseConfig {
+    fn kind(&self) -> SampleKind {
+        SampleKind::Pose
+    }
+
+    fn sensor(&self) -> u32 {
+        self.sensor
+    }
+
+    fn arrivals(&self, trajectory: &CarTrajectory, start_ns: u64, seed: u64) -> Box<dyn Iterator<Item = Arrival> + Send> {
+        Box::new(PoseSim::new(trajectory.clone(), self.clone(), start_ns, seed))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Without noise the pose, taken back through the map frame, is the
+    /// sensor's true position and attitude; after the reset the frame jumps
+    /// and the counter says so.
+    #[test]
+    fn it_reads_the_pose_of_its_frame_in_the_map() {
+        let trajectory = CarTrajectory::new(4);
+        let rotation = Rotation3::from_euler_angles(0.0, 0.2, -0.3).into_inner();
+        let arm = Vector3::new(0.8, 0.0, 1.2);
+        let after = MapFrame { yaw_rad: -1.0, origin_m: [5.0, 5.0, 0.0] };
+        let c = PoseConfig {
+            position_noise_m: 0.0,
+            attitude_noise_rad: 0.0,
+            rotation,
+            lever_arm_m: arm.into(),
+            reset: Some(LocaliserReset { at_s: 2.0, frame: after, announced: true }),
+            ..Default::default()
+        };
+        let mut reset_seen = false;
+        for a in PoseSim::new(trajectory.clone(), c.clone(), 0, 1).take(40) {
+            let Sample::Pose(s) = a.sample else { panic!() };
+            let t = s.header.t_ns as f64 * 1e-9;
+            let truth = trajectory.at(t);
+            let frame = if t >= 2.0 { after } else { c.frame };
+            assert_eq!(s.reset_counter, u32::from(t >= 2.0));
+            reset_seen |= t >= 2.0;
+            let map = Rotation3::from_axis_angle(&Vector3::z_axis(), frame.yaw_rad);
+            let world = map * Vector3::from(s.position_m) + Vector3::from(frame.origin_m);
+            assert!((world - truth.pos_m - truth.attitude * arm).norm() < 1e-9);
+            let [w, x, y, z] = s.orientation_wxyz;
+            let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+            let body = map * q.to_rotation_matrix() * Rotation3::from_matrix_unchecked(rotation.transpose());
+            assert!(body.angle_to(&truth.attitude.to_rotation_matrix()) < 1e-9);
+        }
+        assert!(reset_seen);
+    }
+}

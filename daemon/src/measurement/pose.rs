@@ -1,0 +1,281 @@
+//! Pose: position and attitude from a localiser (lidar SLAM, visual-inertial
+//! odometry, a map matcher) in a map frame of its own.
+//!
+//! The map frame is gravity-aligned; its yaw `ψ` and origin `t` in the world
+//! frame are configured (`[sensor.pose] frame_yaw_deg`, `frame_origin_m`) or
+//! four auxiliary states ([`crate::model::ins::aux`]). With `R_ψ = R_z(ψ)`, the
+//! sensor's mounting `C` (body ← sensor) and lever arm `l`, the attitude `R`
+//! and the sample's position `z_p` and rotation `Z` (sensor → map):
+//!
+//! ```text
+//! m̂ = R_ψᵀ (p + R l − t)            (the sensor's position in the map)
+//! Ŝ = R_ψᵀ R C                       (its attitude in the map)
+//! y = [ z_p − m̂ ;  Log(Ŝᵀ Z) ]       (residual; attitude error in the sensor's axes)
+//!
+//! H = [ R_ψᵀ  0  −R_ψᵀ R [l]×  0  0 | (m̂_y, −m̂_x, 0)ᵀ   −R_ψᵀ ]
+//!     [ 0     0   Cᵀ           0  0 | −Cᵀ Rᵀ e₃           0    ]
+//!                                      δψ                  δt
+//! ```
+//!
+//! (`R_z(ψ + δψ)ᵀ ≈ (I − δψ [e₃]×) R_ψᵀ`; local attitude error
+//! `R_true = R Exp(δθ)`, so `Ŝᵀ S_true ≈ I + [Cᵀ δθ − δψ Cᵀ Rᵀ e₃]×`.) The
+//! sample's 6×6 covariance is `R` as it is (position in the map frame,
+//! attitude about the sensor's axes).
+//!
+//! **Setting the frame.** The first pose, a pose whose `reset_counter`
+//! differs from the one the frame was set with (the localiser re-initialised:
+//! its map jumped), or the `realign_after_gated`-th gated pose in a row (a
+//! jump it did not announce) sets the frame instead of being fused:
+//! `ψ = yaw(R C Zᵀ)`, `t = p + R l − R_ψ z_p`, with the covariance of the
+//! linearised least-squares solution `a = A y`, `A = (H_aᵀ R⁻¹ H_a)⁻¹ H_aᵀ R⁻¹`
+//! (`H_a`: the frame's columns of `H`), by state augmentation: `G_x = −A H_x`,
+//! `G_z = A` ([`crate::model::ins::aux::augment`]). The estimate does not
+//! move; the frame's old value and correlations are dropped. A configured frame
+//! is never set again (a counter change with a fixed frame is a relocalisation
+//! in the same map, fused as usual).
+//!
+//! **Relative mode** (`[sensor.pose] relative = true`): for a localiser that
+//! drifts like odometry, only the change between consecutive poses is fused, as
+//! the sensor's twist over the interval `Δt` (robot_localization's
+//! "differential" mode): `v = Z₁ᵀ (z_p₂ − z_p₁)/Δt`, `ω = Log(Z₁ᵀ Z₂)/Δt`, with
+//! covariance `(Z₁ᵀ Σ_p₁ Z₁ + Z₁ᵀ Σ_p₂ Z₁)/Δt²` and `(Σ_θ₁ + Σ_θ₂)/Δt²` (the
+//! correlation of the two poses neglected: conservative for a drifting source),
+//! through the twist's `h` and `H` ([`super::twist`]). The mean over the
+//! interval is taken for the value at its end: keep `Δt` short (≤ 0.1 s at
+//! vehicle accelerations). A pose after a reset or more than
+//! [`MAX_RELATIVE_GAP_NS`] after the last is not differenced.
+//!
+//! - `ins`: the update above, Joseph form, gated, injected and reset;
+//!   relative poses refused until the attitude is known (as a twist).
+//! - `linear`: refused (no attitude); a config naming a pose sensor is refused
+//!   at start-up.
+//!
+//! Validation: finite; |position| ≤ [`MAX_POSITION_M`]; the quaternion of unit
+//! norm within [`QUATERNION_NORM_TOLERANCE`]; covariance symmetric positive
+//! definite. Not required by the health; stale after 1 s once seen.
+
+#![allow(non_snake_case)]
+
+use fusion_shared::snapshot::aux;
+use fusion_shared::{PoseSample, SampleKind};
+use nalgebra::{Matrix3, Quaternion, Rotation3, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
+
+use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance, finite};
+use crate::frames::Mount;
+use crate::model::ins::aux::{PreviousPose, augment};
+use crate::model::ins::{InsModel, InsState, nonholonomic};
+use crate::model::linear::{LinearModel, LinearState};
+use crate::model::{Model, StepOutcome};
+
+/// The farthest position accepted, m.
+pub const MAX_POSITION_M: f64 = 1e7;
+/// How far from 1 a sample's quaternion norm may be.
+pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
+/// The longest interval between two poses that relative mode differences, ns.
+pub const MAX_RELATIVE_GAP_NS: u64 = 1_000_000_000;
+
+impl Measurement for PoseSample {
+    const RANK: u8 = 2;
+    const TIMEOUT_NS: u64 = 1_000_000_000;
+    const NEEDED: Option<Needed> = None;
+
+    fn validate(&self, _: &Limits) -> Result<(), Rejection> {
+        finite(&self.position_m)?;
+        finite(&self.orientation_wxyz)?;
+        if Vector3::from(self.position_m).norm() > MAX_POSITION_M {
+            return Err(Rejection::OutOfRange);
+        }
+        let norm = self.orientation_wxyz.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+            return Err(Rejection::OutOfRange);
+        }
+        covariance::<6>(&self.cov)
+    }
+}
+
+/// The map frame a pose is predicted in: yaw, origin, and the error-state
+/// index of its yaw when the frame is estimated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapFrame {
+    /// Yaw of the map frame in the world frame, rad.
+    pub yaw: f64,
+    /// Its origin in the world frame, m.
+    pub origin: Vector3<f64>,
+    /// Error-state index of `ψ` (then `t_e, t_n, t_u`), when estimated.
+    pub states: Option<usize>,
+}
+
+impl MapFrame {
+    /// The frame of the state `s`: its estimated frame if `s` has one.
+    pub fn estimated<const D: usize>(s: &InsState<D>) -> Option<Self> {
+        let i = s.aux_index(aux::POSE_FRAME_YAW)?;
+        let origin = Vector3::new(s.aux_value(i + 1), s.aux_value(i + 2), s.aux_value(i + 3));
+        Some(Self { yaw: s.aux_value(i), origin, states: Some(i) })
+    }
+}
+
+/// A sample's rotation (sensor → map), normalised.
+fn rotation_of(q: &[f64; 4]) -> Matrix3<f64> {
+    UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3])).to_rotation_matrix().into_inner()
+}
+
+/// `Log(M)` of a rotation matrix: the rotation vector, rad, precise near the
+/// identity (through the quaternion, `θ = 2 atan2(|v|, w)`; the matrix's
+/// `acos((tr M − 1)/2)` loses half the digits there).
+pub fn log(M: &Matrix3<f64>) -> Vector3<f64> {
+    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*M));
+    let (w, v) = (q.scalar(), q.vector().into_owned());
+    let (w, v) = if w < 0.0 { (-w, -v) } else { (w, v) };
+    let n = v.norm();
+    if n < 1e-300 {
+        return 2.0 * v;
+    }
+    v * (2.0 * n.atan2(w) / n)
+}
+
+fn yaw_matrix(yaw: f64) -> Matrix3<f64> {
+    Rotation3::from_axis_angle(&Vector3::z_axis(), yaw).into_inner()
+}
+
+/// `(m̂, Ŝ)`, the predicted position and attitude in the map, and `H` (see the
+/// module doc) of a sensor mounted at `mount` in map frame `frame`.
+pub fn pose<const D: usize>(s: &InsState<D>, mount: &Mount, frame: &MapFrame) -> (Vector3<f64>, Matrix3<f64>, SMatrix<f64, 6, D>) {
+    let R = s.q().to_rotation_matrix().into_inner();
+    let Rpt = yaw_matrix(frame.yaw).transpose();
+    let C = mount.rotation;
+    let l = mount.lever_arm;
+    let m = Rpt * (s.p() + R * l - frame.origin);
+    let S = Rpt * R * C;
+    let mut H = SMatrix::<f64, 6, D>::zeros();
+    H.fixed_view_mut::<3, 3>(0, 0).copy_from(&Rpt);
+    H.fixed_view_mut::<3, 3>(0, 6).copy_from(&(-Rpt * R * l.cross_matrix()));
+    H.fixed_view_mut::<3, 3>(3, 6).copy_from(&C.transpose());
+    if let Some(i) = frame.states {
+        H.fixed_view_mut::<3, 1>(0, i).copy_from(&Vector3::new(m.y, -m.x, 0.0));
+        H.fixed_view_mut::<3, 3>(0, i + 1).copy_from(&(-Rpt));
+        H.fixed_view_mut::<3, 1>(3, i).copy_from(&(-C.transpose() * R.transpose() * Vector3::z()));
+    }
+    (m, S, H)
+}
+
+/// The residual `[z_p − m̂; Log(Ŝᵀ Z)]`.
+fn residual(m: &Vector3<f64>, S: &Matrix3<f64>, sample: &PoseSample) -> Vector6<f64> {
+    let Z = rotation_of(&sample.orientation_wxyz);
+    let dtheta = log(&(S.transpose() * Z));
+    let mut y = Vector6::zeros();
+    y.fixed_rows_mut::<3>(0).copy_from(&(Vector3::from(sample.position_m) - m));
+    y.fixed_rows_mut::<3>(3).copy_from(&dtheta);
+    y
+}
+
+/// Sets the estimated map frame (states at `i..i + 4`) from `sample`, by
+/// state augmentation (see the module doc).
+fn set_frame<const D: usize>(s: &mut InsState<D>, mount: &Mount, i: usize, sample: &PoseSample, R: &SMatrix<f64, 6, 6>) -> bool {
+    let Rb = s.q().to_rotation_matrix().into_inner();
+    let Z = rotation_of(&sample.orientation_wxyz);
+    let M = Rb * mount.rotation * Z.transpose(); // world ← map, a yaw for a gravity-aligned map
+    let yaw = M[(1, 0)].atan2(M[(0, 0)]);
+    let origin = s.p() + Rb * mount.lever_arm - yaw_matrix(yaw) * Vector3::from(sample.position_m);
+    let frame = MapFrame { yaw, origin, states: Some(i) };
+    let (_, _, H) = pose(s, mount, &frame);
+    let Ha = H.fixed_view::<6, 4>(0, i).into_owned();
+    let Some(W) = R.try_inverse() else { return false };
+    let Some(N) = (Ha.transpose() * W * Ha).try_inverse() else { return false };
+    let A: SMatrix<f64, 4, 6> = N * Ha.transpose() * W;
+    let a = SVector::<f64, 4>::new(yaw, origin.x, origin.y, origin.z);
+    augment(s, i, &a, &(-A * H), &A, R).is_ok()
+}
+
+/// The pose of `sample` as kept for relative mode.
+fn previous(sample: &PoseSample) -> PreviousPose {
+    PreviousPose {
+        t_ns: sample.header.t_ns,
+            sensor: sample.header.sensor,
+            reset_counter: sample.reset_counter,
+            position: Vector3::from(sample.position_m),
+            rotation: rotation_of(&sample.orientation_wxyz),
+        cov: sample.cov,
+    }
+}
+
+/// The twist `[v; ω]` in the sensor's axes and its covariance between the
+/// poses `a` and `b` (see the module doc), if they can be differenced.
+pub fn relative_twist(a: &PreviousPose, b: &PreviousPose) -> Option<(Vector6<f64>, SMatrix<f64, 6, 6>)> {
+    if a.sensor != b.sensor || a.reset_counter != b.reset_counter || b.t_ns <= a.t_ns || b.t_ns - a.t_ns > MAX_RELATIVE_GAP_NS {
+        return None;
+    }
+    let dt = (b.t_ns - a.t_ns) as f64 * 1e-9;
+    let Zt = a.rotation.transpose();
+    let v = Zt * (b.position - a.position) / dt;
+    let w = log(&(Zt * b.rotation)) / dt;
+    let (ca, cb) = (SMatrix::<f64, 6, 6>::from_row_slice(&a.cov), SMatrix::<f64, 6, 6>::from_row_slice(&b.cov));
+    let mut cov = SMatrix::<f64, 6, 6>::zeros();
+    let pp = ca.fixed_view::<3, 3>(0, 0) + cb.fixed_view::<3, 3>(0, 0);
+    cov.fixed_view_mut::<3, 3>(0, 0).copy_from(&(Zt * pp * a.rotation));
+    cov.fixed_view_mut::<3, 3>(3, 3).copy_from(&(ca.fixed_view::<3, 3>(3, 3) + cb.fixed_view::<3, 3>(3, 3)));
+    let mut z = Vector6::zeros();
+    z.fixed_rows_mut::<3>(0).copy_from(&v);
+    z.fixed_rows_mut::<3>(3).copy_from(&w);
+    Some((z, cov / (dt * dt)))
+}
+
+impl Fuse<LinearModel> for PoseSample {
+    /// The linear model has no attitude: a configured sensor of this kind is an
+    /// error at start-up, and a sample of an unconfigured one is refused.
+    const ACCEPTS: bool = false;
+
+    fn fuse(&self, _: &LinearModel, _: &mut LinearState) -> (StepOutcome, ()) {
+        (StepOutcome::Refused, ())
+    }
+}
+
+impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
+    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
+        let frames = model.frames();
+        // A pose sensor that is not configured has no frame.
+        let Some(config) = frames.pose(self.header.sensor) else { return (StepOutcome::Refused, None) };
+        let mount = frames.mount(SampleKind::Pose, self.header.sensor);
+        let R = SMatrix::<f64, 6, 6>::from_row_slice(&self.cov);
+        if config.relative {
+            let this = previous(self);
+            let last = s.aux.last_pose.replace(this);
+            let Some((z, cov)) = last.and_then(|a| relative_twist(&a, &this)) else {
+                return (StepOutcome::Propagated, None);
+            };
+            if !nonholonomic::attitude_known(s) {
+                return (StepOutcome::Refused, None);
+            }
+            let (h, H) = super::twist::twist(s, mount);
+            let R = cov + super::twist::gyro_noise(model, s, mount);
+            return model.update_residual(s, &(z - h), &H, &R);
+        }
+        let frame = match config.configured_frame() {
+            Some((yaw, origin)) => MapFrame { yaw, origin: Vector3::from(origin), states: None },
+            None => {
+                let Some(frame) = MapFrame::estimated(s) else { return (StepOutcome::Refused, None) };
+                let i = frame.states.unwrap_or_default();
+                let gated_out = config.realign_after_gated > 0 && s.aux.pose_gated >= config.realign_after_gated;
+                if s.aux.pose_counter != Some(self.reset_counter) || gated_out {
+                    if !set_frame(s, mount, i, self, &R) {
+                        return (StepOutcome::Refused, None);
+                    }
+                    s.aux.pose_counter = Some(self.reset_counter);
+                    s.aux.pose_gated = 0;
+                    s.aux.pose_alignments += 1;
+                    return (StepOutcome::Propagated, None);
+                }
+                frame
+            }
+        };
+        let (m, S, H) = pose(s, mount, &frame);
+        let out = model.update_residual(s, &residual(&m, &S, self), &H, &R);
+        match out.0 {
+            StepOutcome::Gated { .. } => s.aux.pose_gated += 1,
+            _ => s.aux.pose_gated = 0,
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests;

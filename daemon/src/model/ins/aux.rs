@@ -1,0 +1,279 @@
+//! The auxiliary states of the `ins` model: states beyond the core 15 that a
+//! configuration brings, each a random walk (constant in `F`, its density's
+//! variance added to `Q`), after the core in the order of their
+//! [`fusion_shared::snapshot::aux`] bits:
+//!
+//! | bit | states | unit | brought by |
+//! |---|---|---|---|
+//! | `ODOMETRY_SCALE` | `k` | – | `[model.odometry_scale]` ([`OdometryScale`]) |
+//! | `BARO_BIAS` | `b` | m | a barometer (`[sensor.barometer]`, [`BarometerConfig`]) |
+//! | `POSE_FRAME_*` | `ψ, t_e, t_n, t_u` | rad, m | a pose sensor with an estimated frame (`[sensor.pose]`, [`PoseConfig`]) |
+//!
+//! The barometer's bias and the pose frame are set from their sensor's first
+//! sample (and the frame again at each re-initialisation of the localiser) by
+//! [`augment`]: the new states are a function of the state and the sample,
+//! `a = g(x, z)`, and enter the covariance with their correlation to the rest,
+//! `P_aa = G_x P G_xᵀ + G_z R G_zᵀ`, `P_ax = G_x P` (the linearised state
+//! augmentation of SLAM; Bailey and Durrant-Whyte, "Simultaneous localisation
+//! and mapping (SLAM): Part II", 2006): that sample moves no other state, and
+//! the estimate does not jump.
+
+#![allow(non_snake_case)]
+
+use fusion_shared::snapshot::aux as bits;
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+
+use super::OdometryScale;
+use super::{InsModel, InsState, MAX_AUX, N, NOMINAL};
+use crate::filter::{FilterError, KalmanFilter};
+pub use crate::sensor_states::{BarometerConfig, PoseConfig};
+
+/// The barometer's bias state's parameters (`[sensor.barometer]`).
+pub type BaroBias = BarometerConfig;
+/// A pose sensor's map frame state's parameters (`[sensor.pose]`).
+pub type PoseFrame = PoseConfig;
+
+/// Standard deviation given the barometer's bias before its first sample sets
+/// it, m (nothing observes it before).
+const UNSET_BIAS_STD_M: f64 = 100.0;
+/// Standard deviation given the pose frame's origin before the first pose sets
+/// it, m.
+const UNSET_ORIGIN_STD_M: f64 = 1000.0;
+
+/// The error-state index of auxiliary state `bit` among the states `present`
+/// (bits of [`fusion_shared::snapshot::aux`]): [`N`] plus the number of lower
+/// bits present, if `bit` is.
+#[inline]
+pub const fn index(present: u32, bit: u32) -> Option<usize> {
+    if present & bit == 0 { None } else { Some(N + (present & (bit - 1)).count_ones() as usize) }
+}
+
+/// Which auxiliary states the model has, with their parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct AuxStates {
+    /// The odometry scale factor.
+    pub odometry_scale: Option<OdometryScale>,
+    /// The barometer's bias.
+    pub barometer: Option<BaroBias>,
+    /// A pose sensor's map frame (yaw, origin).
+    pub pose: Option<PoseFrame>,
+}
+
+impl AuxStates {
+    /// The [`fusion_shared::snapshot::aux`] bits of the states present.
+    pub const fn bits(&self) -> u32 {
+        let mut b = 0;
+        if self.odometry_scale.is_some() {
+            b |= bits::ODOMETRY_SCALE;
+        }
+        if self.barometer.is_some() {
+            b |= bits::BARO_BIAS;
+        }
+        if self.pose.is_some() {
+            b |= bits::POSE_FRAME;
+        }
+        b
+    }
+
+    /// Number of auxiliary error states.
+    pub const fn len(&self) -> usize {
+        self.bits().count_ones() as usize
+    }
+
+    /// Whether there are none.
+    pub const fn is_empty(&self) -> bool {
+        self.bits() == 0
+    }
+
+    /// Initial value, standard deviation and random-walk variance per second
+    /// of each auxiliary error state, in state order.
+    fn entries(&self) -> ([f64; MAX_AUX], [f64; MAX_AUX], [f64; MAX_AUX]) {
+        let (mut x, mut sd, mut q) = ([0.0; MAX_AUX], [1.0; MAX_AUX], [0.0; MAX_AUX]);
+        let mut i = 0;
+        let mut push = |v: f64, s: f64, rw: f64| {
+            (x[i], sd[i], q[i]) = (v, s, rw * rw);
+            i += 1;
+        };
+        if let Some(k) = self.odometry_scale {
+            push(k.initial, k.initial_std, k.random_walk);
+        }
+        if let Some(b) = self.barometer {
+            push(0.0, UNSET_BIAS_STD_M, b.bias_random_walk_m);
+        }
+        if let Some(p) = self.pose {
+            push(0.0, std::f64::consts::PI, p.frame_yaw_random_walk_deg.to_radians());
+            for _ in 0..3 {
+                push(0.0, UNSET_ORIGIN_STD_M, p.frame_origin_random_walk_m);
+            }
+        }
+        (x, sd, q)
+    }
+}
+
+/// A pose kept for the next one of a relative pose sensor (its change is
+/// fused; `crate::measurement::pose`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PreviousPose {
+    /// Its time, ns.
+    pub t_ns: u64,
+    /// Its sensor.
+    pub sensor: u32,
+    /// Its re-initialisation counter.
+    pub reset_counter: u32,
+    /// Position, m, map frame.
+    pub position: Vector3<f64>,
+    /// Rotation, sensor → map.
+    pub rotation: Matrix3<f64>,
+    /// Its 6×6 covariance, row-major.
+    pub cov: [f64; 36],
+}
+
+/// Where the auxiliary states that are set from a sample stand (part of the
+/// filter state: a rewind restores it with the rest).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct AuxProgress {
+    /// The barometer's bias has been set from a sample.
+    pub baro_set: bool,
+    /// The pose frame has been set, from a pose with this re-initialisation
+    /// counter.
+    pub pose_counter: Option<u32>,
+    /// Consecutive poses gated since the last fused one.
+    pub pose_gated: u32,
+    /// Times the pose frame was set (the first, and every re-initialisation).
+    pub pose_alignments: u32,
+    /// The last pose of a relative pose sensor.
+    pub last_pose: Option<PreviousPose>,
+}
+
+impl InsModel {
+    /// The same model with auxiliary states `aux` after the core (`E` is [`N`]
+    /// plus their number): their initial values and variances appended to
+    /// `x₀` and `P₀` (uncorrelated).
+    pub fn with_aux<const E: usize>(self, aux: AuxStates) -> Result<InsModel<E>, FilterError> {
+        if E != N + aux.len() {
+            return Err(FilterError::StateDimension { got: E, expected: N + aux.len() });
+        }
+        let (x, sd, q) = aux.entries();
+        let mut P = SMatrix::<f64, E, E>::zeros();
+        P.fixed_view_mut::<N, N>(0, 0).copy_from(&self.initial.P());
+        for i in N..E {
+            P[(i, i)] = sd[i - N] * sd[i - N];
+        }
+        let initial = KalmanFilter::new(SVector::zeros(), P)?;
+        let mut x0 = self.x0;
+        x0[NOMINAL..NOMINAL + aux.len()].copy_from_slice(&x[..aux.len()]);
+        Ok(InsModel {
+            noise: self.noise,
+            gravity: self.gravity,
+            x0,
+            initial,
+            gate: self.gate,
+            lockout: self.lockout,
+            alignment_samples: self.alignment_samples,
+            course: self.course,
+            nonholonomic: self.nonholonomic,
+            standstill: self.standstill,
+            aux,
+            aux_noise: q,
+            frames: self.frames,
+        })
+    }
+
+    /// The same model with the odometry scale factor as its one auxiliary state.
+    pub fn with_odometry_scale(self, scale: OdometryScale) -> Result<InsModel<{ N + 1 }>, FilterError> {
+        self.with_aux(AuxStates { odometry_scale: Some(scale), ..AuxStates::default() })
+    }
+}
+
+/// Sets the `K` auxiliary states at `first..first + K` from a sample `z` with
+/// noise covariance `R`: their nominal values to `a`, their error covariance
+/// to `P_aa = G_x P G_xᵀ + G_z R G_zᵀ` and their cross-covariance to
+/// `P_ax = G_x P`, with `G_x = ∂a/∂δx` (its columns of the states being set
+/// are ignored: they are replaced) and `G_z = ∂a/∂z`. The filter's other
+/// entries are unchanged; a result that is not a covariance leaves the state
+/// as it was and is refused.
+pub(crate) fn augment<const D: usize, const K: usize, const M: usize>(
+    s: &mut InsState<D>,
+    first: usize,
+    a: &SVector<f64, K>,
+    Gx: &SMatrix<f64, K, D>,
+    Gz: &SMatrix<f64, K, M>,
+    R: &SMatrix<f64, M, M>,
+) -> Result<(), FilterError> {
+    let mut Gx = *Gx;
+    for c in first..first + K {
+        Gx.column_mut(c).fill(0.0);
+    }
+    let mut P = s.kf.P();
+    for c in first..first + K {
+        P.column_mut(c).fill(0.0);
+        P.row_mut(c).fill(0.0);
+    }
+    let cross = Gx * P; // K×D, zero in the set states' columns
+    let Paa = Gx * P * Gx.transpose() + Gz * R * Gz.transpose();
+    for (r, i) in (first..first + K).enumerate() {
+        for j in 0..D {
+            P[(i, j)] = cross[(r, j)];
+            P[(j, i)] = cross[(r, j)];
+        }
+    }
+    P.fixed_view_mut::<K, K>(first, first).copy_from(&Paa);
+    if nalgebra::Cholesky::new(P).is_none() {
+        return Err(FilterError::CovarianceNotPositiveDefinite);
+    }
+    s.kf.set_state(SVector::zeros(), P)?;
+    for (r, i) in (first..first + K).enumerate() {
+        s.nominal[i + 1] = a[r];
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Model;
+    use crate::model::ins::tests_support::model;
+
+    #[test]
+    fn the_states_follow_the_core_in_bit_order() {
+        let every = AuxStates {
+            odometry_scale: Some(OdometryScale::default()),
+            barometer: Some(BaroBias::default()),
+            pose: Some(PoseFrame::default()),
+        };
+        assert_eq!(every.len(), 6);
+        assert_eq!(index(every.bits(), bits::ODOMETRY_SCALE), Some(N));
+        assert_eq!(index(every.bits(), bits::BARO_BIAS), Some(N + 1));
+        assert_eq!(index(every.bits(), bits::POSE_FRAME_YAW), Some(N + 2));
+        assert_eq!(index(every.bits(), bits::POSE_FRAME_UP), Some(N + 5));
+        let baro = AuxStates { barometer: Some(BaroBias::default()), ..AuxStates::default() };
+        assert_eq!(index(baro.bits(), bits::BARO_BIAS), Some(N));
+        assert_eq!(index(baro.bits(), bits::ODOMETRY_SCALE), None);
+        let m = model().with_aux::<{ N + 6 }>(every).unwrap();
+        let s = m.initial_state();
+        assert_eq!(InsModel::x_of(&s).len(), N + 7);
+        assert_eq!(s.odometry_scale(), Some(1.0));
+        assert!(model().with_aux::<{ N + 2 }>(every).is_err(), "the dimension must be the states'");
+    }
+
+    /// A state set from a sample, `a = z − x₀` (as the barometer's bias is set):
+    /// its variance is `P₀₀ + R`, its covariance with `x₀` is `−P₀₀`, and
+    /// nothing else changes.
+    #[test]
+    fn augmenting_correlates_the_new_state_with_what_it_came_from() {
+        let m =
+            model().with_aux::<{ N + 1 }>(AuxStates { barometer: Some(BaroBias::default()), ..AuxStates::default() });
+        let m = m.unwrap();
+        let mut s = m.initial_state();
+        let before = s.kf.P();
+        let mut Gx = SMatrix::<f64, 1, { N + 1 }>::zeros();
+        Gx[(0, 2)] = -1.0;
+        let R = SMatrix::<f64, 1, 1>::new(4.0);
+        augment(&mut s, N, &SVector::<f64, 1>::new(7.0), &Gx, &SMatrix::<f64, 1, 1>::new(1.0), &R).unwrap();
+        let P = s.kf.P();
+        assert_eq!(s.aux_value(N), 7.0);
+        assert!((P[(N, N)] - (before[(2, 2)] + 4.0)).abs() < 1e-12);
+        assert!((P[(N, 2)] + before[(2, 2)]).abs() < 1e-12 && P[(2, N)] == P[(N, 2)]);
+        assert_eq!(P.fixed_view::<N, N>(0, 0), before.fixed_view::<N, N>(0, 0));
+    }
+}
