@@ -1,6 +1,6 @@
 //! Bad input of the vehicle sensor kinds through the `ins` engine: impossible
-//! odometry, headings, magnetometer fields, twists and fixes (and fixes with an
-//! impossible quality), mixed
+//! odometry, headings, magnetometer fields, twists, pressures, poses and fixes
+//! (and fixes with an impossible quality), mixed
 //! into a drive, are rejected with their
 //! reason and counted, and the estimate after the drive is bit for bit the one of
 //! the same drive without them. A linear model refuses odometry and heading at
@@ -9,15 +9,17 @@
 use std::sync::Arc;
 
 use fusion_client::sim::{
-    GeodeticConfig, HeadingConfig, ImuOutput, MagnetometerConfig, OdometryConfig, Scenario, ScenarioConfig, TwistConfig,
+    BarometerConfig, GeodeticConfig, HeadingConfig, ImuOutput, MagnetometerConfig, OdometryConfig, PoseConfig,
+    Scenario, ScenarioConfig, TwistConfig,
 };
-use fusion_daemon::config::Config;
+use fusion_daemon::config::{Config, InsBuilt};
 use fusion_daemon::engine::{Engine, EngineConfig, Insert};
 use fusion_daemon::model::Model;
-use fusion_daemon::model::ins::InsModel;
+use fusion_daemon::model::ins::{InsModel, N};
 use fusion_daemon::validate::Rejection;
 use fusion_shared::{
-    GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, Sample, SampleKind, TwistSample, fix,
+    BarometerSample, GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, PoseSample, Sample,
+    SampleKind, TwistSample, fix,
 };
 
 const INS: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
@@ -27,11 +29,18 @@ const INS: &str = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\n
     [gating]\nprobability = 0.999\n\
     [[sensor]]\nname = \"wheels\"\nid = 0\nkinds = [\"odometry\"]\nlever_arm_m = [-1.3, 0.0, -0.3]\n\
     [[sensor]]\nname = \"compass\"\nid = 0\nkinds = [\"magnetometer\"]\n\
-    [sensor.magnetic]\ndeclination_deg = 3.5\ninclination_deg = 64.5\nstrength_ut = 48.5\n";
+    [sensor.magnetic]\ndeclination_deg = 3.5\ninclination_deg = 64.5\nstrength_ut = 48.5\n\
+    [[sensor]]\nname = \"baro\"\nid = 0\nkinds = [\"barometer\"]\n\
+    [[sensor]]\nname = \"slam\"\nid = 0\nkinds = [\"pose\"]\n";
 
-fn engine() -> Engine<InsModel> {
+/// The model of [`INS`]: the barometer's bias and the pose frame are its five
+/// auxiliary states.
+type Ins = InsModel<{ N + 5 }>;
+
+fn engine() -> Engine<Ins> {
     let config = Config::parse(INS).unwrap();
-    Engine::new(InsModel::from_config(&config).unwrap(), EngineConfig::from_config(&config))
+    let InsBuilt::Aux5(model) = InsBuilt::from_config(&config).unwrap() else { unreachable!("bias and frame") };
+    Engine::new(model, EngineConfig::from_config(&config))
 }
 
 /// The bad samples at time `t`, each with its reason.
@@ -50,6 +59,9 @@ fn bad(t: u64, seq: u64) -> Vec<(Sample, Rejection)> {
     let mut twist_not_spd = twist_cov;
     (twist_not_spd[1], twist_not_spd[6]) = (1.0, 1.0);
     let twist = |lin, ang, cov| Sample::Twist(TwistSample::new(t, 0, seq, lin, ang, cov));
+    let pressure = |p, var| Sample::Barometer(BarometerSample::new(t, 0, seq, p, var));
+    let pose = |q, cov| Sample::Pose(PoseSample::new(t, 0, seq, [1.0, 2.0, 0.5], q, cov, 0));
+    let unit = [0.6, 0.0, 0.0, 0.8];
     vec![
         (geodetic(91.0, 11.5, cov), Rejection::OutOfRange),
         (geodetic(-90.5, 11.5, cov), Rejection::OutOfRange),
@@ -74,6 +86,14 @@ fn bad(t: u64, seq: u64) -> Vec<(Sample, Rejection)> {
         (twist([10.0, f64::NAN, 0.0], [0.0; 3], twist_cov), Rejection::NonFinite),
         (twist([10.0, 0.0, 0.0], [0.0, 0.0, 100.0], twist_cov), Rejection::OutOfRange),
         (twist([10.0, 0.0, 0.0], [0.0; 3], twist_not_spd), Rejection::CovarianceNotPositiveDefinite),
+        (pressure(0.0, 4.0), Rejection::OutOfRange),
+        (pressure(-101_325.0, 4.0), Rejection::OutOfRange),
+        (pressure(f64::NAN, 4.0), Rejection::NonFinite),
+        (pressure(95_000.0, 0.0), Rejection::VarianceNotPositive),
+        (pose([1.0, 0.0, 0.0, 0.1], twist_cov), Rejection::OutOfRange),
+        (pose([0.0; 4], twist_cov), Rejection::OutOfRange),
+        (pose([f64::NAN, 0.0, 0.0, 0.8], twist_cov), Rejection::NonFinite),
+        (pose(unit, twist_not_spd), Rejection::CovarianceNotPositiveDefinite),
         (Sample::Imu(ImuSample::new(t, 0, seq, [f64::NAN, 0.0, 9.8], [0.0; 3])), Rejection::NonFinite),
     ]
 }
@@ -89,6 +109,8 @@ fn impossible_vehicle_samples_are_rejected_counted_and_change_nothing() {
     c.aiding.push(Arc::new(HeadingConfig::default()));
     c.aiding.push(Arc::new(MagnetometerConfig::default()));
     c.aiding.push(Arc::new(TwistConfig::default()));
+    c.aiding.push(Arc::new(BarometerConfig::default()));
+    c.aiding.push(Arc::new(PoseConfig::default()));
     let samples: Vec<Sample> = Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect();
     let (mut clean, mut dirty) = (engine(), engine());
     let mut expected = [0u64; SampleKind::COUNT];
@@ -117,6 +139,8 @@ fn impossible_vehicle_samples_are_rejected_counted_and_change_nothing() {
     assert!(clean.totals(Some(SampleKind::Heading)).fused > 30);
     assert!(clean.totals(Some(SampleKind::Magnetometer)).fused > 150);
     assert!(clean.totals(Some(SampleKind::Twist)).fused > 100);
+    assert!(clean.totals(Some(SampleKind::Barometer)).fused > 150);
+    assert!(clean.totals(Some(SampleKind::Pose)).fused > 50);
 }
 
 #[test]
@@ -130,10 +154,33 @@ fn the_linear_model_refuses_odometry_heading_and_mounts_at_start_up() {
         [sensor.magnetic]\ndeclination_deg = 3.5\ninclination_deg = 64.5\nstrength_ut = 48.5\n";
     assert!(err(magnetometer).contains("cannot fuse magnetometer"));
     assert!(err("name = \"vio\"\nid = 0\nkinds = [\"twist\"]\n").contains("cannot fuse twist"));
+    assert!(err("name = \"baro\"\nid = 0\nkinds = [\"barometer\"]\n").contains("cannot fuse barometer"));
+    assert!(err("name = \"slam\"\nid = 0\nkinds = [\"pose\"]\n").contains("cannot fuse pose"));
     assert!(
         err("name = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [1, 0, 1]\n")
             .contains("no rotation or lever arm")
     );
     assert!(err("name = \"imu\"\nid = 0\nkinds = [\"imu\"]\naxes = \"frd\"\n").contains("no rotation or lever arm"));
     Config::parse(&format!("{linear}[[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\n")).unwrap();
+}
+
+/// What an `ins` config cannot have: two barometers (one bias state), two
+/// pose sensors with estimated frames (one frame), a half-configured frame,
+/// a `[sensor.pose]` on another kind.
+#[test]
+fn the_ins_model_refuses_what_its_states_cannot_hold_at_start_up() {
+    let ins = INS.split("[[sensor]]").next().unwrap();
+    let err = |sensors: &str| Config::parse(&format!("{ins}{sensors}")).unwrap_err().to_string();
+    let baro = |id| format!("[[sensor]]\nname = \"baro{id}\"\nid = {id}\nkinds = [\"barometer\"]\n");
+    let pose = |id, table: &str| format!("[[sensor]]\nname = \"slam{id}\"\nid = {id}\nkinds = [\"pose\"]\n{table}");
+    assert!(err(&(baro(0) + &baro(1))).contains("one barometer per fusiond"));
+    assert!(err(&(pose(0, "") + &pose(1, ""))).contains("one pose sensor with an estimated map frame"));
+    let half = "[sensor.pose]\nframe_yaw_deg = 30\n";
+    assert!(err(&pose(0, half)).contains("frame_origin_m"), "{}", err(&pose(0, half)));
+    let on_gnss = "[[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\n[sensor.pose]\nrelative = true\n";
+    assert!(err(on_gnss).contains("applies to a pose sensor"));
+    // A configured frame beside an estimated one is fine: only one is states.
+    let fixed = "[sensor.pose]\nframe_yaw_deg = 30\nframe_origin_m = [1, 2, 3]\n";
+    let config = Config::parse(&format!("{ins}{}{}", pose(0, ""), pose(1, fixed))).unwrap();
+    assert!(matches!(InsBuilt::from_config(&config).unwrap(), InsBuilt::Aux4(_)));
 }

@@ -14,7 +14,7 @@
 //!
 //! (local attitude error: `R Exp(δθ) l ≈ R l − R [l]× δθ`.) The first sample
 //! sets `b = z − p_u − (R l)_u` with its covariance and its correlation with the
-//! height ([`crate::model::ins::aux::augment`]) and fuses nothing: the height
+//! height (`aux::augment`, [`crate::model::ins::aux`]) and fuses nothing: the height
 //! does not jump; from then on the barometer holds the height between GNSS
 //! fixes (and through an outage it is the height's only source), and GNSS
 //! fixes teach the bias.

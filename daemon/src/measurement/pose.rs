@@ -29,7 +29,7 @@
 //! `ψ = yaw(R C Zᵀ)`, `t = p + R l − R_ψ z_p`, with the covariance of the
 //! linearised least-squares solution `a = A y`, `A = (H_aᵀ R⁻¹ H_a)⁻¹ H_aᵀ R⁻¹`
 //! (`H_a`: the frame's columns of `H`), by state augmentation: `G_x = −A H_x`,
-//! `G_z = A` ([`crate::model::ins::aux::augment`]). The estimate does not
+//! `G_z = A` (`aux::augment`, [`crate::model::ins::aux`]). The estimate does not
 //! move; the frame's old value and correlations are dropped. A configured frame
 //! is never set again (a counter change with a fixed frame is a relocalisation
 //! in the same map, fused as usual).

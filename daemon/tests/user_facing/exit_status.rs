@@ -70,6 +70,20 @@ fn path_like_namespaces_and_bad_values_are_usage_errors_of_every_binary() {
     assert_usage(&domain, &sim, &["run", "--twist-rate", "20", "--twist-noise", "0.1"], "--twist-noise");
     assert_usage(&domain, &sim, &["run", "--twist-rate", "20", "--twist-lever-arm", "1,2"], "--twist-lever-arm");
     assert_usage(&domain, &sim, &["run", "--magnetometer-rate", "20", "--magnetic-field", "3,64"], "--magnetic-field");
+    assert_usage(&domain, &sim, &["run", "--pose-rate", "10", "--pose-frame", "30:1,2"], "--pose-frame");
+    assert_usage(
+        &domain,
+        &sim,
+        &["run", "--pose-rate", "10", "--localiser-reset", "soon:0:0,0,0"],
+        "--localiser-reset",
+    );
+    assert_usage(&domain, &sim, &["run", "--pose-rate", "10", "--pose-noise", "0.1"], "--pose-noise");
+    assert_usage(
+        &domain,
+        &sim,
+        &["run", "--barometer-rate", "20", "--barometer-lever-arm", "1"],
+        "--barometer-lever-arm",
+    );
     assert_usage(&domain, &sim, &["run", "--imu-ids", "7"], "--imu-ids");
     assert_usage(&domain, &sim, &["record", "--output", "/dev/null", "--lever-arm", "1,2"], "--lever-arm");
     assert_usage(&domain, &ctl, &["record", "--output", "/dev/null", "--duration=-1"], "seconds");

@@ -11,7 +11,7 @@
 //!
 //! The barometer's bias and the pose frame are set from their sensor's first
 //! sample (and the frame again at each re-initialisation of the localiser) by
-//! [`augment`]: the new states are a function of the state and the sample,
+//! `augment`: the new states are a function of the state and the sample,
 //! `a = g(x, z)`, and enter the covariance with their correlation to the rest,
 //! `P_aa = G_x P G_xᵀ + G_z R G_zᵀ`, `P_ax = G_x P` (the linearised state
 //! augmentation of SLAM; Bailey and Durrant-Whyte, "Simultaneous localisation
