@@ -1,8 +1,7 @@
 //! Settings of the sensors that bring states of their own into the `ins`
 //! model: a barometer's bias (`[sensor.barometer]`) and a pose sensor's map
-//! frame (`[sensor.pose]`). The states are the model's
-//! ([`crate::model::ins::aux`]); the measurements are in
-//! `crate::measurement::barometer` and `crate::measurement::pose`.
+//! frame (`[sensor.pose]`). The states are the model's auxiliary states; the
+//! measurements are in the barometer's and the pose's measurement modules.
 
 use serde::Deserialize;
 

@@ -111,7 +111,7 @@ impl AuxStates {
 }
 
 /// A pose kept for the next one of a relative pose sensor (its change is
-/// fused; `crate::measurement::pose`).
+/// fused by the pose measurement).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PreviousPose {
     /// Its time, ns.
