@@ -144,7 +144,12 @@ impl AidingSim for PoseConfig {
         self.sensor
     }
 
-    fn arrivals(&self, trajectory: &CarTrajectory, start_ns: u64, seed: u64) -> Box<dyn Iterator<Item = Arrival> + Send> {
+    fn arrivals(
+        &self,
+        trajectory: &CarTrajectory,
+        start_ns: u64,
+        seed: u64,
+    ) -> Box<dyn Iterator<Item = Arrival> + Send> {
         Box::new(PoseSim::new(trajectory.clone(), self.clone(), start_ns, seed))
     }
 }

@@ -139,7 +139,11 @@ fn yaw_matrix(yaw: f64) -> Matrix3<f64> {
 
 /// `(m̂, Ŝ)`, the predicted position and attitude in the map, and `H` (see the
 /// module doc) of a sensor mounted at `mount` in map frame `frame`.
-pub fn pose<const D: usize>(s: &InsState<D>, mount: &Mount, frame: &MapFrame) -> (Vector3<f64>, Matrix3<f64>, SMatrix<f64, 6, D>) {
+pub fn pose<const D: usize>(
+    s: &InsState<D>,
+    mount: &Mount,
+    frame: &MapFrame,
+) -> (Vector3<f64>, Matrix3<f64>, SMatrix<f64, 6, D>) {
     let R = s.q().to_rotation_matrix().into_inner();
     let Rpt = yaw_matrix(frame.yaw).transpose();
     let C = mount.rotation;
@@ -170,7 +174,13 @@ fn residual(m: &Vector3<f64>, S: &Matrix3<f64>, sample: &PoseSample) -> Vector6<
 
 /// Sets the estimated map frame (states at `i..i + 4`) from `sample`, by
 /// state augmentation (see the module doc).
-fn set_frame<const D: usize>(s: &mut InsState<D>, mount: &Mount, i: usize, sample: &PoseSample, R: &SMatrix<f64, 6, 6>) -> bool {
+fn set_frame<const D: usize>(
+    s: &mut InsState<D>,
+    mount: &Mount,
+    i: usize,
+    sample: &PoseSample,
+    R: &SMatrix<f64, 6, 6>,
+) -> bool {
     let Rb = s.q().to_rotation_matrix().into_inner();
     let Z = rotation_of(&sample.orientation_wxyz);
     let M = Rb * mount.rotation * Z.transpose(); // world ← map, a yaw for a gravity-aligned map
@@ -186,33 +196,46 @@ fn set_frame<const D: usize>(s: &mut InsState<D>, mount: &Mount, i: usize, sampl
     augment(s, i, &a, &(-A * H), &A, R).is_ok()
 }
 
+/// The upper triangle of the 3×3 block at `at` of a row-major 6×6 matrix.
+fn upper(cov: &[f64; 36], at: usize) -> [f64; 6] {
+    let e = |r: usize, c: usize| cov[(at + r) * 6 + at + c];
+    [e(0, 0), e(0, 1), e(0, 2), e(1, 1), e(1, 2), e(2, 2)]
+}
+
+/// The symmetric 3×3 matrix of an upper triangle.
+fn symmetric(u: &[f64; 6]) -> Matrix3<f64> {
+    Matrix3::new(u[0], u[1], u[2], u[1], u[3], u[4], u[2], u[4], u[5])
+}
+
 /// The pose of `sample` as kept for relative mode.
 fn previous(sample: &PoseSample) -> PreviousPose {
     PreviousPose {
         t_ns: sample.header.t_ns,
-            sensor: sample.header.sensor,
-            reset_counter: sample.reset_counter,
-            position: Vector3::from(sample.position_m),
-            rotation: rotation_of(&sample.orientation_wxyz),
-        cov: sample.cov,
+        sensor: sample.header.sensor,
+        reset_counter: sample.reset_counter,
+        position: sample.position_m,
+        orientation_wxyz: sample.orientation_wxyz,
+        cov_upper: [upper(&sample.cov, 0), upper(&sample.cov, 3)],
     }
 }
 
 /// The twist `[v; ω]` in the sensor's axes and its covariance between the
 /// poses `a` and `b` (see the module doc), if they can be differenced.
 pub fn relative_twist(a: &PreviousPose, b: &PreviousPose) -> Option<(Vector6<f64>, SMatrix<f64, 6, 6>)> {
-    if a.sensor != b.sensor || a.reset_counter != b.reset_counter || b.t_ns <= a.t_ns || b.t_ns - a.t_ns > MAX_RELATIVE_GAP_NS {
+    let gap = b.t_ns.checked_sub(a.t_ns).filter(|g| (1..=MAX_RELATIVE_GAP_NS).contains(g))?;
+    if a.sensor != b.sensor || a.reset_counter != b.reset_counter {
         return None;
     }
-    let dt = (b.t_ns - a.t_ns) as f64 * 1e-9;
-    let Zt = a.rotation.transpose();
-    let v = Zt * (b.position - a.position) / dt;
-    let w = log(&(Zt * b.rotation)) / dt;
-    let (ca, cb) = (SMatrix::<f64, 6, 6>::from_row_slice(&a.cov), SMatrix::<f64, 6, 6>::from_row_slice(&b.cov));
+    let dt = gap as f64 * 1e-9;
+    let (Za, Zb) = (rotation_of(&a.orientation_wxyz), rotation_of(&b.orientation_wxyz));
+    let Zt = Za.transpose();
+    let v = Zt * (Vector3::from(b.position) - Vector3::from(a.position)) / dt;
+    let w = log(&(Zt * Zb)) / dt;
+    let pp = symmetric(&a.cov_upper[0]) + symmetric(&b.cov_upper[0]);
+    let aa = symmetric(&a.cov_upper[1]) + symmetric(&b.cov_upper[1]);
     let mut cov = SMatrix::<f64, 6, 6>::zeros();
-    let pp = ca.fixed_view::<3, 3>(0, 0) + cb.fixed_view::<3, 3>(0, 0);
-    cov.fixed_view_mut::<3, 3>(0, 0).copy_from(&(Zt * pp * a.rotation));
-    cov.fixed_view_mut::<3, 3>(3, 3).copy_from(&(ca.fixed_view::<3, 3>(3, 3) + cb.fixed_view::<3, 3>(3, 3)));
+    cov.fixed_view_mut::<3, 3>(0, 0).copy_from(&(Zt * pp * Za));
+    cov.fixed_view_mut::<3, 3>(3, 3).copy_from(&aa);
     let mut z = Vector6::zeros();
     z.fixed_rows_mut::<3>(0).copy_from(&v);
     z.fixed_rows_mut::<3>(3).copy_from(&w);

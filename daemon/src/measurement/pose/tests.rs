@@ -35,7 +35,8 @@ fn reading<const D: usize>(m: &InsModel<D>, s: &InsState<D>, frame: &MapFrame, c
     let (p, S, _) = pose(s, m.frames().mount(SampleKind::Pose, 4), frame);
     let q = UnitQuaternion::from_matrix(&S);
     let c = q.quaternion().coords;
-    PoseSample::new(<InsModel<D> as Model>::time_ns(s).unwrap_or(0), 4, 0, p.into(), [c[3], c[0], c[1], c[2]], cov(), counter)
+    let t_ns = <InsModel<D> as Model>::time_ns(s).unwrap_or(0);
+    PoseSample::new(t_ns, 4, 0, p.into(), [c[3], c[0], c[1], c[2]], cov(), counter)
 }
 
 #[test]

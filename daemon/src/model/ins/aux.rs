@@ -21,7 +21,7 @@
 #![allow(non_snake_case)]
 
 use fusion_shared::snapshot::aux as bits;
-use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use nalgebra::{SMatrix, SVector};
 
 use super::OdometryScale;
 use super::{InsModel, InsState, MAX_AUX, N, NOMINAL};
@@ -111,7 +111,8 @@ impl AuxStates {
 }
 
 /// A pose kept for the next one of a relative pose sensor (its change is
-/// fused by the pose measurement).
+/// fused by the pose measurement): what the difference needs, compactly (it is
+/// part of every filter state the engine keeps).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PreviousPose {
     /// Its time, ns.
@@ -121,11 +122,12 @@ pub struct PreviousPose {
     /// Its re-initialisation counter.
     pub reset_counter: u32,
     /// Position, m, map frame.
-    pub position: Vector3<f64>,
-    /// Rotation, sensor → map.
-    pub rotation: Matrix3<f64>,
-    /// Its 6×6 covariance, row-major.
-    pub cov: [f64; 36],
+    pub position: [f64; 3],
+    /// Rotation, sensor → map, `[w, x, y, z]`.
+    pub orientation_wxyz: [f64; 4],
+    /// The upper triangles (row by row) of its position and attitude
+    /// covariance blocks.
+    pub cov_upper: [[f64; 6]; 2],
 }
 
 /// Where the auxiliary states that are set from a sample stand (part of the
