@@ -1,7 +1,7 @@
 //! The C API against a live fusiond: the C example (`client/examples/c/`), the
 //! error checks (`client/tests/c/errors.c`) and the typed accessors
 //! (`client/tests/c/typed.c`, against the Rust ones), the robot kinds
-//! (`client/tests/c/robot.c`: a magnetometer and a twist) compiled with the system C
+//! (`client/tests/c/robot.c`: a magnetometer, a twist, a barometer, poses) compiled with the system C
 //! compiler and linked with `libfusion_client.a`; the header compiled as C++.
 
 mod common;
@@ -168,10 +168,12 @@ fn one_shot_c_programs_lose_no_sample() {
     assert!(daemon.terminate().success());
 }
 
-/// The robot kinds from C: a magnetometer and a twist reach an `ins` fusiond
-/// and are fused; a NaN in a 6×6 covariance is refused by the C API.
+/// The robot kinds from C: a magnetometer, a twist, a barometer and poses
+/// reach an `ins` fusiond and are fused (the barometer's bias and the pose's
+/// map frame set by their first samples); a NaN in a 6×6 covariance is refused
+/// by the C API, a skewed quaternion by fusiond.
 #[test]
-fn fusiond_fuses_the_magnetometer_and_twist_c_publishes() {
+fn fusiond_fuses_the_robot_kinds_c_publishes() {
     let build = tempfile::tempdir().unwrap();
     let robot =
         compile("cc", &["-std=c11", "-D_POSIX_C_SOURCE=199309L"], &client_dir().join("tests/c/robot.c"), build.path());
@@ -180,7 +182,7 @@ fn fusiond_fuses_the_magnetometer_and_twist_c_publishes() {
     let (ok, stdout, stderr) = run(&robot, &domain, &domain.namespace);
     assert!(ok, "{stdout}{stderr}");
     assert!(stdout.contains("refused: twist sample with a NaN or infinite value"), "{stdout}");
-    assert!(stdout.contains("published 240 samples"), "{stdout}");
+    assert!(stdout.contains("published 281 samples"), "{stdout}");
     common::assert_robot_samples_fused(&domain);
     assert!(daemon.terminate().success());
 }

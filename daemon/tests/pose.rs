@@ -21,6 +21,10 @@
 //! the GNSS position is). Reported: the figures, the frame's errors, the poses
 //! gated (the silent jump's).
 //!
+//! Then the same drives without the reset, with the frame configured (the true
+//! one) and with the poses fused relative (their change, as a twist): NEES/dof
+//! and the fused poses' NIS/dof in [0.8, 1.25] for each.
+//!
 //! `cargo test --release -p fusion-daemon --test pose -- --nocapture`.
 
 mod common;
@@ -63,7 +67,18 @@ struct Run {
     gated: u32,
 }
 
-fn run(seed: u64) -> Run {
+/// How the pose sensor's map frame is known.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Mode {
+    /// Estimated (four states), with the localiser's reset at 30 s.
+    Estimated,
+    /// Configured (the true frame), no reset.
+    Configured,
+    /// Relative: only the change between poses, no reset.
+    Relative,
+}
+
+fn run(seed: u64, mode: Mode) -> Run {
     let imu = |spec| common::car::imu(spec, SIGMA0[3], SIGMA0[4]);
     let fix = PositionConfig { sensor: 3, lever_arm_m: LEVER_ARM, rate_hz: 1.0, ..Default::default() };
     let mut c = ScenarioConfig {
@@ -82,7 +97,11 @@ fn run(seed: u64) -> Run {
         rotation: mount,
         lever_arm_m: SLAM_ARM,
         frame: BEFORE,
-        reset: Some(LocaliserReset { at_s: RESET_S, frame: AFTER, announced: seed.is_multiple_of(2) }),
+        reset: (mode == Mode::Estimated).then_some(LocaliserReset {
+            at_s: RESET_S,
+            frame: AFTER,
+            announced: seed.is_multiple_of(2),
+        }),
         dropout_probability: 0.02,
         ..Default::default()
     }));
@@ -97,28 +116,38 @@ fn run(seed: u64) -> Run {
          [datum]\nlatitude_deg = {}\nlongitude_deg = {}\nheight_m = {}\n\
          [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [{}]\n\
          [[sensor]]\nname = \"slam\"\nid = 6\nkinds = [\"pose\"]\naxes = \"frd\"\nrotation_rpy_deg = [0, 10, 0]\n\
-         lever_arm_m = [{}]\n{}",
+         lever_arm_m = [{}]\n{}{}",
         DATUM.latitude_deg,
         DATUM.longitude_deg,
         DATUM.height_m,
         fmt(&LEVER_ARM),
         fmt(&SLAM_ARM),
+        match mode {
+            Mode::Estimated => String::new(),
+            Mode::Configured => format!(
+                "[sensor.pose]\nframe_yaw_deg = {}\nframe_origin_m = [{}]\n",
+                BEFORE.yaw_rad.to_degrees(),
+                fmt(&BEFORE.origin_m)
+            ),
+            Mode::Relative => "[sensor.pose]\nrelative = true\n".into(),
+        },
         common::car::imu_sensors()
     ))
     .unwrap();
-    let InsBuilt::Aux4(model) = InsBuilt::from_config(&config).unwrap() else {
-        unreachable!("the frame's four states")
-    };
-    drive(model, &config, &scenario, t0)
+    match InsBuilt::from_config(&config).unwrap() {
+        InsBuilt::Aux4(model) => drive(model, &config, &scenario, t0),
+        InsBuilt::Core(model) => drive(model, &config, &scenario, t0),
+        other => unreachable!("{other:?}"),
+    }
 }
 
-fn drive(model: InsModel<{ N + 4 }>, config: &Config, scenario: &Scenario, t0: u64) -> Run {
-    type M = InsModel<{ N + 4 }>;
+fn drive<const D: usize>(model: InsModel<D>, config: &Config, scenario: &Scenario, t0: u64) -> Run {
+    type M<const D: usize> = InsModel<D>;
     let mut engine = Engine::new(model, EngineConfig::from_config(config));
     let mut out = Run::default();
     let mut last: Option<Vector3<f64>> = None;
     let settled_ns = t0 + ((RESET_S + 10.0) * 1e9) as u64;
-    let mut sink = |e: &Entry<fusion_daemon::model::ins::InsState<{ N + 4 }>>| {
+    let mut sink = |e: &Entry<fusion_daemon::model::ins::InsState<D>>| {
         match (&e.sample, e.outcome) {
             (Sample::Pose(_), StepOutcome::Fused { nis }) => {
                 out.nis.0 += nis;
@@ -129,8 +158,8 @@ fn drive(model: InsModel<{ N + 4 }>, config: &Config, scenario: &Scenario, t0: u
         }
         out.alignments = out.alignments.max(e.state.aux_progress().pose_alignments);
         let t = e.key.t_ns.saturating_sub(t0) as f64 * 1e-9;
-        let (x, cov) = (M::x_of(&e.state), <M as Model>::covariance(&e.state));
-        let n = N + 4;
+        let (x, cov) = (M::<D>::x_of(&e.state), <M<D> as Model>::covariance(&e.state));
+        let n = D;
         let p = Vector3::new(x[0], x[1], x[2]) - scenario.truth_at(e.key.t_ns).pos_m;
         let sd = Vector3::new(cov[0], cov[n + 1], cov[2 * n + 2]).map(f64::sqrt);
         if (RESET_S..RESET_S + 1.0).contains(&t)
@@ -140,7 +169,7 @@ fn drive(model: InsModel<{ N + 4 }>, config: &Config, scenario: &Scenario, t0: u
             out.worst_step = out.worst_step.max(step);
         }
         last = Some(p);
-        if e.key.t_ns >= settled_ns && out.frame.is_none() {
+        if D == N + 4 && e.key.t_ns >= settled_ns && out.frame.is_none() {
             let i = N;
             let err = [
                 fusion_daemon::frames::wrap_angle(x[i + 1] - AFTER.yaw_rad),
@@ -173,7 +202,7 @@ fn mean(runs: &[Run], f: impl Fn(&Run) -> (f64, u64)) -> f64 {
 
 #[test]
 fn poses_are_fused_consistently_and_a_localiser_reset_realigns() {
-    let runs: Vec<Run> = (0..RUNS).map(|seed| run(9900 + seed)).collect();
+    let runs: Vec<Run> = (0..RUNS).map(|seed| run(9900 + seed, Mode::Estimated)).collect();
     let nees = mean(&runs, |r| r.nees) / 6.0;
     let nis = mean(&runs, |r| r.nis) / 6.0;
     let worst_step = runs.iter().map(|r| r.worst_step).fold(0.0, f64::max);
@@ -197,4 +226,20 @@ fn poses_are_fused_consistently_and_a_localiser_reset_realigns() {
     assert!(worst_frame < 3.0, "the frame after the reset is {worst_frame}σ off");
     assert!(yaw_sd < 0.01 && origin_sd < 1.0, "the frame settles: σ {yaw_sd} rad, {origin_sd} m");
     assert!(alignments.iter().all(|&a| a == 2), "set at the first pose and at the reset, once each: {alignments:?}");
+}
+
+/// The same drives without the reset, the frame configured or the poses
+/// fused relative: NEES/dof (p, v) and the fused poses' NIS/dof in [0.8, 1.25].
+#[test]
+fn configured_and_relative_poses_are_fused_consistently() {
+    for mode in [Mode::Configured, Mode::Relative] {
+        let runs: Vec<Run> = (0..RUNS).map(|seed| run(9950 + seed, mode)).collect();
+        let nees = mean(&runs, |r| r.nees) / 6.0;
+        let nis = mean(&runs, |r| r.nis) / 6.0;
+        let fused = runs.iter().map(|r| r.nis.1).sum::<u64>();
+        eprintln!("{RUNS} runs, {mode:?}: NEES/dof (p, v) {nees:.2}, pose NIS/dof {nis:.2} over {fused} poses fused");
+        assert!((0.8..=1.25).contains(&nees), "{mode:?}: NEES/dof {nees}");
+        assert!((0.8..=1.25).contains(&nis), "{mode:?}: pose NIS/dof {nis}");
+        assert!(fused > RUNS * 250, "{mode:?}: {fused} fused");
+    }
 }

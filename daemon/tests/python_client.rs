@@ -339,17 +339,19 @@ fn fusiond_fuses_what_python_publishes_and_python_refuses_bad_samples() {
     assert!(daemon.terminate().success());
 }
 
-/// The robot kinds from Python: a magnetometer and a twist reach an `ins`
-/// fusiond and are fused; a NaN in a 6×6 covariance never leaves Python.
+/// The robot kinds from Python: a magnetometer, a twist, a barometer and poses
+/// reach an `ins` fusiond and are fused (the barometer's bias and the pose's
+/// map frame set by their first samples); a NaN in a 6×6 covariance never
+/// leaves Python, a skewed quaternion is refused by fusiond.
 #[test]
-fn fusiond_fuses_the_magnetometer_and_twist_python_publishes() {
+fn fusiond_fuses_the_robot_kinds_python_publishes() {
     let domain = TestDomain::new("py-robot");
     let mut daemon = Daemon::start(&domain, common::ROBOT_INS_CONFIG, "event");
     let out = common::python_command(&domain.domain, "tests/publish_robot.py", &[&domain.namespace]).output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
     assert!(said.contains("refused: TwistSample with a NaN or infinite value"), "{said}");
-    assert!(said.contains("published 240 samples, reached 240"), "{said}");
+    assert!(said.contains("published 281 samples, reached 281"), "{said}");
 
     common::assert_robot_samples_fused(&domain);
     assert!(daemon.terminate().success());

@@ -39,8 +39,11 @@
 //! the sensor's twist over the interval `Δt` (robot_localization's
 //! "differential" mode): `v = Z₁ᵀ (z_p₂ − z_p₁)/Δt`, `ω = Log(Z₁ᵀ Z₂)/Δt`, with
 //! covariance `(Z₁ᵀ Σ_p₁ Z₁ + Z₁ᵀ Σ_p₂ Z₁)/Δt²` and `(Σ_θ₁ + Σ_θ₂)/Δt²` (the
-//! correlation of the two poses neglected: conservative for a drifting source),
-//! through the twist's `h` and `H` ([`super::twist`]). The mean over the
+//! two poses' cross-covariance neglected), through the twist's `h` and `H`
+//! ([`super::twist`]). Poses are differenced in disjoint pairs (1–2, 3–4, …):
+//! differences that shared a pose would have correlated noise, which the
+//! filter, taking each as independent, would count twice as information
+//! against once as noise. The mean over the
 //! interval is taken for the value at its end: keep `Δt` short (≤ 0.1 s at
 //! vehicle accelerations). A pose after a reset or more than
 //! [`MAX_RELATIVE_GAP_NS`] after the last is not differenced.
@@ -260,9 +263,10 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
         let mount = frames.mount(SampleKind::Pose, self.header.sensor);
         let R = SMatrix::<f64, 6, 6>::from_row_slice(&self.cov);
         if config.relative {
+            // Disjoint pairs: a pose that ends a pair does not start the next.
             let this = previous(self);
-            let last = s.aux.last_pose.replace(this);
-            let Some((z, cov)) = last.and_then(|a| relative_twist(&a, &this)) else {
+            let Some((z, cov)) = s.aux.last_pose.take().and_then(|a| relative_twist(&a, &this)) else {
+                s.aux.last_pose = Some(this);
                 return (StepOutcome::Propagated, None);
             };
             if !nonholonomic::attitude_known(s) {

@@ -101,11 +101,16 @@ pub const ROBOT_INS_CONFIG: &str = "[model]\nkind = \"ins\"\naccelerometer_noise
     initial_covariance_diagonal = [1, 1, 1, 1, 1, 1, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-8, 1e-8, 1e-8]\n\
     [[sensor]]\nname = \"compass\"\nid = 2\nkinds = [\"magnetometer\"]\n\
     [sensor.magnetic]\ndeclination_deg = 3.5\ninclination_deg = 64.5\nstrength_ut = 48.5\n\
-    [[sensor]]\nname = \"camera\"\nid = 4\nkinds = [\"twist\"]\n";
+    [[sensor]]\nname = \"camera\"\nid = 4\nkinds = [\"twist\"]\n\
+    [[sensor]]\nname = \"baro\"\nid = 5\nkinds = [\"barometer\"]\n\
+    [[sensor]]\nname = \"slam\"\nid = 6\nkinds = [\"pose\"]\n";
 
 /// Checks the latest snapshot of a fusiond fed by `publish_robot.py` or
 /// `robot.c`: 20 magnetometer samples and 20 twists received and fused, none
-/// invalid or lost.
+/// invalid or lost; 20 barometer samples and 20 poses received, the first of
+/// each setting its reference state (the bias, the map frame) and the other
+/// 19 fused; the pose with a skewed quaternion refused as invalid; the
+/// estimate's auxiliary states the bias and the frame.
 pub fn assert_robot_samples_fused(domain: &live::TestDomain) {
     use fusion_shared::SampleKind;
     let client = domain.client();
@@ -116,6 +121,18 @@ pub fn assert_robot_samples_fused(domain: &live::TestDomain) {
     assert_eq!((mag.sensor, mag.counts.received, mag.counts.fused, mag.counts.invalid), (2, 20, 20, 0));
     assert_eq!((twist.sensor, twist.counts.received, twist.counts.fused, twist.counts.invalid), (4, 20, 20, 0));
     assert_eq!(twist.counts.lost, 0, "the NaN twist was never sent");
+    let (baro, pose) = (counters(SampleKind::Barometer), counters(SampleKind::Pose));
+    assert_eq!((baro.sensor, baro.counts.received, baro.counts.processed, baro.counts.fused), (5, 20, 20, 19));
+    assert_eq!((pose.sensor, pose.counts.received, pose.counts.processed, pose.counts.fused), (6, 21, 20, 19));
+    assert_eq!((baro.counts.invalid, pose.counts.invalid), (0, 1), "the skewed quaternion is refused");
+    assert_eq!(s.rejections[fusion_shared::snapshot::rejection::OUT_OF_RANGE as usize], 1);
+    let bias = s.baro_bias().expect("the bias state");
+    assert!((bias[0] - fusion_shared::pressure_altitude_m(95_000.0)).abs() < 0.5, "{bias:?}");
+    let frame = s.pose_frame().expect("the frame states");
+    // The robot faces east (yaw 0), the sensor 106° about up in the map: the
+    // map's yaw in the world is −106°.
+    let yaw = -2.0 * 0.8f64.atan2(0.6);
+    assert!((frame[0] - yaw).abs() < 0.01, "{frame:?}");
 }
 
 /// Numbers as a TOML array's contents (`1e0, -2.5e-1`), exactly.

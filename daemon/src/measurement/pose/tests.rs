@@ -172,7 +172,8 @@ fn a_configured_frame_is_fused_as_it_is() {
 }
 
 /// Relative mode: the first pose is kept, the second's change is fused as a
-/// twist; a reset counter change is not differenced.
+/// twist, the third starts the next pair; a reset counter change is not
+/// differenced.
 #[test]
 fn relative_poses_are_fused_as_their_change() {
     let frames = Frames::from_config(None, &[sensor("[pose]\nrelative = true\n")], Default::default()).unwrap();
@@ -199,9 +200,12 @@ fn relative_poses_are_fused_as_their_change() {
     assert!(matches!(b.fuse(&m, &mut s).0, StepOutcome::Fused { .. }));
     let mut c = b;
     c.header.t_ns += 100_000_000;
-    c.reset_counter = 1;
-    assert!(relative_twist(&previous(&b), &previous(&c)).is_none(), "a reset is not differenced");
-    assert_eq!(c.fuse(&m, &mut s).0, StepOutcome::Propagated);
+    assert_eq!(c.fuse(&m, &mut s).0, StepOutcome::Propagated, "a new pair");
+    let mut d = c;
+    d.header.t_ns += 100_000_000;
+    d.reset_counter = 1;
+    assert!(relative_twist(&previous(&c), &previous(&d)).is_none(), "a reset is not differenced");
+    assert_eq!(d.fuse(&m, &mut s).0, StepOutcome::Propagated);
 }
 
 #[test]
