@@ -113,7 +113,7 @@ nonholonomic_std_mps = 0.1
 # standing still (a traffic light): zero velocity and rate, the attitude held
 
 [model.odometry_scale]
-# worn tyres: the odometry's scale factor is estimated (a 16th state), 2 % at start
+# worn tyres: the odometry's scale factor is estimated (a state), 2 % at start
 initial_std = 0.02
 
 [datum]
