@@ -424,6 +424,11 @@ impl Frames {
         self.sensors.iter().find(|m| m.kind == SampleKind::Magnetometer && m.id == sensor)?.magnetic.as_ref()
     }
 
+    /// The bias settings of barometer `sensor` (`None`: not configured).
+    pub fn barometer(&self, sensor: u32) -> Option<&BarometerConfig> {
+        self.sensors.iter().find(|m| m.kind == SampleKind::Barometer && m.id == sensor)?.barometer.as_ref()
+    }
+
     /// The map frame settings of pose sensor `sensor` (`None`: not configured).
     pub fn pose(&self, sensor: u32) -> Option<&PoseConfig> {
         self.sensors.iter().find(|m| m.kind == SampleKind::Pose && m.id == sensor)?.pose.as_ref()

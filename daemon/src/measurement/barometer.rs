@@ -92,8 +92,12 @@ impl Fuse<LinearModel> for BarometerSample {
 
 impl<const D: usize> Fuse<InsModel<D>> for BarometerSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
-        // A barometer that is not configured has no bias state.
-        let Some(b) = s.aux_index(aux::BARO_BIAS) else { return (StepOutcome::Refused, None) };
+        // A barometer that is not configured has no bias state (the state is
+        // the configured one's).
+        let Some(b) = s.aux_index(aux::BARO_BIAS).filter(|_| model.frames().barometer(self.header.sensor).is_some())
+        else {
+            return (StepOutcome::Refused, None);
+        };
         let l = model.frames().mount(SampleKind::Barometer, self.header.sensor).lever_arm;
         let z = pressure_altitude_m(self.pressure_pa);
         let slope = pressure_altitude_slope(self.pressure_pa);
@@ -122,8 +126,12 @@ mod tests {
     use crate::model::ins::tests_support::{model, moving_state, numeric_jacobian, set_aux_value};
     use crate::model::ins::{AuxStates, BaroBias};
 
+    /// An `ins` model with barometer 0 and its bias state.
     fn baro_model() -> InsModel<{ N + 1 }> {
-        model().with_aux(AuxStates { barometer: Some(BaroBias::default()), ..AuxStates::default() }).unwrap()
+        let sensor = toml::from_str("name = \"baro\"\nid = 0\nkinds = [\"barometer\"]\n").unwrap();
+        let frames = crate::frames::Frames::from_config(None, &[sensor], Default::default()).unwrap();
+        let aux = AuxStates { barometer: Some(BaroBias::default()), ..AuxStates::default() };
+        model().with_frames(frames).with_aux(aux).unwrap()
     }
 
     #[test]
@@ -184,12 +192,19 @@ mod tests {
         assert!(s.p().z > z0 + 0.3, "{}", s.p().z - z0);
     }
 
+    /// Without the bias state, or from a barometer that is not the configured
+    /// one (whose bias the state is), a sample is refused.
     #[test]
-    fn without_the_bias_state_it_is_refused() {
+    fn without_its_bias_state_it_is_refused() {
         let m = model();
         let mut s = m.initial_state();
         let before = s;
         assert_eq!(BarometerSample::new(0, 0, 0, 95_000.0, 4.0).fuse(&m, &mut s).0, StepOutcome::Refused);
+        assert_eq!(s, before);
+        let m = baro_model();
+        let mut s = m.initial_state();
+        let before = s;
+        assert_eq!(BarometerSample::new(0, 7, 0, 95_000.0, 4.0).fuse(&m, &mut s).0, StepOutcome::Refused);
         assert_eq!(s, before);
     }
 }

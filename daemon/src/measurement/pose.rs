@@ -276,24 +276,24 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
             let R = cov + super::twist::gyro_noise(model, s, mount);
             return model.update_residual(s, &(z - h), &H, &R);
         }
-        let frame = match config.configured_frame() {
-            Some((yaw, origin)) => MapFrame { yaw, origin: Vector3::from(origin), states: None },
-            None => {
-                let Some(frame) = MapFrame::estimated(s) else { return (StepOutcome::Refused, None) };
-                let i = frame.states.unwrap_or_default();
-                let gated_out = config.realign_after_gated > 0 && s.aux.pose_gated >= config.realign_after_gated;
-                if s.aux.pose_counter != Some(self.reset_counter) || gated_out {
-                    if !set_frame(s, mount, i, self, &R) {
-                        return (StepOutcome::Refused, None);
-                    }
-                    s.aux.pose_counter = Some(self.reset_counter);
-                    s.aux.pose_gated = 0;
-                    s.aux.pose_alignments += 1;
-                    return (StepOutcome::Propagated, None);
-                }
-                frame
+        if let Some((yaw, origin)) = config.configured_frame() {
+            let frame = MapFrame { yaw, origin: Vector3::from(origin), states: None };
+            let (m, S, H) = pose(s, mount, &frame);
+            return model.update_residual(s, &residual(&m, &S, self), &H, &R);
+        }
+        let Some(frame) = MapFrame::estimated(s) else { return (StepOutcome::Refused, None) };
+        let i = frame.states.unwrap_or_default();
+        let gated_out = config.realign_after_gated > 0 && s.aux.pose_gated >= config.realign_after_gated;
+        if s.aux.pose_counter != Some(self.reset_counter) || gated_out {
+            if !set_frame(s, mount, i, self, &R) {
+                return (StepOutcome::Refused, None);
             }
-        };
+            s.aux.pose_counter = Some(self.reset_counter);
+            s.aux.pose_gated = 0;
+            s.aux.pose_alignments += 1;
+            return (StepOutcome::Propagated, None);
+        }
+        // The estimated frame's sensor: its run of gated poses.
         let (m, S, H) = pose(s, mount, &frame);
         let out = model.update_residual(s, &residual(&m, &S, self), &H, &R);
         match out.0 {
