@@ -332,10 +332,12 @@ fn describe(s: &StateSnapshot) -> String {
     o += "\n";
     let layout = state_layout(s);
     let sd: Vec<f64> = s.std_devs().collect();
-    o += &format!("  {:<12} {:>14} {:>12}\n", "state", "value", "1-sigma");
+    // The names' column as wide as the longest (the pose frame's auxiliary states).
+    let w = layout.iter().map(|(n, _)| n.chars().count()).max().unwrap_or(0).max(12);
+    o += &format!("  {:<w$} {:>14} {:>12}\n", "state", "value", "1-sigma");
     for (v, (name, k)) in s.state().iter().zip(&layout) {
         let sigma = k.and_then(|k| sd.get(k)).map_or_else(String::new, |v| format!("{v:.4}"));
-        o += &format!("  {name:<12} {v:>14.6} {sigma:>12}\n");
+        o += &format!("  {name:<w$} {v:>14.6} {sigma:>12}\n");
     }
     if let (Some(rpy), Some(sigma)) = (s.roll_pitch_yaw(), s.roll_pitch_yaw_std()) {
         let [r, p, y] = rpy.map(f64::to_degrees);
