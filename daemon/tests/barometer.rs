@@ -19,9 +19,7 @@ mod common;
 
 use std::sync::Arc;
 
-use fusion_client::sim::{
-    BarometerConfig, GeodeticConfig, ImuOutput, Outage, PositionConfig, Scenario, ScenarioConfig,
-};
+use fusion_client::sim::{BarometerConfig, GeodeticConfig, Outage, PositionConfig, Scenario, ScenarioConfig};
 use fusion_daemon::config::{Config, InsBuilt};
 use fusion_daemon::engine::{Engine, EngineConfig, Entry};
 use fusion_daemon::model::ins::InsModel;
@@ -48,17 +46,8 @@ struct Run {
 }
 
 fn run(seed: u64, with_baro: bool) -> Run {
-    let imu = |spec| common::car::imu(spec, SIGMA0[3], SIGMA0[4]);
     let fix = PositionConfig { sensor: 3, lever_arm_m: LEVER_ARM, rate_hz: 1.0, ..Default::default() };
-    let mut c = ScenarioConfig {
-        seed,
-        duration_s: 60.0,
-        imu: imu(&common::car::IMUS[0]),
-        extra_imus: vec![imu(&common::car::IMUS[1])],
-        imu_output: ImuOutput::BodySpecificForce,
-        outages: vec![OUTAGE],
-        ..Default::default()
-    };
+    let mut c = ScenarioConfig { outages: vec![OUTAGE], ..common::car::drive(seed, 60.0, SIGMA0) };
     c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix, phases: Vec::new() }));
     if with_baro {
         c.aiding.push(Arc::new(BarometerConfig {
@@ -83,19 +72,9 @@ fn run(seed: u64, with_baro: bool) -> Run {
     } else {
         String::new()
     };
-    let config = Config::parse(&format!(
-        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
-         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\
-         [filter]\n{filter}[gating]\nprobability = 0.9999\n\
-         [datum]\nlatitude_deg = {}\nlongitude_deg = {}\nheight_m = {}\n\
-         [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [{}]\n{baro}{}",
-        DATUM.latitude_deg,
-        DATUM.longitude_deg,
-        DATUM.height_m,
-        fmt(&LEVER_ARM),
-        common::car::imu_sensors()
-    ))
-    .unwrap();
+    let gnss =
+        format!("[[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [{}]\n", fmt(&LEVER_ARM));
+    let config = Config::parse(&common::car::ins_config(&filter, &DATUM, &(gnss + &baro))).unwrap();
     match InsBuilt::from_config(&config).unwrap() {
         InsBuilt::Core(model) => drive(model, &config, &scenario, t0),
         InsBuilt::Aux1(model) => drive(model, &config, &scenario, t0),

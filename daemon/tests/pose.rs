@@ -31,9 +31,7 @@ mod common;
 
 use std::sync::Arc;
 
-use fusion_client::sim::{
-    GeodeticConfig, ImuOutput, LocaliserReset, MapFrame, PoseConfig, PositionConfig, Scenario, ScenarioConfig,
-};
+use fusion_client::sim::{GeodeticConfig, LocaliserReset, MapFrame, PoseConfig, PositionConfig, Scenario};
 use fusion_daemon::config::{Config, InsBuilt};
 use fusion_daemon::engine::{Engine, EngineConfig, Entry};
 use fusion_daemon::model::ins::{InsModel, N};
@@ -79,16 +77,8 @@ enum Mode {
 }
 
 fn run(seed: u64, mode: Mode) -> Run {
-    let imu = |spec| common::car::imu(spec, SIGMA0[3], SIGMA0[4]);
     let fix = PositionConfig { sensor: 3, lever_arm_m: LEVER_ARM, rate_hz: 1.0, ..Default::default() };
-    let mut c = ScenarioConfig {
-        seed,
-        duration_s: 60.0,
-        imu: imu(&common::car::IMUS[0]),
-        extra_imus: vec![imu(&common::car::IMUS[1])],
-        imu_output: ImuOutput::BodySpecificForce,
-        ..Default::default()
-    };
+    let mut c = common::car::drive(seed, 60.0, SIGMA0);
     let mount = UnitQuaternion::from_euler_angles(0.0, 10f64.to_radians(), 0.0).to_rotation_matrix().into_inner()
         * Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, -1.0));
     c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix, phases: Vec::new() }));
@@ -109,31 +99,23 @@ fn run(seed: u64, mode: Mode) -> Run {
     scenario.arrivals.retain(|a| !matches!(a.sample, Sample::Position(_)));
     let (t0, filter) = common::ins_start_from_prior(&scenario, seed, SIGMA0);
     let fmt = common::toml_list;
-    let config = Config::parse(&format!(
-        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
-         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\
-         [filter]\n{filter}[gating]\nprobability = 0.9999\n\
-         [datum]\nlatitude_deg = {}\nlongitude_deg = {}\nheight_m = {}\n\
-         [[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [{}]\n\
+    let frame = match mode {
+        Mode::Estimated => String::new(),
+        Mode::Configured => format!(
+            "[sensor.pose]\nframe_yaw_deg = {}\nframe_origin_m = [{}]\n",
+            BEFORE.yaw_rad.to_degrees(),
+            fmt(&BEFORE.origin_m)
+        ),
+        Mode::Relative => "[sensor.pose]\nrelative = true\n".into(),
+    };
+    let sensors = format!(
+        "[[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [{}]\n\
          [[sensor]]\nname = \"slam\"\nid = 6\nkinds = [\"pose\"]\naxes = \"frd\"\nrotation_rpy_deg = [0, 10, 0]\n\
-         lever_arm_m = [{}]\n{}{}",
-        DATUM.latitude_deg,
-        DATUM.longitude_deg,
-        DATUM.height_m,
+         lever_arm_m = [{}]\n{frame}",
         fmt(&LEVER_ARM),
         fmt(&SLAM_ARM),
-        match mode {
-            Mode::Estimated => String::new(),
-            Mode::Configured => format!(
-                "[sensor.pose]\nframe_yaw_deg = {}\nframe_origin_m = [{}]\n",
-                BEFORE.yaw_rad.to_degrees(),
-                fmt(&BEFORE.origin_m)
-            ),
-            Mode::Relative => "[sensor.pose]\nrelative = true\n".into(),
-        },
-        common::car::imu_sensors()
-    ))
-    .unwrap();
+    );
+    let config = Config::parse(&common::car::ins_config(&filter, &DATUM, &sensors)).unwrap();
     match InsBuilt::from_config(&config).unwrap() {
         InsBuilt::Aux4(model) => drive(model, &config, &scenario, t0),
         InsBuilt::Core(model) => drive(model, &config, &scenario, t0),

@@ -19,7 +19,7 @@ mod common;
 
 use std::sync::Arc;
 
-use fusion_client::sim::{GeodeticConfig, ImuOutput, PositionConfig, Scenario, ScenarioConfig, TwistConfig};
+use fusion_client::sim::{GeodeticConfig, PositionConfig, Scenario, TwistConfig};
 use fusion_daemon::config::{Config, InsBuilt};
 use fusion_daemon::engine::{Engine, EngineConfig, Entry};
 use fusion_daemon::model::ins::InsModel;
@@ -43,16 +43,8 @@ struct Run {
 }
 
 fn run(seed: u64, with_twist: bool) -> Run {
-    let imu = |spec| common::car::imu(spec, SIGMA0[3], SIGMA0[4]);
     let fix = PositionConfig { sensor: 3, lever_arm_m: LEVER_ARM, rate_hz: 1.0, ..Default::default() };
-    let mut c = ScenarioConfig {
-        seed,
-        duration_s: 60.0,
-        imu: imu(&common::car::IMUS[0]),
-        extra_imus: vec![imu(&common::car::IMUS[1])],
-        imu_output: ImuOutput::BodySpecificForce,
-        ..Default::default()
-    };
+    let mut c = common::car::drive(seed, 60.0, SIGMA0);
     let mount = UnitQuaternion::from_euler_angles(0.0, 10f64.to_radians(), 0.0).to_rotation_matrix().into_inner()
         * Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, -1.0));
     c.aiding.push(Arc::new(GeodeticConfig { datum: DATUM, fix, phases: Vec::new() }));
@@ -72,19 +64,11 @@ fn run(seed: u64, with_twist: bool) -> Run {
     let sensors = format!(
         "[[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\nlever_arm_m = [{}]\n\
          [[sensor]]\nname = \"camera\"\nid = 4\nkinds = [\"twist\"]\naxes = \"frd\"\nrotation_rpy_deg = [0, 10, 0]\n\
-         lever_arm_m = [{}]\n{}",
+         lever_arm_m = [{}]\n",
         fmt(&LEVER_ARM),
         fmt(&CAMERA_ARM),
-        common::car::imu_sensors()
     );
-    let config = Config::parse(&format!(
-        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
-         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\
-         [filter]\n{filter}[gating]\nprobability = 0.9999\n\
-         [datum]\nlatitude_deg = {}\nlongitude_deg = {}\nheight_m = {}\n{sensors}",
-        DATUM.latitude_deg, DATUM.longitude_deg, DATUM.height_m,
-    ))
-    .unwrap();
+    let config = Config::parse(&common::car::ins_config(&filter, &DATUM, &sensors)).unwrap();
     let InsBuilt::Core(model) = InsBuilt::from_config(&config).unwrap() else { unreachable!("no scale state") };
     drive(model, &config, &scenario, t0)
 }

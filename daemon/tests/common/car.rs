@@ -34,3 +34,33 @@ pub fn imu_sensors() -> String {
         })
         .collect()
 }
+
+/// A drive of `duration_s` with [`IMUS`] (turn-on biases of `sigma0[3]`,
+/// `sigma0[4]`, body specific force) and no aiding sensor yet.
+pub fn drive(seed: u64, duration_s: f64, sigma0: [f64; 5]) -> fusion_client::sim::ScenarioConfig {
+    let imu = |spec| imu(spec, sigma0[3], sigma0[4]);
+    fusion_client::sim::ScenarioConfig {
+        seed,
+        duration_s,
+        imu: imu(&IMUS[0]),
+        extra_imus: vec![imu(&IMUS[1])],
+        imu_output: fusion_client::sim::ImuOutput::BodySpecificForce,
+        ..Default::default()
+    }
+}
+
+/// The `ins` config of the car: [`IMUS`]' noise densities, the `[filter]`
+/// lines `filter`, a 0.9999 gate, `datum`, the `[[sensor]]` entries `sensors`
+/// and the IMUs'.
+pub fn ins_config(filter: &str, datum: &fusion_shared::geodesy::Datum, sensors: &str) -> String {
+    format!(
+        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+         accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n\
+         [filter]\n{filter}[gating]\nprobability = 0.9999\n\
+         [datum]\nlatitude_deg = {}\nlongitude_deg = {}\nheight_m = {}\n{sensors}{}",
+        datum.latitude_deg,
+        datum.longitude_deg,
+        datum.height_m,
+        imu_sensors()
+    )
+}
