@@ -2,13 +2,12 @@
 //! true height of its port, with an offset (the weather's) that drifts as a
 //! random walk, white noise, random dropouts, arriving after a delay.
 
-use fusion_shared::{BarometerSample, ISA_SEA_LEVEL_PA, Sample, SampleKind};
+use fusion_shared::{BarometerSample, ISA_SEA_LEVEL_PA, Sample};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::AidingSim;
 use super::scenario::{Arrival, schedule};
 use super::trajectory::CarTrajectory;
 
@@ -104,24 +103,7 @@ impl Iterator for BarometerSim {
     }
 }
 
-impl AidingSim for BarometerConfig {
-    fn kind(&self) -> SampleKind {
-        SampleKind::Barometer
-    }
-
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
-
-    fn arrivals(
-        &self,
-        trajectory: &CarTrajectory,
-        start_ns: u64,
-        seed: u64,
-    ) -> Box<dyn Iterator<Item = Arrival> + Send> {
-        Box::new(BarometerSim::new(trajectory.clone(), self.clone(), start_ns, seed))
-    }
-}
+super::aiding_sim!(BarometerConfig, BarometerSim, Barometer);
 
 #[cfg(test)]
 mod tests {

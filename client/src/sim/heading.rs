@@ -3,12 +3,11 @@
 
 use std::f64::consts::PI;
 
-use fusion_shared::{HeadingSample, Sample, SampleKind};
+use fusion_shared::{HeadingSample, Sample};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::AidingSim;
 use super::scenario::{Arrival, schedule};
 use super::trajectory::CarTrajectory;
 
@@ -78,16 +77,4 @@ impl Iterator for HeadingSim {
     }
 }
 
-impl AidingSim for HeadingConfig {
-    fn kind(&self) -> SampleKind {
-        SampleKind::Heading
-    }
-
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
-
-    fn arrivals(&self, trajectory: &CarTrajectory, start_ns: u64, seed: u64) -> Box<dyn Iterator<Item = Arrival> + Send> {
-        Box::new(HeadingSim::new(trajectory.clone(), self.clone(), start_ns, seed))
-    }
-}
+super::aiding_sim!(HeadingConfig, HeadingSim, Heading);

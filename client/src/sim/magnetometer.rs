@@ -2,13 +2,12 @@
 //! noise, with its mounting, random dropouts and disturbances (a passing lorry, a
 //! steel bridge: a field added for a while).
 
-use fusion_shared::{MagnetometerSample, Sample, SampleKind, earth_field_enu};
+use fusion_shared::{MagnetometerSample, Sample, earth_field_enu};
 use nalgebra::{Matrix3, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::AidingSim;
 use super::scenario::{Arrival, schedule};
 use super::trajectory::CarTrajectory;
 
@@ -124,19 +123,7 @@ impl Iterator for MagnetometerSim {
     }
 }
 
-impl AidingSim for MagnetometerConfig {
-    fn kind(&self) -> SampleKind {
-        SampleKind::Magnetometer
-    }
-
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
-
-    fn arrivals(&self, trajectory: &CarTrajectory, start_ns: u64, seed: u64) -> Box<dyn Iterator<Item = Arrival> + Send> {
-        Box::new(MagnetometerSim::new(trajectory.clone(), self.clone(), start_ns, seed))
-    }
-}
+super::aiding_sim!(MagnetometerConfig, MagnetometerSim, Magnetometer);
 
 #[cfg(test)]
 mod tests {

@@ -26,6 +26,33 @@ macro_rules! kind_modules {
 }
 fusion_shared::for_each_sample_kind!(kind_modules);
 
+/// Implements [`AidingSim`] for a sensor's settings `$config` (with its
+/// `sensor` id) whose simulator `$sim::new(trajectory, config, start_ns, seed)`
+/// makes samples of kind `$kind`.
+macro_rules! aiding_sim {
+    ($config:ident, $sim:ident, $kind:ident) => {
+        impl super::AidingSim for $config {
+            fn kind(&self) -> fusion_shared::SampleKind {
+                fusion_shared::SampleKind::$kind
+            }
+
+            fn sensor(&self) -> u32 {
+                self.sensor
+            }
+
+            fn arrivals(
+                &self,
+                trajectory: &super::CarTrajectory,
+                start_ns: u64,
+                seed: u64,
+            ) -> Box<dyn Iterator<Item = super::Arrival> + Send> {
+                Box::new($sim::new(trajectory.clone(), self.clone(), start_ns, seed))
+            }
+        }
+    };
+}
+use aiding_sim;
+
 pub use scenario::{Arrival, Outage, Scenario, ScenarioConfig, without_outages};
 pub use trajectory::{CarTrajectory, Stop, TruthState};
 

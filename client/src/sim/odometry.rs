@@ -3,13 +3,12 @@
 //! and white noise, arriving after a short delay; 0 while the car stands (no
 //! encoder ticks).
 
-use fusion_shared::{OdometrySample, Sample, SampleKind};
+use fusion_shared::{OdometrySample, Sample};
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::AidingSim;
 use super::scenario::{Arrival, schedule};
 use super::trajectory::CarTrajectory;
 
@@ -94,16 +93,4 @@ impl Iterator for OdometrySim {
     }
 }
 
-impl AidingSim for OdometryConfig {
-    fn kind(&self) -> SampleKind {
-        SampleKind::Odometry
-    }
-
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
-
-    fn arrivals(&self, trajectory: &CarTrajectory, start_ns: u64, seed: u64) -> Box<dyn Iterator<Item = Arrival> + Send> {
-        Box::new(OdometrySim::new(trajectory.clone(), self.clone(), start_ns, seed))
-    }
-}
+super::aiding_sim!(OdometryConfig, OdometrySim, Odometry);

@@ -5,13 +5,12 @@
 //! of the localiser at a set time (its map frame jumps, announced by the reset
 //! counter or not).
 
-use fusion_shared::{PoseSample, Sample, SampleKind};
+use fusion_shared::{PoseSample, Sample};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::AidingSim;
 use super::scenario::{Arrival, schedule};
 use super::trajectory::CarTrajectory;
 
@@ -135,24 +134,7 @@ impl Iterator for PoseSim {
     }
 }
 
-impl AidingSim for PoseConfig {
-    fn kind(&self) -> SampleKind {
-        SampleKind::Pose
-    }
-
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
-
-    fn arrivals(
-        &self,
-        trajectory: &CarTrajectory,
-        start_ns: u64,
-        seed: u64,
-    ) -> Box<dyn Iterator<Item = Arrival> + Send> {
-        Box::new(PoseSim::new(trajectory.clone(), self.clone(), start_ns, seed))
-    }
-}
+super::aiding_sim!(PoseConfig, PoseSim, Pose);
 
 #[cfg(test)]
 mod tests {

@@ -2,14 +2,13 @@
 //! arriving after random delays, with optional dropouts and gross outliers, of a
 //! point at a lever arm from the IMU (the antenna).
 
-use fusion_shared::{PositionSample, Sample, SampleKind};
+use fusion_shared::{PositionSample, Sample};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::scenario::{Arrival, gaussian3, to_ns};
 use super::trajectory::CarTrajectory;
-use super::AidingSim;
 
 /// Position simulation settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -111,16 +110,4 @@ impl Iterator for PositionSim {
     }
 }
 
-impl AidingSim for PositionConfig {
-    fn kind(&self) -> SampleKind {
-        SampleKind::Position
-    }
-
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
-
-    fn arrivals(&self, trajectory: &CarTrajectory, start_ns: u64, seed: u64) -> Box<dyn Iterator<Item = Arrival> + Send> {
-        Box::new(PositionSim::new(trajectory.clone(), self.clone(), start_ns, seed))
-    }
-}
+super::aiding_sim!(PositionConfig, PositionSim, Position);

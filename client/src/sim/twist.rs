@@ -2,13 +2,12 @@
 //! velocity of the sensor's frame in its own axes plus white noise, with its
 //! mounting (rotation and lever arm), random dropouts, arriving after a delay.
 
-use fusion_shared::{Sample, SampleKind, TwistSample};
+use fusion_shared::{Sample, TwistSample};
 use nalgebra::{Matrix3, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::AidingSim;
 use super::scenario::{Arrival, schedule};
 use super::trajectory::CarTrajectory;
 
@@ -97,19 +96,7 @@ impl Iterator for TwistSim {
     }
 }
 
-impl AidingSim for TwistConfig {
-    fn kind(&self) -> SampleKind {
-        SampleKind::Twist
-    }
-
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
-
-    fn arrivals(&self, trajectory: &CarTrajectory, start_ns: u64, seed: u64) -> Box<dyn Iterator<Item = Arrival> + Send> {
-        Box::new(TwistSim::new(trajectory.clone(), self.clone(), start_ns, seed))
-    }
-}
+super::aiding_sim!(TwistConfig, TwistSim, Twist);
 
 #[cfg(test)]
 mod tests {

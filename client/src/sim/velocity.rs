@@ -1,14 +1,13 @@
 //! Simulated velocities (GNSS Doppler): the true world-frame velocity of the
 //! antenna plus white noise with its covariance, arriving after random delays.
 
-use fusion_shared::{Sample, SampleKind, VelocitySample};
+use fusion_shared::{Sample, VelocitySample};
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::scenario::{Arrival, gaussian3, schedule};
 use super::trajectory::CarTrajectory;
-use super::AidingSim;
 
 /// Velocity (GNSS Doppler) simulation settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -87,16 +86,4 @@ impl Iterator for VelocitySim {
     }
 }
 
-impl AidingSim for VelocityConfig {
-    fn kind(&self) -> SampleKind {
-        SampleKind::Velocity
-    }
-
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
-
-    fn arrivals(&self, trajectory: &CarTrajectory, start_ns: u64, seed: u64) -> Box<dyn Iterator<Item = Arrival> + Send> {
-        Box::new(VelocitySim::new(trajectory.clone(), self.clone(), start_ns, seed))
-    }
-}
+super::aiding_sim!(VelocityConfig, VelocitySim, Velocity);
