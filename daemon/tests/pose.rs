@@ -39,6 +39,7 @@ use fusion_daemon::model::{Model, StepOutcome};
 use fusion_shared::Sample;
 use fusion_shared::geodesy::Datum;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use serde_json::Value;
 
 const SIGMA0: [f64; 5] = [0.5, 0.3, 0.02, 0.05, 0.0005];
 const LEVER_ARM: [f64; 3] = [1.0, 0.5, 1.0];
@@ -77,6 +78,16 @@ enum Mode {
 }
 
 fn run(seed: u64, mode: Mode) -> Run {
+    let (config, scenario, t0) = setup(seed, mode);
+    match InsBuilt::from_config(&config).unwrap() {
+        InsBuilt::Aux4(model) => drive(model, &config, &scenario, t0),
+        InsBuilt::Core(model) => drive(model, &config, &scenario, t0),
+        other => unreachable!("{other:?}"),
+    }
+}
+
+/// The config, the drive and its first sample time of run `seed` in `mode`.
+fn setup(seed: u64, mode: Mode) -> (Config, Scenario, u64) {
     let fix = PositionConfig { sensor: 3, lever_arm_m: LEVER_ARM, rate_hz: 1.0, ..Default::default() };
     let mut c = common::car::drive(seed, 60.0, SIGMA0);
     let mount = UnitQuaternion::from_euler_angles(0.0, 10f64.to_radians(), 0.0).to_rotation_matrix().into_inner()
@@ -116,11 +127,7 @@ fn run(seed: u64, mode: Mode) -> Run {
         fmt(&SLAM_ARM),
     );
     let config = Config::parse(&common::car::ins_config(&filter, &DATUM, &sensors)).unwrap();
-    match InsBuilt::from_config(&config).unwrap() {
-        InsBuilt::Aux4(model) => drive(model, &config, &scenario, t0),
-        InsBuilt::Core(model) => drive(model, &config, &scenario, t0),
-        other => unreachable!("{other:?}"),
-    }
+    (config, scenario, t0)
 }
 
 fn drive<const D: usize>(model: InsModel<D>, config: &Config, scenario: &Scenario, t0: u64) -> Run {
@@ -223,5 +230,44 @@ fn configured_and_relative_poses_are_fused_consistently() {
         assert!((0.8..=1.25).contains(&nees), "{mode:?}: NEES/dof {nees}");
         assert!((0.8..=1.25).contains(&nis), "{mode:?}: pose NIS/dof {nis}");
         assert!(fused > RUNS * 250, "{mode:?}: {fused} fused");
+    }
+}
+
+/// Smoothing (`fusiond replay --smooth`) through the localiser's reset, an
+/// announced one and a silent one: no smoothed standard deviation above the
+/// filtered one (the step that set the new frame passes nothing of it back to
+/// the old), and the smoothed frame just before the reset the old one.
+#[test]
+fn smoothing_through_a_localiser_reset_keeps_the_frames_apart() {
+    use fusion_daemon::replay::replay;
+    for seed in [9900, 9901] {
+        let (config, scenario, t0) = setup(seed, Mode::Estimated);
+        let input: String =
+            scenario.arrivals.iter().map(|a| fusion_shared::jsonl::format_sample(&a.sample) + "\n").collect();
+        let estimates = |smooth| {
+            let mut out = Vec::new();
+            replay(&config, input.as_bytes(), Some(&mut out), smooth).unwrap();
+            String::from_utf8(out).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect::<Vec<Value>>()
+        };
+        let (filtered, smoothed) = (estimates(false), estimates(true));
+        assert_eq!(filtered.len(), smoothed.len());
+        let n = N + 4;
+        let mut worst: f64 = 0.0;
+        for (f, s) in filtered.iter().zip(&smoothed) {
+            for i in 0..n {
+                let (pf, ps) = (f["P"][i * n + i].as_f64().unwrap(), s["P"][i * n + i].as_f64().unwrap());
+                worst = worst.max(ps / pf);
+            }
+        }
+        let before =
+            smoothed.iter().rfind(|e| e["t_ns"].as_u64().unwrap() < t0 + (RESET_S * 1e9) as u64 - 50_000_000).unwrap();
+        let x: Vec<f64> = before["x"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        let frame = [x[N + 1], x[N + 2], x[N + 3], x[N + 4]];
+        eprintln!("seed {seed}: largest smoothed/filtered variance {worst:.6}; frame before the reset {frame:?}");
+        assert!(worst <= 1.0 + 1e-6, "a smoothed variance above the filtered one: {worst}");
+        assert!((frame[0] - BEFORE.yaw_rad).abs() < 0.01, "{frame:?}");
+        for k in 0..3 {
+            assert!((frame[k + 1] - BEFORE.origin_m[k]).abs() < 1.0, "{frame:?}");
+        }
     }
 }

@@ -140,6 +140,14 @@ pub struct InsRecord<const D: usize = N> {
     pub nominal: [f64; NOMINAL_MAX],
 }
 
+/// The smoother's log of one `ins` step while it runs: the filter's, and how
+/// many times auxiliary states had been set from a sample when it began.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InsLog<const D: usize = N> {
+    step: StepLog<f64, D>,
+    sets: u32,
+}
+
 /// Filter state of the `ins` model at one point of the stream.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct InsState<const D: usize = N> {
@@ -493,7 +501,7 @@ impl<const D: usize> Model for InsModel<D> {
     type State = InsState<D>;
     type Record = InsRecord<D>;
     type Correction = Option<SVector<f64, D>>;
-    type Log = StepLog<f64, D>;
+    type Log = InsLog<D>;
     const CODE: u32 = fusion_shared::snapshot::model::INS;
     fn aux_states(s: &InsState<D>) -> u32 {
         s.aux_bits
@@ -507,24 +515,28 @@ impl<const D: usize> Model for InsModel<D> {
         &self.frames
     }
 
-    fn propagate_to(&self, s: &mut InsState<D>, t_ns: u64, log: Option<&mut StepLog<f64, D>>) {
+    fn propagate_to(&self, s: &mut InsState<D>, t_ns: u64, log: Option<&mut InsLog<D>>) {
         if let Some(dt) = advance_time(&mut s.t_ns, t_ns) {
-            self.propagate(s, dt, log);
+            self.propagate(s, dt, log.map(|l| &mut l.step));
         }
     }
 
-    fn begin_record(s: &InsState<D>) -> StepLog<f64, D> {
-        StepLog::begin(&s.kf)
+    fn begin_record(s: &InsState<D>) -> InsLog<D> {
+        InsLog { step: StepLog::begin(&s.kf), sets: s.aux.sets }
     }
 
     /// The record of an error-state step, in the frame of the nominal state after
     /// it (see [`smooth`](Model::smooth)): prior mean `−dx` (the correction the
     /// step injected, 0 if none), posterior mean 0, `P⁻`, `P⁺` after the reset,
-    /// the step's `F`, and that nominal state.
-    fn finish_record(log: StepLog<f64, D>, s: &InsState<D>, injected: Option<SVector<f64, D>>) -> InsRecord<D> {
-        let mut step = log.finish(&s.kf);
+    /// the step's `F`, and that nominal state. A step that set auxiliary states
+    /// from its sample records them as new states ([`aux::smoother_record`]).
+    fn finish_record(log: InsLog<D>, s: &InsState<D>, injected: Option<SVector<f64, D>>) -> InsRecord<D> {
+        let mut step = log.step.finish(&s.kf);
         if let Some(dx) = injected {
             step.x_prior = -dx;
+        }
+        if s.aux.sets != log.sets {
+            aux::smoother_record(&mut step, s.aux.last_set);
         }
         InsRecord { step, nominal: s.nominal }
     }

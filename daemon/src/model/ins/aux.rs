@@ -145,6 +145,12 @@ pub struct AuxProgress {
     pub pose_alignments: u32,
     /// The last pose of a relative pose sensor.
     pub last_pose: Option<PreviousPose>,
+    /// Times states were set from a sample ([`augment`]), and the error-state
+    /// indices of the last ones set (first, count): the smoother's record of
+    /// that step ([`smoother_record`]).
+    pub sets: u32,
+    /// See `sets`.
+    pub last_set: (u8, u8),
 }
 
 impl InsModel {
@@ -227,7 +233,31 @@ pub(crate) fn augment<const D: usize, const K: usize, const M: usize>(
     for (r, i) in (first..first + K).enumerate() {
         s.nominal[i + 1] = a[r];
     }
+    s.aux.sets = s.aux.sets.wrapping_add(1);
+    s.aux.last_set = (first as u8, K as u8);
     Ok(())
+}
+
+/// Prior variance the smoother's record gives a state set from a sample: no
+/// information on it before the step.
+const UNINFORMED: f64 = 1e12;
+
+/// The smoother's record of a step that set states from a sample
+/// ([`augment`]; `set` = (first index, count)): the new states do not continue
+/// the old ones, so their rows of the step's transition are zero and their
+/// prior is uninformed (zero mean, variance [`UNINFORMED`], uncorrelated). The
+/// smoothing then passes nothing of the new states back to the old ones, and
+/// the old ones keep what the other states tell them (their correlation with
+/// those before the step).
+pub(super) fn smoother_record<const D: usize>(step: &mut crate::filter::RtsStep<f64, D>, set: (u8, u8)) {
+    let (first, count) = (usize::from(set.0), usize::from(set.1));
+    for i in first..(first + count).min(D) {
+        step.F.row_mut(i).fill(0.0);
+        step.P_prior.row_mut(i).fill(0.0);
+        step.P_prior.column_mut(i).fill(0.0);
+        step.P_prior[(i, i)] = UNINFORMED;
+        step.x_prior[i] = 0.0;
+    }
 }
 
 #[cfg(test)]
