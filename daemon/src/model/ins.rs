@@ -78,6 +78,7 @@ mod linearised;
 pub mod nonholonomic;
 mod odometry_scale;
 mod params;
+mod record;
 mod reinit;
 pub mod standstill;
 mod update;
@@ -95,6 +96,7 @@ pub use course::CourseAlignment;
 pub use nonholonomic::Nonholonomic;
 pub use odometry_scale::OdometryScale;
 pub use params::{AlignmentParams, ImuNoise, InsParams};
+pub use record::{InsLog, InsRecord};
 pub use standstill::Standstill;
 
 /// Error-state dimension of the core model: `[δp, δv, δθ, δb_a, δb_g]`.
@@ -128,24 +130,6 @@ pub struct InsModel<const D: usize = N> {
     /// `N + i`).
     aux_noise: [f64; MAX_AUX],
     frames: Frames,
-}
-
-/// The smoother's record of one `ins` step (see [`Model::finish_record`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct InsRecord<const D: usize = N> {
-    /// The error-state step, about the nominal state after it.
-    pub step: RtsStep<f64, D>,
-    /// Nominal state after the step (after smoothing: the smoothed nominal
-    /// state); its first `D + 1` entries are used.
-    pub nominal: [f64; NOMINAL_MAX],
-}
-
-/// The smoother's log of one `ins` step while it runs: the filter's, and how
-/// many times auxiliary states had been set from a sample when it began.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct InsLog<const D: usize = N> {
-    step: StepLog<f64, D>,
-    sets: u32,
 }
 
 /// Filter state of the `ins` model at one point of the stream.
@@ -529,7 +513,7 @@ impl<const D: usize> Model for InsModel<D> {
     /// it (see [`smooth`](Model::smooth)): prior mean `−dx` (the correction the
     /// step injected, 0 if none), posterior mean 0, `P⁻`, `P⁺` after the reset,
     /// the step's `F`, and that nominal state. A step that set auxiliary states
-    /// from its sample records them as new states ([`aux::smoother_record`]).
+    /// from its sample records them as new states (`aux::smoother_record`).
     fn finish_record(log: InsLog<D>, s: &InsState<D>, injected: Option<SVector<f64, D>>) -> InsRecord<D> {
         let mut step = log.step.finish(&s.kf);
         if let Some(dx) = injected {

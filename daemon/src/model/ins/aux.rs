@@ -145,9 +145,9 @@ pub struct AuxProgress {
     pub pose_alignments: u32,
     /// The last pose of a relative pose sensor.
     pub last_pose: Option<PreviousPose>,
-    /// Times states were set from a sample ([`augment`]), and the error-state
+    /// Times states were set from a sample (`augment`), and the error-state
     /// indices of the last ones set (first, count): the smoother's record of
-    /// that step ([`smoother_record`]).
+    /// that step (`smoother_record`).
     pub sets: u32,
     /// See `sets`.
     pub last_set: (u8, u8),
