@@ -124,23 +124,18 @@ fn drive<const D: usize>(model: InsModel<D>, config: &Config, scenario: &Scenari
     out
 }
 
-fn mean(runs: &[Run], f: impl Fn(&Run) -> (f64, u64)) -> f64 {
-    let (s, n) = runs.iter().map(f).fold((0.0, 0), |(s, n), (a, b)| (s + a, n + b));
-    s / n as f64
-}
-
 #[test]
 fn a_barometer_is_fused_consistently_and_holds_the_height() {
     let with: Vec<Run> = (0..RUNS).map(|seed| run(9700 + seed, true)).collect();
     let without: Vec<Run> = (0..RUNS).map(|seed| run(9700 + seed, false)).collect();
-    let nees = mean(&with, |r| r.nees) / 6.0;
-    let nis = mean(&with, |r| r.nis);
-    let rmse = mean(&with, |r| r.outage_height).sqrt();
-    let rmse_without = mean(&without, |r| r.outage_height).sqrt();
+    let nees = common::pooled_mean(&with, |r| r.nees) / 6.0;
+    let nis = common::pooled_mean(&with, |r| r.nis);
+    let rmse = common::pooled_mean(&with, |r| r.outage_height).sqrt();
+    let rmse_without = common::pooled_mean(&without, |r| r.outage_height).sqrt();
     let bias_nse = with.iter().map(|r| r.bias_nse).sum::<f64>() / RUNS as f64;
     eprintln!(
         "{RUNS} runs with a 20 Hz barometer: NEES/dof (p, v) {nees:.2}, barometer NIS/dof {nis:.2}, bias NSE at the end {bias_nse:.2}; height RMSE in the 20 s outage {rmse:.2} m (without the barometer: {rmse_without:.2} m, NEES/dof {:.2})",
-        mean(&without, |r| r.nees) / 6.0
+        common::pooled_mean(&without, |r| r.nees) / 6.0
     );
     assert!((0.8..=1.25).contains(&nees), "NEES/dof {nees}");
     assert!((0.8..=1.25).contains(&nis), "barometer NIS/dof {nis}");

@@ -184,16 +184,11 @@ fn drive<const D: usize>(model: InsModel<D>, config: &Config, scenario: &Scenari
     out
 }
 
-fn mean(runs: &[Run], f: impl Fn(&Run) -> (f64, u64)) -> f64 {
-    let (s, n) = runs.iter().map(f).fold((0.0, 0), |(s, n), (a, b)| (s + a, n + b));
-    s / n as f64
-}
-
 #[test]
 fn poses_are_fused_consistently_and_a_localiser_reset_realigns() {
     let runs: Vec<Run> = (0..RUNS).map(|seed| run(9900 + seed, Mode::Estimated)).collect();
-    let nees = mean(&runs, |r| r.nees) / 6.0;
-    let nis = mean(&runs, |r| r.nis) / 6.0;
+    let nees = common::pooled_mean(&runs, |r| r.nees) / 6.0;
+    let nis = common::pooled_mean(&runs, |r| r.nis) / 6.0;
     let worst_step = runs.iter().map(|r| r.worst_step).fold(0.0, f64::max);
     let frames: Vec<_> = runs.iter().map(|r| r.frame.expect("the run reached 10 s after the reset")).collect();
     let worst_frame =
@@ -223,8 +218,8 @@ fn poses_are_fused_consistently_and_a_localiser_reset_realigns() {
 fn configured_and_relative_poses_are_fused_consistently() {
     for mode in [Mode::Configured, Mode::Relative] {
         let runs: Vec<Run> = (0..RUNS).map(|seed| run(9950 + seed, mode)).collect();
-        let nees = mean(&runs, |r| r.nees) / 6.0;
-        let nis = mean(&runs, |r| r.nis) / 6.0;
+        let nees = common::pooled_mean(&runs, |r| r.nees) / 6.0;
+        let nis = common::pooled_mean(&runs, |r| r.nis) / 6.0;
         let fused = runs.iter().map(|r| r.nis.1).sum::<u64>();
         eprintln!("{RUNS} runs, {mode:?}: NEES/dof (p, v) {nees:.2}, pose NIS/dof {nis:.2} over {fused} poses fused");
         assert!((0.8..=1.25).contains(&nees), "{mode:?}: NEES/dof {nees}");

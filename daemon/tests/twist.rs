@@ -100,22 +100,17 @@ fn drive(model: InsModel, config: &Config, scenario: &Scenario, t0: u64) -> Run 
     out
 }
 
-fn mean(runs: &[Run], f: impl Fn(&Run) -> (f64, u64)) -> f64 {
-    let (s, n) = runs.iter().map(f).fold((0.0, 0), |(s, n), (a, b)| (s + a, n + b));
-    s / n as f64
-}
-
 #[test]
 fn a_twist_is_fused_consistently() {
     let with: Vec<Run> = (0..RUNS).map(|seed| run(9500 + seed, true)).collect();
     let without: Vec<Run> = (0..RUNS).map(|seed| run(9500 + seed, false)).collect();
-    let nees = mean(&with, |r| r.nees) / 6.0;
-    let nis = mean(&with, |r| r.nis) / 6.0;
-    let rmse = mean(&with, |r| r.velocity).sqrt();
-    let rmse_without = mean(&without, |r| r.velocity).sqrt();
+    let nees = common::pooled_mean(&with, |r| r.nees) / 6.0;
+    let nis = common::pooled_mean(&with, |r| r.nis) / 6.0;
+    let rmse = common::pooled_mean(&with, |r| r.velocity).sqrt();
+    let rmse_without = common::pooled_mean(&without, |r| r.velocity).sqrt();
     eprintln!(
         "{RUNS} runs with a 20 Hz twist: NEES/dof (p, v) {nees:.2}, twist NIS/dof {nis:.2}; velocity RMSE {rmse:.3} m/s (GNSS at 1 Hz alone: {rmse_without:.3} m/s, NEES/dof {:.2})",
-        mean(&without, |r| r.nees) / 6.0
+        common::pooled_mean(&without, |r| r.nees) / 6.0
     );
     assert!((0.8..=1.25).contains(&nees), "NEES/dof {nees}");
     assert!((0.8..=1.25).contains(&nis), "twist NIS/dof {nis}");

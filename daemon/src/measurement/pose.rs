@@ -111,9 +111,13 @@ pub struct MapFrame {
 impl MapFrame {
     /// The frame of the state `s`: its estimated frame if `s` has one.
     pub fn estimated<const D: usize>(s: &InsState<D>) -> Option<Self> {
-        let i = s.aux_index(aux::POSE_FRAME_YAW)?;
+        s.aux_index(aux::POSE_FRAME_YAW).map(|i| Self::estimated_at(s, i))
+    }
+
+    /// The estimated frame of `s`, its yaw at error-state index `i`.
+    fn estimated_at<const D: usize>(s: &InsState<D>, i: usize) -> Self {
         let origin = Vector3::new(s.aux_value(i + 1), s.aux_value(i + 2), s.aux_value(i + 3));
-        Some(Self { yaw: s.aux_value(i), origin, states: Some(i) })
+        Self { yaw: s.aux_value(i), origin, states: Some(i) }
     }
 }
 
@@ -281,8 +285,7 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
             let (m, S, H) = pose(s, mount, &frame);
             return model.update_residual(s, &residual(&m, &S, self), &H, &R);
         }
-        let Some(frame) = MapFrame::estimated(s) else { return (StepOutcome::Refused, None) };
-        let i = frame.states.unwrap_or_default();
+        let Some(i) = s.aux_index(aux::POSE_FRAME_YAW) else { return (StepOutcome::Refused, None) };
         let gated_out = config.realign_after_gated > 0 && s.aux.pose_gated >= config.realign_after_gated;
         if s.aux.pose_counter != Some(self.reset_counter) || gated_out {
             if !set_frame(s, mount, i, self, &R) {
@@ -294,7 +297,7 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
             return (StepOutcome::Propagated, None);
         }
         // The estimated frame's sensor: its run of gated poses.
-        let (m, S, H) = pose(s, mount, &frame);
+        let (m, S, H) = pose(s, mount, &MapFrame::estimated_at(s, i));
         let out = model.update_residual(s, &residual(&m, &S, self), &H, &R);
         match out.0 {
             StepOutcome::Gated { .. } => s.aux.pose_gated += 1,

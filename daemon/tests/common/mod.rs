@@ -135,6 +135,12 @@ pub fn assert_robot_samples_fused(domain: &live::TestDomain) {
     assert!((frame[0] - yaw).abs() < 0.01, "{frame:?}");
 }
 
+/// The pooled mean over Monte Carlo runs of a `(sum, count)` each run gives.
+pub fn pooled_mean<R>(runs: &[R], f: impl Fn(&R) -> (f64, u64)) -> f64 {
+    let (s, n) = runs.iter().map(f).fold((0.0, 0), |(s, n), (a, b)| (s + a, n + b));
+    s / n as f64
+}
+
 /// Numbers as a TOML array's contents (`1e0, -2.5e-1`), exactly.
 pub fn toml_list(v: &[f64]) -> String {
     v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(", ")
