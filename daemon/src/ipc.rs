@@ -144,8 +144,14 @@ struct KindPort<T: WireSample> {
     /// share: pushing never allocates).
     held: Vec<iceoryx2::sample::Sample<Ipc, T, ()>>,
     pending: Option<T>,
-    /// The oldest `(t_ns, rank)` received this turn: every publisher's next
-    /// sample is at or after its last one, so at or after this.
+    /// A late sample (older than the newest processed) taken out of the way of
+    /// the samples queued behind it: they are merged in time order while it
+    /// waits its turn (a retransmitted or late head must not hold back a whole
+    /// queue of in-order samples until they are late too).
+    late: Option<T>,
+    /// The oldest in-order `(t_ns, rank)` received this turn: every
+    /// publisher's next sample is at or after its last one, so at or after this.
+    /// (A late sample says nothing of what comes after it.)
     turn_oldest: Option<(u64, u8)>,
     /// Every publisher with samples waiting has given its share this turn.
     blocked: bool,
@@ -161,51 +167,89 @@ type Key = (u64, u8);
 
 /// A [`KindPort`] of any wire type.
 trait Port {
-    /// Receives into the pending slot if it is empty; returns the pending
-    /// sample's `(t_ns, rank)`, and while the port is blocked (its publishers
-    /// have given their share of the turn and have more) the oldest `(t_ns,
-    /// rank)` its next samples can have: no sample at or after it may go
-    /// before them.
-    fn poll(&mut self, errors: &mut u64) -> (Option<Key>, Option<Key>);
-    /// Hands the pending sample over.
-    fn take(&mut self) -> Option<Sample>;
+    /// Receives into the pending slot if it is empty. A pending sample older
+    /// than `newest` (late) moves to the late slot if that is free, and the
+    /// next one is received behind it.
+    fn poll(&mut self, errors: &mut u64, newest: Option<Key>) -> Heads;
+    /// Hands the pending sample over (`late`: the late slot's).
+    fn take(&mut self, late: bool) -> Option<Sample>;
     /// Housekeeping: whether this kind has a publisher or waiting samples.
     fn refresh(&mut self);
     /// Gives back the samples taken this turn.
     fn release(&mut self);
 }
 
-impl<T: WireSample> Port for KindPort<T> {
-    fn poll(&mut self, errors: &mut u64) -> (Option<Key>, Option<Key>) {
-        if self.pending.is_none() && self.active {
-            match self.subscriber.receive() {
-                // Copied out, and held until the end of the turn (fair draining).
-                Ok(Some(sample)) => {
-                    let key = (sample.payload().header().t_ns, measurement::rank(T::KIND));
-                    self.turn_oldest = Some(self.turn_oldest.map_or(key, |k| k.min(key)));
-                    self.pending = Some(*sample);
-                    if self.held.len() < self.held.capacity() {
-                        self.held.push(sample);
-                    }
-                }
-                Ok(None) => {}
-                // Every publisher with data has given its share of this turn.
-                Err(ReceiveError::ExceedsMaxBorrows) => self.blocked = true,
-                Err(e) => {
-                    if *errors == 0 {
-                        tracing::warn!("{} receive: {e:?} (further failures are only counted)", T::KIND.name());
-                    }
-                    *errors += 1;
-                }
-            }
-        }
-        // Blocked with nothing taken cannot be (the borrows are this turn's);
-        // then nothing of this port bounds the others.
-        (self.pending.map(|p| (p.header().t_ns, measurement::rank(T::KIND))), self.turn_oldest.filter(|_| self.blocked))
+/// What [`Port::poll`] found: the keys of a port's pending and late samples,
+/// and while the port is blocked (its publishers have given their share of
+/// the turn and have more) the oldest key its next samples can have: no
+/// sample at or after it may go before them.
+#[derive(Debug, Clone, Copy)]
+struct Heads {
+    pending: Option<Key>,
+    late: Option<Key>,
+    bound: Option<Key>,
+}
+
+impl<T: WireSample> KindPort<T> {
+    fn key(sample: &T) -> Key {
+        (sample.header().t_ns, measurement::rank(T::KIND))
     }
 
-    fn take(&mut self) -> Option<Sample> {
-        self.pending.take().map(WireSample::into_sample)
+    /// Receives one sample into the (empty) pending slot.
+    fn receive(&mut self, errors: &mut u64, newest: Option<Key>) {
+        match self.subscriber.receive() {
+            // Copied out, and held until the end of the turn (fair draining).
+            Ok(Some(sample)) => {
+                let key = Self::key(sample.payload());
+                if newest.is_none_or(|n| key >= n) {
+                    self.turn_oldest = Some(self.turn_oldest.map_or(key, |k| k.min(key)));
+                }
+                self.pending = Some(*sample);
+                if self.held.len() < self.held.capacity() {
+                    self.held.push(sample);
+                }
+            }
+            Ok(None) => {}
+            // Every publisher with data has given its share of this turn.
+            Err(ReceiveError::ExceedsMaxBorrows) => self.blocked = true,
+            Err(e) => {
+                if *errors == 0 {
+                    tracing::warn!("{} receive: {e:?} (further failures are only counted)", T::KIND.name());
+                }
+                *errors += 1;
+            }
+        }
+    }
+}
+
+impl<T: WireSample> Port for KindPort<T> {
+    fn poll(&mut self, errors: &mut u64, newest: Option<Key>) -> Heads {
+        if self.pending.is_none() && self.active {
+            self.receive(errors, newest);
+        }
+        // A late head steps aside into the late slot, and the sample behind it
+        // is received: it is merged in time order, not held back until late.
+        if self.late.is_none()
+            && let Some(p) = self.pending
+            && newest.is_some_and(|n| Self::key(&p) < n)
+        {
+            self.late = self.pending.take();
+            if self.active {
+                self.receive(errors, newest);
+            }
+        }
+        Heads {
+            pending: self.pending.as_ref().map(Self::key),
+            late: self.late.as_ref().map(Self::key),
+            // Blocked with nothing taken cannot be (the borrows are this
+            // turn's); then nothing of this port bounds the others.
+            bound: self.turn_oldest.filter(|_| self.blocked),
+        }
+    }
+
+    fn take(&mut self, late: bool) -> Option<Sample> {
+        let slot = if late { &mut self.late } else { &mut self.pending };
+        slot.take().map(WireSample::into_sample)
     }
 
     fn refresh(&mut self) {
@@ -270,6 +314,7 @@ impl IpcSource {
                             service,
                             held,
                             pending: None,
+                            late: None,
                             turn_oldest: None,
                             blocked: false,
                             active: true,
@@ -308,48 +353,60 @@ impl SampleSource for IpcSource {
     /// costs the engine a placement either way and its snapshot is provisional,
     /// while the in-order sample's snapshot would otherwise wait for both (the
     /// IMU sample right behind a late GNSS fix). At most `MAX_PASSED_OVER`
-    /// in-order samples go ahead of it.
+    /// in-order samples go ahead of it. A late sample at the head of a port
+    /// steps aside into the port's late slot, so that the samples queued
+    /// behind it (a retransmitted copy ahead of a backlog) are merged in time
+    /// order and not made late while it waits.
     ///
     /// A port that is blocked for the rest of the turn (its publishers gave
     /// their share and have more) holds back every sample at or after the
     /// oldest it gave this turn: its unseen samples may be older. `None` then
     /// ends the turn; the next one gives its publishers their next share.
     fn next(&mut self, newest: Option<(u64, u8)>) -> Option<Sample> {
-        let mut heads = [None; SampleKind::COUNT];
+        let mut heads = [Heads { pending: None, late: None, bound: None }; SampleKind::COUNT];
         let mut bound: Option<(u64, u8)> = None;
         for (head, port) in heads.iter_mut().zip(self.ports.iter_mut()) {
-            let blocked_from;
-            (*head, blocked_from) = port.poll(&mut self.receive_errors);
-            if let Some(b) = blocked_from {
+            *head = port.poll(&mut self.receive_errors, newest);
+            if let Some(b) = head.bound {
                 bound = Some(bound.map_or(b, |x| x.min(b)));
             }
         }
-        let mut oldest: Option<((u64, u8), usize)> = None;
-        let mut oldest_in_order: Option<((u64, u8), usize)> = None;
+        let mergeable = |key: Key| bound.is_none_or(|b| key < b);
+        // The oldest in-order sample, and the oldest late one (a late slot's,
+        // or a head that is late behind a full late slot).
+        let mut in_order: Option<(Key, usize)> = None;
+        let mut late: Option<(Key, usize, bool)> = None;
         for (i, head) in heads.iter().enumerate() {
-            let Some(key) = *head else { continue };
-            if bound.is_some_and(|b| key >= b) {
-                continue;
+            if let Some(key) = head.late.filter(|&k| mergeable(k))
+                && late.is_none_or(|(k, ..)| key < k)
+            {
+                late = Some((key, i, true));
             }
-            if oldest.is_none_or(|(k, _)| key < k) {
-                oldest = Some((key, i));
-            }
-            if newest.is_none_or(|n| key >= n) && oldest_in_order.is_none_or(|(k, _)| key < k) {
-                oldest_in_order = Some((key, i));
+            let Some(key) = head.pending.filter(|&k| mergeable(k)) else { continue };
+            if newest.is_none_or(|n| key >= n) {
+                if in_order.is_none_or(|(k, _)| key < k) {
+                    in_order = Some((key, i));
+                }
+            } else if late.is_none_or(|(k, ..)| key < k) {
+                late = Some((key, i, false));
             }
         }
-        let (oldest, in_order) = (oldest?, oldest_in_order);
-        let take = match in_order {
-            Some(first) if first.1 != oldest.1 && self.passed_over < MAX_PASSED_OVER => {
-                self.passed_over += 1;
-                first.1
-            }
-            _ => {
+        let (port, from_late_slot) = match (in_order, late) {
+            (Some((_, i)), None) => {
                 self.passed_over = 0;
-                oldest.1
+                (i, false)
             }
+            (Some((_, i)), Some(_)) if self.passed_over < MAX_PASSED_OVER => {
+                self.passed_over += 1;
+                (i, false)
+            }
+            (_, Some((_, i, slot))) => {
+                self.passed_over = 0;
+                (i, slot)
+            }
+            (None, None) => return None,
         };
-        self.ports[take].take()
+        self.ports[port].take(from_late_slot)
     }
 
     fn refresh(&mut self) {

@@ -117,3 +117,30 @@ fn a_stalled_daemon_drains_its_backlog_in_time_order() {
     drop(daemon);
     assert!(domain.files().is_empty(), "{:?}", domain.files());
 }
+
+/// A retransmitted IMU sample (a copy of seq 100, same time and content)
+/// published after IMU 159 is late at the head of the IMU queue: it steps
+/// aside, and the samples queued behind it are fused in time order (no
+/// rewind, nothing late); the copy is dropped as a duplicate, and the estimate
+/// is the clean burst's.
+#[test]
+fn a_late_head_does_not_hold_back_the_queue_behind_it() {
+    let samples = drive();
+    let is_imu = |s: &Sample, seq: u64| s.kind() == SampleKind::Imu && s.seq() == seq;
+    let copy = *samples.iter().find(|s| is_imu(s, 100)).unwrap();
+    let after = samples.iter().position(|s| is_imu(s, 159)).unwrap();
+    let mut with_copy = samples.clone();
+    with_copy.insert(after + 1, copy);
+    let clean = burst("late-head-clean", &samples);
+    let last = burst("late-head", &with_copy);
+    assert_eq!(last.rewinds, 0, "in-order samples behind a late head were made late");
+    for row in last.sensor_counters() {
+        let n = row.counts;
+        assert_eq!((n.late, n.too_late, n.lost), (0, 0, 0), "{row:?}");
+        let duplicates = u64::from(row.kind == SampleKind::Imu as u32);
+        assert_eq!(n.duplicate, duplicates, "{row:?}");
+        assert_eq!(n.processed + n.duplicate, n.received, "{row:?}");
+    }
+    assert_eq!(last.state(), clean.state(), "the copy changes nothing");
+    assert_eq!(last.covariance(), clean.covariance());
+}
