@@ -69,9 +69,13 @@ impl SensorRow {
     /// Whether the sensor's sequence started again with `key`: a sequence number
     /// at or below the highest seen, on a sample newer than any seen. A duplicate
     /// or a late sample is never newer; a restarted driver counts from 0 again
-    /// while its clock goes on.
+    /// while its clock goes on. A number not seen yet, less than
+    /// [`REORDER_SPAN`] below the highest, is a reordered one (a driver that
+    /// numbers two samples out of turn): it fills its gap, it is no restart.
     fn restarted(&self, key: &SampleKey) -> bool {
-        self.highest_seq.is_some_and(|h| key.seq <= h) && self.last_t_ns.is_some_and(|t| key.t_ns > t)
+        let Some(h) = self.highest_seq.filter(|&h| key.seq <= h) else { return false };
+        let reordered = h - key.seq < REORDER_SPAN && self.seen.seen(key.seq) == Seen::No;
+        self.last_t_ns.is_some_and(|t| key.t_ns > t) && !reordered
     }
 
     /// Counts the gap a newly arrived sequence number opens (or fills: a number
@@ -103,6 +107,10 @@ impl SensorRow {
         }
     }
 }
+
+/// How far below the highest sequence number a number not seen yet, on a
+/// newer sample, is taken as reordered rather than as a restart.
+pub const REORDER_SPAN: u64 = 64;
 
 /// Why [`SensorTable::admit`] turned a valid sample away. Each is counted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
