@@ -254,6 +254,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let recording = Recording::is_mcap(&magic[..n])
                 .then(|| Recording::open(&input).with_context(|| format!("cannot map {}", input.display())))
                 .transpose()?;
+            if let Some(damage) = recording.as_ref().and_then(Recording::damage) {
+                eprintln!("replay: {} is {damage}: what comes after it is not read", input.display());
+            }
             let config = replay_config(config.as_deref(), recording.as_ref(), &input)?;
             eprintln!("replay: model {}, form {}", config.model.kind(), config.filter.form.name());
             let writer = output
@@ -274,7 +277,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         .map_err(say_why)?;
                 bar.finish_and_clear();
                 eprint!("{summary}");
-                if recording.was_cut_off() {
+                if let Some(damage) = recording.damage() {
+                    eprintln!(
+                        "replay: replayed what comes before the damage ({} samples) of {}",
+                        summary.read,
+                        input.display()
+                    );
+                } else if recording.was_cut_off() {
                     eprintln!(
                         "replay: {} was cut off (no summary: the recorder was killed or lost its power): replayed \
                          what its complete chunks hold ({} samples); what the recorder had not yet written is lost",

@@ -214,6 +214,7 @@ fn a_recorded_live_run_replays_bit_for_bit_and_a_changed_one_says_where() {
 
     check_with_the_mcap_crate(&mcap, &samples);
     check_with_python(&mcap, &samples);
+    a_damaged_chunk_is_read_up_to(dir.path(), &mcap);
 
     // The report of the recording: the fixes as fusiond judged them, and the
     // latency of the live run.
@@ -240,4 +241,49 @@ fn a_recorded_live_run_replays_bit_for_bit_and_a_changed_one_says_where() {
     assert!(crosses <= count("gated") && crosses + count("late") >= count("gated"), "{points}\n{stderr}");
     assert!(points["latency.samples"].as_u64().unwrap() > 0, "{points}");
     assert!(report.join("latency.png").exists());
+}
+
+/// 16 bytes of 0xff over a chunk's header (its sizes and compression name, or
+/// its record length) of a recording with a summary: `fusiond replay`,
+/// `replay --compare` and `fusionctl plot` read the recording up to the
+/// damaged chunk and say where it is, never believing the sizes it declares
+/// (an allocation of exabytes aborted them). (`recording_cut.rs` replays the
+/// samples before a damaged chunk.)
+fn a_damaged_chunk_is_read_up_to(dir: &Path, mcap: &Path) {
+    let clean = std::fs::read(mcap).unwrap();
+    let summary = mcap::Summary::read(&clean).unwrap().unwrap();
+    let mut chunks: Vec<u64> = summary.chunk_indexes.iter().map(|c| c.chunk_start_offset).collect();
+    chunks.sort();
+    assert!(chunks.len() >= 3, "{} chunks", chunks.len());
+    let at = chunks[chunks.len() / 2] as usize;
+    for (i, over) in [at + 9 + 16, at + 1].into_iter().enumerate() {
+        let mut bytes = clean.clone();
+        bytes[over..over + 16].fill(0xff);
+        let damaged = dir.join(format!("damaged-{i}.mcap"));
+        std::fs::write(&damaged, &bytes).unwrap();
+        let said = format!("is damaged at byte {at}");
+        for extra in [&["--output", "/dev/null"][..], &["--compare"]] {
+            let out = Command::new(env!("CARGO_BIN_EXE_fusiond"))
+                .args(["replay", "--input"])
+                .arg(&damaged)
+                .args(extra)
+                .output()
+                .unwrap();
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            // Replayed, or a clear error when no sample comes before the
+            // damage (this recording's samples share a chunk); never a signal.
+            assert!(out.status.code().is_some_and(|c| c <= 1), "{extra:?}: {:?}\n{stderr}", out.status);
+            assert!(stderr.contains(&said), "{extra:?}: {stderr}");
+        }
+        let plot = Command::new(workspace_bin("fusionctl"))
+            .args(["plot", "--input"])
+            .arg(&damaged)
+            .arg("--output-dir")
+            .arg(dir.join(format!("damaged-report-{i}")))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&plot.stderr);
+        assert!(plot.status.success(), "{:?}\n{stderr}", plot.status);
+        assert!(stderr.contains(&said), "{stderr}");
+    }
 }

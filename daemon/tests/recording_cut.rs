@@ -67,6 +67,20 @@ fn a_recorder_killed_mid_run_leaves_a_file_that_replays_and_plots() {
     // About 2 s at 200 Hz reached the file before the kill (flushed every 0.5 s).
     let replayed = std::fs::read_to_string(dir.path().join("replayed.jsonl")).unwrap().lines().count();
     assert!(replayed >= 300, "{replayed} snapshots replayed\n{stderr}");
+    // Compared with the live run: what both have is equal, and the cut is
+    // said, not taken for a difference.
+    let out = Command::new(common::live::fusiond())
+        .args(["replay", "--compare", "--config"])
+        .arg(&config_path)
+        .arg("--input")
+        .arg(&mcap)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("all equal bit for bit") && stderr.contains("the recording was cut"), "{stderr}");
+
+    a_damaged_chunk_ends_the_replay_there(dir.path(), &config_path, &bytes, replayed);
 
     let plot = Command::new(workspace_bin("fusionctl"))
         .args(["plot", "--input"])
@@ -99,4 +113,40 @@ fn a_recorder_without_fusiond_gives_up_after_its_duration() {
     assert!(started.elapsed() < Duration::from_secs(10), "{:?}", started.elapsed());
     assert!(stderr.contains("no fusiond ran in namespace") && stderr.contains("2.0 s of --duration"), "{stderr}");
     assert!(domain.files().is_empty(), "{:?}", domain.files());
+}
+
+/// 16 bytes of 0xff over the sizes in the header of a chunk in the middle of
+/// `bytes`: the replay reads the samples before it, says where the damage is,
+/// and does not abort.
+fn a_damaged_chunk_ends_the_replay_there(dir: &std::path::Path, config: &std::path::Path, bytes: &[u8], whole: usize) {
+    // The chunk records' offsets, from the records' framing (opcode, u64 length).
+    let mut chunks = Vec::new();
+    let mut at = 8;
+    while at + 9 <= bytes.len() {
+        let len = u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+        if bytes[at] == 0x06 {
+            chunks.push(at);
+        }
+        at += 9 + len;
+    }
+    assert!(chunks.len() >= 4, "{} chunks", chunks.len());
+    let damaged_at = chunks[chunks.len() / 2];
+    let mut damaged = bytes.to_vec();
+    damaged[damaged_at + 9 + 16..damaged_at + 9 + 32].fill(0xff);
+    let path = dir.join("damaged.mcap");
+    std::fs::write(&path, &damaged).unwrap();
+    let out = Command::new(common::live::fusiond())
+        .args(["replay", "--config"])
+        .arg(config)
+        .arg("--input")
+        .arg(&path)
+        .arg("--output")
+        .arg(dir.join("damaged.jsonl"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}\n{stderr}", out.status);
+    assert!(stderr.contains(&format!("is damaged at byte {damaged_at}")), "{stderr}");
+    let replayed = std::fs::read_to_string(dir.join("damaged.jsonl")).unwrap().lines().count();
+    assert!(replayed > 0 && replayed < whole, "{replayed} of {whole}\n{stderr}");
 }

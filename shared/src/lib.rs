@@ -11,6 +11,7 @@
 //! - `jsonl` (feature `json`): the JSON-lines sample format of replay files.
 //! - `recording` (feature `json`): the topics, messages and schemas of an MCAP
 //!   recording (`fusionctl record`, `fusiond replay --input RUN.mcap`).
+//! - `mcap_scan` (feature `mcap`): where an MCAP file stops being readable.
 //! - [`transport`]: [`transport::Ipc`], the iceoryx2 service type of every port
 //!   (iceoryx2's `ipc` with pooled per-loan state: no allocation per sample).
 //! - [`permissions`]: only this user may touch fusiond's shared memory.
@@ -24,6 +25,8 @@ pub mod exit;
 pub mod geodesy;
 #[cfg(feature = "json")]
 pub mod jsonl;
+#[cfg(feature = "mcap")]
+pub mod mcap_scan;
 pub mod permissions;
 #[cfg(feature = "json")]
 pub mod recording;

@@ -206,7 +206,8 @@ fn reordered_sequence_numbers_are_no_restart_and_no_loss() {
     // estimate of the same samples numbered in order.
     let steady = stream();
     let mut swapped = steady.clone();
-    let imu_at: Vec<usize> = (0..swapped.len()).filter(|&i| swapped[i].kind() == fusion_shared::SampleKind::Imu).collect();
+    let imu_at: Vec<usize> =
+        (0..swapped.len()).filter(|&i| swapped[i].kind() == fusion_shared::SampleKind::Imu).collect();
     for pair in imu_at.chunks_exact(2).step_by(3) {
         let (a, b) = (swapped[pair[0]].seq(), swapped[pair[1]].seq());
         swapped[pair[0]].header_mut().seq = b;

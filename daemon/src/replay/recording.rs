@@ -15,6 +15,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use fusion_shared::SampleKind;
+use fusion_shared::mcap_scan::{self, Damage, Scan};
 use fusion_shared::recording::{self, SAMPLE_TOPIC_PREFIX, SnapshotJson};
 
 use super::{InputItem, ReplayCheck, ReplayError, ReplaySummary, replay_items};
@@ -46,6 +47,10 @@ pub struct RecordedConfig {
 /// record (every complete chunk), and [`Recording::was_cut_off`] says so.
 pub struct Recording {
     map: memmap2::Mmap,
+    /// The readable part of the map: all of it, or up to a damaged record.
+    readable: usize,
+    /// The damage that ends the readable part, if any.
+    damage: Option<Damage>,
     /// The summary section, if the file has one (a cut-off recording has not).
     summary: Option<mcap::Summary>,
     /// A read of it ended at a record cut off by the end of the file.
@@ -79,8 +84,23 @@ impl Recording {
         // it is mapped would fault the reader (SIGBUS); a recording being replayed
         // is not written to (`fusionctl record` writes a new file).
         let map = unsafe { memmap2::Mmap::map(&file)? };
-        let summary = mcap::Summary::read(&map).ok().flatten();
-        Ok(Self { map, summary, cut_off: AtomicBool::new(false) })
+        // A damaged chunk is never handed to the mcap reader (it would believe
+        // the sizes it declares): the recording is read up to it, without the
+        // summary (whose index points past it).
+        let Scan { readable, damage } = mcap_scan::scan(&map);
+        let summary = if damage.is_none() { mcap::Summary::read(&map).ok().flatten() } else { None };
+        Ok(Self { map, readable, damage, summary, cut_off: AtomicBool::new(false) })
+    }
+
+    /// The part of the file that is read.
+    fn bytes(&self) -> &[u8] {
+        &self.map[..self.readable]
+    }
+
+    /// The damage that ended the readable part of the file, if any: the
+    /// recording is read up to it.
+    pub fn damage(&self) -> Option<&Damage> {
+        self.damage.as_ref()
     }
 
     /// Whether a read of the recording ended at a record cut off by the end of
@@ -93,7 +113,8 @@ impl Recording {
     /// The metadata record `name` (they are written at the start of the file:
     /// a cut-off recording has them too).
     fn metadata(&self, name: &str) -> Option<mcap::records::Metadata> {
-        let records = mcap::read::LinearReader::new_with_options(&self.map, mcap::read::Options::IgnoreEndMagic.into());
+        let records =
+            mcap::read::LinearReader::new_with_options(self.bytes(), mcap::read::Options::IgnoreEndMagic.into());
         records.ok()?.map_while(Result::ok).find_map(|r| match r {
             mcap::records::Record::Metadata(m) if m.name == name => Some(m),
             _ => None,
@@ -159,10 +180,10 @@ impl Recording {
                     .filter(|c| c.message_index_offsets.keys().any(|id| sample_channels.contains(id)))
                     .collect();
                 chunks.sort_by_key(|c| c.chunk_start_offset);
-                Box::new(chunk_messages(summary, &self.map, chunks))
+                Box::new(chunk_messages(summary, self.bytes(), chunks))
             }
             _ => {
-                let stream = mcap::MessageStream::new(&self.map).map_err(mcap_error)?;
+                let stream = mcap::MessageStream::new(self.bytes()).map_err(mcap_error)?;
                 // A stream's messages own their data ('static); the type says 's.
                 #[allow(clippy::map_identity)]
                 let stream = stream.map(|m| -> mcap::McapResult<mcap::Message<'s>> { m });
@@ -178,7 +199,7 @@ impl Recording {
 
     /// The recorded snapshots that report a processed sample, in order.
     pub fn live_snapshots(&self) -> std::io::Result<impl Iterator<Item = std::io::Result<SnapshotJson>> + '_> {
-        let stream = mcap::MessageStream::new(&self.map).map_err(mcap_error)?;
+        let stream = mcap::MessageStream::new(self.bytes()).map_err(mcap_error)?;
         Ok(until_cut(stream, &self.cut_off).filter_map(|m| {
             let m = match m {
                 Ok(m) => m,
@@ -263,17 +284,28 @@ pub struct ComparisonReport {
     pub replay_only: u64,
     /// Live snapshots with an input left when the replay ended.
     pub live_only: u64,
+    /// The recording was cut off (or damaged): its samples and its snapshots
+    /// end at different points, so what only one of them has is not compared.
+    pub cut: bool,
 }
 
 impl ComparisonReport {
-    /// Whether the replay equals the live run everywhere.
+    /// Whether the replay equals the live run everywhere both have.
     pub fn equal(&self) -> bool {
-        self.differing == 0 && self.replay_only == 0 && self.live_only == 0
+        self.differing == 0 && (self.cut || (self.replay_only == 0 && self.live_only == 0))
     }
 }
 
 impl std::fmt::Display for ComparisonReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.equal() && self.cut {
+            return writeln!(
+                f,
+                "live snapshots: {} compared, all equal bit for bit (x, P, NIS, counters); the recording was cut, so \
+                 {} processed in the replay only and {} live only were not compared",
+                self.compared, self.replay_only, self.live_only
+            );
+        }
         if self.equal() {
             return writeln!(
                 f,
@@ -499,6 +531,8 @@ pub fn replay_recording(
         }
         let mut comparison = LiveComparison::new(recording.live_snapshots()?);
         let summary = replay_items(config, samples, output, smooth, &mut comparison)?;
-        Ok((summary, Some(comparison.finish()?)))
+        let mut report = comparison.finish()?;
+        report.cut = recording.was_cut_off() || recording.damage().is_some();
+        Ok((summary, Some(report)))
     })
 }

@@ -137,9 +137,19 @@ fn from_recording(path: &Path) -> anyhow::Result<Data> {
     let mut gated_fixes = HashMap::new();
     let mut previous_gated: HashMap<(String, u32), u64> = HashMap::new();
     let mut datum = None;
-    for (messages, m) in mcap::MessageStream::new(&bytes)?.enumerate() {
+    // A damaged chunk is never handed to the mcap reader (it would believe
+    // the sizes it declares): the report shows what comes before it.
+    let scan = fusion_shared::mcap_scan::scan(&bytes);
+    for (messages, m) in mcap::MessageStream::new(&bytes[..scan.readable])?.enumerate() {
         let m = match m {
             Ok(m) => m,
+            Err(mcap::McapError::UnexpectedEof) if let Some(damage) = &scan.damage => {
+                eprintln!(
+                    "fusionctl: {} is {damage}: the report shows the {messages} messages before it",
+                    path.display()
+                );
+                break;
+            }
             // Cut off by the end of the file (the recorder was killed or lost
             // its power): what its complete chunks hold is the report.
             Err(mcap::McapError::UnexpectedEof) => {
