@@ -9,18 +9,52 @@ use fusion_shared::{
 use super::{Failure, FusionPublisher, FusionStatus, guard, null};
 use crate::SamplePublisher;
 
-/// Every value of the payload of `sample` (the fields after the header, all
-/// `f64` in every kind: checked in the tests) is finite.
+/// The words (8 bytes each, after the header) of a payload that hold integers
+/// rather than an `f64`: geodetic's fix type and satellites, pose's reset
+/// counter. Every other word is an `f64` (checked in the tests).
+pub(super) fn integer_words(kind: fusion_shared::SampleKind) -> &'static [usize] {
+    use fusion_shared::SampleHeader;
+    use std::mem::{offset_of, size_of};
+    const GEODETIC: [usize; 1] = [(offset_of!(GeodeticSample, fix_type) - size_of::<SampleHeader>()) / 8];
+    const POSE: [usize; 1] = [(offset_of!(PoseSample, reset_counter) - size_of::<SampleHeader>()) / 8];
+    match kind {
+        fusion_shared::SampleKind::Geodetic => &GEODETIC,
+        fusion_shared::SampleKind::Pose => &POSE,
+        _ => &[],
+    }
+}
+
+/// Every `f64` of the payload of `sample` (the words after the header that
+/// [`integer_words`] does not name) is finite.
 pub(super) fn payload_is_finite<T: WireSample>(sample: &T) -> bool {
     let header = std::mem::size_of::<fusion_shared::SampleHeader>();
     let values = (std::mem::size_of::<T>() - header) / 8;
     let base = (sample as *const T).cast::<u8>();
-    (0..values).all(|i| {
+    let integers = integer_words(T::KIND);
+    (0..values).filter(|i| !integers.contains(i)).all(|i| {
         // SAFETY: within `sample`, which is `#[repr(C)]` with its f64 fields
         // right after the header (8-byte aligned); read unaligned all the same.
         let v = unsafe { base.add(header + 8 * i).cast::<f64>().read_unaligned() };
         v.is_finite()
     })
+}
+
+/// Why the integers of `sample` are out of their range, if they are.
+pub(super) fn integers_out_of_range<T: WireSample>(sample: &T) -> Option<String> {
+    use fusion_shared::{Sample, fix};
+    match sample.into_sample() {
+        Sample::Geodetic(g) if g.fix_type as usize >= fix::COUNT => Some(format!(
+            "geodetic sample with fix type {}, which is no fix type code (0 to {})",
+            g.fix_type,
+            fix::COUNT - 1
+        )),
+        Sample::Geodetic(g) if !(0..=fix::MAX_SATELLITES).contains(&g.satellites) => Some(format!(
+            "geodetic sample with {} satellites (0 to {}; 0: not reported)",
+            g.satellites,
+            fix::MAX_SATELLITES
+        )),
+        _ => None,
+    }
 }
 
 /// Publishes `sample` as this publisher's next: the header's `t_ns` is the
@@ -50,6 +84,9 @@ unsafe fn publish<T: WireSample>(
                 FusionStatus::FusionErrorInvalidArgument,
                 format!("{} sample with a NaN or infinite value", T::KIND.name()),
             ));
+        }
+        if let Some(why) = integers_out_of_range(&sample) {
+            return Err(Failure(FusionStatus::FusionErrorInvalidArgument, why));
         }
         let n = typed.publish_next(sample)?;
         // SAFETY: null or writable, by the caller's contract.

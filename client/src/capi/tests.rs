@@ -1,10 +1,12 @@
 use fusion_shared::{KindVisitor, SampleKind};
 
-use super::publish::payload_is_finite;
+use super::publish::{integer_words, integers_out_of_range, payload_is_finite};
 use super::*;
 
 /// What `payload_is_finite` relies on: every kind's payload is f64s right
-/// after the header; a NaN in any of them is seen.
+/// after the header, but for the integer words it names; a NaN in any f64 is
+/// seen, and the integer words are no f64 (every bit pattern of them passes
+/// the float check).
 #[test]
 fn every_payload_value_is_checked() {
     struct Check;
@@ -16,6 +18,13 @@ fn every_payload_value_is_checked() {
             assert!(payload_is_finite(&good), "{:?}", T::KIND);
             for i in 0..(std::mem::size_of::<T>() - header) / 8 {
                 let mut bad = good;
+                if integer_words(T::KIND).contains(&i) {
+                    // SAFETY: slot `i` of the payload, as in `payload_is_finite`.
+                    unsafe { (&mut bad as *mut T).cast::<u8>().add(header + 8 * i).cast::<u64>().write_unaligned(!0) };
+                    assert!(payload_is_finite(&bad), "{:?} integer slot {i}", T::KIND);
+                    assert_ne!(format!("{bad:?}"), format!("{good:?}"), "{:?} slot {i}", T::KIND);
+                    continue;
+                }
                 // SAFETY: slot `i` of the payload, as in `payload_is_finite`.
                 unsafe {
                     (&mut bad as *mut T).cast::<u8>().add(header + 8 * i).cast::<f64>().write_unaligned(f64::NAN)
@@ -27,6 +36,22 @@ fn every_payload_value_is_checked() {
         }
     }
     SampleKind::visit_all(&mut Check);
+}
+
+/// A geodetic fix's integers are checked as integers, each with its own
+/// reason (reading them as an f64 had called −1 satellites a NaN).
+#[test]
+fn integers_are_checked_as_integers() {
+    let fix = fusion_shared::GeodeticSample::default();
+    assert!(payload_is_finite(&fix.with_quality(3, -1, 0.8, 1.2)));
+    let why = integers_out_of_range(&fix.with_quality(3, -1, 0.8, 1.2)).unwrap();
+    assert!(why.contains("-1 satellites"), "{why}");
+    let why = integers_out_of_range(&fix.with_quality(99, 9, 0.8, 1.2)).unwrap();
+    assert!(why.contains("fix type 99"), "{why}");
+    assert_eq!(integers_out_of_range(&fix.with_quality(3, 9, 0.8, 1.2)), None);
+    // A pose's reset counter is any u32.
+    let pose = fusion_shared::PoseSample { reset_counter: u32::MAX, ..Default::default() };
+    assert!(payload_is_finite(&pose) && integers_out_of_range(&pose).is_none());
 }
 
 #[test]
