@@ -120,7 +120,7 @@ fn run<M: Steps>(model: M, config: &Config, n: u64, time: bool, instant: impl Fn
         // idle time settles what is pending.
         if prev_was_imu && !(imu && last_imu_t == Some(t)) {
             while engine.settle_step() {}
-            engine.take_first_outcomes(|slot, outcome| health.record(slot, outcome));
+            engine.take_first_outcomes(|slot, outcome, exact| health.record(slot, outcome, exact));
         }
         let start = std::time::Instant::now();
         handle(&mut engine, &mut health, black_box(&mut chunk), sample, t + 500);
@@ -172,14 +172,14 @@ fn handle<M: Steps>(
     let replayed = match engine.insert_deferred(sample, Some(received_ns), &mut |_| {}) {
         Insert::Processed { replayed, outcome } => {
             if let Some(slot) = engine.slot_of(sample.kind(), sample.sensor()) {
-                health.record(slot, &outcome);
+                health.record(slot, &outcome, fusion_daemon::measurement::exact(sample));
             }
             replayed
         }
         Insert::Placed { replayed } => replayed,
         _ => return,
     };
-    engine.take_first_outcomes(|slot, outcome| health.record(slot, outcome));
+    engine.take_first_outcomes(|slot, outcome, exact| health.record(slot, outcome, exact));
     let initialised = engine.latest().is_some_and(|e| M::initialised(&e.state));
     let reinitialisations = engine.latest().map_or(0, |e| M::reinitialisations(&e.state));
     let now = health.evaluate(engine.sensors(), received_ns, initialised, reinitialisations);

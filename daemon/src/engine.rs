@@ -33,7 +33,7 @@ mod stats;
 
 pub use stats::EngineStats;
 
-use crate::measurement::Steps;
+use crate::measurement::{self, Steps};
 use crate::model::StepOutcome;
 use crate::reorder::{Placement, Sample, SampleKey, key_of, place};
 use crate::sensor_table::{Refusal, SensorRow, SensorStats, SensorTable, TableLimits};
@@ -137,7 +137,7 @@ pub struct Engine<M: Steps> {
     stale_from: Option<usize>,
     /// Sensor slot and outcome of late samples processed for the first time,
     /// the first `first_len` of them, until the caller takes them.
-    first_outcomes: [(u16, StepOutcome); FIRST_OUTCOMES],
+    first_outcomes: [(u16, StepOutcome, bool); FIRST_OUTCOMES],
     first_len: usize,
     /// While entries are stale: the time of the oldest late sample placed since
     /// the history was last settled.
@@ -176,7 +176,7 @@ impl<M: Steps> Engine<M> {
             history,
             initial,
             stale_from: None,
-            first_outcomes: [(0, StepOutcome::Propagated); FIRST_OUTCOMES],
+            first_outcomes: [(0, StepOutcome::Propagated, false); FIRST_OUTCOMES],
             first_len: 0,
             pending_since_t: None,
             newest_t: None,
@@ -418,11 +418,12 @@ impl<M: Steps> Engine<M> {
     /// Hands the sensor slot and outcome of every late sample processed for the
     /// first time since the last call (by [`settle_step`](Self::settle_step), or
     /// because it was about to leave the history) to `f`, in the order they were
-    /// processed: what [`Insert::Processed`] says of an in-order sample. At most
+    /// processed: what [`Insert::Processed`] says of an in-order sample; and
+    /// whether the sample is an exact reading ([`measurement::exact`]). At most
     /// [`FIRST_OUTCOMES`] are kept between calls.
-    pub fn take_first_outcomes(&mut self, mut f: impl FnMut(usize, &StepOutcome)) {
-        for (slot, outcome) in &self.first_outcomes[..self.first_len] {
-            f(usize::from(*slot), outcome);
+    pub fn take_first_outcomes(&mut self, mut f: impl FnMut(usize, &StepOutcome, bool)) {
+        for (slot, outcome, exact) in &self.first_outcomes[..self.first_len] {
+            f(usize::from(*slot), outcome, *exact);
         }
         self.first_len = 0;
     }
@@ -483,7 +484,7 @@ impl<M: Steps> Engine<M> {
             count_outcome(&mut sensor.stats, &outcome, 1);
             sensor.last_nis = outcome.nis().or(sensor.last_nis);
             if let Some(place) = self.first_outcomes.get_mut(self.first_len) {
-                *place = (entry_slot, outcome);
+                *place = (entry_slot, outcome, measurement::exact(&entry.sample));
                 self.first_len += 1;
             }
         } else if old != outcome {

@@ -234,9 +234,14 @@ impl HealthMonitor {
         self.bands[m.min(MAX_INNOVATION_DIM)][k.min(MAX_NIS_WINDOW)]
     }
 
-    /// Records the outcome of a processed measurement of sensor slot `slot`.
-    pub fn record(&mut self, slot: usize, outcome: &StepOutcome) {
+    /// Records the outcome of a processed measurement of sensor slot `slot`;
+    /// `exact`: the sample is a reading without noise ([`measurement::exact`]).
+    pub fn record(&mut self, slot: usize, outcome: &StepOutcome, exact: bool) {
         let value = match outcome {
+            // An exact reading (wheels that stand) has an NIS far below its
+            // χ² band by nature: its noise is not the configured one. It says
+            // nothing of the filter's consistency (a stop would read as a fault).
+            StepOutcome::Fused { .. } if exact => return,
             StepOutcome::Fused { nis } => Some(*nis),
             StepOutcome::Gated { .. } => None,
             // Not a test of the filter's consistency: the model could not use
@@ -404,21 +409,38 @@ mod tests {
         // Out of the band from the first full window on: flagged after a
         // window more (persistently).
         for i in 0..19 {
-            h.record(1, &StepOutcome::Fused { nis: 9.0 });
+            h.record(1, &StepOutcome::Fused { nis: 9.0 }, false);
             let flagged = h.evaluate(e.sensors(), 0, true, 0).reasons == health::NIS_OUT_OF_BOUNDS;
             assert_eq!(flagged, i >= 18, "after {} measurements", i + 1);
         }
         assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::DEGRADED, health::NIS_OUT_OF_BOUNDS));
         for _ in 0..10 {
-            h.record(1, &StepOutcome::Fused { nis: 3.0 });
+            h.record(1, &StepOutcome::Fused { nis: 3.0 }, false);
         }
         assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::OK, 0));
         for _ in 0..20 {
-            h.record(1, &StepOutcome::Fused { nis: 0.05 });
+            h.record(1, &StepOutcome::Fused { nis: 0.05 }, false);
         }
         assert_eq!(h.evaluate(e.sensors(), 0, true, 0).reasons, health::NIS_OUT_OF_BOUNDS, "far too pessimistic");
         // IMU steps carry no NIS and change nothing.
-        h.record(0, &StepOutcome::Propagated);
+        h.record(0, &StepOutcome::Propagated, false);
+    }
+
+    /// Wheels that stand read exactly 0: far below the band, and no fault
+    /// (a car at a traffic light read `degraded` for its whole stop).
+    #[test]
+    fn exact_readings_are_no_evidence_of_a_pessimistic_filter() {
+        let mut h = HealthMonitor::new(HealthConfig { nis_window: 10, ..Default::default() });
+        let e = fix_engine();
+        for _ in 0..10 {
+            h.record(1, &StepOutcome::Fused { nis: 3.0 }, false);
+        }
+        for _ in 0..50 {
+            h.record(1, &StepOutcome::Fused { nis: 1e-6 }, true);
+        }
+        assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::OK, 0));
+        let wheels = |speed_mps| Sample::Odometry(fusion_shared::OdometrySample::new(0, 0, 0, speed_mps, 0.01));
+        assert!(measurement::exact(&wheels(0.0)) && !measurement::exact(&wheels(0.01)));
     }
 
     /// A cluster of large but normal values (the χ² tail, values just inside
@@ -432,7 +454,7 @@ mod tests {
         let mut out = 0;
         let values = [3.0; 10].into_iter().chain([12.0; 4]).chain([3.0; 12]);
         for nis in values {
-            h.record(1, &StepOutcome::Fused { nis });
+            h.record(1, &StepOutcome::Fused { nis }, false);
             assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::OK, 0));
             let w = &h.windows[1];
             out += usize::from(w.sum > hi);
@@ -447,7 +469,7 @@ mod tests {
         let mut h = HealthMonitor::new(HealthConfig { nis_window: 10, ..Default::default() });
         let e = fix_engine();
         for _ in 0..30 {
-            h.record(1, &StepOutcome::Refused);
+            h.record(1, &StepOutcome::Refused, false);
             assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::OK, 0));
         }
     }
@@ -458,11 +480,11 @@ mod tests {
         let e = fix_engine();
         for i in 0..10 {
             let o = if i == 4 { StepOutcome::Gated { nis: 3000.0 } } else { StepOutcome::Fused { nis: 3.0 } };
-            h.record(1, &o);
+            h.record(1, &o, false);
         }
         assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::OK, 0));
         for _ in 0..15 {
-            h.record(1, &StepOutcome::Gated { nis: 50.0 });
+            h.record(1, &StepOutcome::Gated { nis: 50.0 }, false);
         }
         assert_eq!(h.evaluate(e.sensors(), 0, true, 0).reasons, health::NIS_OUT_OF_BOUNDS, "most fixes gated");
     }

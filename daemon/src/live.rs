@@ -40,7 +40,7 @@ use hdrhistogram::Histogram;
 
 use crate::engine::{Engine, Insert};
 use crate::health::{HealthConfig, HealthMonitor, HealthNow};
-use crate::measurement::Steps;
+use crate::measurement::{self, Steps};
 use crate::snapshot::{self, Input};
 use crate::summary::{Rejections, Summary};
 use refusals::RefusalWarnings;
@@ -221,7 +221,7 @@ impl<M: Steps> LiveCore<M> {
         let replayed = match self.engine.insert_deferred(&sample, Some(received_ns), &mut |_| {}) {
             Insert::Processed { replayed, outcome } => {
                 if let Some(slot) = self.engine.slot_of(sample.kind(), sample.sensor()) {
-                    self.health.record(slot, &outcome);
+                    self.health.record(slot, &outcome, measurement::exact(&sample));
                 }
                 replayed
             }
@@ -397,7 +397,7 @@ impl<M: Steps> LiveCore<M> {
     /// health (their NIS), as an in-order sample's is at once.
     fn record_first_outcomes(&mut self) {
         let health = &mut self.health;
-        self.engine.take_first_outcomes(|slot, outcome| health.record(slot, outcome));
+        self.engine.take_first_outcomes(|slot, outcome, exact| health.record(slot, outcome, exact));
     }
 
     /// A correction landed: the health of the settled estimate, and a snapshot of it.

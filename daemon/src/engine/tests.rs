@@ -507,7 +507,7 @@ fn a_late_fix_leaves_the_samples_behind_it_stale_until_settled() {
     assert_eq!(e.stats().settled_inline, 0, "nothing re-stepped on the way");
     assert!(e.settle_step());
     let mut first = Vec::new();
-    e.take_first_outcomes(|slot, o| first.push((slot, *o)));
+    e.take_first_outcomes(|slot, o, _| first.push((slot, *o)));
     assert!(matches!(first[..], [(1, StepOutcome::Fused { .. })]), "{first:?}");
     assert_eq!(e.sensors()[1].stats.fused, 1);
     assert_eq!(
@@ -521,7 +521,7 @@ fn a_late_fix_leaves_the_samples_behind_it_stale_until_settled() {
         calls += 1;
     }
     assert_eq!((calls + 1, e.stats().background_steps, e.correction()), (31, 32, None));
-    e.take_first_outcomes(|_, _| panic!("taken already"));
+    e.take_first_outcomes(|_, _, _| panic!("taken already"));
     // Now exactly what settling at once gives.
     let mut reference = engine(None);
     for i in 0..100 {
@@ -559,7 +559,7 @@ fn late_samples_in_every_position_of_a_pending_rewind_give_the_settled_estimate(
     assert_eq!(e.stats().background_steps, 24);
     assert!(e.stats().settled_inline > 0, "the flush settled the last rewind");
     let mut first = 0;
-    e.take_first_outcomes(|_, _| first += 1);
+    e.take_first_outcomes(|_, _, _| first += 1);
     assert_eq!(first, 5, "each late fix's outcome, once");
     assert_eq!(e.sensors()[0].stats.duplicate, 1);
     assert_eq!(e.sensors()[1].stats.late, 5);

@@ -198,6 +198,13 @@ fusion_shared::for_each_sample_kind!(registry);
 /// The largest innovation dimension of any kind (the health's NIS bands).
 pub const MAX_INNOVATION_DIM: usize = 6;
 
+/// Whether `sample` is an exact reading, without the noise its variance says:
+/// wheels that stand (an encoder that counts no tick reads exactly 0). Fused as
+/// any other; the health leaves it out of the NIS test.
+pub fn exact(sample: &Sample) -> bool {
+    matches!(sample, Sample::Odometry(o) if o.speed_mps == 0.0)
+}
+
 const _: () = {
     let mut i = 0;
     while i < SampleKind::COUNT {

@@ -423,7 +423,7 @@ impl<I: Iterator<Item = std::io::Result<SnapshotJson>>> ReplayCheck for LiveComp
         while engine.stats().background_steps < live.background_steps && engine.settle_step() {}
         // The late samples' outcomes are in the counters compared; the health
         // they feed live is not.
-        engine.take_first_outcomes(|_, _| {});
+        engine.take_first_outcomes(|_, _, _| {});
     }
 
     fn processed<M: Steps>(&mut self, engine: &Engine<M>, sample: &Sample, received_ns: Option<u64>, replayed: usize) {
