@@ -277,7 +277,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         .map_err(say_why)?;
                 bar.finish_and_clear();
                 eprint!("{summary}");
-                if let Some(damage) = recording.damage() {
+                if recording.damage().is_some() {
                     eprintln!(
                         "replay: replayed what comes before the damage ({} samples) of {}",
                         summary.read,

@@ -233,12 +233,32 @@ fn a_recorded_live_run_replays_bit_for_bit_and_a_changed_one_says_where() {
     let fixes = samples.iter().filter(|s| s.kind() == SampleKind::Position).count() as u64;
     let plotted = points["trajectory.fixes"].as_u64().unwrap() + points["trajectory.gated"].as_u64().unwrap();
     assert_eq!(plotted, fixes, "{points}");
-    // The crosses are the fixes whose own snapshot shows their sensor's gated
-    // count going up. A late fix is judged when its rewind is worked in, after its
-    // snapshot, so its cross can be missing (the count then goes up in a later
-    // snapshot): at most the late fixes' crosses are missing, none is extra.
+    // A late fix is judged when its rewind is worked in, after its own
+    // snapshot: its cross is drawn from the snapshot where its sensor's gated
+    // count goes up, on that fix (not on the next one): every gated fix has its cross.
     let crosses = points["trajectory.gated"].as_u64().unwrap();
-    assert!(crosses <= count("gated") && crosses + count("late") >= count("gated"), "{points}\n{stderr}");
+    assert_eq!(crosses, count("gated"), "{points}\n{stderr}");
+    // On the right fixes: those gated when the samples are fused in time
+    // order (a replay of them sorted: the same estimates, as the rewinds are exact).
+    let mut sorted = samples.clone();
+    sorted.sort_by_key(|s| (s.t_ns(), s.kind(), s.sensor(), s.seq()));
+    let text: String = sorted.iter().map(|s| fusion_shared::jsonl::format_sample(s) + "\n").collect();
+    std::fs::write(dir.path().join("sorted.jsonl"), text).unwrap();
+    let (lines, _) = common::run_replay(dir.path(), &config(0.3), &dir.path().join("sorted.jsonl"), false);
+    let gated_seqs: Vec<u64> =
+        lines.iter().filter(|l| l.kind == "position" && l.accepted == Some(false)).map(|l| l.seq).collect();
+    assert_eq!(gated_seqs.len() as u64, count("gated"));
+    let mut expected: Vec<[f64; 2]> = sorted
+        .iter()
+        .filter_map(|s| match s {
+            Sample::Position(p) if gated_seqs.contains(&p.header.seq) => Some([p.pos_m[0], p.pos_m[1]]),
+            _ => None,
+        })
+        .collect();
+    let mut drawn: Vec<[f64; 2]> = serde_json::from_value(json["gated_fixes"].clone()).unwrap();
+    expected.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    drawn.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    assert_eq!(drawn, expected, "the crosses are on the gated fixes");
     assert!(points["latency.samples"].as_u64().unwrap() > 0, "{points}");
     assert!(report.join("latency.png").exists());
 }

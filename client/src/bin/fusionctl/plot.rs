@@ -15,7 +15,8 @@
 //!
 //! Times are seconds since the first estimate; each page's title gives that start
 //! (CLOCK_MONOTONIC) and says whether the estimates are RTS-smoothed.
-//! `report.json` lists the files and how many points each series has.
+//! `report.json` lists the files, how many points each series has, and where
+//! the gated fixes are (east, north).
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -128,6 +129,68 @@ fn sample_key(s: &Sample) -> (SampleKind, u32, u64) {
     (s.kind(), s.sensor(), s.seq())
 }
 
+/// A measurement sample waiting for its outcome.
+#[derive(Debug, Clone, Copy)]
+struct Pending {
+    sensor: u32,
+    seq: u64,
+    t_ns: u64,
+}
+
+/// Each measurement's outcome (fused or gated, its NIS) from the snapshots'
+/// counters. An in-order sample's outcome is in its own snapshot; a late one's
+/// comes with a later snapshot, when the daemon has worked its rewind in (the
+/// sensor's fused or gated count goes up then), in the order the late samples
+/// of the sensor came.
+#[derive(Debug, Default)]
+struct Outcomes {
+    /// Per sensor: its fused and gated counts in the last snapshot.
+    counts: HashMap<(String, u32), (u64, u64)>,
+    /// Per sensor: its late samples without an outcome yet, oldest first.
+    waiting: HashMap<(String, u32), std::collections::VecDeque<Pending>>,
+}
+
+impl Outcomes {
+    /// Takes in a snapshot with an input, calling `f(kind, sample, gated, nis)`
+    /// for each measurement whose outcome it shows.
+    fn snapshot(&mut self, s: &SnapshotJson, mut f: impl FnMut(SampleKind, Pending, bool, Option<f64>)) {
+        let input = &s.input;
+        let in_order = input.kind == s.kind && input.sensor == s.sensor && input.seq == s.seq;
+        let measurement = kind_of(&input.kind).filter(|k| *k != SampleKind::Imu);
+        let pending = Pending { sensor: input.sensor, seq: input.seq, t_ns: input.t_ns };
+        if measurement.is_some() && !in_order {
+            self.waiting.entry((input.kind.clone(), input.sensor)).or_default().push_back(pending);
+        }
+        for c in &s.counters {
+            let Some(kind) = kind_of(&c.kind).filter(|k| *k != SampleKind::Imu) else { continue };
+            let key = (c.kind.clone(), c.sensor);
+            let (fused, gated) = self.counts.insert(key.clone(), (c.fused, c.gated)).unwrap_or((0, 0));
+            // New outcomes in this snapshot: (fused, gated).
+            let mut new = (c.fused.saturating_sub(fused), c.gated.saturating_sub(gated));
+            let mut outcome = |new: &mut (u64, u64), fix: Pending, nis| {
+                let gated = new.1 > 0;
+                if gated {
+                    new.1 -= 1;
+                } else {
+                    new.0 = new.0.saturating_sub(1);
+                }
+                f(kind, fix, gated, nis);
+            };
+            if in_order && c.kind == input.kind && c.sensor == input.sensor && new.0 + new.1 > 0 {
+                outcome(&mut new, pending, c.last_nis);
+            }
+            let Some(waiting) = self.waiting.get_mut(&key) else { continue };
+            while new.0 + new.1 > 0 {
+                let Some(fix) = waiting.pop_front() else { break };
+                // The sensor's last NIS is the newest one's: several outcomes
+                // in one snapshot leave the older ones without a NIS point.
+                let last = new.0 + new.1 == 1;
+                outcome(&mut new, fix, if last { c.last_nis } else { None });
+            }
+        }
+    }
+}
+
 /// Reads an MCAP recording: snapshots for the estimate, NIS and latency; the
 /// sample messages for the fixes.
 fn from_recording(path: &Path) -> anyhow::Result<Data> {
@@ -135,7 +198,7 @@ fn from_recording(path: &Path) -> anyhow::Result<Data> {
     let mut data = Data::default();
     let mut samples = Vec::new();
     let mut gated_fixes = HashMap::new();
-    let mut previous_gated: HashMap<(String, u32), u64> = HashMap::new();
+    let mut outcomes = Outcomes::default();
     let mut datum = None;
     // A damaged chunk is never handed to the mcap reader (it would believe
     // the sizes it declares): the report shows what comes before it.
@@ -182,19 +245,14 @@ fn from_recording(path: &Path) -> anyhow::Result<Data> {
         if s.input.replayed == 0 && s.input.sent_ns > 0 && s.publish_ns > s.input.sent_ns {
             data.latency_us.push((s.publish_ns - s.input.sent_ns) as f64 * 1e-3);
         }
-        // The input's NIS is its sensor's last NIS; it was gated if the
-        // sensor's gated count went up.
-        let Some(kind) = kind_of(&s.input.kind).filter(|k| *k != SampleKind::Imu) else { continue };
-        let Some(c) = s.counters.iter().find(|c| c.kind == s.input.kind && c.sensor == s.input.sensor) else {
-            continue;
-        };
-        let before = previous_gated.insert((c.kind.clone(), c.sensor), c.gated).unwrap_or(0);
-        let gated = c.gated > before;
-        gated_fixes.insert((kind, s.input.sensor, s.input.seq), gated);
-        if let Some(value) = c.last_nis {
-            let series = data.nis.entry(format!("{} {}", c.kind, c.sensor)).or_insert((dimension(kind), Vec::new()));
-            series.1.push(Nis { t: s.input.t_ns as f64 * 1e-9, value, gated });
-        }
+        outcomes.snapshot(&s, |kind, fix, gated, nis| {
+            gated_fixes.insert((kind, fix.sensor, fix.seq), gated);
+            if let Some(value) = nis {
+                let series =
+                    data.nis.entry(format!("{} {}", kind.name(), fix.sensor)).or_insert((dimension(kind), Vec::new()));
+                series.1.push(Nis { t: fix.t_ns as f64 * 1e-9, value, gated });
+            }
+        });
     }
     for s in &samples {
         if let Some((east, north)) = fix_of(s, datum) {
@@ -396,6 +454,7 @@ pub fn run(input: &Path, samples: Option<&Path>, truth: Option<&Path>, dir: &Pat
         "smoothed": data.smoothed,
         "points": counts.0,
         "scales": counts.1,
+        "gated_fixes": data.fixes.iter().filter(|f| f.gated).map(|f| [f.east, f.north]).collect::<Vec<_>>(),
     });
     std::fs::write(&report, serde_json::to_string_pretty(&json)?)?;
     files.push(report);
