@@ -45,3 +45,22 @@ fn every_sensor_kind_has_its_section() {
         );
     }
 }
+
+/// The README's and the clients page's Rust snippets are the same, and they
+/// publish in the example namespace with an IMU id of their own: a reader who
+/// runs them beside a vehicle's fusiond (namespace `fusion`, IMU 0) must not
+/// feed its filter.
+#[test]
+fn the_readme_snippet_does_not_publish_into_a_vehicle() {
+    let readme = std::fs::read_to_string(docs().join("../README.md")).unwrap();
+    let clients = std::fs::read_to_string(docs().join("clients.md")).unwrap();
+    let snippet = |text: &str| -> String {
+        let start = text.find("```rust\n").expect("a Rust snippet");
+        let end = start + text[start..].find("\n```\n").unwrap();
+        text[start..end].to_string()
+    };
+    let readme = snippet(&readme);
+    assert_eq!(readme, snippet(&clients), "the README's snippet is the clients page's");
+    assert!(readme.contains("Client::connect(\"fusion-example\")"), "{readme}");
+    assert!(!readme.contains("imu_publisher(0)"), "{readme}");
+}
