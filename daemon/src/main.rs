@@ -29,9 +29,10 @@ struct Cli {
 enum Command {
     /// Run the live daemon: fuse samples from iceoryx2 publishers, publish state snapshots.
     Run {
-        /// Configuration file (TOML); see `fusiond print-config`.
+        /// Configuration file (TOML); see `fusiond print-config`. Without it,
+        /// the built-in defaults (what `fusiond print-config` prints).
         #[arg(long)]
-        config: PathBuf,
+        config: Option<PathBuf>,
         /// Namespace of the services (`<ns>/imu`, `<ns>/position`, `<ns>/state`, ...).
         #[arg(long, default_value = fusion_shared::service::DEFAULT_NAMESPACE,
               value_parser = fusion_shared::service::namespace_arg)]
@@ -211,8 +212,19 @@ fn replay_config(
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Run { config, namespace, wait, summary_interval, cpu, fault_stall_after } => {
-            let text = std::fs::read_to_string(&config).with_context(|| format!("cannot read {}", config.display()))?;
-            let config = Config::load(&config)?;
+            let (text, config) = match config {
+                Some(path) => {
+                    let text =
+                        std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
+                    (text, Config::load(&path)?)
+                }
+                None => {
+                    tracing::info!("no --config: running on the built-in defaults (`fusiond print-config` shows them)");
+                    let text = default_config_text();
+                    let config = Config::parse(&text).context("the built-in defaults")?;
+                    (text, config)
+                }
+            };
             let shutdown = Arc::new(AtomicBool::new(false));
             for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
                 signal_hook::flag::register(signal, Arc::clone(&shutdown)).context("cannot install signal handler")?;

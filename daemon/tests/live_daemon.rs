@@ -386,3 +386,32 @@ fn ins_live_gives_the_replay_estimates() {
     }
     assert!(daemon.terminate().success());
 }
+
+/// `fusiond run` without `--config` runs on the built-in defaults (what
+/// `print-config` shows), says so in one line, and fuses what it is given.
+#[test]
+fn without_a_config_fusiond_runs_on_the_defaults() {
+    let domain = TestDomain::new("defaults");
+    let mut daemon = Daemon::start_on_defaults(&domain);
+    let stderr = daemon.stderr();
+    assert_eq!(stderr.matches("running on the built-in defaults").count(), 1, "{stderr}");
+    let client = domain.client();
+    let mut reader = client.state_subscriber().unwrap();
+    let mut imu = client.imu_publisher(0).unwrap();
+    let t = fusion_shared::now_ns();
+    imu.publish(t, [0.0, 0.0, 9.81], [0.0; 3]).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        if let Some(s) = reader.latest().unwrap()
+            && s.sensor_counters().iter().any(|c| c.counts.processed == 1)
+        {
+            break;
+        }
+        assert!(Instant::now() < deadline, "no snapshot of the sample: {}", daemon.stderr());
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    drop((reader, imu, client));
+    assert!(daemon.terminate().success());
+    drop(daemon);
+    assert!(domain.files().is_empty(), "{:?}", domain.files());
+}

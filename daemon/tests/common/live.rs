@@ -188,10 +188,20 @@ impl Daemon {
         let config =
             if config.contains("[validation]") { config.to_string() } else { format!("{config}\n{RECORDED_TIME}") };
         std::fs::write(&config_path, config).unwrap();
+        let mut with_config = vec![std::ffi::OsString::from("--config"), config_path.into_os_string()];
+        with_config.extend(args.iter().map(std::ffi::OsString::from));
+        Self::launch(domain, dir, &with_config, env)
+    }
+
+    /// `fusiond run` without a configuration file: on the built-in defaults.
+    pub fn start_on_defaults(domain: &TestDomain) -> Self {
+        Self::launch(domain, tempfile::tempdir().unwrap(), &[], &[])
+    }
+
+    fn launch(domain: &TestDomain, dir: tempfile::TempDir, args: &[std::ffi::OsString], env: &[(&str, &str)]) -> Self {
         let stderr = dir.path().join("stderr.log");
         let child = Command::new(fusiond())
-            .args(["run", "--namespace", &domain.namespace, "--config"])
-            .arg(&config_path)
+            .args(["run", "--namespace", &domain.namespace])
             .args(args)
             .env(DOMAIN_ENV, &domain.domain)
             .env("RUST_LOG", "info")
