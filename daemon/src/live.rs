@@ -41,9 +41,10 @@ use hdrhistogram::Histogram;
 use crate::engine::{Engine, Insert};
 use crate::health::{HealthConfig, HealthMonitor, HealthNow};
 use crate::measurement::{self, Steps};
+use crate::model::StepOutcome;
 use crate::snapshot::{self, Input};
 use crate::summary::{Rejections, Summary};
-use refusals::RefusalWarnings;
+use refusals::{ModelRefusalWarnings, RefusalWarnings};
 
 mod refusals;
 
@@ -151,6 +152,7 @@ pub struct LiveCore<M: Steps> {
     refusal_published_ns: u64,
     /// The sensors and reasons whose refusals were logged.
     refusal_warnings: RefusalWarnings,
+    model_refusals: ModelRefusalWarnings,
 }
 
 impl<M: Steps> LiveCore<M> {
@@ -174,6 +176,7 @@ impl<M: Steps> LiveCore<M> {
             refused: (0, 0),
             refusal_published_ns: 0,
             refusal_warnings: RefusalWarnings::default(),
+            model_refusals: ModelRefusalWarnings::default(),
         }
     }
 
@@ -222,6 +225,9 @@ impl<M: Steps> LiveCore<M> {
             Insert::Processed { replayed, outcome } => {
                 if let Some(slot) = self.engine.slot_of(sample.kind(), sample.sensor()) {
                     self.health.record(slot, &outcome, measurement::exact(&sample));
+                }
+                if outcome == StepOutcome::Refused {
+                    self.model_refusals.warn(self.engine.model(), &sample);
                 }
                 replayed
             }

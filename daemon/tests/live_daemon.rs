@@ -415,3 +415,68 @@ fn without_a_config_fusiond_runs_on_the_defaults() {
     drop(daemon);
     assert!(domain.files().is_empty(), "{:?}", domain.files());
 }
+
+/// Samples the model refuses for good as configured are not refused in
+/// silence: one warning per sensor names the reason and the key to set
+/// (`linear` and a magnetometer; `ins` and a barometer or pose sensor without
+/// its `[[sensor]]` entry), and transient refusals are not warned about.
+#[test]
+fn lasting_refusals_are_warned_about_once_per_sensor() {
+    use fusion_shared::{BarometerSample, MagnetometerSample, PoseSample};
+    let mut cov = [0.0; 36];
+    (0..6).for_each(|i| cov[i * 7] = 0.01);
+    let field_cov = [0.1, 0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0, 0.1];
+    for (tag, config, expected) in [
+        (
+            "refused-linear",
+            common::linear_config(None),
+            vec![
+                "magnetometer 3: the linear model does not use",
+                "barometer 5: the linear model does not use",
+                "pose 6: the linear model does not use",
+            ],
+        ),
+        (
+            "refused-ins",
+            common::ins_config_at_truth(1),
+            vec![
+                "magnetometer 3: magnetometer 3 has no Earth field",
+                "barometer 5: no barometer 5 is configured",
+                "pose 6: no pose sensor 6 is configured",
+            ],
+        ),
+    ] {
+        let domain = TestDomain::new(tag);
+        let mut daemon = Daemon::start(&domain, &config, "event");
+        let client = domain.client();
+        let mut reader = client.state_subscriber().unwrap();
+        let mut magnetometer = client.publisher::<MagnetometerSample>(3).unwrap();
+        let mut barometer = client.publisher::<BarometerSample>(5).unwrap();
+        let mut pose = client.publisher::<PoseSample>(6).unwrap();
+        let t0 = fusion_shared::now_ns();
+        for i in 0..3u64 {
+            let t = t0 + i * 1_000_000;
+            magnetometer.publish_next(MagnetometerSample::new(t, 3, 0, [20.0, 0.0, -40.0], field_cov)).unwrap();
+            barometer.publish_next(BarometerSample::new(t, 5, 0, 95_000.0, 4.0)).unwrap();
+            pose.publish_next(PoseSample::new(t, 6, 0, [0.0; 3], [1.0, 0.0, 0.0, 0.0], cov, 0)).unwrap();
+        }
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while reader
+            .latest()
+            .unwrap()
+            .is_none_or(|s| s.sensor_counters().iter().map(|c| c.counts.received).sum::<u64>() < 9)
+        {
+            assert!(Instant::now() < deadline, "{}", daemon.stderr());
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        drop((reader, magnetometer, barometer, pose, client));
+        assert!(daemon.terminate().success());
+        let stderr = daemon.stderr();
+        for what in &expected {
+            assert_eq!(stderr.matches(&format!("refusing every sample of {what}")).count(), 1, "{what}\n{stderr}");
+        }
+        assert_eq!(stderr.matches("refusing every sample of").count(), expected.len(), "{stderr}");
+        drop(daemon);
+        assert!(domain.files().is_empty(), "{:?}", domain.files());
+    }
+}

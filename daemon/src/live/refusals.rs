@@ -1,14 +1,17 @@
-//! One warning per sensor and reason when samples are refused in validation:
-//! the first refusal of each pair is logged with what to change; the rest are
-//! counted (snapshot, summary line, `fusionctl state`), never logged per sample.
+//! One warning per sensor and reason when samples are refused in validation,
+//! and one per sensor whose samples the model refuses for good as configured
+//! (a kind it does not use, a barometer or pose sensor without its entry): the
+//! first refusal is logged with what to change; the rest are counted
+//! (snapshot, summary line, `fusionctl state`), never logged per sample.
 //!
 //! Bounded: the pairs already warned about are kept for [`TRACKED`] sensors
 //! (those with a row and those without, as a flood of garbage ids has none);
 //! beyond that, one warning per reason for all the others.
 
-use fusion_shared::Sample;
 use fusion_shared::snapshot::rejection;
+use fusion_shared::{Sample, SampleKind};
 
+use crate::measurement::Steps;
 use crate::reorder::key_of;
 use crate::validate::Rejection;
 
@@ -69,6 +72,98 @@ impl RefusalWarnings {
             key.sensor,
             why.reason(),
             rejection::advice(why.code()),
+        );
+    }
+}
+
+/// Why the model refuses every sample of a sensor, as configured: a refusal
+/// that lasts, unlike one while the attitude is unknown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ConfigRefusal {
+    /// The model does not use this kind at all.
+    NotUsed,
+    /// A barometer without a `[[sensor]]` entry: it has no bias state.
+    NoBarometer,
+    /// A pose sensor without a `[[sensor]]` entry: it has no map frame.
+    NoPoseFrame,
+    /// A magnetometer without `[sensor.magnetic]`: no Earth field to compare with.
+    NoMagneticField,
+}
+
+impl ConfigRefusal {
+    /// Why `model` refuses `sample` for good, if it does (no allocation).
+    pub fn of<M: Steps>(model: &M, sample: &Sample) -> Option<Self> {
+        let (kind, sensor) = (sample.kind(), sample.sensor());
+        if !M::accepts(kind) {
+            return Some(Self::NotUsed);
+        }
+        let frames = model.frames();
+        match kind {
+            SampleKind::Barometer if frames.barometer(sensor).is_none() => Some(Self::NoBarometer),
+            SampleKind::Pose if frames.pose(sensor).is_none() => Some(Self::NoPoseFrame),
+            SampleKind::Magnetometer if frames.magnetic(sensor).is_none() => Some(Self::NoMagneticField),
+            _ => None,
+        }
+    }
+
+    /// The reason and what to set, for `kind` `sensor` under model `model`.
+    pub fn advice(self, model: &str, kind: SampleKind, sensor: u32) -> String {
+        let entry = format!("[[sensor]] kind = \"{}\", id = {sensor}", kind.name());
+        match self {
+            Self::NotUsed => format!(
+                "the {model} model does not use {} samples (see docs/sensor-kinds.md for the models that do)",
+                kind.name()
+            ),
+            Self::NoBarometer => {
+                format!("no barometer {sensor} is configured: its bias state is made at start-up for `{entry}`")
+            }
+            Self::NoPoseFrame => {
+                format!("no pose sensor {sensor} is configured: its map frame is made at start-up for `{entry}`")
+            }
+            Self::NoMagneticField => format!(
+                "magnetometer {sensor} has no Earth field to be compared with: set `[sensor.magnetic]` (declination_deg, \
+                 inclination_deg, strength_ut) in `{entry}`"
+            ),
+        }
+    }
+}
+
+/// One warning per sensor whose samples the model refuses for good
+/// ([`ConfigRefusal`]); bounded like [`RefusalWarnings`].
+#[derive(Debug, Clone)]
+pub struct ModelRefusalWarnings {
+    sensors: [(u32, u32); TRACKED],
+    len: usize,
+}
+
+impl Default for ModelRefusalWarnings {
+    fn default() -> Self {
+        Self { sensors: [(0, 0); TRACKED], len: 0 }
+    }
+}
+
+impl ModelRefusalWarnings {
+    /// Called with a sample `model` refused: logs the first lasting refusal of
+    /// its sensor with the reason and the key to set.
+    pub fn warn<M: Steps>(&mut self, model: &M, sample: &Sample) {
+        let pair = (sample.kind() as u32, sample.sensor());
+        if self.sensors[..self.len].contains(&pair) {
+            return;
+        }
+        let Some(why) = ConfigRefusal::of(model, sample) else { return };
+        if self.len < TRACKED {
+            self.sensors[self.len] = pair;
+            self.len += 1;
+        } else {
+            return;
+        }
+        let (kind, sensor) = (sample.kind(), sample.sensor());
+        tracing::warn!(
+            kind = kind.name(),
+            sensor,
+            "refusing every sample of {} {sensor}: {}; the refusals are counted (`fusionctl state`, the summary line)",
+            kind.name(),
+            why.advice(fusion_shared::snapshot::model::name(M::CODE), kind, sensor),
         );
     }
 }

@@ -72,6 +72,9 @@ pub trait Fuse<M: Model> {
 /// the sample through its kind's module ([`fuse`]). Every model whose state every
 /// kind can fuse into (`Fuse<M>` for each kind) has it.
 pub trait Steps: Model {
+    /// Whether this model can use `kind` at all ([`Fuse::ACCEPTS`]).
+    fn accepts(kind: SampleKind) -> bool;
+
     /// Processes one sample.
     fn step(&self, state: &mut Self::State, sample: &Sample) -> StepOutcome;
 
@@ -158,6 +161,10 @@ macro_rules! registry {
         where
             $(fusion_shared::$ty: Fuse<M>,)*
         {
+            fn accepts(kind: SampleKind) -> bool {
+                accepts::<M>(kind)
+            }
+
             fn step(&self, state: &mut M::State, sample: &Sample) -> StepOutcome {
                 self.propagate_to(state, sample.t_ns(), None);
                 fuse(sample, self, state).0
