@@ -144,7 +144,14 @@ impl Pacer {
     }
 
     /// Waits for the next tick.
+    ///
+    /// A sender that fell behind (descheduled under CPU load) skips the ticks
+    /// it missed instead of sending them back to back: samples stamped `now`
+    /// a few µs apart look like a sensor far above its rate, and fusiond's rate
+    /// limit (10 kHz, bursts of 100) rightly dropped them, so that their
+    /// snapshots never came ("no snapshot for IMU sample N" under load).
     pub fn wait(&mut self) {
+        self.next = next_tick(self.next, self.period_ns, now_ns());
         while now_ns() < self.next {
             if self.next.saturating_sub(now_ns()) > 200_000 {
                 std::thread::sleep(Duration::from_micros(100));
@@ -154,6 +161,12 @@ impl Pacer {
         }
         self.next += self.period_ns;
     }
+}
+
+/// The tick to wait for: `next`, or `now` when `now` is more than a period
+/// past it (the ticks missed are skipped). Ticks are never closer than a period.
+fn next_tick(next: u64, period_ns: u64, now: u64) -> u64 {
+    if now > next.saturating_add(period_ns) { now } else { next }
 }
 
 /// The next snapshot, busy-polling or sleeping on the event as `mode` says; an
@@ -682,4 +695,27 @@ pub fn throughput(
     }
     read(&mut state, &mut trial)?;
     Ok(trial)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// After a stall of 150 periods the ticks go on a period apart from the
+    /// end of the stall: no burst of the missed ones.
+    #[test]
+    fn a_stalled_pacer_skips_the_ticks_it_missed() {
+        let period = 1_000_000;
+        let mut next = 10 * period;
+        let mut now = next + 150 * period;
+        let mut ticks = Vec::new();
+        for _ in 0..20 {
+            next = next_tick(next, period, now);
+            now = now.max(next) + 30_000; // the round trip after the tick
+            ticks.push(next);
+            next += period;
+        }
+        assert!(ticks.windows(2).all(|w| w[1] - w[0] >= period), "{ticks:?}");
+        assert_eq!(ticks[0], 160 * period);
+    }
 }
