@@ -99,8 +99,14 @@ fn estimate_rows(s: &StateSnapshot) -> Vec<[String; 3]> {
         .into_iter()
         .zip(s.state())
         .map(|((name, k), v)| {
-            let sigma = k.and_then(|k| sd.get(k)).map_or(String::new(), |v| format!("{v:.4}"));
-            [name, format!("{v:.4}"), sigma]
+            let sigma = k.and_then(|k| sd.get(k));
+            // Gyroscope biases in deg/h, the unit of their data sheets (and of the plots).
+            if let Some(short) = name.strip_suffix("rad/s") {
+                let scale = 3600.0_f64.to_degrees();
+                let sigma = sigma.map_or(String::new(), |v| format!("{:.2}", v * scale));
+                return [format!("{short}deg/h"), format!("{:.2}", v * scale), sigma];
+            }
+            [name, format!("{v:.4}"), sigma.map_or(String::new(), |v| format!("{v:.4}"))]
         })
         .collect();
     if let (Some(rpy), Some(rpy_sd)) = (s.roll_pitch_yaw(), s.roll_pitch_yaw_std()) {
@@ -193,26 +199,44 @@ pub fn draw(frame: &mut Frame, view: &View) {
         &["sensor", "Hz", "recv", "fused", "gated", "refus", "late", "2late", "inval", "lost", "other", "NIS"]
     };
     let stale_rows: Vec<(u32, u32)> = s.stale_sensor_counters().map(|c| (c.kind, c.sensor)).collect();
-    let rows = s.sensor_counters().iter().map(|c| {
-        let n = &c.counts;
-        let rate = view.rates.get(&(c.kind, c.sensor)).map_or("-".into(), |r| format!("{r:.1}"));
-        let nis = if c.last_nis.is_finite() { format!("{:.2}", c.last_nis) } else { "-".into() };
-        let style =
-            if stale_rows.contains(&(c.kind, c.sensor)) { Style::default().fg(Color::Red) } else { Style::default() };
-        let name = format!("{} {}", crate::kind_name(c.kind), c.sensor);
-        let [received, fused, gated, refused, late, too_late, invalid, lost] =
-            [n.received, n.fused, n.gated, n.refused, n.late, n.too_late, n.invalid, n.lost].map(|v| v.to_string());
-        let cells = if wide {
-            let [dup, limited, restarts] = [n.duplicate, n.rate_limited, n.restarts].map(|v| v.to_string());
-            vec![
-                name, rate, received, fused, gated, refused, late, too_late, dup, invalid, lost, limited, restarts, nis,
-            ]
-        } else {
-            let other = (n.duplicate + n.rate_limited + n.restarts).to_string();
-            vec![name, rate, received, fused, gated, refused, late, too_late, invalid, lost, other, nis]
-        };
-        Row::new(cells.into_iter().map(Cell::from)).style(style)
-    });
+    let mut rows: Vec<Row> = s
+        .sensor_counters()
+        .iter()
+        .map(|c| {
+            let n = &c.counts;
+            let rate = view.rates.get(&(c.kind, c.sensor)).map_or("-".into(), |r| format!("{r:.1}"));
+            let nis = if c.last_nis.is_finite() { format!("{:.2}", c.last_nis) } else { "-".into() };
+            let style = if stale_rows.contains(&(c.kind, c.sensor)) {
+                Style::default().fg(Color::Red)
+            } else {
+                Style::default()
+            };
+            let name = format!("{} {}", crate::kind_name(c.kind), c.sensor);
+            let [received, fused, gated, refused, late, too_late, invalid, lost] =
+                [n.received, n.fused, n.gated, n.refused, n.late, n.too_late, n.invalid, n.lost].map(|v| v.to_string());
+            let cells = if wide {
+                let [dup, limited, restarts] = [n.duplicate, n.rate_limited, n.restarts].map(|v| v.to_string());
+                vec![
+                    name, rate, received, fused, gated, refused, late, too_late, dup, invalid, lost, limited, restarts,
+                    nis,
+                ]
+            } else {
+                let other = (n.duplicate + n.rate_limited + n.restarts).to_string();
+                vec![name, rate, received, fused, gated, refused, late, too_late, invalid, lost, other, nis]
+            };
+            Row::new(cells.into_iter().map(Cell::from)).style(style)
+        })
+        .collect();
+    // Rows below the area's bottom are said, not dropped in silence.
+    let room = usize::from(sensors.height.saturating_sub(2));
+    let count = rows.len();
+    let mut title = " sensors ".to_string();
+    if count > room {
+        rows.truncate(room.saturating_sub(1));
+        let hidden = count - rows.len();
+        rows.push(Row::new([Cell::from(format!("… {hidden} more"))]));
+        title = format!(" sensors ({} of {count} shown: a taller terminal shows the rest) ", rows.len() - 1);
+    }
     let widths: Vec<Constraint> = if wide {
         std::iter::once(14).chain([9; 13]).map(Constraint::Length).collect()
     } else {
@@ -221,7 +245,7 @@ pub fn draw(frame: &mut Frame, view: &View) {
     };
     let table = Table::new(rows, widths)
         .header(Row::new(head.to_vec()).style(Style::default().add_modifier(Modifier::BOLD)))
-        .block(Block::new().borders(Borders::TOP).title(" sensors "));
+        .block(Block::new().borders(Borders::TOP).title(title));
     frame.render_widget(table, sensors);
 
     // The estimate in as many columns as fit, filled top to bottom.
@@ -230,7 +254,7 @@ pub fn draw(frame: &mut Frame, view: &View) {
     let parts = Layout::horizontal(vec![Constraint::Length(ESTIMATE_COLUMN); columns]).split(lower);
     for (i, chunk) in rows.chunks(per_column).enumerate() {
         let table =
-            Table::new(chunk.iter().map(|r| Row::new(r.clone().map(Cell::from))), [14, 12, 10].map(Constraint::Length))
+            Table::new(chunk.iter().map(|r| Row::new(r.clone().map(Cell::from))), [18, 11, 9].map(Constraint::Length))
                 .header(Row::new(["state", "value", "1-sigma"]).style(Style::default().add_modifier(Modifier::BOLD)));
         let block = Block::new().borders(Borders::TOP);
         let block = if i == 0 { block.title(" estimate ") } else { block };
@@ -403,7 +427,8 @@ mod tests {
         view.add(&s, Instant::now());
         let text = screen_of(&view, 80, 24);
         for (name, _) in s.state_layout() {
-            assert!(text.contains(name), "{name:?} not on the 80x24 screen:\n{text}");
+            let name = name.replace("rad/s", "deg/h");
+            assert!(text.contains(&name), "{name:?} not on the 80x24 screen:\n{text}");
         }
         for needle in [
             "roll deg",
@@ -431,6 +456,40 @@ mod tests {
         ] {
             assert!(text.contains(needle), "{needle:?} not on the 80x24 screen:\n{text}");
         }
+    }
+
+    /// At 80×24 with every auxiliary state and more sensors than fit: the
+    /// rows that do not fit are said, the states' names are whole, and the
+    /// gyroscope biases are in deg/h as in the plots.
+    #[test]
+    fn at_80_by_24_hidden_sensors_are_said_and_names_are_whole() {
+        use fusion_shared::snapshot::aux;
+        let mut s = StateSnapshot {
+            model: model::INS,
+            health: health::OK,
+            state_len: 22,
+            cov_dim: 21,
+            aux_states: aux::ALL.iter().map(|(bit, _)| bit).sum(),
+            sensor_count: 9,
+            ..Default::default()
+        };
+        s.x[6] = 1.0;
+        s.x[15] = 1e-4; // b_gz: 20.63 deg/h
+        (0..21).for_each(|i| s.cov[i * 21 + i] = 1e-8);
+        for i in 0..9 {
+            s.sensors[i].kind = SampleKind::Imu as u32;
+            s.sensors[i].sensor = i as u32;
+        }
+        let mut view = View::new("vehicle");
+        view.add(&s, Instant::now());
+        let text = screen_of(&view, 80, 24);
+        for (_, name) in aux::ALL {
+            assert!(text.contains(name), "{name:?} cut or missing:\n{text}");
+        }
+        assert!(text.contains("b_gz deg/h") && text.contains("20.63"), "{text}");
+        let shown = (0..9).filter(|i| text.contains(&format!("imu {i} "))).count();
+        assert!(shown < 9 && text.contains(&format!("… {} more", 9 - shown)), "{shown} shown:\n{text}");
+        assert!(text.contains(&format!("({shown} of 9 shown")), "{text}");
     }
 
     /// Every sample refused: the dashboard says so, by reason with its setting.
