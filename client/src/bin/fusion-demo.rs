@@ -410,8 +410,9 @@ fn run(args: Args) -> anyhow::Result<()> {
     // On a terminal one status line redrawn 4 times a second; into a file or a
     // pipe a plain line every 5 s (redrawn lines would collapse into one).
     let terminal = std::io::stdout().is_terminal();
+    // `\x1b[K` clears what a longer line before left.
     let (every, start_of_line, end_of_line) =
-        if terminal { (Duration::from_millis(250), "\r", "") } else { (Duration::from_secs(5), "", "\n") };
+        if terminal { (Duration::from_millis(250), "\r", "\x1b[K") } else { (Duration::from_secs(5), "", "\n") };
     let end = Instant::now() + Duration::from_secs_f64(args.duration + 0.5);
     while !stop.load(Ordering::Relaxed) && Instant::now() < end {
         let Some(s) = state.wait_next(Duration::from_millis(50))? else { continue };
@@ -460,17 +461,19 @@ fn run(args: Args) -> anyhow::Result<()> {
             let c = s.sensor_counters();
             let fixes = [fusion_shared::SampleKind::Position as u32, fusion_shared::SampleKind::Geodetic as u32];
             let pos = c.iter().find(|c| fixes.contains(&c.kind));
-            print!(
-                "{start_of_line}  t {t:5.1} s  pos ({:7.2},{:7.2},{:6.2}) m  err {:5.2} m  {:<28}  fixes {:3} fused {:2} gated  latency p50 {:5.0} us {end_of_line}",
-                x[0],
-                x[1],
-                x[2],
+            let status = Status {
+                t,
+                pos: [x[0], x[1], x[2]],
                 err,
-                if s.standing() { format!("{}, standing", describe(s)) } else { describe(s) },
-                pos.map_or(0, |c| c.counts.fused),
-                pos.map_or(0, |c| c.counts.gated),
-                latency.value_at_quantile(0.5) as f64 / 1e3,
-            );
+                health: if s.standing() { format!("{}, standing", describe(s)) } else { describe(s) },
+                fused: pos.map_or(0, |c| c.counts.fused),
+                gated: pos.map_or(0, |c| c.counts.gated),
+                p50_us: latency.value_at_quantile(0.5) as f64 / 1e3,
+            };
+            // On a terminal the line fits its width (a wrapped line would fill the screen).
+            let width =
+                terminal.then(|| ratatui::crossterm::terminal::size().ok()).flatten().map(|(w, _)| usize::from(w));
+            print!("{start_of_line}{}{end_of_line}", status.line(width));
             let _ = std::io::stdout().flush();
         }
     }
@@ -581,4 +584,69 @@ fn run(args: Args) -> anyhow::Result<()> {
         bail!("the report failed: {}", String::from_utf8_lossy(&plot.stderr).trim());
     }
     Ok(())
+}
+
+/// The demo's live status: time, position, error, health, fixes and latency.
+struct Status {
+    t: f64,
+    pos: [f64; 3],
+    err: f64,
+    health: String,
+    fused: u64,
+    gated: u64,
+    p50_us: f64,
+}
+
+impl Status {
+    /// The status line, fitting `width` columns if given (a terminal's): the
+    /// full line where it fits, else a compact one (fixes as fused/gated), cut
+    /// at the width at worst.
+    fn line(&self, width: Option<usize>) -> String {
+        let [e, n, u] = self.pos;
+        let full = format!(
+            "  t {:5.1} s  pos ({e:7.2},{n:7.2},{u:6.2}) m  err {:5.2} m  {:<28}  fixes {:3} fused {:2} gated  latency p50 {:5.0} us",
+            self.t, self.err, self.health, self.fused, self.gated, self.p50_us
+        );
+        let Some(width) = width else { return full };
+        // One column short of the width: a line that fills it makes some terminals wrap.
+        let fits = |line: &str| line.chars().count() < width;
+        if fits(&full) {
+            return full;
+        }
+        // Without the position (the error says how good it is), the health last.
+        let compact = format!(
+            "t {:.1} s err {:.2} m fixes {}/{} p50 {:.0} us {}",
+            self.t, self.err, self.fused, self.gated, self.p50_us, self.health
+        );
+        compact.chars().take(width.saturating_sub(1)).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// In an 80-column terminal the status line fits (it was ~135 columns and
+    /// wrapped at every update), and still says health, error and latency.
+    #[test]
+    fn the_status_line_fits_the_terminal() {
+        let status = Status {
+            t: 20.0,
+            pos: [75.39, 17.25, -1.01],
+            err: 0.03,
+            health: "degraded (samples lost), standing".into(),
+            fused: 192,
+            gated: 8,
+            p50_us: 35.0,
+        };
+        let wide = status.line(None);
+        assert!(wide.chars().count() > 120, "{wide}");
+        assert_eq!(status.line(Some(200)), wide);
+        let narrow = status.line(Some(80));
+        assert!(narrow.chars().count() < 80, "{narrow}");
+        for needle in ["t 20.0 s", "err 0.03 m", "samples lost", "192/8", "p50 35 us"] {
+            assert!(narrow.contains(needle), "{needle:?} not in {narrow:?}");
+        }
+        assert!(status.line(Some(20)).chars().count() < 20);
+    }
 }
