@@ -178,3 +178,81 @@ fn an_ins_run_gets_its_attitude_page_and_says_what_it_shows() {
     assert!(page(&filtered, "attitude").contains("attitude error about body z (yaw)"));
     assert!(!page(&filtered, "attitude").contains("RTS-smoothed"));
 }
+
+/// A replay of geodetic fixes plotted with `--samples`: the fixes are drawn
+/// (about the first one, fusiond's datum without a `[datum]` table), and the
+/// NIS panels leave room for their legend; files of the wrong kind are named
+/// for what they are.
+#[test]
+fn geodetic_fixes_are_drawn_and_wrong_files_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let drive = dir.path().join("drive.jsonl");
+    let sim = Command::new(workspace_bin("fusion-sim"))
+        .args(["record", "--duration", "5", "--imu-rate", "100", "--position-rate", "0", "--geodetic-rate", "5"])
+        .args(["--seed", "2", "--output"])
+        .arg(&drive)
+        .output()
+        .unwrap();
+    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    let geodetic = std::fs::read_to_string(&drive).unwrap().lines().filter(|l| l.starts_with(r#"{"geodetic""#)).count();
+    assert!(geodetic >= 20, "{geodetic} geodetic fixes");
+    let estimates = dir.path().join("estimates.jsonl");
+    let replay = Command::new(env!("CARGO_BIN_EXE_fusiond"))
+        .args(["replay", "--config"])
+        .arg(examples().join("linear.toml"))
+        .arg("--input")
+        .arg(&drive)
+        .arg("--output")
+        .arg(&estimates)
+        .output()
+        .unwrap();
+    assert!(replay.status.success(), "{}", String::from_utf8_lossy(&replay.stderr));
+    let plot = |input: &Path, samples: &Path| {
+        Command::new(workspace_bin("fusionctl"))
+            .args(["plot", "--input"])
+            .arg(input)
+            .arg("--samples")
+            .arg(samples)
+            .arg("--output-dir")
+            .arg(dir.path().join("report"))
+            .output()
+            .unwrap()
+    };
+    let out = plot(&estimates, &drive);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("placed about the first one"), "{stderr}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("report/report.json")).unwrap()).unwrap();
+    let points = &json["points"];
+    let drawn = points["trajectory.fixes"].as_u64().unwrap() + points["trajectory.gated"].as_u64().unwrap();
+    assert_eq!(drawn as usize, geodetic, "{points}");
+    // The legend's room: the time axis runs well past the last value.
+    let last_nis_t = std::fs::read_to_string(&estimates)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str::<fusion_daemon::replay::OutputLine>(l).unwrap())
+        .map(|l| l.t_ns)
+        .collect::<Vec<_>>();
+    let span = (last_nis_t.last().unwrap() - last_nis_t[0]) as f64 * 1e-9;
+    assert!(json["scales"]["nis.t_end"].as_f64().unwrap() >= 1.4 * span, "{}", json["scales"]);
+
+    // Files of the wrong kind.
+    let garbage = dir.path().join("garbage.mcap");
+    std::fs::write(&garbage, [0xffu8, 0xfe, 0x00, 0x9c, 0x12, 0x80, 0x81, 0x82, 0x83]).unwrap();
+    let binary = dir.path().join("binary.jsonl");
+    std::fs::write(&binary, [0xffu8, 0xfe, 0x00, 0x9c, 0x12, 0x80, 0x81, 0x82, 0x83]).unwrap();
+    let mcap = dir.path().join("recording.mcap");
+    std::fs::write(&mcap, [&b"\x89MCAP0\r\n"[..], &[0u8; 32]].concat()).unwrap();
+    for (input, samples, expected) in [
+        (&garbage, &drive, "named .mcap but not an MCAP file"),
+        (&binary, &drive, "not a text file"),
+        (&estimates, &mcap, "give it as --input"),
+        (&estimates, &binary, "not a text file (expected --samples"),
+    ] {
+        let out = plot(input, samples);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && stderr.contains(expected), "{expected}: {stderr}");
+        assert!(!stderr.contains("valid UTF-8"), "{stderr}");
+    }
+}

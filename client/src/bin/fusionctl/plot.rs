@@ -265,7 +265,7 @@ fn from_recording(path: &Path) -> anyhow::Result<Data> {
 
 /// Reads a replay output and (for the fixes) its input.
 fn from_replay(output: &Path, input: Option<&Path>) -> anyhow::Result<Data> {
-    let text = std::fs::read_to_string(output).with_context(|| format!("cannot read {}", output.display()))?;
+    let text = read_text(output, "--input: a replay output (JSON lines) or an MCAP recording")?;
     let mut data = Data::default();
     let mut gated_fixes = HashMap::new();
     for (i, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
@@ -290,15 +290,42 @@ fn from_replay(output: &Path, input: Option<&Path>) -> anyhow::Result<Data> {
         }
     }
     if let Some(input) = input {
-        let text = std::fs::read_to_string(input).with_context(|| format!("cannot read {}", input.display()))?;
-        for s in text.lines().filter_map(|l| fusion_shared::jsonl::parse_sample(l).ok()) {
-            if let Some((east, north)) = fix_of(&s, None) {
+        let bytes = std::fs::read(input).with_context(|| format!("cannot read {}", input.display()))?;
+        anyhow::ensure!(
+            !bytes.starts_with(mcap::MAGIC),
+            "{}: --samples takes the JSON-lines file that was replayed; an MCAP recording carries its samples: give \
+             it as --input",
+            input.display()
+        );
+        let text = read_text(input, "--samples: the JSON-lines file that was replayed")?;
+        let samples: Vec<Sample> = text.lines().filter_map(|l| fusion_shared::jsonl::parse_sample(l).ok()).collect();
+        // A replay output carries no datum: geodetic fixes are placed about the
+        // first one, fusiond's datum when no [datum] table is configured.
+        let datum = samples.iter().find_map(|s| match s {
+            Sample::Geodetic(g) => fusion_shared::geodesy::Datum::new(g.lat_deg, g.lon_deg, g.height_m).ok(),
+            _ => None,
+        });
+        if datum.is_some() {
+            eprintln!(
+                "fusionctl: geodetic fixes placed about the first one (fusiond's datum without a [datum] table; a \
+                 recording, --input RUN.mcap, carries the datum fusiond used)"
+            );
+        }
+        for s in samples {
+            if let Some((east, north)) = fix_of(&s, datum) {
                 let gated = gated_fixes.get(&sample_key(&s)).copied().unwrap_or(false);
                 data.fixes.push(Fix { east, north, gated });
             }
         }
     }
     Ok(data)
+}
+
+/// The text of `path`, or an error that says what the file should have been
+/// (`what`) when it is not text.
+fn read_text(path: &Path, what: &str) -> anyhow::Result<String> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    String::from_utf8(bytes).map_err(|_| anyhow::anyhow!("{}: not a text file (expected {what})", path.display()))
 }
 
 /// A truth entry: time, position and velocity, attitude `[w, x, y, z]` (NaN
@@ -413,6 +440,12 @@ pub fn run(input: &Path, samples: Option<&Path>, truth: Option<&Path>, dir: &Pat
     let n = std::fs::File::open(input)
         .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
         .with_context(|| format!("cannot read {}", input.display()))?;
+    let named_mcap = input.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
+    anyhow::ensure!(
+        !named_mcap || head[..n].starts_with(mcap::MAGIC),
+        "{}: named .mcap but not an MCAP file (it does not start with the MCAP magic bytes)",
+        input.display()
+    );
     let mut data =
         if head[..n].starts_with(mcap::MAGIC) { from_recording(input)? } else { from_replay(input, samples)? };
     anyhow::ensure!(!data.estimates.is_empty(), "{} has no estimates to plot", input.display());

@@ -21,6 +21,10 @@ where
     Ok(())
 }
 
+/// How much longer than the data the NIS panels' time axis is, for the legend
+/// (about a third of a panel's width at 1200 px).
+const LEGEND_ROOM: f64 = 0.45;
+
 /// Every `k`-th item so that at most [`MAX_POINTS`] remain.
 fn thin<T: Copy>(v: &[T]) -> Vec<T> {
     let step = v.len().div_ceil(MAX_POINTS).max(1);
@@ -254,6 +258,9 @@ where
     root.fill(&WHITE)?;
     let n = d.nis.len().max(1);
     let t = range(d.estimates.iter().map(|e| e.t));
+    // Room on the right for the legend (upper right): it covers no value.
+    let t = t.start..t.end + LEGEND_ROOM * (t.end - t.start);
+    counts.scale("nis.t_end", t.end);
     for (area, (sensor, (dof, values))) in root.split_evenly((n, 1)).iter().zip(&d.nis) {
         let chi2 = ChiSquared::new(*dof as f64)?;
         let (lo, hi) = (chi2.inverse_cdf(0.025), chi2.inverse_cdf(0.975));
