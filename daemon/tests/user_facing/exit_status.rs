@@ -112,6 +112,27 @@ fn a_missing_file_is_one_line_with_its_cause_once() {
     assert!(domain.files().is_empty(), "{:?}", domain.files());
 }
 
+/// `fusion-sim run --input` on an empty file or a binary one fails with one
+/// line that says so (it published nothing and exited 0, or named only UTF-8).
+#[test]
+fn an_empty_or_binary_input_is_an_error() {
+    let domain = TestDomain::new("exit-empty");
+    let dir = tempfile::tempdir().unwrap();
+    let (empty, binary) = (dir.path().join("empty.jsonl"), dir.path().join("binary.jsonl"));
+    std::fs::write(&empty, "\n\n").unwrap();
+    std::fs::write(&binary, [0x89u8, b'M', b'C', b'A', b'P', 0xff, 0xfe, b'\n']).unwrap();
+    let sim = workspace_bin("fusion-sim");
+    for (file, what) in [(&empty, "no sample in it"), (&binary, "is not text")] {
+        let file = file.to_str().unwrap();
+        assert_failure(
+            run(&domain, &sim, &["run", "--input", file, "--realtime", "--allow-no-daemon"]),
+            "fusion-sim",
+            what,
+        );
+    }
+    assert!(domain.files().is_empty(), "{:?}", domain.files());
+}
+
 #[test]
 fn a_publisher_that_reached_no_daemon_fails_unless_allowed() {
     let domain = TestDomain::new("exit-nodaemon");

@@ -247,7 +247,16 @@ fn publish_file(
         if stop.load(Ordering::Relaxed) {
             break;
         }
-        let line = line?;
+        let line = match line {
+            Ok(line) => line,
+            Err(e) if e.kind() == std::io::ErrorKind::InvalidData => anyhow::bail!(
+                "{}: line {} is not text: the file is not JSON lines (`fusion-sim record` writes them; an MCAP \
+                 recording is replayed with `fusiond replay --input`)",
+                path.display(),
+                i + 1
+            ),
+            Err(e) => return Err(anyhow::Error::new(e).context(format!("cannot read {}", path.display()))),
+        };
         if line.trim().is_empty() {
             continue;
         }
@@ -321,6 +330,9 @@ fn publish_file(
     );
     if published == 0 && skipped > 0 {
         anyhow::bail!("{}: none of its {skipped} lines is a sample (see the lines above)", path.display());
+    }
+    if published == 0 && !stop.load(Ordering::Relaxed) {
+        anyhow::bail!("{}: no sample in it (an empty file)", path.display());
     }
     let daemon_seen = state.is_some() || daemon_runs(client);
     if published > 0 && (delivered == 0 || !daemon_seen) && !allow_no_daemon {
