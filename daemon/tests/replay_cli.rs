@@ -148,6 +148,16 @@ fn exit_status_is_an_error_only_when_nothing_can_work() {
     assert!(!ok && err.contains("missing.jsonl"), "{err}");
     let (ok, err) = run(&bad_config, &good);
     assert!(!ok && err.contains("accel_noise"), "{err}");
+    // The MCAP magic followed by garbage: what is wrong with the file, with
+    // or without --config (it said "--config is needed", or "the reasons are
+    // above" with nothing above).
+    let garbage = dir.path().join("garbage.mcap");
+    std::fs::write(&garbage, [&b"\x89MCAP0\r\n"[..], b"no recording here, only these words"].concat()).unwrap();
+    let (ok, err) = run(&config, &garbage);
+    assert!(!ok && err.contains("damaged at byte 8: no header record after the magic"), "{err}");
+    let o = fusiond().args(["replay", "--input"]).arg(&garbage).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("no header record") && !err.contains("--config"), "{err}");
 }
 
 #[test]

@@ -58,6 +58,14 @@ pub fn scan(bytes: &[u8]) -> Scan {
             };
         };
         let opcode = frame[0];
+        if at == mcap::MAGIC.len() && opcode != op::HEADER {
+            return damaged(
+                at,
+                format!(
+                    "no header record after the magic (opcode {opcode:#04x}): not an MCAP file, or damaged at its start"
+                ),
+            );
+        }
         let len = u64::from_le_bytes(frame[1..9].try_into().unwrap_or_default());
         let body_start = at + 9;
         let Some(body) = usize::try_from(len).ok().and_then(|n| bytes.get(body_start..body_start.checked_add(n)?))
@@ -177,6 +185,15 @@ mod tests {
                 assert!(!read.is_empty());
             }
         }
+    }
+
+    #[test]
+    fn magic_and_garbage_is_damaged_at_its_start() {
+        let mut bytes = mcap::MAGIC.to_vec();
+        bytes.extend_from_slice(b"this is no recording at all, only text");
+        let s = scan(&bytes);
+        assert_eq!(s.readable, 8);
+        assert!(s.damage.unwrap().what.contains("no header record"));
     }
 
     #[test]
