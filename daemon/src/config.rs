@@ -240,17 +240,24 @@ fn locate_unknown_key(text: &str, e: toml::de::Error) -> ConfigError {
         return e.into();
     };
     let first_line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+    // The table's own keys, then those of its sub-tables (`[model.alignment]`),
+    // which the parser reports at the same header.
+    let table = table.trim();
+    let mut current = table.to_string();
     for (i, line) in rest.lines().enumerate().skip(1) {
         let line = line.trim_start();
-        if line.starts_with('[') {
-            break;
+        if let Some(header) = line.strip_prefix('[') {
+            match header.split(']').next().map(str::trim) {
+                Some(sub) if !sub.starts_with('[') && sub.strip_prefix(table).is_some_and(|r| r.starts_with('.')) => {
+                    current = sub.to_string();
+                    continue;
+                }
+                _ => break,
+            }
         }
         if line.split(['=', ' ', '\t']).next() == Some(field) {
             let expected = message.split_once(", ").map_or(String::new(), |(_, x)| format!("; {x}"));
-            return invalid(
-                format!("{}.{field}", table.trim()),
-                format!("unknown key (line {}){expected}", first_line + i),
-            );
+            return invalid(format!("{current}.{field}"), format!("unknown key (line {}){expected}", first_line + i));
         }
     }
     e.into()

@@ -206,6 +206,16 @@ fn an_unknown_key_in_the_model_table_is_reported_at_its_own_line() {
                 initial_state = [0, 0, 0, 0, 0, 0]\ninitial_covariance_diagonal = [1, 1, 1, 1, 1, 1]\n";
     let e = err(text);
     assert!(e.contains("model.bogus") && e.contains("line 4") && e.contains("accel_noise_std"), "{e}");
+    // In a table of the model's ([model.alignment], [model.constraints]):
+    // the key with its table and its own line (it said line 1, `[model]`).
+    for table in ["alignment", "constraints"] {
+        let text = format!(
+            "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
+             accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-5\n[model.{table}]\nbogus_key = 3\n"
+        );
+        let e = err(&text);
+        assert!(e.contains(&format!("model.{table}.bogus_key")) && e.contains("line 8"), "{e}");
+    }
     // Elsewhere the parser's own position stays.
     let ipc = err(&format!("{MIN}[ipc]\nbogus = 1\n"));
     assert!(ipc.contains("line 8") && ipc.contains("bogus"), "{ipc}");
