@@ -51,6 +51,7 @@ fn a_foxglove_client_receives_the_live_estimate() {
             .args(["foxglove", "--namespace", &domain.namespace, "--port", "0"])
             .env(DOMAIN_ENV, &domain.domain)
             .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
             .spawn()
             .unwrap(),
     );
@@ -112,16 +113,26 @@ fn a_foxglove_client_receives_the_live_estimate() {
     assert!(poses > 1, "one pose per snapshot");
 
     // The subprotocols the server takes, as docs/recording.md says: the SDK's
-    // two, and not the older name (the SDK answers 400).
-    for (offered, accepted) in
-        [("foxglove.sdk.v1.1", true), ("foxglove.sdk.v1", true), ("foxglove.websocket.v1", false)]
-    {
+    // two and the protocol's older name (Lichtblick, older Foxglove Studio),
+    // answered with the name offered; another is refused (400) and logged.
+    for (offered, accepted) in [
+        ("foxglove.sdk.v1.1", true),
+        ("foxglove.sdk.v1", true),
+        ("foxglove.websocket.v1", true),
+        ("bogus.protocol.v9", false),
+    ] {
         let mut request = format!("ws://127.0.0.1:{port}").into_client_request().unwrap();
         request.headers_mut().insert("Sec-WebSocket-Protocol", offered.parse().unwrap());
         match tungstenite::connect(request) {
             Ok((mut s, response)) => {
                 assert!(accepted, "{offered} was accepted");
                 assert_eq!(response.headers()["Sec-WebSocket-Protocol"], offered);
+                // The older name speaks the same protocol: the server's hello and advertisements.
+                if let MaybeTlsStream::Plain(t) = s.get_mut() {
+                    t.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+                }
+                let Message::Text(hello) = s.read().unwrap() else { panic!("{offered}: no text message") };
+                assert!(hello.contains("serverInfo"), "{offered}: {hello}");
                 s.close(None).unwrap();
             }
             Err(tungstenite::Error::Http(response)) => {
@@ -134,6 +145,10 @@ fn a_foxglove_client_receives_the_live_estimate() {
     socket.close(None).unwrap();
     let _ = Command::new("kill").args(["-INT", &server.0.id().to_string()]).status();
     assert!(server.wait_for(Duration::from_secs(10)).expect("fusionctl foxglove did not stop").success());
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut server.0.stderr.take().unwrap(), &mut stderr).unwrap();
+    assert!(stderr.contains("refusing a client") && stderr.contains("[bogus.protocol.v9]"), "{stderr}");
+    assert_eq!(stderr.matches("refusing a client").count(), 1, "{stderr}");
     drop(reader);
     drop(client);
     assert!(daemon.terminate().success());

@@ -4,13 +4,17 @@
 //! `foxglove.PoseInFrame` and, once a datum is set, `foxglove.LocationFix`; the
 //! full snapshot (health, reasons, counters, x, P); every input sample (the
 //! fixes). Open it in the Foxglove app with "Open connection" to
-//! `ws://HOST:PORT`.
+//! `ws://HOST:PORT`; Lichtblick and older Foxglove Studio, which offer the
+//! protocol's older subprotocol name, are served too ([`front`]).
+
+mod front;
 
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
+use anyhow::Context;
 use fusion_client::{Client, ClientError, SampleKind};
 use fusion_shared::recording::{self, SnapshotJson};
 use fusion_shared::snapshot::INPUT_NONE;
@@ -30,10 +34,20 @@ const NO_DAEMON_REPEAT: Duration = Duration::from_secs(30);
 pub fn run(namespace: &str, host: &str, port: u16, stop: &AtomicBool) -> anyhow::Result<()> {
     let client = Client::connect(namespace)?;
     let mut samples = client.sample_subscriber()?;
+    // The SDK's server on a local port; clients connect to the front
+    // (`front`: it also serves the protocol's older subprotocol name).
     let server =
-        foxglove::WebSocketServer::new().name(format!("fusiond {namespace}")).bind(host, port).start_blocking()?;
+        foxglove::WebSocketServer::new().name(format!("fusiond {namespace}")).bind("127.0.0.1", 0).start_blocking()?;
+    let listener =
+        std::net::TcpListener::bind((host, port)).with_context(|| format!("cannot listen on {host}:{port}"))?;
+    let local = listener.local_addr()?;
+    let front_stop = Arc::new(AtomicBool::new(false));
+    let front = {
+        let (stop, backend) = (Arc::clone(&front_stop), std::net::SocketAddr::from(([127, 0, 0, 1], server.port())));
+        std::thread::spawn(move || front::serve(listener, backend, stop))
+    };
     // The port line is what a script (or test) waits for.
-    println!("serving fusiond namespace {namespace:?} on ws://{host}:{}", server.port());
+    println!("serving fusiond namespace {namespace:?} on ws://{host}:{}", local.port());
     let state = channel(recording::STATE_TOPIC, recording::STATE_SCHEMA, recording::state_schema())?;
     let pose = channel(recording::POSE_TOPIC, recording::POSE_SCHEMA, recording::POSE_IN_FRAME_JSON_SCHEMA.into())?;
     let location =
@@ -109,6 +123,8 @@ pub fn run(namespace: &str, host: &str, port: u16, stop: &AtomicBool) -> anyhow:
             std::thread::sleep(Duration::from_millis(1));
         }
     }
+    front_stop.store(true, Ordering::Relaxed);
     server.stop().wait_blocking();
+    front.join().map_err(|_| anyhow::anyhow!("the front of the server failed"))??;
     Ok(())
 }
