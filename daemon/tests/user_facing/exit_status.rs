@@ -165,6 +165,11 @@ fn fusionctl_state_tells_no_daemon_from_no_snapshot_yet() {
     let (code, out, err) = run(&domain, &ctl, &state);
     assert_eq!(code, i32::from(NO_STATE_YET), "{out}{err}");
     assert!(out.is_empty() && err.lines().count() == 1 && err.contains("no snapshot yet"), "{err}");
+    // `echo` says so too, once, instead of waiting in silence.
+    let echo = ["echo", "--namespace", domain.namespace.as_str(), "--idle-timeout", "3"];
+    let (code, out, err) = run(&domain, &ctl, &echo);
+    assert_eq!(code, i32::from(SUCCESS), "{err}");
+    assert!(out.is_empty() && err.matches("has published no snapshot yet").count() == 1, "{err}");
 
     // One sample: now there is a state to print.
     let client = domain.client();

@@ -160,6 +160,9 @@ fn run(cli: Cli) -> anyhow::Result<u8> {
             let mut printed = 0u64;
             let mut last = Instant::now();
             let idle = idle_timeout.map(Duration::from_secs_f64);
+            // While fusiond has published nothing, say so once (it waited in silence).
+            let started = Instant::now();
+            let mut said = false;
             while !stop.load(Ordering::Relaxed) && count.is_none_or(|n| printed < n) {
                 match state.wait_next(Duration::from_millis(100))? {
                     Some(s) => {
@@ -172,6 +175,14 @@ fn run(cli: Cli) -> anyhow::Result<u8> {
                     }
                     None => {
                         let _ = out.flush();
+                        if printed == 0 && !said && started.elapsed() >= ECHO_SILENCE {
+                            eprintln!(
+                                "fusionctl echo: fusiond runs in namespace {namespace:?} but has published no \
+                                 snapshot yet (no sample has reached it: are the sensors publishing in this \
+                                 namespace?); waiting"
+                            );
+                            said = true;
+                        }
                         if idle.is_some_and(|d| last.elapsed() >= d) {
                             break;
                         }
@@ -233,6 +244,9 @@ fn run(cli: Cli) -> anyhow::Result<u8> {
         }
     }
 }
+
+/// How long `fusionctl echo` waits for a first snapshot before it says so.
+const ECHO_SILENCE: Duration = Duration::from_secs(2);
 
 /// Each state's name and the index of its standard deviation in the covariance
 /// (see [`fusion_client::Model::state_layout`]).

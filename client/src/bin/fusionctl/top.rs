@@ -39,6 +39,8 @@ pub struct View {
     pub provisional: u64,
     /// Per sensor (kind code, id): samples received per second.
     pub rates: HashMap<(u32, u32), f64>,
+    /// Whether a fusiond runs in the namespace, as last looked (`None`: not looked yet).
+    pub daemon_running: Option<bool>,
     /// Recent end-to-end latencies (sample sent → snapshot published), ns.
     latencies: VecDeque<u64>,
     /// Per sensor: (time, received) at the start of the rate window.
@@ -133,7 +135,18 @@ pub fn draw(frame: &mut Frame, view: &View) {
     .areas(area);
     let title = format!(" fusiond · namespace {} ", view.namespace);
     let Some(s) = &view.latest else {
-        let text = format!("waiting for the first snapshot of fusiond in namespace {:?} …", view.namespace);
+        let text = if view.daemon_running == Some(false) {
+            format!(
+                "no fusiond runs in namespace {:?}: waiting for one (is the namespace right? `fusionctl state \
+                 --namespace NS` asks one)",
+                view.namespace
+            )
+        } else {
+            format!(
+                "fusiond runs in namespace {:?}: waiting for its first snapshot (no sample has reached it yet) …",
+                view.namespace
+            )
+        };
         frame.render_widget(Paragraph::new(text).block(Block::new().borders(Borders::TOP).title(title)), header);
         frame.render_widget(Paragraph::new(" q: quit"), footer);
         return;
@@ -294,7 +307,11 @@ pub fn run(namespace: &str, stop: &AtomicBool) -> anyhow::Result<()> {
         loop {
             if state.is_none() {
                 // fusiond may start after the dashboard.
-                state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER).ok();
+                match client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER) {
+                    Ok(s) => (state, view.daemon_running) = (Some(s), Some(true)),
+                    Err(fusion_client::ClientError::DaemonNotRunning { .. }) => view.daemon_running = Some(false),
+                    Err(e) => return Err(e.into()),
+                }
             }
             if let Some(state) = &mut state {
                 while let Some(s) = state.try_next()? {
@@ -508,7 +525,13 @@ mod tests {
 
     #[test]
     fn before_the_first_snapshot_it_says_what_it_waits_for() {
-        let text = screen(&View::new("ns"));
-        assert!(text.contains("waiting for the first snapshot"), "{text}");
+        let mut view = View::new("ns");
+        view.daemon_running = Some(true);
+        let text = screen(&view);
+        assert!(text.contains("waiting for its first snapshot"), "{text}");
+        // A wrong namespace: no fusiond, said as `fusionctl state` says it.
+        view.daemon_running = Some(false);
+        let text = screen(&view);
+        assert!(text.contains("no fusiond runs in namespace") && !text.contains("first snapshot"), "{text}");
     }
 }
