@@ -363,6 +363,11 @@ impl<I: Iterator<Item = std::io::Result<SnapshotJson>>> LiveComparison<I> {
     }
 }
 
+/// A value as the JSON a recording holds it (for the differences' text).
+fn json<T: serde::Serialize>(value: &T) -> serde_json::Value {
+    serde_json::to_value(value).unwrap_or_default()
+}
+
 fn bits_differ(a: &[f64], b: &[f64]) -> Option<usize> {
     if a.len() != b.len() {
         return Some(a.len().min(b.len()));
@@ -387,8 +392,13 @@ fn differences(live: &SnapshotJson, replay: &SnapshotJson) -> Vec<(String, Strin
     field("sample", format!("{} {} {} {}", live.kind, live.sensor, live.seq, live.t_ns), {
         format!("{} {} {} {}", replay.kind, replay.sensor, replay.seq, replay.t_ns)
     });
-    field("nis", format!("{:?}", live.nis.map(f64::to_bits)), format!("{:?}", replay.nis.map(f64::to_bits)));
-    field("accepted", format!("{:?}", live.accepted), format!("{:?}", replay.accepted));
+    // Bit for bit: two NaNs or -0 and 0 are not the same value here.
+    let nis = |s: &SnapshotJson| s.nis.map_or("none".into(), |v| format!("{v:e} (bits {:#x})", v.to_bits()));
+    if live.nis.map(f64::to_bits) != replay.nis.map(f64::to_bits) {
+        field("nis", nis(live), nis(replay));
+    }
+    let accepted = |s: &SnapshotJson| s.accepted.map_or("none".into(), |a| a.to_string());
+    field("accepted", accepted(live), accepted(replay));
     let input = |s: &SnapshotJson| {
         let i = &s.input;
         format!("{} {} {} {} received {} replayed {}", i.kind, i.sensor, i.seq, i.t_ns, i.received_ns, i.replayed)
@@ -397,17 +407,25 @@ fn differences(live: &SnapshotJson, replay: &SnapshotJson) -> Vec<(String, Strin
     if live.counters.len() != replay.counters.len() {
         field("sensors", live.counters.len().to_string(), replay.counters.len().to_string());
     }
+    // Each counter that differs by its own name, as JSON shows it.
     for (i, (a, b)) in live.counters.iter().zip(&replay.counters).enumerate() {
-        if a != b {
-            field(&format!("counters[{i}] ({} {})", a.kind, a.sensor), format!("{a:?}"), format!("{b:?}"));
+        if a == b {
+            continue;
+        }
+        let (ja, jb) = (json(a), json(b));
+        if let (Some(fa), Some(fb)) = (ja.as_object(), jb.as_object()) {
+            for (key, va) in fa {
+                let vb = fb.get(key).cloned().unwrap_or_default();
+                field(&format!("counters[{i}] ({} {}).{key}", a.kind, a.sensor), va.to_string(), vb.to_string());
+            }
         }
     }
     field("rewinds", live.rewinds.to_string(), replay.rewinds.to_string());
-    field("pending", format!("{:?}", live.pending), format!("{:?}", replay.pending));
+    field("pending", json(&live.pending).to_string(), json(&replay.pending).to_string());
     field("background_steps", live.background_steps.to_string(), replay.background_steps.to_string());
     field("standing", live.standing.to_string(), replay.standing.to_string());
     field("standstill_updates", live.standstill_updates.to_string(), replay.standstill_updates.to_string());
-    field("velocity_offset", format!("{:?}", live.velocity_offset), format!("{:?}", replay.velocity_offset));
+    field("velocity_offset", json(&live.velocity_offset).to_string(), json(&replay.velocity_offset).to_string());
     field("unknown_sensor", live.unknown_sensor.to_string(), replay.unknown_sensor.to_string());
     field("reinitialisations", live.reinitialisations.to_string(), replay.reinitialisations.to_string());
     out
@@ -535,4 +553,29 @@ pub fn replay_recording(
         report.cut = recording.was_cut_off() || recording.damage().is_some();
         Ok((summary, Some(report)))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fusion_shared::StateSnapshot;
+
+    /// The differences read as a recording does (names, numbers), not as
+    /// Rust's Debug output (`CountersJson { … }`, `Some(…)`).
+    #[test]
+    fn differences_name_each_field_in_json_words() {
+        let mut live = StateSnapshot { sensor_count: 1, nis: 2.5, ..Default::default() };
+        live.sensors[0].kind = SampleKind::Position as u32;
+        live.sensors[0].sensor = 1;
+        live.sensors[0].counts.gated = 3;
+        let mut replay = live;
+        replay.sensors[0].counts.gated = 4;
+        replay.nis = 2.75;
+        replay.pending_steps = 7;
+        let d = differences(&SnapshotJson::from(&live), &SnapshotJson::from(&replay));
+        let text: Vec<String> = d.iter().map(|(f, a, b)| format!("{f}: {a} / {b}")).collect();
+        assert!(text.contains(&"counters[0] (position 1).gated: 3 / 4".to_string()), "{text:?}");
+        assert!(text.iter().any(|t| t.starts_with("nis: 2.5e0 (bits")), "{text:?}");
+        assert!(text.iter().all(|t| !t.contains("Json {") && !t.contains("Some(")), "{text:?}");
+    }
 }
