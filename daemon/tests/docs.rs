@@ -64,3 +64,36 @@ fn the_readme_snippet_does_not_publish_into_a_vehicle() {
     assert!(readme.contains("Client::connect(\"fusion-example\")"), "{readme}");
     assert!(!readme.contains("imu_publisher(0)"), "{readme}");
 }
+
+/// Every `cargo bench -p PACKAGE … --bench NAME` the guide and the README give
+/// names a package that has that benchmark (docs/zenoh.md named the daemon's).
+#[test]
+fn every_bench_command_names_a_bench_of_its_package() {
+    let root = docs().join("..");
+    let mut texts = vec![std::fs::read_to_string(root.join("README.md")).unwrap()];
+    for entry in std::fs::read_dir(docs()).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "md") {
+            texts.push(std::fs::read_to_string(path).unwrap());
+        }
+    }
+    let mut checked = 0;
+    for text in texts {
+        let text = text.split_whitespace().collect::<Vec<_>>().join(" ");
+        for (at, _) in text.match_indices("cargo bench ") {
+            let command = text[at..].split('`').next().unwrap();
+            let words: Vec<&str> = command.split(' ').collect();
+            let after = |flag: &str| words.iter().position(|w| *w == flag).and_then(|i| words.get(i + 1)).copied();
+            let (Some(package), Some(bench)) = (after("-p"), after("--bench")) else { continue };
+            let dir = package.strip_prefix("fusion-").unwrap_or(package);
+            let manifest = std::fs::read_to_string(root.join(dir).join("Cargo.toml"))
+                .unwrap_or_else(|_| panic!("{command:?}: no package {package}"));
+            assert!(
+                manifest.contains(&format!("[[bench]]\nname = \"{bench}\"")),
+                "{command:?}: {package} has no bench {bench}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 3, "{checked} bench commands found");
+}
