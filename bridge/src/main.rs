@@ -292,9 +292,8 @@ impl Keys {
 /// The Zenoh transports this build has (the `zenoh` crate's `transport_*` features).
 const TRANSPORTS: &[&str] = &["tcp"];
 
-/// A Zenoh peer with exactly the endpoints given (multicast scouting only
-/// with `--scouting`).
-/// The Zenoh configuration of the endpoints given, each checked.
+/// The Zenoh configuration: a peer with exactly the endpoints given, each
+/// checked (multicast scouting only with `--scouting`).
 fn zenoh_config(cli: &Cli) -> anyhow::Result<zenoh::Config> {
     let mut config = zenoh::Config::default();
     let set = |config: &mut zenoh::Config, key: &str, value: String| {
@@ -315,6 +314,10 @@ fn zenoh_config(cli: &Cli) -> anyhow::Result<zenoh::Config> {
         set(&mut config, key, serde_json::to_string(endpoints)?)?;
     }
     set(&mut config, "scouting/multicast/enabled", cli.scouting.to_string())?;
+    // Opening does not wait for the peers (Zenoh then warns "Scouting delay
+    // elapsed" at every start without one): the bridge connects as they come
+    // and names the `--connect` endpoints that reach none itself.
+    set(&mut config, "open/return_conditions/connect_scouted", "false".into())?;
     Ok(config)
 }
 
