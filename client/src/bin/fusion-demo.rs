@@ -494,7 +494,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         let n = &c.counts;
         // Samples of a sensor span (n − 1) periods from the start to its newest timestamp.
         let span_s = (c.last_t_ns as f64 - start_ns as f64) * 1e-9;
-        let hz = n.received.saturating_sub(1) as f64 / span_s.max(1e-9);
+        let hz = kind.map_or(0.0, |k| rate_hz(n.received, span_s, k, &args.outage));
         let name = format!("{} {} ({hz:.0} Hz)", kind.map_or("?", |k| k.name()), c.sensor);
         // IMU samples propagate the state; only measurements are fused or gated.
         let what = if kind == Some(fusion_shared::SampleKind::Imu) {
@@ -586,6 +586,14 @@ fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The rate of a sensor of `kind` that sent `received` samples over the
+/// first `span_s` seconds of the drive, while it sent: a GNSS receiver's
+/// outages are not counted (a 10 Hz receiver read "4 Hz" after a tunnel).
+fn rate_hz(received: u64, span_s: f64, kind: fusion_shared::SampleKind, outages: &[Outage]) -> f64 {
+    let dark_s: f64 = if Outage::darkens(kind) { outages.iter().map(|o| o.within_s(span_s)).sum() } else { 0.0 };
+    received.saturating_sub(1) as f64 / (span_s - dark_s).max(1e-9)
+}
+
 /// The demo's live status: time, position, error, health, fixes and latency.
 struct Status {
     t: f64,
@@ -625,6 +633,18 @@ impl Status {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A 10 Hz receiver through a 20 s outage of a 40 s drive reads 10 Hz;
+    /// an IMU is not darkened.
+    #[test]
+    fn a_receivers_rate_leaves_its_outages_out() {
+        use fusion_shared::SampleKind::{Geodetic, Imu};
+        let tunnel = [Outage { at_s: 10.0, duration_s: 20.0 }];
+        assert!((rate_hz(201, 40.0, Geodetic, &tunnel) - 10.0).abs() < 1e-9);
+        assert!((rate_hz(4001, 40.0, Imu, &tunnel) - 100.0).abs() < 1e-9);
+        // An outage past the span counts only in part.
+        assert!((rate_hz(101, 25.0, Geodetic, &tunnel) - 10.0).abs() < 1e-9);
+    }
 
     /// In an 80-column terminal the status line fits (it was ~135 columns and
     /// wrapped at every update), and still says health, error and latency.

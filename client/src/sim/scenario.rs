@@ -104,11 +104,19 @@ pub struct Outage {
 impl Outage {
     /// Whether `sample` (of a drive that started at `start_ns`) falls in it.
     pub fn hides(&self, sample: &Sample, start_ns: u64) -> bool {
-        use fusion_shared::SampleKind::{Geodetic, Heading, Position, Velocity};
         let t = (sample.t_ns() as f64 - start_ns as f64) * 1e-9;
-        matches!(sample.kind(), Position | Geodetic | Velocity | Heading)
-            && t >= self.at_s
-            && t < self.at_s + self.duration_s
+        Self::darkens(sample.kind()) && t >= self.at_s && t < self.at_s + self.duration_s
+    }
+
+    /// Whether an outage hides samples of `kind` (the GNSS receiver's).
+    pub fn darkens(kind: fusion_shared::SampleKind) -> bool {
+        use fusion_shared::SampleKind::{Geodetic, Heading, Position, Velocity};
+        matches!(kind, Position | Geodetic | Velocity | Heading)
+    }
+
+    /// How much of the first `until_s` seconds of the drive it covers, s.
+    pub fn within_s(&self, until_s: f64) -> f64 {
+        ((self.at_s + self.duration_s).min(until_s) - self.at_s.max(0.0)).max(0.0)
     }
 }
 
