@@ -133,6 +133,18 @@ fn an_empty_or_binary_input_is_an_error() {
     assert!(domain.files().is_empty(), "{:?}", domain.files());
 }
 
+/// `fusion-sim run --help` names every kind `--position-only` publishes.
+#[test]
+fn position_only_names_every_kind_it_publishes() {
+    let domain = TestDomain::new("exit-help");
+    let (code, out, _) = run(&domain, &workspace_bin("fusion-sim"), &["run", "--help"]);
+    assert_eq!(code, i32::from(SUCCESS));
+    let help: String = out.split("--position-only").nth(1).unwrap().split("\n      --").next().unwrap().into();
+    for kind in fusion_shared::SampleKind::ALL.iter().filter(|k| **k != fusion_shared::SampleKind::Imu) {
+        assert!(help.contains(kind.name()), "{} not in {help:?}", kind.name());
+    }
+}
+
 #[test]
 fn a_publisher_that_reached_no_daemon_fails_unless_allowed() {
     let domain = TestDomain::new("exit-nodaemon");

@@ -57,7 +57,8 @@ enum Command {
         /// Publish only the IMUs with these sensor ids (default: all).
         #[arg(long, value_delimiter = ',')]
         imu_ids: Option<Vec<u32>>,
-        /// Publish only the sensors besides the IMUs (positions, velocities, geodetic fixes, odometry, heading).
+        /// Publish only the sensors besides the IMUs: position, velocity, geodetic, odometry, heading,
+        /// magnetometer, twist, barometer and pose, as their rates are set.
         #[arg(long)]
         position_only: bool,
         /// Publish this file (replay input format) instead of simulating.
