@@ -136,11 +136,15 @@ pub struct HealthNow {
     /// Bit `i`: sensor `i` of the engine's sensor table (and of the snapshot's
     /// `sensors`) is stale, so a user sees which of several IMUs is gone.
     pub stale_sensors: u32,
+    /// Bit `i`: sensor `i`'s NIS is persistently out of its band (which
+    /// sensor the reason `nis out of bounds` is about).
+    pub nis_sensors: u32,
 }
 
 impl HealthNow {
     /// Before anything was evaluated.
-    pub const INITIALISING: HealthNow = HealthNow { state: health::INITIALISING, reasons: 0, stale_sensors: 0 };
+    pub const INITIALISING: HealthNow =
+        HealthNow { state: health::INITIALISING, reasons: 0, stale_sensors: 0, nis_sensors: 0 };
 
     /// State and reasons.
     pub fn pair(&self) -> (u32, u32) {
@@ -270,6 +274,7 @@ impl HealthMonitor {
     ) -> HealthNow {
         let mut reasons = 0;
         let mut stale_sensors = 0;
+        let mut nis_sensors = 0;
         let mut seen = 0u32;
         for (i, s) in sensors.iter().enumerate().take(MAX_SENSORS) {
             if s.stats.processed > 0 {
@@ -307,6 +312,7 @@ impl HealthMonitor {
             let persist = (window * PERSISTENCE.0).div_ceil(PERSISTENCE.1).max(1) as u64;
             if w.streak >= persist {
                 reasons |= health::NIS_OUT_OF_BOUNDS;
+                nis_sensors |= 1 << i;
             }
         }
         if self.last_loss_ns.is_some_and(|t| now_ns.saturating_sub(t) < LOSS_HOLD_NS) {
@@ -328,7 +334,7 @@ impl HealthMonitor {
         } else {
             health::OK
         };
-        HealthNow { state, reasons, stale_sensors }
+        HealthNow { state, reasons, stale_sensors, nis_sensors }
     }
 }
 
@@ -374,7 +380,7 @@ mod tests {
         // 150 ms later: the IMU (100 ms timeout) is stale, the position (1 s) is not.
         assert_eq!(
             h.evaluate(e.sensors(), 150_002_000, true, 0),
-            HealthNow { state: health::DEGRADED, reasons: health::IMU_STALE, stale_sensors: 0b01 }
+            HealthNow { state: health::DEGRADED, reasons: health::IMU_STALE, stale_sensors: 0b01, nis_sensors: 0 }
         );
         let now = h.evaluate(e.sensors(), 1_100_000_000, true, 0);
         assert_eq!((now.reasons, now.stale_sensors), (health::IMU_STALE | health::POSITION_STALE, 0b11));
@@ -414,6 +420,7 @@ mod tests {
             assert_eq!(flagged, i >= 18, "after {} measurements", i + 1);
         }
         assert_eq!(h.evaluate(e.sensors(), 0, true, 0).pair(), (health::DEGRADED, health::NIS_OUT_OF_BOUNDS));
+        assert_eq!(h.evaluate(e.sensors(), 0, true, 0).nis_sensors, 0b10, "the fix sensor (slot 1) is named");
         for _ in 0..10 {
             h.record(1, &StepOutcome::Fused { nis: 3.0 }, false);
         }

@@ -103,7 +103,8 @@ pub fn fill<M: Steps>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Optio
             snap.input_replayed = 0;
         }
     }
-    (snap.health, snap.health_reasons, snap.stale_sensors) = (health.state, health.reasons, health.stale_sensors);
+    (snap.health, snap.health_reasons, snap.stale_sensors, snap.nis_sensors) =
+        (health.state, health.reasons, health.stale_sensors, health.nis_sensors);
     let sensors = engine.sensors();
     let count = sensors.len().min(MAX_SENSORS);
     for (dst, src) in snap.sensors.iter_mut().zip(&sensors[..count]) {
@@ -169,7 +170,7 @@ mod tests {
             &mut snap,
             &e,
             Some(Input { sample: &pos, received_ns: 180, replayed: 1 }),
-            HealthNow { state: health::OK, reasons: 0, stale_sensors: 0 },
+            HealthNow { state: health::OK, reasons: 0, stale_sensors: 0, nis_sensors: 0 },
         );
         // The estimate is after the newest sample (the IMU at 100), the input was the late fix at 90.
         assert_eq!((snap.t_ns, snap.sample_seq, snap.sample_kind, snap.outcome), (100, 3, 1, outcome::PROPAGATED));
@@ -186,7 +187,12 @@ mod tests {
             (2, 2, 1, 1, 1, 180)
         );
         assert_eq!(snap.rewinds, 1);
-        fill(&mut snap, &e, None, HealthNow { state: health::DEGRADED, reasons: health::IMU_STALE, stale_sensors: 1 });
+        fill(
+            &mut snap,
+            &e,
+            None,
+            HealthNow { state: health::DEGRADED, reasons: health::IMU_STALE, stale_sensors: 1, nis_sensors: 0 },
+        );
         assert_eq!((snap.input_kind, snap.input_t_ns, snap.health), (INPUT_NONE, 0, health::DEGRADED));
     }
 
@@ -233,7 +239,8 @@ mod tests {
                     panic!("sample {k} not processed");
                 };
                 let input = Some(Input { sample, received_ns: t + 1, replayed });
-                let health = HealthNow { state: health::OK, reasons: k as u32, stale_sensors: k as u32 };
+                let health =
+                    HealthNow { state: health::OK, reasons: k as u32, stale_sensors: k as u32, nis_sensors: k as u32 };
                 let mut fresh = StateSnapshot::default();
                 fill(&mut kept, &e, input, health);
                 fill(&mut fresh, &e, input, health);
@@ -242,8 +249,18 @@ mod tests {
             }
             if k % 50 == 49 {
                 let mut fresh = StateSnapshot::default();
-                fill(&mut kept, &e, None, HealthNow { state: health::DEGRADED, reasons: 0, stale_sensors: 0 });
-                fill(&mut fresh, &e, None, HealthNow { state: health::DEGRADED, reasons: 0, stale_sensors: 0 });
+                fill(
+                    &mut kept,
+                    &e,
+                    None,
+                    HealthNow { state: health::DEGRADED, reasons: 0, stale_sensors: 0, nis_sensors: 0 },
+                );
+                fill(
+                    &mut fresh,
+                    &e,
+                    None,
+                    HealthNow { state: health::DEGRADED, reasons: 0, stale_sensors: 0, nis_sensors: 0 },
+                );
                 assert_eq!(format!("{fresh:?}"), format!("{kept:?}"), "health-only snapshot {k}");
             }
         }

@@ -112,6 +112,8 @@ fn rust_layout() -> Value {
             datum_height_m,
             datum_set,
             stale_sensors,
+            nis_sensors,
+            reserved,
             reinitialisations,
             readers_refused,
             pending_steps,

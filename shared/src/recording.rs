@@ -138,6 +138,10 @@ pub struct SnapshotJson {
     pub health_reasons: Vec<String>,
     /// Sensors whose stream went stale.
     pub stale_sensors: Vec<SensorJson>,
+    /// Sensors whose NIS is persistently out of its band (none in recordings
+    /// made before it was recorded).
+    #[serde(default)]
+    pub nis_sensors: Vec<SensorJson>,
     /// The datum of the ENU frame, once set.
     pub datum: Option<DatumJson>,
     /// Counters per sensor.
@@ -308,6 +312,10 @@ impl From<&StateSnapshot> for SnapshotJson {
             health_reasons: s.health_reason_names().map(str::to_string).collect(),
             stale_sensors: s
                 .stale_sensor_counters()
+                .map(|c| SensorJson { kind: kind_name(c.kind), sensor: c.sensor })
+                .collect(),
+            nis_sensors: s
+                .nis_sensor_counters()
                 .map(|c| SensorJson { kind: kind_name(c.kind), sensor: c.sensor })
                 .collect(),
             datum: s.datum().map(|d| DatumJson {

@@ -282,7 +282,7 @@ impl SensorCounters {
 /// §5.3.3). Because the quaternion's 4 entries share 3 error states,
 /// covariance row `i` lines up with state entry `i` only for `i < 6`.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("fusion.StateSnapshot.v11")]
+#[type_name("fusion.StateSnapshot.v12")]
 #[repr(C)]
 pub struct StateSnapshot {
     /// Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
@@ -360,6 +360,11 @@ pub struct StateSnapshot {
     /// Bit `i`: `sensors[i]` is stale (no sample for longer than its kind's
     /// timeout): which of several IMUs, say, is gone.
     pub stale_sensors: u32,
+    /// Bit `i`: `sensors[i]`'s NIS is persistently out of its χ² band (the
+    /// reason `nis out of bounds`): which sensor disagrees with the filter.
+    pub nis_sensors: u32,
+    /// Zero.
+    pub reserved: u32,
     /// Times the filter re-initialised itself from the position fixes after a
     /// lock-out (every fix gated for `[gating] lockout_ns`).
     pub reinitialisations: u64,
@@ -440,6 +445,8 @@ impl Default for StateSnapshot {
             datum_height_m: 0.0,
             datum_set: 0,
             stale_sensors: 0,
+            nis_sensors: 0,
+            reserved: 0,
             reinitialisations: 0,
             readers_refused: 0,
             pending_steps: 0,
@@ -484,8 +491,18 @@ impl StateSnapshot {
 
     /// The sensors that are stale ([`StateSnapshot::stale_sensors`]).
     pub fn stale_sensor_counters(&self) -> impl Iterator<Item = &SensorCounters> {
-        let stale = self.stale_sensors;
-        self.sensor_counters().iter().enumerate().filter(move |(i, _)| *i < 32 && stale & (1 << i) != 0).map(|(_, c)| c)
+        self.sensors_of(self.stale_sensors)
+    }
+
+    /// The sensors whose NIS is persistently out of its band
+    /// ([`StateSnapshot::nis_sensors`]).
+    pub fn nis_sensor_counters(&self) -> impl Iterator<Item = &SensorCounters> {
+        self.sensors_of(self.nis_sensors)
+    }
+
+    /// The sensor rows whose bits are set in `bits`.
+    fn sensors_of(&self, bits: u32) -> impl Iterator<Item = &SensorCounters> + use<'_> {
+        self.sensor_counters().iter().enumerate().filter(move |(i, _)| *i < 32 && bits & (1 << i) != 0).map(|(_, c)| c)
     }
 
     /// The state vector in use.
@@ -574,7 +591,7 @@ const _: () = {
                 + 8 * (MAX_STATE + MAX_COV * MAX_COV)
                 + 136 * MAX_SENSORS
                 + 24
-                + 32
+                + 40
                 + 16
                 + 24
                 + 16

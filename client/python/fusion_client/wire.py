@@ -231,9 +231,9 @@ class SensorCounters(_Wire):
 
 
 class StateSnapshot(_Wire):
-    """The fusion state after one processed sample (``fusion.StateSnapshot.v11``)."""
+    """The fusion state after one processed sample (``fusion.StateSnapshot.v12``)."""
 
-    TYPE_NAME = "fusion.StateSnapshot.v11"
+    TYPE_NAME = "fusion.StateSnapshot.v12"
     _fields_ = [
         ("seq", ctypes.c_uint64),
         ("publish_ns", ctypes.c_uint64),
@@ -267,6 +267,8 @@ class StateSnapshot(_Wire):
         ("datum_height_m", ctypes.c_double),
         ("datum_set", ctypes.c_uint32),
         ("stale_sensors", ctypes.c_uint32),
+        ("nis_sensors", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
         ("reinitialisations", ctypes.c_uint64),
         ("readers_refused", ctypes.c_uint64),
         ("pending_steps", ctypes.c_uint64),

@@ -385,7 +385,20 @@ fn run(args: Args) -> anyhow::Result<()> {
     }
     // The health and why it is not ok.
     let describe = |snap: &StateSnapshot| {
-        let reasons: Vec<&str> = snap.health_reasons().map(|r| r.name()).collect();
+        // `nis out of bounds: odometry 0`: which sensor disagrees with the filter.
+        let nis: Vec<String> = snap
+            .nis_sensor_counters()
+            .map(|c| format!("{} {}", fusion_shared::SampleKind::from_code(c.kind).map_or("?", |k| k.name()), c.sensor))
+            .collect();
+        let reasons: Vec<String> = snap
+            .health_reasons()
+            .map(|r| match r {
+                fusion_client::HealthReason::NisOutOfBounds if !nis.is_empty() => {
+                    format!("{}: {}", r.name(), nis.join(", "))
+                }
+                r => r.name().to_string(),
+            })
+            .collect();
         let reasons = if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) };
         format!("{}{reasons}", snap.health())
     };

@@ -257,7 +257,15 @@ fn state_layout(s: &StateSnapshot) -> Vec<(String, Option<usize>)> {
 
 /// The health reasons of a snapshot, and which sensors are stale (`stale: imu 0`).
 fn health_reasons(s: &StateSnapshot) -> Vec<String> {
-    let mut reasons: Vec<String> = s.health_reason_names().map(String::from).collect();
+    // `nis out of bounds: odometry 0`: which sensor disagrees with the filter.
+    let nis: Vec<String> = s.nis_sensor_counters().map(|c| format!("{} {}", kind_name(c.kind), c.sensor)).collect();
+    let nis_name = fusion_shared::snapshot::health::reason_names(fusion_shared::snapshot::health::NIS_OUT_OF_BOUNDS)
+        .next()
+        .unwrap_or_default();
+    let mut reasons: Vec<String> = s
+        .health_reason_names()
+        .map(|r| if r == nis_name && !nis.is_empty() { format!("{r}: {}", nis.join(", ")) } else { r.to_string() })
+        .collect();
     let stale: Vec<String> = s.stale_sensor_counters().map(|c| format!("{} {}", kind_name(c.kind), c.sensor)).collect();
     if !stale.is_empty() {
         reasons.push(format!("stale: {}", stale.join(", ")));
@@ -429,6 +437,25 @@ mod tests {
         s.sensors[0].rejection_reasons = 1 << rejection::PAST_TIMESTAMP;
         assert!(describe(&s).contains("in the past (from imu 0)"), "{}", describe(&s));
         assert!(!describe(&StateSnapshot::default()).contains("refused in validation"));
+    }
+
+    /// `nis out of bounds` names the sensor (a fleet monitor could not tell
+    /// the wheels at a traffic light from a failing receiver).
+    #[test]
+    fn an_inconsistent_nis_names_its_sensor() {
+        use fusion_shared::snapshot::health;
+        let mut s = StateSnapshot {
+            health: health::DEGRADED,
+            health_reasons: health::NIS_OUT_OF_BOUNDS,
+            sensor_count: 2,
+            nis_sensors: 0b10,
+            ..Default::default()
+        };
+        s.sensors[0].kind = fusion_shared::SampleKind::Imu as u32;
+        s.sensors[1].kind = fusion_shared::SampleKind::Odometry as u32;
+        assert_eq!(super::health_reasons(&s), vec!["nis out of bounds: odometry 0".to_string()]);
+        let json = fusion_shared::recording::SnapshotJson::from(&s);
+        assert_eq!((json.nis_sensors[0].kind.as_str(), json.nis_sensors.len()), ("odometry", 1));
     }
 
     /// An ins snapshot with the odometry scale state and a velocity time offset
