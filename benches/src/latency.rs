@@ -143,6 +143,13 @@ impl Pacer {
         Self { period_ns: (1e9 / rate_hz) as u64, next: now_ns() + 10_000_000 }
     }
 
+    /// Ticks at `rate_hz`, `behind` late already: what a sender that was
+    /// descheduled that long finds when it runs again.
+    pub fn behind(rate_hz: f64, behind: Duration) -> Self {
+        let behind_ns = u64::try_from(behind.as_nanos()).unwrap_or(u64::MAX);
+        Self { period_ns: (1e9 / rate_hz) as u64, next: now_ns().saturating_sub(behind_ns) }
+    }
+
     /// Waits for the next tick.
     ///
     /// A sender that fell behind (descheduled under CPU load) skips the ticks
@@ -311,7 +318,11 @@ impl Prober {
 
     /// `count` IMU samples at `rate_hz`; all but the first `warmup` are recorded.
     pub fn run(&mut self, count: u64, warmup: u64, rate_hz: f64, out: &mut EndToEnd) -> anyhow::Result<()> {
-        let mut pacer = Pacer::new(rate_hz);
+        self.run_paced(count, warmup, Pacer::new(rate_hz), out)
+    }
+
+    /// [`run`](Self::run), paced by `pacer`.
+    pub fn run_paced(&mut self, count: u64, warmup: u64, mut pacer: Pacer, out: &mut EndToEnd) -> anyhow::Result<()> {
         for k in 0..count {
             let seq = self.seq;
             self.seq += 1;
