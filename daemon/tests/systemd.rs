@@ -37,7 +37,15 @@ impl FakeManager {
         let mut buf = [0u8; 4096];
         match self.socket.recv(&mut buf) {
             Ok(n) => Some(String::from_utf8(buf[..n].to_vec()).unwrap()),
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => None,
+            // A signal to this process (a child's end) interrupts the wait: none yet.
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut | std::io::ErrorKind::Interrupted
+                ) =>
+            {
+                None
+            }
             Err(e) => panic!("notify socket: {e}"),
         }
     }
