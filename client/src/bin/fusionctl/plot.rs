@@ -140,12 +140,17 @@ struct Pending {
 /// Each measurement's outcome (fused or gated, its NIS) from the snapshots'
 /// counters. An in-order sample's outcome is in its own snapshot; a late one's
 /// comes with a later snapshot, when the daemon has worked its rewind in (the
-/// sensor's fused or gated count goes up then), in the order the late samples
-/// of the sensor came.
+/// sensor's count of outcomes goes up then), in the order the late samples of
+/// the sensor came.
+///
+/// A rewind can also change the decision on a sample it re-steps (counted as
+/// one fused less and one gated more, or the reverse): that moves no count of
+/// outcomes, and is not told apart from a new outcome in the same snapshot, so
+/// the cross of such a sample stays where its first decision put it.
 #[derive(Debug, Default)]
 struct Outcomes {
-    /// Per sensor: its fused and gated counts in the last snapshot.
-    counts: HashMap<(String, u32), (u64, u64)>,
+    /// Per sensor: its fused, gated and refused counts in the last snapshot.
+    counts: HashMap<(String, u32), [u64; 3]>,
     /// Per sensor: its late samples without an outcome yet, oldest first.
     waiting: HashMap<(String, u32), std::collections::VecDeque<Pending>>,
 }
@@ -164,27 +169,25 @@ impl Outcomes {
         for c in &s.counters {
             let Some(kind) = kind_of(&c.kind).filter(|k| *k != SampleKind::Imu) else { continue };
             let key = (c.kind.clone(), c.sensor);
-            let (fused, gated) = self.counts.insert(key.clone(), (c.fused, c.gated)).unwrap_or((0, 0));
-            // New outcomes in this snapshot: (fused, gated).
-            let mut new = (c.fused.saturating_sub(fused), c.gated.saturating_sub(gated));
+            let now = [c.fused, c.gated, c.refused];
+            let [fused, gated, refused] = self.counts.insert(key.clone(), now).unwrap_or_default();
+            // New outcomes (a changed decision moves none), and of them the gated.
+            let outcomes = (c.fused + c.gated + c.refused).saturating_sub(fused + gated + refused);
+            let mut new = (outcomes, c.gated.saturating_sub(gated).min(outcomes));
             let mut outcome = |new: &mut (u64, u64), fix: Pending, nis| {
                 let gated = new.1 > 0;
-                if gated {
-                    new.1 -= 1;
-                } else {
-                    new.0 = new.0.saturating_sub(1);
-                }
+                *new = (new.0 - 1, new.1.saturating_sub(1));
                 f(kind, fix, gated, nis);
             };
-            if in_order && c.kind == input.kind && c.sensor == input.sensor && new.0 + new.1 > 0 {
+            if in_order && c.kind == input.kind && c.sensor == input.sensor && new.0 > 0 {
                 outcome(&mut new, pending, c.last_nis);
             }
             let Some(waiting) = self.waiting.get_mut(&key) else { continue };
-            while new.0 + new.1 > 0 {
+            while new.0 > 0 {
                 let Some(fix) = waiting.pop_front() else { break };
                 // The sensor's last NIS is the newest one's: several outcomes
                 // in one snapshot leave the older ones without a NIS point.
-                let last = new.0 + new.1 == 1;
+                let last = new.0 == 1;
                 outcome(&mut new, fix, if last { c.last_nis } else { None });
             }
         }
