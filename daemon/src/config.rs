@@ -208,7 +208,8 @@ max_readers = 8
 #   [model.constraints]                    # optional, land vehicles: no sideways or vertical body velocity
 #   nonholonomic_std_mps = 0.1             # how far the vehicle violates it (slip, suspension), 1 sigma
 #   nonholonomic_interval_ns = 50_000_000  # applied at most this often
-#   nonholonomic_min_speed_mps = 1.0       # and only above this forward speed
+#   nonholonomic_min_speed_mps = 0.0       # and only above this forward speed, either way (0: always)
+#   nonholonomic_lever_arm_m = [0, 0, 0]   # the point that does not slide (rear axle on the ground), from the IMU
 #   [model.standstill]                     # optional: detect standing still (IMU and speed), then
 #   window_ns = 200_000_000                #   zero-velocity and zero-rate updates every window, attitude held
 #   imu_threshold = 3.0                    # quiet window: variance <= this x the noise densities' at rest

@@ -302,6 +302,12 @@ impl InsModel {
                     format!("must be a finite number >= 0, got {}", c.min_speed_mps),
                 ));
             }
+            if !c.lever_arm_m.iter().all(|v| v.is_finite() && v.abs() <= 100.0) {
+                return Err(invalid(
+                    "model.constraints.nonholonomic_lever_arm_m",
+                    format!("must be finite and within 100 m of the IMU, got {:?}", c.lever_arm_m),
+                ));
+            }
         }
         if let Some(c) = &p.standstill {
             if !(c.window_ns >= 10_000_000 && c.window_ns <= 10_000_000_000) {

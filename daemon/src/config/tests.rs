@@ -80,7 +80,13 @@ fn ins_config_uses_kalibr_names() {
     let with = |table: &str| Config::parse(&INS.replace("[filter]", &format!("[model.constraints]\n{table}[filter]")));
     let ModelConfig::Ins(p) = with("nonholonomic_std_mps = 0.2\n").unwrap().model.clone() else { panic!() };
     let nhc = p.constraints.unwrap();
-    assert_eq!((nhc.std_mps, nhc.interval_ns, nhc.min_speed_mps), (0.2, 50_000_000, 1.0));
+    assert_eq!((nhc.std_mps, nhc.interval_ns, nhc.min_speed_mps, nhc.lever_arm_m), (0.2, 50_000_000, 0.0, [0.0; 3]));
+    assert!(
+        with("nonholonomic_std_mps = 0.1\nnonholonomic_lever_arm_m = [0, nan, 0]\n")
+            .unwrap_err()
+            .to_string()
+            .contains("nonholonomic_lever_arm_m")
+    );
     let bad = |table: &str| with(table).unwrap_err().to_string();
     assert!(bad("nonholonomic_std_mps = 0\n").contains("model.constraints.nonholonomic_std_mps"));
     assert!(bad("nonholonomic_std_mps = 0.1\nnonholonomic_min_speed_mps = -1\n").contains("min_speed"));

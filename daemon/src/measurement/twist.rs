@@ -23,9 +23,9 @@
 //! bias.
 //!
 //! - `ins`: the update above, Joseph form, gated, injected and reset; refused
-//!   until the attitude is known to [`nonholonomic::MAX_ATTITUDE_SD`] (as wheel
-//!   odometry: a body-frame velocity linearised about a wrong heading makes the
-//!   filter sure of it). While the vehicle stands, `ω` is held at 0 and the bias
+//!   until roll and pitch are known to [`nonholonomic::MAX_ATTITUDE_SD`] (as
+//!   wheel odometry, [`nonholonomic::tilt_known`]: a body-frame velocity needs
+//!   the tilt, not the heading). While the vehicle stands, `ω` is held at 0 and the bias
 //!   columns are 0.
 //! - `linear`: refused (no attitude); a config naming a twist sensor is refused
 //!   at start-up.
@@ -112,7 +112,8 @@ impl Fuse<LinearModel> for TwistSample {
 
 impl<const D: usize> Fuse<InsModel<D>> for TwistSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
-        if !nonholonomic::attitude_known(s) {
+        // Body-frame velocities need the tilt, not the heading.
+        if !nonholonomic::tilt_known(s) {
             return (StepOutcome::Refused, None);
         }
         let mount = model.frames().mount(SampleKind::Twist, self.header.sensor);

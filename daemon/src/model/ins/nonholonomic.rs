@@ -1,24 +1,29 @@
 //! The land-vehicle motion constraint, a pseudo-measurement of the `ins` model.
 //!
 //! A wheeled vehicle does not slide sideways or lift off, so the lateral and
-//! vertical components of the body-frame velocity `v_b = Rᵀ v` are zero up to a
-//! noise `σ_nhc` (slip, suspension travel): `z = [0, 0] = [v_b,y, v_b,z] + n`
-//! (Groves 2013, §15.4.1; Dissanayake et al., "The aiding of a low-cost strapdown
-//! inertial measurement unit using vehicle model constraints for land vehicle
-//! applications", IEEE T-RA 2001).
+//! vertical components of the body-frame velocity of the point that does not
+//! slide (the middle of the rear axle on the ground for a car, the centre of a
+//! skid-steer robot's wheel contacts), `v_p = Rᵀ v + ω × l` with `l` its lever
+//! arm from the IMU and `ω = ω_m − b_g` the body rate, are zero up to a noise
+//! `σ_nhc` (slip, suspension travel): `z = [0, 0] = [v_p,y, v_p,z] + n`
+//! (Groves 2013, §15.4.1 and eq. 14.121 for the lever arm; Dissanayake et al.,
+//! "The aiding of a low-cost strapdown inertial measurement unit using vehicle
+//! model constraints for land vehicle applications", IEEE T-RA 2001).
 //!
-//! With the local attitude error `q_true = q ⊗ Exp(δθ)`,
-//! `v_b,true ≈ v_b + Rᵀ δv + [v_b]× δθ`, so the rows of `H` are rows 1 and 2 of
-//! `Rᵀ` on δv and of `[v_b]×` on δθ; `R = σ_nhc² I₂`.
+//! With the local attitude error `q_true = q ⊗ Exp(δθ)` and `ω_true = ω − δb_g`,
+//! `v_p,true ≈ v_p + Rᵀ δv + [Rᵀ v]× δθ + [l]× δb_g` ([`point_velocity`]), so the
+//! rows of `H` are rows 1 and 2 of `Rᵀ` on δv, of `[Rᵀ v]×` on δθ and of `[l]×`
+//! on δb_g; `R = σ_nhc² I₂`.
 //!
 //! It has no wire type: the `ins` model fuses it after an IMU sample, at most every
-//! `interval`, above a minimum forward speed, and once the attitude is known to
-//! [`MAX_ATTITUDE_SD`] (before, the linearisation is poor). It is gated like any
-//! measurement; a refused one (the vehicle skids) changes nothing.
+//! `interval`, at every speed (forward, reversing and at rest) unless a minimum
+//! is configured, and once the attitude is known to [`MAX_ATTITUDE_SD`] (before,
+//! the linearisation is poor). It is gated like any measurement; a refused one
+//! (the vehicle skids) changes nothing.
 
 #![allow(non_snake_case)]
 
-use nalgebra::{Matrix2, SMatrix, SVector, Vector2};
+use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3};
 
 use crate::model::ins::{InsModel, InsState};
 
@@ -39,17 +44,21 @@ pub struct Nonholonomic {
     /// Least time between two constraint updates, ns (default 50 ms).
     #[serde(rename = "nonholonomic_interval_ns", default = "Nonholonomic::default_interval_ns")]
     pub interval_ns: u64,
-    /// Forward speed below which the constraint is not applied, m/s (default 1).
-    #[serde(rename = "nonholonomic_min_speed_mps", default = "Nonholonomic::default_min_speed")]
+    /// Forward speed, either way, below which the constraint is not applied,
+    /// m/s (default 0: at every speed, reversing and at rest too; a vehicle
+    /// that slides at low speed, a tracked one turning on the spot, sets one).
+    #[serde(rename = "nonholonomic_min_speed_mps", default)]
     pub min_speed_mps: f64,
+    /// The point that does not slide, from the IMU in the body frame (FLU), m
+    /// (default the IMU itself): the middle of the rear axle on the ground for
+    /// a car, the centre of the wheel contacts for a skid-steer robot.
+    #[serde(rename = "nonholonomic_lever_arm_m", default)]
+    pub lever_arm_m: [f64; 3],
 }
 
 impl Nonholonomic {
     fn default_interval_ns() -> u64 {
         50_000_000
-    }
-    fn default_min_speed() -> f64 {
-        1.0
     }
 }
 
@@ -59,13 +68,49 @@ pub fn attitude_known<const D: usize>(s: &InsState<D>) -> bool {
     (6..9).all(|i| s.filter().variance(i) <= MAX_ATTITUDE_SD * MAX_ATTITUDE_SD)
 }
 
-/// Fuses `[v_b,y, v_b,z] = 0` into `s` and injects the correction, which it
+/// Whether roll and pitch are known to [`MAX_ATTITUDE_SD`], whatever the yaw:
+/// the world-frame horizontal components of the attitude error `R δθ`
+/// (`R P_θθ Rᵀ`, east and north). A body-frame speed needs the tilt (to take
+/// gravity's part out of it), not the heading.
+pub fn tilt_known<const D: usize>(s: &InsState<D>) -> bool {
+    const LIMIT: f64 = MAX_ATTITUDE_SD * MAX_ATTITUDE_SD;
+    if attitude_known(s) {
+        return true;
+    }
+    let P = s.filter().P().fixed_view::<3, 3>(6, 6).into_owned();
+    let R = s.q().to_rotation_matrix().into_inner();
+    let world = R * P * R.transpose();
+    world[(0, 0)] <= LIMIT && world[(1, 1)] <= LIMIT
+}
+
+/// The body-frame velocity of the point at lever arm `l` from the IMU,
+/// `v_p = Rᵀ v + ω × l`, and its Jacobian in the error state: `Rᵀ` on δv,
+/// `[Rᵀ v]×` on δθ, `[l]×` on δb_g (none while standing, when `ω` is 0
+/// whatever `b_g` is: [`InsModel::body_rate`]).
+pub fn point_velocity<const D: usize>(s: &InsState<D>, l: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, D>) {
+    let R = s.q().to_rotation_matrix().into_inner();
+    let v_b = R.transpose() * s.v();
+    let w = InsModel::<D>::body_rate(s);
+    let (vx, lx) = (v_b.cross_matrix(), l.cross_matrix());
+    let mut H = SMatrix::<f64, 3, D>::zeros();
+    for r in 0..3 {
+        for k in 0..3 {
+            H[(r, 3 + k)] = R[(k, r)]; // (Rᵀ)[r][k]
+            H[(r, 6 + k)] = vx[(r, k)];
+            if !s.standing() {
+                H[(r, 12 + k)] = lx[(r, k)];
+            }
+        }
+    }
+    (v_b + w.cross(l), H)
+}
+
+/// Fuses `[v_p,y, v_p,z] = 0` into `s` and injects the correction, which it
 /// returns. Below the minimum speed, with the attitude not yet known, or when
 /// the gate refuses it, nothing changes.
 pub fn fuse<const D: usize>(c: &Nonholonomic, model: &InsModel<D>, s: &mut InsState<D>) -> Option<SVector<f64, D>> {
-    let R = s.q().to_rotation_matrix().into_inner();
-    let v_b = R.transpose() * s.v();
-    if v_b.x < c.min_speed_mps {
+    let (v_p, H_p) = point_velocity(s, &Vector3::from(c.lever_arm_m));
+    if v_p.x.abs() < c.min_speed_mps {
         return None;
     }
     // The constraint is linear in δθ only for small attitude errors: with the
@@ -74,15 +119,12 @@ pub fn fuse<const D: usize>(c: &Nonholonomic, model: &InsModel<D>, s: &mut InsSt
     if !attitude_known(s) {
         return None;
     }
-    let mut H = SMatrix::<f64, INNOVATION_DIM, D>::zeros();
-    let vx = v_b.cross_matrix();
-    for r in 0..2 {
-        for k in 0..3 {
-            H[(r, 3 + k)] = R[(k, r + 1)]; // (Rᵀ)[r+1][k]
-            H[(r, 6 + k)] = vx[(r + 1, k)];
-        }
+    let mut H: SMatrix<f64, INNOVATION_DIM, D> = H_p.fixed_rows::<2>(1).into_owned();
+    if c.lever_arm_m == [0.0; 3] {
+        // At the IMU the bias columns are zero: exactly zero (`[0]×` has −0 entries).
+        H.fixed_columns_mut::<3>(12).fill(0.0);
     }
-    let predicted = Vector2::new(v_b.y, v_b.z);
+    let predicted = Vector2::new(v_p.y, v_p.z);
     let Rn = Matrix2::identity() * (c.std_mps * c.std_mps);
     model.update_residual(s, &(-predicted), &H, &Rn).1
 }

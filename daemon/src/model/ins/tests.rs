@@ -63,7 +63,7 @@ fn structured_fpft_equals_the_dense_product() {
 
 #[test]
 fn the_motion_constraint_pulls_sideways_velocity_but_waits_for_a_known_attitude() {
-    let nhc = Nonholonomic { std_mps: 0.1, interval_ns: 50_000_000, min_speed_mps: 1.0 };
+    let nhc = Nonholonomic { std_mps: 0.1, interval_ns: 50_000_000, min_speed_mps: 1.0, lever_arm_m: [0.0; 3] };
     // Driving along body x at 10 m/s, with a 0.5 m/s sideways error in the estimate.
     let mut x = x0();
     x[3] = 10.0;
@@ -88,6 +88,56 @@ fn the_motion_constraint_pulls_sideways_velocity_but_waits_for_a_known_attitude(
     loose[8] = 1.0;
     let (waiting, free) = (run(loose, Some(nhc)), run(loose, None));
     assert_eq!((waiting.nominal, waiting.kf.P()), (free.nominal, free.kf.P()));
+}
+
+/// A ground robot's constraint at its defaults (every speed) at the rear
+/// axle: a sideways velocity error is pulled out while reversing and at rest
+/// too (it was applied only above 1 m/s forward, so a reversing robot's
+/// lateral velocity drifted and a stop "observed" its yaw). And at a lever arm
+/// while turning: the point's lateral speed `v_y + ω_z l_x` is what is zeroed.
+#[test]
+fn the_motion_constraint_holds_reversing_at_rest_and_at_its_lever_arm() {
+    let nhc: Nonholonomic =
+        toml::from_str("nonholonomic_std_mps = 0.05\nnonholonomic_lever_arm_m = [-0.3, 0.0, -0.2]\n")
+            .expect("the defaults");
+    assert_eq!((nhc.min_speed_mps, nhc.interval_ns), (0.0, 50_000_000));
+    let f = Vector3::new(0.0, 0.0, G);
+    let run = |forward: f64, lateral: f64, w: Vector3<f64>| {
+        let mut x = x0();
+        (x[3], x[4]) = (forward, lateral);
+        let mut known = p0();
+        known[6..9].fill(1e-4);
+        let m = InsModel::new(noise(), G, x, known, None, 0).unwrap().with_nonholonomic(Some(nhc));
+        let mut s = m.initial_state();
+        for k in 0..=20u64 {
+            m.step(&mut s, &imu(k * 5_000_000, k, f, w));
+        }
+        s
+    };
+    for (forward, what) in [(-0.5, "reversing"), (0.0, "at rest"), (0.5, "forward, slowly")] {
+        let s = run(forward, 0.3, Vector3::zeros());
+        assert!(s.v().y.abs() < 0.05, "{what}: lateral {}", s.v().y);
+    }
+    // Turning at 0.5 rad/s with the IMU 0.3 m ahead of the axle: the axle does
+    // not slide, so the IMU's own lateral velocity is ω l = 0.15 m/s.
+    let s = run(0.5, 0.0, Vector3::new(0.0, 0.0, 0.5));
+    let lateral_at_axle =
+        InsModel::<N>::body_rate(&s).cross(&Vector3::new(-0.3, 0.0, -0.2)).y + (s.q().inverse() * s.v()).y;
+    assert!(lateral_at_axle.abs() < 0.03, "{lateral_at_axle}");
+    assert!((s.q().inverse() * s.v()).y > 0.1, "the IMU slides as the turn says: {}", s.v());
+}
+
+/// The body velocity of a point and its Jacobian (velocity, attitude, gyro
+/// bias through the lever arm) against central differences.
+#[test]
+fn the_point_velocity_jacobian_matches_numerical_differentiation() {
+    let s = super::tests_support::moving_state();
+    let l = Vector3::new(-0.3, 0.25, -0.2);
+    let (v, H) = nonholonomic::point_velocity(&s, &l);
+    let numeric = super::tests_support::numeric_jacobian(&s, |x| nonholonomic::point_velocity(x, &l).0);
+    assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+    assert!(H.fixed_view::<3, 3>(0, 12).amax() > 0.1, "the gyro bias enters through the lever arm");
+    assert!((v - (s.q().inverse() * s.v() + InsModel::<N>::body_rate(&s).cross(&l))).norm() < 1e-12);
 }
 
 #[test]
