@@ -96,6 +96,9 @@ fn vehicle_instant(t: u64, k: u64) -> Vec<Sample> {
 fn run<M: Steps>(model: M, config: &Config, n: u64, time: bool, instant: impl Fn(u64, u64) -> Vec<Sample>) {
     let mut engine = Engine::new(model, EngineConfig::from_config(config));
     let mut health = HealthMonitor::new(config.health);
+    if !M::NEEDS_POSITION {
+        health = health.without_position();
+    }
     let mut chunk = Box::new(StateSnapshot::default());
     let t0 = 1_000_000_000u64;
     // The samples are made first, so the loop below is the daemon's work only.

@@ -75,7 +75,7 @@ lockout_fixes = 5
 [health]
 # A stream is stale (health "degraded") after this long without a sample, per
 # sample kind: <kind>_timeout_ns. The health stays "initialising" until samples
-# of {required} were processed.
+# of {required} were processed (ins, which dead-reckons, needs no position fix).
 {timeouts}# NIS test over the last nis_window measurements of each sensor: degraded when
 # their sum stays out of the two-sided chi-square band at nis_probability for
 # nis_window measurements in a row.

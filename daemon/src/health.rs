@@ -3,7 +3,8 @@
 //! - A stream is stale when no sample of a sensor of that kind has arrived for
 //!   longer than its kind's timeout (daemon clock). The health is "initialising"
 //!   until a sample of each group the measurement modules name was processed
-//!   ([`measurement::Needed`]: the IMU, and a position or geodetic fix).
+//!   ([`measurement::Needed`]: the IMU, and a position or geodetic fix, the
+//!   latter only for a model that needs one: [`HealthMonitor::without_position`]).
 //! - The NIS of the last `N` measurements of a sensor is persistently out of
 //!   bounds when the sum over the `k` fused ones leaves the two-sided χ²_{mk}
 //!   band at the configured probability, `m` the kind's innovation dimension (the
@@ -233,6 +234,18 @@ impl HealthMonitor {
         }
     }
 
+    /// The monitor for a model that dead-reckons ([`crate::model::Model::NEEDS_POSITION`]
+    /// false): no absolute position is waited for; `initialising` lasts until
+    /// the model is ready and the IMU was processed.
+    pub fn without_position(mut self) -> Self {
+        for &k in SampleKind::ALL {
+            if measurement::needed(k) == Some(measurement::Needed::Position) {
+                self.needed_groups[k.index()] = 0;
+            }
+        }
+        self
+    }
+
     /// The band for the NIS sum of `k` fused measurements of innovation dimension `m`.
     pub fn nis_band(&self, m: usize, k: usize) -> (f64, f64) {
         self.bands[m.min(MAX_INNOVATION_DIM)][k.min(MAX_NIS_WINDOW)]
@@ -356,6 +369,20 @@ mod tests {
                 ..EngineConfig::default()
             },
         )
+    }
+
+    /// A dead-reckoning model (`ins`: IMU and wheels, no GNSS) reads `ok`
+    /// once ready, without a position fix (it never left `initialising`).
+    #[test]
+    fn a_dead_reckoning_model_is_ok_without_a_fix() {
+        let mut h = HealthMonitor::new(HealthConfig::default()).without_position();
+        let mut e = engine();
+        let imu = Sample::Imu(ImuSample::new(1_000, 0, 0, [0.0; 3], [0.0; 3]));
+        e.insert(&imu, Some(1_000), &mut |_| {});
+        assert_eq!(h.evaluate(e.sensors(), 1_000, true, 0).state, health::OK);
+        assert_eq!(h.evaluate(e.sensors(), 1_000, false, 0).state, health::INITIALISING, "the model not ready");
+        let mut waits = HealthMonitor::new(HealthConfig::default());
+        assert_eq!(waits.evaluate(e.sensors(), 1_000, true, 0).state, health::INITIALISING, "linear waits for a fix");
     }
 
     #[test]

@@ -161,7 +161,11 @@ impl<M: Steps> LiveCore<M> {
         let initialising = HealthNow::INITIALISING;
         Self {
             engine,
-            health: HealthMonitor::new(health),
+            health: if M::NEEDS_POSITION {
+                HealthMonitor::new(health)
+            } else {
+                HealthMonitor::new(health).without_position()
+            },
             health_now: initialising,
             published_health: initialising,
             // 1 ns to 10 s at 3 significant digits: allocated once, here. The

@@ -487,6 +487,7 @@ impl<const D: usize> Model for InsModel<D> {
     type Correction = Option<SVector<f64, D>>;
     type Log = InsLog<D>;
     const CODE: u32 = fusion_shared::snapshot::model::INS;
+    const NEEDS_POSITION: bool = false;
     fn aux_states(s: &InsState<D>) -> u32 {
         s.aux_bits
     }

@@ -93,6 +93,12 @@ pub trait Model {
     /// maps names to model types).
     const CODE: u32;
 
+    /// Whether the estimate means nothing before an absolute position (the
+    /// `linear` model: it has no other source). A model that dead-reckons from
+    /// the IMU (`ins`, a robot with wheels and no GNSS) reads `ok` without
+    /// one: its σ tells how good the position is.
+    const NEEDS_POSITION: bool = true;
+
     /// The state before the first sample.
     fn initial_state(&self) -> Self::State;
 
