@@ -215,7 +215,7 @@ mod tests {
         let mut P = s.filter().P();
         for i in 0..15 {
             for j in 0..15 {
-                if i != j && (i >= 6 && i < 9 || j >= 6 && j < 9) {
+                if i != j && ((6..9).contains(&i) || (6..9).contains(&j)) {
                     P[(i, j)] = 0.0;
                 }
             }
