@@ -1,8 +1,9 @@
-//! `fusiond run` over iceoryx2: the only file of the daemon that touches it.
+//! `fusiond run` over iceoryx2: with its `port` the only files of the daemon
+//! that touch it.
 //!
 //! One thread owns every iceoryx2 port (they are `!Send`). [`IpcSource`]
-//! subscribes to `<ns>/<kind>` for every sample kind and merges the subscribers by
-//! timestamp; [`IpcSink`] fills each snapshot in place in a shared-memory chunk
+//! subscribes to `<ns>/<kind>` for every sample kind (`port`) and merges the
+//! subscribers by timestamp (`merge`, pure); [`IpcSink`] fills each snapshot in place in a shared-memory chunk
 //! loaned beforehand, sends it, notifies `<ns>/state` once per turn and then loans
 //! the next chunks. The loop itself is the transport-free [`crate::live`] core.
 
@@ -13,20 +14,22 @@ use fusion_shared::config_record::{ConfigRecord, MAX_CONFIG_TEXT};
 use fusion_shared::service::{self, InvalidNamespace, ServiceNames};
 use fusion_shared::transport::Ipc;
 use fusion_shared::{KindVisitor, Sample, SampleKind, StateSnapshot, WireSample};
-use iceoryx2::port::ReceiveError;
 use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::{Publisher, PublisherCreateError};
-use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
-use iceoryx2::service::port_factory::{PortFactory, publish_subscribe};
+
+mod merge;
+mod port;
+
+use merge::Heads;
+use port::{KindPort, Port};
 
 use crate::config::{Config, ConfigError, WithModel, with_model};
 use crate::engine::{Engine, EngineConfig};
 use crate::live::{LiveCore, LoopObserver, SampleSource, SnapshotSink};
 pub use crate::live::{RunReport, WaitMode};
-use crate::measurement;
 use crate::measurement::Steps;
 use crate::summary::SummaryLogger;
 use crate::systemd::Watchdog;
@@ -122,147 +125,6 @@ pub fn run(config: &Config, options: &RunOptions, shutdown: &AtomicBool) -> Resu
     with_model(config, Run(config, options, shutdown))
 }
 
-/// One sample subscriber and the sample it holds back for the merge.
-///
-/// Fair draining: iceoryx2's `receive` always serves the first publisher that
-/// has data, so a publisher that sends without pause would starve the ones that
-/// connected after it. The port therefore keeps every sample it took in a turn
-/// (up to [`service::MAX_BORROWED_PER_PUBLISHER`] per publisher, the limit set on
-/// the service), and `receive` passes over a publisher at that limit to the
-/// next: in each turn every publisher gets the same share. The samples are given
-/// back at the end of the turn.
-///
-/// A port whose publishers have all given their share while they have more is
-/// *blocked* for the rest of the turn: its next samples are unseen, so the merge
-/// ([`IpcSource::next`]) hands out no sample of another port that could come
-/// after them, and the turn ends; under a backlog the kinds are drained in
-/// timestamp order, not one kind's share ahead of another's.
-struct KindPort<T: WireSample> {
-    subscriber: Subscriber<Ipc, T, ()>,
-    service: publish_subscribe::PortFactory<Ipc, T, ()>,
-    /// Samples taken this turn, still borrowed (capacity for every publisher's
-    /// share: pushing never allocates).
-    held: Vec<iceoryx2::sample::Sample<Ipc, T, ()>>,
-    pending: Option<T>,
-    /// A late sample (older than the newest processed) taken out of the way of
-    /// the samples queued behind it: they are merged in time order while it
-    /// waits its turn (a retransmitted or late head must not hold back a whole
-    /// queue of in-order samples until they are late too).
-    late: Option<T>,
-    /// The oldest in-order `(t_ns, rank)` received this turn: every
-    /// publisher's next sample is at or after its last one, so at or after this.
-    /// (A late sample says nothing of what comes after it.)
-    turn_oldest: Option<(u64, u8)>,
-    /// Every publisher with samples waiting has given its share this turn.
-    blocked: bool,
-    /// A publisher is connected or samples are waiting (as of the last
-    /// [`Port::refresh`]). An empty poll costs about 65 ns, and each one more in a
-    /// turn of the spin loop delays the sample that arrives meanwhile: the
-    /// subscriber of a kind that no process publishes is not polled.
-    active: bool,
-}
-
-/// A sample's place in the merge: `(t_ns, rank of its kind)`.
-type Key = (u64, u8);
-
-/// A [`KindPort`] of any wire type.
-trait Port {
-    /// Receives into the pending slot if it is empty. A pending sample older
-    /// than `newest` (late) moves to the late slot if that is free, and the
-    /// next one is received behind it.
-    fn poll(&mut self, errors: &mut u64, newest: Option<Key>) -> Heads;
-    /// Hands the pending sample over (`late`: the late slot's).
-    fn take(&mut self, late: bool) -> Option<Sample>;
-    /// Housekeeping: whether this kind has a publisher or waiting samples.
-    fn refresh(&mut self);
-    /// Gives back the samples taken this turn.
-    fn release(&mut self);
-}
-
-/// What [`Port::poll`] found: the keys of a port's pending and late samples,
-/// and while the port is blocked (its publishers have given their share of
-/// the turn and have more) the oldest key its next samples can have: no
-/// sample at or after it may go before them.
-#[derive(Debug, Clone, Copy)]
-struct Heads {
-    pending: Option<Key>,
-    late: Option<Key>,
-    bound: Option<Key>,
-}
-
-impl<T: WireSample> KindPort<T> {
-    fn key(sample: &T) -> Key {
-        (sample.header().t_ns, measurement::rank(T::KIND))
-    }
-
-    /// Receives one sample into the (empty) pending slot.
-    fn receive(&mut self, errors: &mut u64, newest: Option<Key>) {
-        match self.subscriber.receive() {
-            // Copied out, and held until the end of the turn (fair draining).
-            Ok(Some(sample)) => {
-                let key = Self::key(sample.payload());
-                if newest.is_none_or(|n| key >= n) {
-                    self.turn_oldest = Some(self.turn_oldest.map_or(key, |k| k.min(key)));
-                }
-                self.pending = Some(*sample);
-                if self.held.len() < self.held.capacity() {
-                    self.held.push(sample);
-                }
-            }
-            Ok(None) => {}
-            // Every publisher with data has given its share of this turn.
-            Err(ReceiveError::ExceedsMaxBorrows) => self.blocked = true,
-            Err(e) => {
-                if *errors == 0 {
-                    tracing::warn!("{} receive: {e:?} (further failures are only counted)", T::KIND.name());
-                }
-                *errors += 1;
-            }
-        }
-    }
-}
-
-impl<T: WireSample> Port for KindPort<T> {
-    fn poll(&mut self, errors: &mut u64, newest: Option<Key>) -> Heads {
-        if self.pending.is_none() && self.active {
-            self.receive(errors, newest);
-        }
-        // A late head steps aside into the late slot, and the sample behind it
-        // is received: it is merged in time order, not held back until late.
-        if self.late.is_none()
-            && let Some(p) = self.pending
-            && newest.is_some_and(|n| Self::key(&p) < n)
-        {
-            self.late = self.pending.take();
-            if self.active {
-                self.receive(errors, newest);
-            }
-        }
-        Heads {
-            pending: self.pending.as_ref().map(Self::key),
-            late: self.late.as_ref().map(Self::key),
-            // Blocked with nothing taken cannot be (the borrows are this
-            // turn's); then nothing of this port bounds the others.
-            bound: self.turn_oldest.filter(|_| self.blocked),
-        }
-    }
-
-    fn take(&mut self, late: bool) -> Option<Sample> {
-        let slot = if late { &mut self.late } else { &mut self.pending };
-        slot.take().map(WireSample::into_sample)
-    }
-
-    fn refresh(&mut self) {
-        self.active =
-            self.service.dynamic_config().number_of_publishers() > 0 || self.subscriber.has_samples().unwrap_or(true);
-    }
-
-    fn release(&mut self) {
-        self.held.clear();
-        (self.turn_oldest, self.blocked) = (None, false);
-    }
-}
-
 /// The sample subscribers of every kind, merged by timestamp, and the wake-up
 /// listener.
 pub struct IpcSource {
@@ -279,10 +141,6 @@ pub struct IpcSource {
     /// [`SampleSource::wait`] may sleep on its socket.
     armed: bool,
 }
-
-/// In-order samples [`IpcSource::next`] hands out at most before a late one
-/// that waits: under a backlog, a late sample must not wait until it is too late.
-const MAX_PASSED_OVER: u32 = 64;
 
 impl IpcSource {
     fn open(node: &Node<Ipc>, names: &ServiceNames) -> Result<Self, RunError> {
@@ -306,22 +164,7 @@ impl IpcSource {
                     Ok((s, subscriber))
                 });
                 match port {
-                    Ok((service, subscriber)) => {
-                        let held =
-                            Vec::with_capacity(service::MAX_SAMPLE_PUBLISHERS * service::MAX_BORROWED_PER_PUBLISHER);
-                        let mut port = KindPort::<T> {
-                            subscriber,
-                            service,
-                            held,
-                            pending: None,
-                            late: None,
-                            turn_oldest: None,
-                            blocked: false,
-                            active: true,
-                        };
-                        port.refresh();
-                        self.ports.push(Box::new(port));
-                    }
+                    Ok((service, subscriber)) => self.ports.push(Box::new(KindPort::<T>::new(subscriber, service))),
                     Err(e) => self.error = Some(e),
                 }
             }
@@ -363,50 +206,12 @@ impl SampleSource for IpcSource {
     /// oldest it gave this turn: its unseen samples may be older. `None` then
     /// ends the turn; the next one gives its publishers their next share.
     fn next(&mut self, newest: Option<(u64, u8)>) -> Option<Sample> {
-        let mut heads = [Heads { pending: None, late: None, bound: None }; SampleKind::COUNT];
-        let mut bound: Option<(u64, u8)> = None;
+        let mut heads = [Heads::EMPTY; SampleKind::COUNT];
         for (head, port) in heads.iter_mut().zip(self.ports.iter_mut()) {
             *head = port.poll(&mut self.receive_errors, newest);
-            if let Some(b) = head.bound {
-                bound = Some(bound.map_or(b, |x| x.min(b)));
-            }
         }
-        let mergeable = |key: Key| bound.is_none_or(|b| key < b);
-        // The oldest in-order sample, and the oldest late one (a late slot's,
-        // or a head that is late behind a full late slot).
-        let mut in_order: Option<(Key, usize)> = None;
-        let mut late: Option<(Key, usize, bool)> = None;
-        for (i, head) in heads.iter().enumerate() {
-            if let Some(key) = head.late.filter(|&k| mergeable(k))
-                && late.is_none_or(|(k, ..)| key < k)
-            {
-                late = Some((key, i, true));
-            }
-            let Some(key) = head.pending.filter(|&k| mergeable(k)) else { continue };
-            if newest.is_none_or(|n| key >= n) {
-                if in_order.is_none_or(|(k, _)| key < k) {
-                    in_order = Some((key, i));
-                }
-            } else if late.is_none_or(|(k, ..)| key < k) {
-                late = Some((key, i, false));
-            }
-        }
-        let (port, from_late_slot) = match (in_order, late) {
-            (Some((_, i)), None) => {
-                self.passed_over = 0;
-                (i, false)
-            }
-            (Some((_, i)), Some(_)) if self.passed_over < MAX_PASSED_OVER => {
-                self.passed_over += 1;
-                (i, false)
-            }
-            (_, Some((_, i, slot))) => {
-                self.passed_over = 0;
-                (i, slot)
-            }
-            (None, None) => return None,
-        };
-        self.ports[port].take(from_late_slot)
+        let (port, late) = merge::pick(&heads, newest, &mut self.passed_over)?;
+        self.ports[port].take(late)
     }
 
     fn refresh(&mut self) {

@@ -360,8 +360,7 @@ pub struct StateSnapshot {
     /// Bit `i`: `sensors[i]` is stale (no sample for longer than its kind's
     /// timeout): which of several IMUs, say, is gone.
     pub stale_sensors: u32,
-    /// Bit `i`: `sensors[i]`'s NIS is persistently out of its χ² band (the
-    /// reason `nis out of bounds`): which sensor disagrees with the filter.
+    /// Bit `i`: `sensors[i]`'s NIS is persistently out of its χ² band (reason `nis out of bounds`).
     pub nis_sensors: u32,
     /// Zero.
     pub reserved: u32,
@@ -494,8 +493,7 @@ impl StateSnapshot {
         self.sensors_of(self.stale_sensors)
     }
 
-    /// The sensors whose NIS is persistently out of its band
-    /// ([`StateSnapshot::nis_sensors`]).
+    /// The sensors whose NIS is persistently out of band ([`StateSnapshot::nis_sensors`]).
     pub fn nis_sensor_counters(&self) -> impl Iterator<Item = &SensorCounters> {
         self.sensors_of(self.nis_sensors)
     }

@@ -1,0 +1,134 @@
+//! The merge of `fusiond run`'s sample subscribers: which port's sample goes
+//! next. Pure: it sees each port's [`Heads`] and the newest key processed.
+//!
+//! - The oldest in-order sample (at or after the newest processed; at equal
+//!   time the lower rank) goes first: under a backlog the kinds are fused in
+//!   time order, not one kind's batch ahead of another's.
+//! - A late sample (older than the newest processed: its snapshot is
+//!   provisional anyway) waits while in-order samples go, at most
+//!   [`MAX_PASSED_OVER`] in a row, so that the in-order sample's snapshot does
+//!   not wait for its rewind, and the late one is not made too late.
+//! - A port keeps a late head in a slot of its own ([`Heads::late`]) and shows
+//!   the sample behind it: a late or retransmitted head does not hold back the
+//!   in-order samples queued behind it.
+//! - A blocked port (its publishers gave their share of the turn and have more)
+//!   bounds every other: no sample at or after the oldest it gave this turn goes
+//!   before its unseen ones; with none left below the bound, the turn ends.
+
+/// A sample's place in the merge: `(t_ns, rank of its kind)`.
+pub type Key = (u64, u8);
+
+/// In-order samples handed out at most before a late one that waits: under a
+/// backlog, a late sample must not wait until it is too late.
+pub const MAX_PASSED_OVER: u32 = 64;
+
+/// What a port holds for the merge: the keys of its pending (next in its
+/// queue) and late samples, and while it is blocked (its publishers have given
+/// their share of the turn and have more) the oldest key its next samples can
+/// have: no sample at or after it may go before them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Heads {
+    /// The key of the port's next sample.
+    pub pending: Option<Key>,
+    /// The key of the late sample the port holds aside.
+    pub late: Option<Key>,
+    /// While blocked: the bound on every other port's samples.
+    pub bound: Option<Key>,
+}
+
+impl Heads {
+    /// A port with nothing.
+    pub const EMPTY: Heads = Heads { pending: None, late: None, bound: None };
+}
+
+/// The port whose sample goes next and whether it is its late slot's, given
+/// the ports' `heads` and the `newest` key processed; `passed_over` counts the
+/// in-order samples handed out while a late one waited. `None`: nothing may go
+/// (the turn ends).
+pub fn pick(heads: &[Heads], newest: Option<Key>, passed_over: &mut u32) -> Option<(usize, bool)> {
+    let bound = heads.iter().filter_map(|h| h.bound).min();
+    let mergeable = |key: Key| bound.is_none_or(|b| key < b);
+    // The oldest in-order sample, and the oldest late one (a late slot's, or a
+    // head that is late behind a full late slot).
+    let mut in_order: Option<(Key, usize)> = None;
+    let mut late: Option<(Key, usize, bool)> = None;
+    for (i, head) in heads.iter().enumerate() {
+        if let Some(key) = head.late.filter(|&k| mergeable(k))
+            && late.is_none_or(|(k, ..)| key < k)
+        {
+            late = Some((key, i, true));
+        }
+        let Some(key) = head.pending.filter(|&k| mergeable(k)) else { continue };
+        if newest.is_none_or(|n| key >= n) {
+            if in_order.is_none_or(|(k, _)| key < k) {
+                in_order = Some((key, i));
+            }
+        } else if late.is_none_or(|(k, ..)| key < k) {
+            late = Some((key, i, false));
+        }
+    }
+    match (in_order, late) {
+        (Some((_, i)), None) => {
+            *passed_over = 0;
+            Some((i, false))
+        }
+        (Some((_, i)), Some(_)) if *passed_over < MAX_PASSED_OVER => {
+            *passed_over += 1;
+            Some((i, false))
+        }
+        (_, Some((_, i, slot))) => {
+            *passed_over = 0;
+            Some((i, slot))
+        }
+        (None, None) => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn head(pending: Option<u64>, late: Option<u64>, bound: Option<u64>) -> Heads {
+        let key = |t: Option<u64>| t.map(|t| (t, 1));
+        Heads { pending: key(pending), late: key(late), bound: key(bound) }
+    }
+
+    #[test]
+    fn the_oldest_in_order_sample_goes_first() {
+        let mut passed = 0;
+        let heads = [head(Some(30), None, None), head(Some(20), None, None), head(None, None, None)];
+        assert_eq!(pick(&heads, Some((10, 1)), &mut passed), Some((1, false)));
+        assert_eq!(pick(&[Heads::EMPTY; 3], Some((10, 1)), &mut passed), None);
+        // At equal time the lower rank.
+        let heads =
+            [Heads { pending: Some((20, 3)), ..Heads::EMPTY }, Heads { pending: Some((20, 0)), ..Heads::EMPTY }];
+        assert_eq!(pick(&heads, None, &mut passed), Some((1, false)));
+    }
+
+    /// A late sample waits while in-order ones go, at most MAX_PASSED_OVER in a
+    /// row; its slot's sample is the one handed out then.
+    #[test]
+    fn a_late_sample_waits_for_in_order_ones_but_not_for_ever() {
+        let mut passed = 0;
+        let heads = [head(Some(50), Some(5), None), head(Some(60), None, None)];
+        for _ in 0..MAX_PASSED_OVER {
+            assert_eq!(pick(&heads, Some((40, 1)), &mut passed), Some((0, false)));
+        }
+        assert_eq!(pick(&heads, Some((40, 1)), &mut passed), Some((0, true)), "the late slot's turn");
+        assert_eq!(passed, 0);
+        // A late head behind a full slot waits too, and the older late one goes first.
+        let heads = [head(Some(7), Some(5), None), head(Some(6), None, None)];
+        assert_eq!(pick(&heads, Some((40, 1)), &mut passed), Some((0, true)));
+    }
+
+    /// A blocked port's bound holds back every sample at or after it; with none
+    /// below it, the turn ends.
+    #[test]
+    fn a_blocked_port_bounds_the_others() {
+        let mut passed = 0;
+        let heads = [head(Some(30), None, Some(25)), head(Some(20), None, None)];
+        assert_eq!(pick(&heads, None, &mut passed), Some((1, false)));
+        let heads = [head(Some(30), None, Some(25)), head(Some(26), None, None)];
+        assert_eq!(pick(&heads, None, &mut passed), None);
+    }
+}
