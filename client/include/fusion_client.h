@@ -326,8 +326,7 @@ typedef struct FusionStateSnapshot {
   // Bit `i`: `sensors[i]` is stale (no sample for longer than its kind's
   // timeout): which of several IMUs, say, is gone.
   uint32_t stale_sensors;
-  // Bit `i`: `sensors[i]`'s NIS is persistently out of its χ² band (the
-  // reason `nis out of bounds`): which sensor disagrees with the filter.
+  // Bit `i`: `sensors[i]`'s NIS is persistently out of its χ² band (reason `nis out of bounds`).
   uint32_t nis_sensors;
   // Zero.
   uint32_t reserved;
