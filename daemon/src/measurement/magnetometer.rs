@@ -38,7 +38,9 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite};
 use crate::model::{Model, StepOutcome};
-use crate::model::ins::nonholonomic::MAX_ATTITUDE_SD;
+use crate::frames::wrap_angle;
+use crate::model::ins::course::{ALIGN_ABOVE_SD, heading_variance, turn_heading};
+use crate::model::ins::nonholonomic::{MAX_ATTITUDE_SD, tilt_variance};
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
 
@@ -68,15 +70,6 @@ pub fn field<const D: usize>(s: &InsState<D>, world: &Vector3<f64>) -> (Vector3<
     (h, H)
 }
 
-/// Whether roll and pitch are known to [`MAX_ATTITUDE_SD`]: the variances of the
-/// attitude error about the world's horizontal axes.
-fn tilt_known<const D: usize>(s: &InsState<D>) -> bool {
-    let R = s.q().to_rotation_matrix().into_inner();
-    let P = s.filter().P();
-    let world = R * P.fixed_view::<3, 3>(6, 6) * R.transpose();
-    world[(0, 0)].max(world[(1, 1)]) <= MAX_ATTITUDE_SD * MAX_ATTITUDE_SD
-}
-
 impl Fuse<LinearModel> for MagnetometerSample {
     /// The linear model has no attitude: a configured sensor of this kind is an
     /// error at start-up, and a sample of an unconfigured one is refused.
@@ -93,14 +86,56 @@ impl<const D: usize> Fuse<InsModel<D>> for MagnetometerSample {
         let Some(earth) = frames.magnetic(self.header.sensor) else { return (StepOutcome::Refused, None) };
         let C = frames.mount(SampleKind::Magnetometer, self.header.sensor).rotation;
         let z = C * Vector3::from(self.field_ut);
-        let world = tilt_known(s).then(|| s.q().transform_vector(&z));
+        let world = (tilt_variance(s) <= MAX_ATTITUDE_SD * MAX_ATTITUDE_SD).then(|| s.q().transform_vector(&z));
         if earth.check(z.norm(), world.as_ref()).is_err() {
             return (StepOutcome::Refused, None);
         }
         let R = C * Matrix3::from_row_slice(&self.cov_ut2) * C.transpose();
+        let turned = align_heading(s, &z, &R, &earth.world_ut);
         let (h, H) = field(s, &earth.world_ut);
-        model.update_residual(s, &(z - h), &H, &R)
+        let (outcome, injected) = model.update_residual(s, &(z - h), &H, &R);
+        // The smoother's record holds the whole change of the nominal state.
+        let injected = match (turned, injected) {
+            (Some(t), Some(dx)) => Some(t + dx),
+            (t, dx) => t.or(dx),
+        };
+        (outcome, injected)
     }
+}
+
+/// Aligns an unknown heading (1σ above [`ALIGN_ABOVE_SD`]) from the
+/// tilt-compensated field, as the course over ground does
+/// ([`crate::model::ins::course`]), once roll and pitch are known: the
+/// measured field `z` (body) turned into the world frame with the estimated
+/// attitude, `m = R z`, points `Δ = atan2(e_N, e_E) − atan2(m_N, m_E)` away from
+/// the Earth's horizontal field `e` about world up; the attitude is turned by `Δ`
+/// and the heading error given `σ_ψ² = σ_⊥² / |m_h|² + σ_tilt² (m_U / |m_h|)²`
+/// (the field's noise across its horizontal part, and the tilt's error that a
+/// steep field turns into heading) without correlation. Then the field is fused
+/// as usual. Returns the change of the nominal state for the smoother's record.
+fn align_heading<const D: usize>(
+    s: &mut InsState<D>,
+    z: &Vector3<f64>,
+    R: &Matrix3<f64>,
+    earth: &Vector3<f64>,
+) -> Option<SVector<f64, D>> {
+    let tilt_var = tilt_variance(s);
+    if !s.ready || tilt_var > MAX_ATTITUDE_SD * MAX_ATTITUDE_SD || heading_variance(s) <= ALIGN_ABOVE_SD * ALIGN_ABOVE_SD
+    {
+        return None;
+    }
+    let Rq = s.q().to_rotation_matrix().into_inner();
+    let m = Rq * z;
+    let (m_h, e_h) = (m.xy().norm(), earth.xy().norm());
+    // A field (nearly) vertical here says nothing of the heading.
+    if m_h < 0.1 * m.norm() || e_h < 0.1 * earth.norm() {
+        return None;
+    }
+    let delta = wrap_angle(earth.y.atan2(earth.x) - m.y.atan2(m.x));
+    let across = Vector3::new(-m.y, m.x, 0.0) / m_h;
+    let across_var = (across.transpose() * (Rq * R * Rq.transpose()) * across)[0];
+    let var = across_var / (m_h * m_h) + tilt_var * (m.z / m_h).powi(2);
+    Some(turn_heading(s, delta, var))
 }
 
 #[cfg(test)]
@@ -192,6 +227,37 @@ mod tests {
         assert!(injected.is_some());
         let (_, _, yaw) = s.q().euler_angles();
         assert!((yaw - 1.0).abs() < 0.01, "yaw {yaw} (was 1.2, truth 1.0)");
+    }
+
+    /// A heading 45° off and unknown (1 rad), the tilt known: the first sample
+    /// aligns it from the tilt-compensated field (as the GNSS course does) and
+    /// is then fused; roll and pitch stay where they were. The linearised update
+    /// alone had tilted the attitude by degrees (and a gate refused every sample).
+    #[test]
+    fn an_unknown_heading_is_aligned_from_the_field() {
+        let m = mounted();
+        let mut s = m.initial_state();
+        s.ready = true;
+        s.kf.reset_error(|P| {
+            P[(6, 6)] = 1e-4;
+            P[(7, 7)] = 1e-4;
+        });
+        let truth = UnitQuaternion::from_euler_angles(0.03, -0.02, 1.0);
+        let mut t = s;
+        t.set(s.p(), s.v(), truth, s.b_a(), s.b_g());
+        let sample = MagnetometerSample::new(1, 2, 0, reading(&m, &t, &earth()), [0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.01]);
+        s.set(s.p(), s.v(), UnitQuaternion::from_euler_angles(0.03, -0.02, 1.0 + 45f64.to_radians()), s.b_a(), s.b_g());
+        let (out, injected) = sample.fuse(&m, &mut s);
+        assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
+        assert!(injected.is_some_and(|dx| dx.fixed_rows::<3>(6).norm() > 0.7), "the turn is in the record");
+        let (roll, pitch, yaw) = s.q().euler_angles();
+        assert!((yaw - 1.0).abs() < 0.5f64.to_radians(), "yaw {:.2}°", yaw.to_degrees());
+        assert!((roll - 0.03).abs() < 0.1f64.to_radians() && (pitch + 0.02).abs() < 0.1f64.to_radians(), "{roll} {pitch}");
+        assert!(super::heading_variance(&s) < 0.01, "{}", super::heading_variance(&s));
+        // A known heading is not re-aligned: the sample is fused as before.
+        let mut copy = s;
+        assert!(super::align_heading(&mut copy, &Vector3::new(20.0, 0.0, -40.0), &Matrix3::identity(), &earth()).is_none());
+        assert!(matches!(sample.fuse(&m, &mut s).0, StepOutcome::Fused { .. }));
     }
 
     /// Disturbed samples (strength, inclination), an unconfigured sensor and the

@@ -80,15 +80,11 @@ impl<const D: usize> InsModel<D> {
         if !s.ready || speed < c.min_speed_mps {
             return None;
         }
-        let q = s.q();
-        let u = q.inverse_transform_vector(&Vector3::z());
-        let P = s.kf.P();
-        let heading_var = (u.transpose() * P.fixed_view::<3, 3>(6, 6) * u)[0];
-        if heading_var <= ALIGN_ABOVE_SD * ALIGN_ABOVE_SD {
+        if heading_variance(s) <= ALIGN_ABOVE_SD * ALIGN_ABOVE_SD {
             return None;
         }
         // The heading of the body's x axis; undefined when it points up or down.
-        let x = q.transform_vector(&Vector3::x());
+        let x = s.q().transform_vector(&Vector3::x());
         if x.xy().norm() < 0.5 {
             return None;
         }
@@ -96,20 +92,38 @@ impl<const D: usize> InsModel<D> {
         let across = Vector2::new(-v.y, v.x) / speed;
         let across_var = (across.transpose() * R.fixed_view::<2, 2>(0, 0) * across)[0];
         let var = across_var / (speed * speed) + c.sideslip_std_rad * c.sideslip_std_rad;
-        let turned = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), delta) * q;
-        let (p, vn, b_a, b_g) = (s.p(), s.v(), s.b_a(), s.b_g());
-        s.set(p, vn, turned, b_a, b_g);
-        let mut T = SMatrix::<f64, D, D>::identity();
-        T.fixed_view_mut::<3, 3>(6, 6).copy_from(&(Matrix3::identity() - u * u.transpose()));
-        s.kf.reset_error(|P| {
-            *P = T * *P * T.transpose();
-            let mut block = P.fixed_view_mut::<3, 3>(6, 6);
-            block += u * u.transpose() * var;
-        });
-        let mut change = SVector::<f64, D>::zeros();
-        change.fixed_rows_mut::<3>(6).copy_from(&(u * delta));
-        Some(change)
+        Some(turn_heading(s, delta, var))
     }
+}
+
+/// The variance of the heading error: of the attitude error about world up,
+/// `uᵀ P_θθ u` with `u = Rᵀ e_z`, rad².
+pub(crate) fn heading_variance<const D: usize>(s: &InsState<D>) -> f64 {
+    let u = s.q().inverse_transform_vector(&Vector3::z());
+    let P = s.kf.P();
+    (u.transpose() * P.fixed_view::<3, 3>(6, 6) * u)[0]
+}
+
+/// Turns the attitude about world up by `delta` (roll and pitch kept) and gives
+/// the heading error the variance `var` without correlation (module docs:
+/// `P ← T P Tᵀ + var u uᵀ`). Returns the error-state change of the nominal
+/// state (`delta u` on δθ) for the smoother's record.
+pub(crate) fn turn_heading<const D: usize>(s: &mut InsState<D>, delta: f64, var: f64) -> SVector<f64, D> {
+    let q = s.q();
+    let u = q.inverse_transform_vector(&Vector3::z());
+    let turned = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), delta) * q;
+    let (p, vn, b_a, b_g) = (s.p(), s.v(), s.b_a(), s.b_g());
+    s.set(p, vn, turned, b_a, b_g);
+    let mut T = SMatrix::<f64, D, D>::identity();
+    T.fixed_view_mut::<3, 3>(6, 6).copy_from(&(Matrix3::identity() - u * u.transpose()));
+    s.kf.reset_error(|P| {
+        *P = T * *P * T.transpose();
+        let mut block = P.fixed_view_mut::<3, 3>(6, 6);
+        block += u * u.transpose() * var;
+    });
+    let mut change = SVector::<f64, D>::zeros();
+    change.fixed_rows_mut::<3>(6).copy_from(&(u * delta));
+    change
 }
 
 #[cfg(test)]

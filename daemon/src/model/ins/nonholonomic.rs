@@ -73,14 +73,16 @@ pub fn attitude_known<const D: usize>(s: &InsState<D>) -> bool {
 /// (`R P_θθ Rᵀ`, east and north). A body-frame speed needs the tilt (to take
 /// gravity's part out of it), not the heading.
 pub fn tilt_known<const D: usize>(s: &InsState<D>) -> bool {
-    const LIMIT: f64 = MAX_ATTITUDE_SD * MAX_ATTITUDE_SD;
-    if attitude_known(s) {
-        return true;
-    }
-    let P = s.filter().P().fixed_view::<3, 3>(6, 6).into_owned();
+    attitude_known(s) || tilt_variance(s) <= MAX_ATTITUDE_SD * MAX_ATTITUDE_SD
+}
+
+/// The larger variance of the attitude error about the world's east and north
+/// axes (`R P_θθ Rᵀ`): the tilt's, rad².
+pub fn tilt_variance<const D: usize>(s: &InsState<D>) -> f64 {
     let R = s.q().to_rotation_matrix().into_inner();
-    let world = R * P * R.transpose();
-    world[(0, 0)] <= LIMIT && world[(1, 1)] <= LIMIT
+    let P = s.filter().P();
+    let world = R * P.fixed_view::<3, 3>(6, 6) * R.transpose();
+    world[(0, 0)].max(world[(1, 1)])
 }
 
 /// The body-frame velocity of the point at lever arm `l` from the IMU,
