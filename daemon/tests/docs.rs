@@ -97,3 +97,16 @@ fn every_bench_command_names_a_bench_of_its_package() {
     }
     assert!(checked >= 3, "{checked} bench commands found");
 }
+
+/// The ground-robot page's configuration is one fusiond takes, and it is what
+/// the page says: `ins`, the constraint at its lever arm and at every speed.
+#[test]
+fn the_ground_robot_page_configuration_is_valid() {
+    let page = std::fs::read_to_string(docs().join("ground-robots.md")).unwrap();
+    let start = page.find("```toml\n").expect("a ```toml block") + "```toml\n".len();
+    let end = start + page[start..].find("```").unwrap();
+    let config = fusion_daemon::config::Config::parse(&page[start..end]).unwrap_or_else(|e| panic!("{e}"));
+    let fusion_daemon::config::ModelConfig::Ins(p) = &config.model else { panic!("not ins") };
+    let c = p.constraints.expect("the constraint");
+    assert_eq!((c.min_speed_mps, c.lever_arm_m), (0.0, [-0.12, 0.0, -0.25]));
+}
