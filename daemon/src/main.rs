@@ -268,7 +268,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 .transpose()?;
             if let Some(damage) = recording.as_ref().and_then(Recording::damage) {
                 // Nothing before the damage: nothing to replay.
-                anyhow::ensure!(damage.offset > 8, "{} is {damage}", input.display());
+                anyhow::ensure!(damage.offset > mcap::MAGIC.len() as u64, "{} is {damage}", input.display());
                 eprintln!("replay: {} is {damage}: what comes after it is not read", input.display());
             }
             let config = replay_config(config.as_deref(), recording.as_ref(), &input)?;

@@ -476,6 +476,13 @@ fn lasting_refusals_are_warned_about_once_per_sensor() {
             assert_eq!(stderr.matches(&format!("refusing every sample of {what}")).count(), 1, "{what}\n{stderr}");
         }
         assert_eq!(stderr.matches("refusing every sample of").count(), expected.len(), "{stderr}");
+        // The key to set, as the configuration spells it.
+        if tag == "refused-ins" {
+            for key in [r#"[[sensor]] kinds = ["barometer"], id = 5"#, r#"[[sensor]] kinds = ["pose"], id = 6"#] {
+                assert!(stderr.contains(key), "{key} not in\n{stderr}");
+            }
+            assert!(stderr.contains("[sensor.magnetic]"), "{stderr}");
+        }
         drop(daemon);
         assert!(domain.files().is_empty(), "{:?}", domain.files());
     }

@@ -66,11 +66,14 @@ pub fn scan(bytes: &[u8]) -> Scan {
                 ),
             );
         }
+        if opcode == 0 || opcode > 0x0F {
+            return damaged(at, format!("no MCAP record has opcode {opcode:#04x}"));
+        }
         let len = u64::from_le_bytes(frame[1..9].try_into().unwrap_or_default());
         let body_start = at + 9;
         let Some(body) = usize::try_from(len).ok().and_then(|n| bytes.get(body_start..body_start.checked_add(n)?))
         else {
-            return if complete || opcode == 0 || opcode > 0x0F {
+            return if complete {
                 damaged(at, format!("record of opcode {opcode:#04x} declares {len} bytes, past the end of the file"))
             } else {
                 whole
@@ -83,7 +86,6 @@ pub fn scan(bytes: &[u8]) -> Scan {
                     return damaged(at, what);
                 }
             }
-            0 | 0x10.. => return damaged(at, format!("no MCAP record has opcode {opcode:#04x}")),
             _ => {}
         }
         at = body_start + body.len();

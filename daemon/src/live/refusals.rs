@@ -108,7 +108,7 @@ impl ConfigRefusal {
 
     /// The reason and what to set, for `kind` `sensor` under model `model`.
     pub fn advice(self, model: &str, kind: SampleKind, sensor: u32) -> String {
-        let entry = format!("[[sensor]] kind = \"{}\", id = {sensor}", kind.name());
+        let entry = format!("[[sensor]] kinds = [\"{}\"], id = {sensor}", kind.name());
         match self {
             Self::NotUsed => format!(
                 "the {model} model does not use {} samples (see docs/sensor-kinds.md for the models that do)",

@@ -86,12 +86,13 @@ impl<const D: usize> Fuse<InsModel<D>> for MagnetometerSample {
         let Some(earth) = frames.magnetic(self.header.sensor) else { return (StepOutcome::Refused, None) };
         let C = frames.mount(SampleKind::Magnetometer, self.header.sensor).rotation;
         let z = C * Vector3::from(self.field_ut);
-        let world = (tilt_variance(s) <= MAX_ATTITUDE_SD * MAX_ATTITUDE_SD).then(|| s.q().transform_vector(&z));
+        let tilt_var = tilt_variance(s);
+        let world = (tilt_var <= MAX_ATTITUDE_SD * MAX_ATTITUDE_SD).then(|| s.q().transform_vector(&z));
         if earth.check(z.norm(), world.as_ref()).is_err() {
             return (StepOutcome::Refused, None);
         }
         let R = C * Matrix3::from_row_slice(&self.cov_ut2) * C.transpose();
-        let turned = align_heading(s, &z, &R, &earth.world_ut);
+        let turned = align_heading(s, tilt_var, &z, &R, &earth.world_ut);
         let (h, H) = field(s, &earth.world_ut);
         let (outcome, injected) = model.update_residual(s, &(z - h), &H, &R);
         // The smoother's record holds the whole change of the nominal state.
@@ -112,14 +113,15 @@ impl<const D: usize> Fuse<InsModel<D>> for MagnetometerSample {
 /// and the heading error given `σ_ψ² = σ_⊥² / |m_h|² + σ_tilt² (m_U / |m_h|)²`
 /// (the field's noise across its horizontal part, and the tilt's error that a
 /// steep field turns into heading) without correlation. Then the field is fused
-/// as usual. Returns the change of the nominal state for the smoother's record.
+/// as usual. `tilt_var` is the tilt's variance ([`tilt_variance`]). Returns the
+/// change of the nominal state for the smoother's record.
 fn align_heading<const D: usize>(
     s: &mut InsState<D>,
+    tilt_var: f64,
     z: &Vector3<f64>,
     R: &Matrix3<f64>,
     earth: &Vector3<f64>,
 ) -> Option<SVector<f64, D>> {
-    let tilt_var = tilt_variance(s);
     if !s.ready || tilt_var > MAX_ATTITUDE_SD * MAX_ATTITUDE_SD || heading_variance(s) <= ALIGN_ABOVE_SD * ALIGN_ABOVE_SD
     {
         return None;
@@ -256,7 +258,9 @@ mod tests {
         assert!(super::heading_variance(&s) < 0.01, "{}", super::heading_variance(&s));
         // A known heading is not re-aligned: the sample is fused as before.
         let mut copy = s;
-        assert!(super::align_heading(&mut copy, &Vector3::new(20.0, 0.0, -40.0), &Matrix3::identity(), &earth()).is_none());
+        let tilt_var = tilt_variance(&copy);
+        let (z, cov) = (Vector3::new(20.0, 0.0, -40.0), Matrix3::identity());
+        assert!(super::align_heading(&mut copy, tilt_var, &z, &cov, &earth()).is_none());
         assert!(matches!(sample.fuse(&m, &mut s).0, StepOutcome::Fused { .. }));
     }
 

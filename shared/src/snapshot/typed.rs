@@ -483,6 +483,21 @@ impl StateSnapshot {
         HealthReason::decode(self.health_reasons)
     }
 
+    /// The health reasons as text, the NIS reason naming the sensors it is about
+    /// (`nis out of bounds: odometry 0`, from the field `nis_sensors`).
+    pub fn health_reason_texts(&self) -> Vec<String> {
+        let nis: Vec<String> = self
+            .nis_sensor_counters()
+            .map(|c| format!("{} {}", SampleKind::from_code(c.kind).map_or("none", |k| k.name()), c.sensor))
+            .collect();
+        self.health_reasons()
+            .map(|r| match r {
+                HealthReason::NisOutOfBounds if !nis.is_empty() => format!("{}: {}", r.name(), nis.join(", ")),
+                r => r.name().to_string(),
+            })
+            .collect()
+    }
+
     /// The kind of the input sample that triggered this snapshot; `None` on a
     /// snapshot sent because the health changed while no sample arrived
     /// ([`INPUT_NONE`](super::INPUT_NONE)).

@@ -6,20 +6,7 @@ use fusion_client::sim::Outage;
 /// The health and why it is not ok, with the sensor an inconsistent NIS is
 /// about (`degraded (nis out of bounds: odometry 0)`).
 pub fn describe(snap: &StateSnapshot) -> String {
-    // `nis out of bounds: odometry 0`: which sensor disagrees with the filter.
-    let nis: Vec<String> = snap
-        .nis_sensor_counters()
-        .map(|c| format!("{} {}", fusion_shared::SampleKind::from_code(c.kind).map_or("?", |k| k.name()), c.sensor))
-        .collect();
-    let reasons: Vec<String> = snap
-        .health_reasons()
-        .map(|r| match r {
-            fusion_client::HealthReason::NisOutOfBounds if !nis.is_empty() => {
-                format!("{}: {}", r.name(), nis.join(", "))
-            }
-            r => r.name().to_string(),
-        })
-        .collect();
+    let reasons = snap.health_reason_texts();
     let reasons = if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) };
     format!("{}{reasons}", snap.health())
 }

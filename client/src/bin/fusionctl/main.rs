@@ -258,14 +258,7 @@ fn state_layout(s: &StateSnapshot) -> Vec<(String, Option<usize>)> {
 /// The health reasons of a snapshot, and which sensors are stale (`stale: imu 0`).
 fn health_reasons(s: &StateSnapshot) -> Vec<String> {
     // `nis out of bounds: odometry 0`: which sensor disagrees with the filter.
-    let nis: Vec<String> = s.nis_sensor_counters().map(|c| format!("{} {}", kind_name(c.kind), c.sensor)).collect();
-    let nis_name = fusion_shared::snapshot::health::reason_names(fusion_shared::snapshot::health::NIS_OUT_OF_BOUNDS)
-        .next()
-        .unwrap_or_default();
-    let mut reasons: Vec<String> = s
-        .health_reason_names()
-        .map(|r| if r == nis_name && !nis.is_empty() { format!("{r}: {}", nis.join(", ")) } else { r.to_string() })
-        .collect();
+    let mut reasons = s.health_reason_texts();
     let stale: Vec<String> = s.stale_sensor_counters().map(|c| format!("{} {}", kind_name(c.kind), c.sensor)).collect();
     if !stale.is_empty() {
         reasons.push(format!("stale: {}", stale.join(", ")));

@@ -300,7 +300,7 @@ fn from_replay(output: &Path, input: Option<&Path>) -> anyhow::Result<Data> {
              it as --input",
             input.display()
         );
-        let text = read_text(input, "--samples: the JSON-lines file that was replayed")?;
+        let text = as_text(input, bytes, "--samples: the JSON-lines file that was replayed")?;
         let samples: Vec<Sample> = text.lines().filter_map(|l| fusion_shared::jsonl::parse_sample(l).ok()).collect();
         // A replay output carries no datum: geodetic fixes are placed about the
         // first one, fusiond's datum when no [datum] table is configured.
@@ -328,6 +328,12 @@ fn from_replay(output: &Path, input: Option<&Path>) -> anyhow::Result<Data> {
 /// (`what`) when it is not text.
 fn read_text(path: &Path, what: &str) -> anyhow::Result<String> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    as_text(path, bytes, what)
+}
+
+/// `bytes` (of `path`) as text, or an error that says what the file should
+/// have been (`what`).
+fn as_text(path: &Path, bytes: Vec<u8>, what: &str) -> anyhow::Result<String> {
     String::from_utf8(bytes).map_err(|_| anyhow::anyhow!("{}: not a text file (expected {what})", path.display()))
 }
 
