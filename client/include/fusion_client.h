@@ -42,6 +42,9 @@
 // A pose from a localiser in its map frame (`FusionPoseSample`).
 #define FUSION_KIND_POSE 10
 
+// An AHRS's orientation in the world frame (`FusionAttitudeSample`).
+#define FUSION_KIND_ATTITUDE 11
+
 // `FusionGeodeticSample.fix_type`: not reported.
 #define FUSION_FIX_UNKNOWN 0
 
@@ -593,6 +596,27 @@ typedef struct FusionPoseSample {
 // its NIS.
 #define FusionPoseSample_INNOVATION_DIM 6
 
+// The orientation of the sensor's axes in the world frame (ENU, REP-103), as an
+// AHRS reports it (a ROS `sensor_msgs/Imu` `orientation` with its
+// `orientation_covariance`), with the 3×3 covariance of its error about the
+// sensor's own axes. Its mounting on the body is configuration (`[[sensor]]
+// axes`, `rotation_rpy_deg`); `[sensor.attitude] yaw = false` fuses roll and
+// pitch only (a magnetic yaw indoors).
+typedef struct FusionAttitudeSample {
+  // Time, sensor, sequence number, kind [`SampleKind::Attitude`].
+  struct FusionSampleHeader header;
+  // Rotation of the sensor's axes into the world frame, `[w, x, y, z]`; unit
+  // norm (within 10⁻³).
+  double orientation_wxyz[4];
+  // Covariance of the attitude error, rad², row-major 3×3: a small rotation
+  // about the sensor's own axes (`q_true = q ⊗ Exp(δθ)`); symmetric positive
+  // definite.
+  double cov_rad2[9];
+} FusionAttitudeSample;
+// Values one sample gives a measurement update: the χ² degrees of freedom of
+// its NIS (2 for a sensor whose yaw is not fused).
+#define FusionAttitudeSample_INNOVATION_DIM 3
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -772,6 +796,16 @@ enum FusionStatus fusion_publish_barometer(struct FusionPublisher *publisher,
 enum FusionStatus fusion_publish_pose(struct FusionPublisher *publisher,
                                       const struct FusionPoseSample *sample,
                                       size_t *reached);
+
+// Publishes an AHRS's orientation (unit quaternion `[w, x, y, z]` of the
+// sensor's axes into the world frame, ENU; row-major 3×3 covariance, rad²,
+// about the sensor's axes).
+//
+// # Safety
+// As [`fusion_publish_imu`].
+enum FusionStatus fusion_publish_attitude(struct FusionPublisher *publisher,
+                                          const struct FusionAttitudeSample *sample,
+                                          size_t *reached);
 
 // Position, m, world frame (ENU about the datum), into `out[0..3]`; every model.
 //

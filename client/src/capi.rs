@@ -74,6 +74,8 @@ pub const FUSION_KIND_TWIST: u32 = 8;
 pub const FUSION_KIND_BAROMETER: u32 = 9;
 /// A pose from a localiser in its map frame (`FusionPoseSample`).
 pub const FUSION_KIND_POSE: u32 = 10;
+/// An AHRS's orientation in the world frame (`FusionAttitudeSample`).
+pub const FUSION_KIND_ATTITUDE: u32 = 11;
 
 /// `FusionGeodeticSample.fix_type`: not reported.
 pub const FUSION_FIX_UNKNOWN: u32 = 0;
@@ -163,6 +165,7 @@ const _: () = {
     assert!(FUSION_KIND_TWIST == SampleKind::Twist as u32);
     assert!(FUSION_KIND_BAROMETER == SampleKind::Barometer as u32);
     assert!(FUSION_KIND_POSE == SampleKind::Pose as u32);
+    assert!(FUSION_KIND_ATTITUDE == SampleKind::Attitude as u32);
     {
         use fusion_shared::fix;
         assert!(FUSION_FIX_UNKNOWN == fix::UNKNOWN && FUSION_FIX_NONE == fix::NONE && FUSION_FIX_2D == fix::TWO_D);
@@ -170,7 +173,7 @@ const _: () = {
         assert!(FUSION_FIX_RTK_FLOAT == fix::RTK_FLOAT && FUSION_FIX_RTK_FIXED == fix::RTK_FIXED);
         assert!(fix::COUNT == 7);
     }
-    assert!(SampleKind::COUNT == 10, "a new kind needs its FUSION_KIND_ constant and fusion_publish_ function");
+    assert!(SampleKind::COUNT == 11, "a new kind needs its FUSION_KIND_ constant and fusion_publish_ function");
     assert!(FUSION_HEALTH_INITIALISING == health::INITIALISING);
     assert!(FUSION_HEALTH_OK == health::OK);
     assert!(FUSION_HEALTH_DEGRADED == health::DEGRADED);

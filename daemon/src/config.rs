@@ -182,6 +182,13 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   frame_origin_random_walk_m = 0.01      # and m/sqrt(s)
 #   realign_after_gated = 5                # this many gated poses in a row: the map jumped, set the frame again
 #   relative = false                       # true: fuse only the change between poses (a drifting localiser)
+#   [[sensor]]
+#   name = "ahrs"                          # an IMU with its own attitude filter (Microstrain, Xsens, BNO055)
+#   id = 0
+#   kinds = ["imu", "attitude"]            # attitude: ins only, its orientation in ENU
+#   rotation_rpy_deg = [90.0, 0.0, -90.0]  # body <- sensor, for both kinds
+#   [sensor.attitude]                      # optional
+#   yaw = true                             # false: roll and pitch only (a magnetic yaw indoors)
 # Several IMUs: "average" the samples of each instant (IMUs on one clock), or
 # "failover" (different clocks or rates): the first listed alive IMU is used.
 [imu]

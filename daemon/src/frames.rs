@@ -29,7 +29,7 @@ use serde::Deserialize;
 
 use crate::gnss_quality::{GnssQuality, QualityConfig};
 use crate::magnetic::{EarthField, MagneticConfig};
-use crate::sensor_states::{BarometerConfig, PoseConfig};
+use crate::sensor_states::{AttitudeConfig, BarometerConfig, PoseConfig};
 use crate::setting::{ConfigError, invalid};
 
 /// The `[datum]` table: the origin of the world frame, checked by [`Datum::new`].
@@ -54,8 +54,8 @@ pub const MAX_IMUS: usize = 8;
 /// The kinds whose samples are in the sensor's own axes, so a rotation and an
 /// axis convention apply (the others are in the world frame, or a scalar along
 /// the body's x axis).
-pub const ROTATED_KINDS: [SampleKind; 4] =
-    [SampleKind::Imu, SampleKind::Magnetometer, SampleKind::Twist, SampleKind::Pose];
+pub const ROTATED_KINDS: [SampleKind; 5] =
+    [SampleKind::Imu, SampleKind::Magnetometer, SampleKind::Twist, SampleKind::Pose, SampleKind::Attitude];
 
 /// An angle wrapped into (−π, π], rad.
 pub fn wrap_angle(a: f64) -> f64 {
@@ -120,6 +120,10 @@ pub struct SensorConfig {
     /// Its pose samples' map frame (`[sensor.pose]`; estimated without it).
     #[serde(default)]
     pub pose: Option<PoseConfig>,
+    /// Which of its attitude samples' angles are fused (`[sensor.attitude]`;
+    /// all three without it).
+    #[serde(default)]
+    pub attitude: Option<AttitudeConfig>,
 }
 
 /// The largest `[[sensor]] time_offset_ns` either way, ns (10 s): a sensor whose
@@ -246,6 +250,8 @@ pub struct MountedSensor {
     pub barometer: Option<BarometerConfig>,
     /// Its map frame (pose only).
     pub pose: Option<PoseConfig>,
+    /// The angles it fuses (attitude only).
+    pub attitude: Option<AttitudeConfig>,
 }
 
 /// The datum of the world frame (set once) and the sensors' mounts.
@@ -339,6 +345,16 @@ impl Frames {
                 Some(p) => Some(p.check(|f| key(&format!("pose.{f}")))?),
                 None => has(SampleKind::Pose).then(PoseConfig::default),
             };
+            let attitude = match &s.attitude {
+                Some(_) if !has(SampleKind::Attitude) => {
+                    return Err(invalid(
+                        key("attitude"),
+                        "applies to an attitude sensor: the sensor has no kind \"attitude\"",
+                    ));
+                }
+                Some(a) => Some(*a),
+                None => has(SampleKind::Attitude).then(AttitudeConfig::default),
+            };
             let arm = Vector3::from(s.lever_arm_m);
             if !(arm.iter().all(|v| v.is_finite()) && arm.norm() <= MAX_LEVER_ARM_M) {
                 return Err(invalid(
@@ -370,8 +386,8 @@ impl Frames {
                     return Err(invalid(
                         key("rotation_rpy_deg"),
                         format!(
-                            "a rotation or axis convention applies to an imu, a magnetometer, a twist or a pose \
-                             sensor only, not to {name}"
+                            "a rotation or axis convention applies to an imu, a magnetometer, a twist, a pose or \
+                             an attitude sensor only, not to {name}"
                         ),
                     ));
                 }
@@ -388,6 +404,7 @@ impl Frames {
                     magnetic,
                     barometer: (kind == SampleKind::Barometer).then_some(barometer).flatten(),
                     pose: (kind == SampleKind::Pose).then_some(pose).flatten(),
+                    attitude: (kind == SampleKind::Attitude).then_some(attitude).flatten(),
                 });
             }
         }
@@ -434,6 +451,12 @@ impl Frames {
         self.sensors.iter().find(|m| m.kind == SampleKind::Pose && m.id == sensor)?.pose.as_ref()
     }
 
+    /// The angles attitude sensor `sensor` fuses (`None`: not configured; all
+    /// three).
+    pub fn attitude(&self, sensor: u32) -> Option<&AttitudeConfig> {
+        self.sensors.iter().find(|m| m.kind == SampleKind::Attitude && m.id == sensor)?.attitude.as_ref()
+    }
+
     /// How late the timestamps of sensor `sensor` of `kind` are, ns (0 if not
     /// configured).
     #[inline]
@@ -472,6 +495,7 @@ mod tests {
             magnetic: None,
             barometer: None,
             pose: None,
+            attitude: None,
         }
     }
 

@@ -2,6 +2,8 @@
 //! model: a barometer's bias (`[sensor.barometer]`) and a pose sensor's map
 //! frame (`[sensor.pose]`). The states are the model's auxiliary states; the
 //! measurements are in the barometer's and the pose's measurement modules.
+//! Also an attitude sensor's axes fused (`[sensor.attitude]`), which brings no
+//! state.
 
 use serde::Deserialize;
 
@@ -40,6 +42,29 @@ impl BarometerConfig {
 impl Default for BarometerConfig {
     fn default() -> Self {
         Self { bias_random_walk_m: Self::default_random_walk() }
+    }
+}
+
+/// `[sensor.attitude]`: which of an AHRS's angles are fused (optional: all
+/// three without the table).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AttitudeConfig {
+    /// Fuse the yaw too (default true); false: roll and pitch only, for an AHRS
+    /// whose magnetic yaw is not to be trusted (indoors, near motors and steel).
+    #[serde(default = "AttitudeConfig::default_yaw")]
+    pub yaw: bool,
+}
+
+impl AttitudeConfig {
+    fn default_yaw() -> bool {
+        true
+    }
+}
+
+impl Default for AttitudeConfig {
+    fn default() -> Self {
+        Self { yaw: true }
     }
 }
 

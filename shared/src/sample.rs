@@ -120,6 +120,8 @@ macro_rules! for_each_sample_kind {
             Barometer = 9, "barometer", barometer, BarometerSample;
             /// [`PoseSample`](crate::sample::PoseSample): position and attitude in a localiser's map frame (SLAM, VIO).
             Pose = 10, "pose", pose, PoseSample;
+            /// [`AttitudeSample`](crate::sample::AttitudeSample): an AHRS's orientation in the world frame.
+            Attitude = 11, "attitude", attitude, AttitudeSample;
         }
     };
 }
@@ -127,6 +129,7 @@ macro_rules! for_each_sample_kind {
 // Each kind's file. Declared here rather than by the macro below, so that tools
 // that read the source without expanding macros (cbindgen, for the C header)
 // find the wire types; a kind missing here fails to compile.
+mod attitude;
 mod barometer;
 pub use barometer::{ISA_SEA_LEVEL_PA, MAX_PRESSURE_PA, pressure_altitude_m, pressure_altitude_slope};
 mod geodetic;

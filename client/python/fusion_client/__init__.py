@@ -41,6 +41,7 @@ from .wire import (
     MODEL_NAMES,
     REJECTION_NAMES,
     SAMPLE_TYPES,
+    AttitudeSample,
     BarometerSample,
     Counters,
     GeodeticSample,
@@ -58,7 +59,7 @@ from .wire import (
 )
 
 __all__ = [
-    "ALL_TYPES", "BarometerSample", "Client", "Counters", "DaemonNotRunning", "FusionError", "GeodeticSample", "HeadingSample",
+    "ALL_TYPES", "AttitudeSample", "BarometerSample", "Client", "Counters", "DaemonNotRunning", "FusionError", "GeodeticSample", "HeadingSample",
     "ImuSample", "INPUT_NONE", "MagnetometerSample", "OdometrySample", "PoseSample", "PositionSample",
     "Publisher", "SampleHeader",
     "SensorCounters", "Snapshot", "StateReader", "StateSnapshot", "TwistSample", "VelocitySample", "now_ns",

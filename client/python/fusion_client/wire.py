@@ -14,10 +14,10 @@ MAX_SENSORS = 16
 
 #: Sample kind codes (``SampleHeader.kind``), and their service names.
 KIND_IMU, KIND_POSITION, KIND_VELOCITY, KIND_GEODETIC, KIND_ODOMETRY, KIND_HEADING = 1, 2, 3, 4, 5, 6
-KIND_MAGNETOMETER, KIND_TWIST, KIND_BAROMETER, KIND_POSE = 7, 8, 9, 10
+KIND_MAGNETOMETER, KIND_TWIST, KIND_BAROMETER, KIND_POSE, KIND_ATTITUDE = 7, 8, 9, 10, 11
 KIND_NAMES = {
     1: "imu", 2: "position", 3: "velocity", 4: "geodetic", 5: "odometry", 6: "heading", 7: "magnetometer",
-    8: "twist", 9: "barometer", 10: "pose",
+    8: "twist", 9: "barometer", 10: "pose", 11: "attitude",
 }
 #: ``StateSnapshot.input_kind`` of a snapshot sent because the health changed.
 INPUT_NONE = 0
@@ -195,9 +195,18 @@ class PoseSample(_Sample):
     ]
 
 
+class AttitudeSample(_Sample):
+    """An AHRS's orientation: unit quaternion ``[w, x, y, z]`` of the sensor's axes into the world
+    frame (ENU), with the covariance of its error about the sensor's axes (rad², row-major 3×3)."""
+
+    TYPE_NAME = "fusion.AttitudeSample.v1"
+    KIND = KIND_ATTITUDE
+    _fields_ = [("header", SampleHeader), ("orientation_wxyz", ctypes.c_double * 4), ("cov_rad2", f64x9)]
+
+
 SAMPLE_TYPES = (
     ImuSample, PositionSample, VelocitySample, GeodeticSample, OdometrySample, HeadingSample, MagnetometerSample,
-    TwistSample, BarometerSample, PoseSample,
+    TwistSample, BarometerSample, PoseSample, AttitudeSample,
 )
 
 

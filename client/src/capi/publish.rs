@@ -2,8 +2,8 @@
 //! checking its pointers, the publisher's kind and that every value is finite.
 
 use fusion_shared::{
-    BarometerSample, GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, PoseSample,
-    PositionSample, TwistSample, VelocitySample, WireSample,
+    AttitudeSample, BarometerSample, GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample,
+    PoseSample, PositionSample, TwistSample, VelocitySample, WireSample,
 };
 
 use super::{Failure, FusionPublisher, FusionStatus, guard, null};
@@ -236,6 +236,22 @@ pub unsafe extern "C" fn fusion_publish_barometer(
 pub unsafe extern "C" fn fusion_publish_pose(
     publisher: *mut FusionPublisher,
     sample: *const PoseSample,
+    reached: *mut usize,
+) -> FusionStatus {
+    // SAFETY: forwarded contract.
+    unsafe { publish(publisher, sample, reached) }
+}
+
+/// Publishes an AHRS's orientation (unit quaternion `[w, x, y, z]` of the
+/// sensor's axes into the world frame, ENU; row-major 3×3 covariance, rad²,
+/// about the sensor's axes).
+///
+/// # Safety
+/// As [`fusion_publish_imu`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fusion_publish_attitude(
+    publisher: *mut FusionPublisher,
+    sample: *const AttitudeSample,
     reached: *mut usize,
 ) -> FusionStatus {
     // SAFETY: forwarded contract.

@@ -164,6 +164,7 @@ mod tests {
             magnetic: None,
             barometer: None,
             pose: None,
+            attitude: None,
         };
         let config = crate::frames::ImuConfig { combine, failover_after_ns: 20 };
         crate::frames::Frames::from_config(None, &[imu("a", 4), imu("b", 9)], config).unwrap()

@@ -1,0 +1,111 @@
+//! Simulated attitude (an AHRS: an IMU with its own attitude filter): the
+//! sensor's true orientation in the world frame with its mounting, plus white
+//! noise about the sensor's axes and a constant yaw error (a magnetic yaw
+//! disturbed indoors), arriving after a delay.
+
+use fusion_shared::{AttitudeSample, Sample};
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use super::scenario::{Arrival, schedule};
+use super::trajectory::CarTrajectory;
+
+/// Attitude simulation settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AttitudeConfig {
+    /// Rate, Hz.
+    pub rate_hz: f64,
+    /// Standard deviation of the white noise about each of the sensor's axes,
+    /// rad (reported in the covariance).
+    pub noise_std_rad: f64,
+    /// A constant error of the reported yaw about world up, rad (not in the
+    /// reported covariance: what `[sensor.attitude] yaw = false` is for).
+    pub yaw_error_rad: f64,
+    /// `C_bs`: the sensor's axes into the body frame (body ← sensor).
+    pub rotation: Matrix3<f64>,
+    /// Delay from time of validity to publication: uniform in [min, max], ns.
+    pub delay_min_ns: u64,
+    /// See `delay_min_ns`.
+    pub delay_max_ns: u64,
+    /// Sensor id.
+    pub sensor: u32,
+}
+
+impl Default for AttitudeConfig {
+    fn default() -> Self {
+        Self {
+            rate_hz: 50.0,
+            noise_std_rad: 0.5f64.to_radians(),
+            yaw_error_rad: 0.0,
+            rotation: Matrix3::identity(),
+            delay_min_ns: 2_000_000,
+            delay_max_ns: 10_000_000,
+            sensor: 0,
+        }
+    }
+}
+
+/// Simulated attitude samples (an endless iterator).
+#[derive(Debug, Clone)]
+pub struct AttitudeSim {
+    trajectory: CarTrajectory,
+    config: AttitudeConfig,
+    start_ns: u64,
+    index: u64,
+    rng: ChaCha8Rng,
+}
+
+impl AttitudeSim {
+    /// Samples on `trajectory`, the first at `start_ns` (trajectory time 0).
+    pub fn new(trajectory: CarTrajectory, config: AttitudeConfig, start_ns: u64, seed: u64) -> Self {
+        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6168_7273 ^ (u64::from(config.sensor) << 40));
+        Self { trajectory, config, start_ns, index: 0, rng }
+    }
+}
+
+impl Iterator for AttitudeSim {
+    type Item = Arrival;
+
+    fn next(&mut self) -> Option<Arrival> {
+        let c = &self.config;
+        let (offset_ns, delay) = schedule(&mut self.rng, self.index, c.rate_hz, c.delay_min_ns, c.delay_max_ns);
+        let noise = Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut self.rng)) * c.noise_std_rad;
+        let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
+        let yaw_error = Rotation3::from_axis_angle(&Vector3::z_axis(), c.yaw_error_rad).into_inner();
+        let body = truth.attitude.to_rotation_matrix().into_inner();
+        // Z = Z_true Exp(−ε): q_true = q ⊗ Exp(ε).
+        let sensor = yaw_error * body * c.rotation * Rotation3::new(-noise).into_inner();
+        let q = UnitQuaternion::from_matrix(&sensor);
+        let t_ns = self.start_ns + offset_ns;
+        let sample = AttitudeSample::with_std(t_ns, c.sensor, self.index, [q.w, q.i, q.j, q.k], c.noise_std_rad);
+        self.index += 1;
+        Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Attitude(sample), outlier: false })
+    }
+}
+
+super::aiding_sim!(AttitudeConfig, AttitudeSim, Attitude);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Without noise, the reading taken back through the mount is the true
+    /// body attitude, turned by the configured yaw error about world up.
+    #[test]
+    fn it_reads_the_mounted_sensors_orientation() {
+        let trajectory = CarTrajectory::new(4);
+        let rotation = Rotation3::from_euler_angles(std::f64::consts::FRAC_PI_2, 0.0, -0.3).into_inner();
+        let c = AttitudeConfig { noise_std_rad: 0.0, yaw_error_rad: 0.2, rotation, ..Default::default() };
+        for a in AttitudeSim::new(trajectory.clone(), c, 0, 1).take(20) {
+            let Sample::Attitude(s) = a.sample else { panic!() };
+            let truth = trajectory.at(s.header.t_ns as f64 * 1e-9);
+            let [w, x, y, z] = s.orientation_wxyz;
+            let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+            let body = q.to_rotation_matrix().into_inner() * rotation.transpose();
+            let expected = Rotation3::from_axis_angle(&Vector3::z_axis(), 0.2) * truth.attitude.to_rotation_matrix();
+            assert!((body - expected.matrix()).amax() < 1e-9);
+        }
+    }
+}

@@ -1,0 +1,157 @@
+use nalgebra::UnitQuaternion;
+
+use super::*;
+use crate::frames::{Frames, SensorConfig};
+use crate::model::ins::tests_support::{model, moving_scaled_state, moving_state, numeric_jacobian};
+
+const COV: [f64; 9] = [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 4e-4];
+
+/// An `ins` model with AHRS 3 mounted as robot_localization's Husky has it
+/// (`imu_link` turned +90° about x, then −90° about z) and fusing `yaw`.
+fn mounted(yaw: bool) -> InsModel {
+    let toml = format!(
+        "name = \"ahrs\"\nid = 3\nkinds = [\"imu\", \"attitude\"]\nrotation_rpy_deg = [90, 0, -90]\n\
+         [attitude]\nyaw = {yaw}\n"
+    );
+    let sensor: SensorConfig = toml::from_str(&toml).unwrap();
+    let frames = Frames::from_config(None, &[sensor], Default::default()).unwrap();
+    model().with_frames(frames)
+}
+
+fn mount(m: &InsModel) -> Matrix3<f64> {
+    m.frames().mount(SampleKind::Attitude, 3).rotation
+}
+
+/// The quaternion `[w, x, y, z]` AHRS 3 of `m` reports for the body attitude `q`.
+fn reading(m: &InsModel, q: &UnitQuaternion<f64>) -> [f64; 4] {
+    let S = q.to_rotation_matrix().into_inner() * mount(m);
+    let r = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(S));
+    [r.w, r.i, r.j, r.k]
+}
+
+/// A state whose attitude is known to `sd` rad about each axis.
+fn known(m: &InsModel, q: UnitQuaternion<f64>, sd: f64) -> InsState {
+    let mut s = m.initial_state();
+    s.ready = true;
+    s.set(s.p(), s.v(), q, s.b_a(), s.b_g());
+    s.kf.reset_error(|P| {
+        for i in 6..9 {
+            P[(i, i)] = sd * sd;
+        }
+    });
+    s
+}
+
+#[test]
+fn every_bad_value_has_its_reason() {
+    let limits = Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 };
+    let att = |q, cov| AttitudeSample::new(0, 0, 0, q, cov).validate(&limits);
+    assert_eq!(att([0.6, 0.0, 0.0, 0.8], COV), Ok(()));
+    assert_eq!(att([f64::NAN, 0.0, 0.0, 0.8], COV), Err(Rejection::NonFinite));
+    assert_eq!(att([0.6, 0.0, 0.0, 0.9], COV), Err(Rejection::OutOfRange));
+    let mut asym = COV;
+    asym[1] = 1e-5;
+    assert_eq!(att([1.0, 0.0, 0.0, 0.0], asym), Err(Rejection::CovarianceNotSymmetric));
+    let mut neg = COV;
+    neg[4] = -1e-4;
+    assert_eq!(att([1.0, 0.0, 0.0, 0.0], neg), Err(Rejection::CovarianceNotPositiveDefinite));
+}
+
+#[test]
+fn jacobians_match_central_differences() {
+    let m = mounted(true);
+    let C = mount(&m);
+    let s = moving_state();
+    let (S0, H) = full(&s, &C);
+    let numeric = numeric_jacobian(&s, |x| super::super::pose::log(&(S0.transpose() * full(x, &C).0)));
+    assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+    let (_, P, H) = tilt(&s, &C);
+    let numeric = numeric_jacobian(&s, |x| P * tilt(x, &C).0);
+    assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+    // With the odometry scale state: its column is zero.
+    let s = moving_scaled_state();
+    let (S0, H) = full(&s, &C);
+    let numeric = numeric_jacobian(&s, |x| super::super::pose::log(&(S0.transpose() * full(x, &C).0)));
+    assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+    let (_, P, H) = tilt(&s, &C);
+    let numeric = numeric_jacobian(&s, |x| P * tilt(x, &C).0);
+    assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+}
+
+/// The mounted sensor's reading of the true attitude corrects a known
+/// attitude that is 2° off about every axis, to within its noise.
+#[test]
+fn the_full_attitude_is_corrected() {
+    let m = mounted(true);
+    let truth = UnitQuaternion::from_euler_angles(0.1, -0.05, 2.0);
+    let mut s = known(&m, UnitQuaternion::from_euler_angles(0.135, -0.015, 2.035), 0.05);
+    let sample = AttitudeSample::new(1, 3, 0, reading(&m, &truth), [1e-6, 0.0, 0.0, 0.0, 1e-6, 0.0, 0.0, 0.0, 1e-6]);
+    let (out, injected) = sample.fuse(&m, &mut s);
+    assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
+    assert!(injected.is_some());
+    assert!(s.q().angle_to(&truth) < 1e-3, "{}", s.q().angle_to(&truth));
+}
+
+/// Roll and pitch only: a sample whose yaw is 40° off (a magnetic yaw
+/// indoors) corrects the tilt, leaves the yaw where it was and its
+/// variance as it was.
+#[test]
+fn roll_and_pitch_only_leave_the_yaw_alone() {
+    let m = mounted(false);
+    let truth = UnitQuaternion::from_euler_angles(0.1, -0.05, 2.0);
+    let mut s = known(&m, UnitQuaternion::from_euler_angles(0.12, -0.07, 2.3), 0.05);
+    // Tilt known to 0.05 rad, yaw to 0.55 rad, about the world's axes.
+    let R = s.q().to_rotation_matrix().into_inner();
+    let world = Matrix3::from_diagonal(&Vector3::new(0.0025, 0.0025, 0.3));
+    s.kf.reset_error(|P| P.fixed_view_mut::<3, 3>(6, 6).copy_from(&(R.transpose() * world * R)));
+    let yaw_var = heading_variance(&s);
+    let off = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 40f64.to_radians()) * truth;
+    let sample = AttitudeSample::new(1, 3, 0, reading(&m, &off), [1e-6, 0.0, 0.0, 0.0, 1e-6, 0.0, 0.0, 0.0, 1e-6]);
+    let (out, _) = sample.fuse(&m, &mut s);
+    assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
+    let (r, p, y) = s.q().euler_angles();
+    assert!((r - 0.1).abs() < 1e-3 && (p + 0.05).abs() < 1e-3, "roll {r} pitch {p}");
+    assert!((y - 2.3).abs() < 2e-3, "yaw {y}");
+    assert!(heading_variance(&s) > 0.95 * yaw_var, "{} < {yaw_var}", heading_variance(&s));
+}
+
+/// An unknown attitude is set from the first sample (not linearised across
+/// a large error): full mode takes the sensor's attitude and its covariance;
+/// roll/pitch mode takes its tilt under the estimate's own yaw and keeps the
+/// heading's variance.
+#[test]
+fn an_unknown_attitude_is_aligned_from_the_sample() {
+    let truth = UnitQuaternion::from_euler_angles(0.3, -0.2, -2.5);
+    let wrong = UnitQuaternion::from_euler_angles(-0.4, 0.5, 1.0);
+    let m = mounted(true);
+    let mut s = known(&m, wrong, 1.0);
+    let sample = AttitudeSample::new(1, 3, 0, reading(&m, &truth), COV);
+    let (out, change) = sample.fuse(&m, &mut s);
+    assert_eq!(out, StepOutcome::Propagated);
+    assert!(change.is_some_and(|dx| dx.fixed_rows::<3>(6).norm() > 1.0), "the turn is in the record");
+    assert!(s.q().angle_to(&truth) < 1e-12, "{}", s.q().angle_to(&truth));
+    let C = mount(&m);
+    let expected = C * Matrix3::from_row_slice(&COV) * C.transpose();
+    assert!((s.filter().P().fixed_view::<3, 3>(6, 6) - expected).amax() < 1e-15);
+    // Known now: the next sample is fused.
+    assert!(matches!(sample.fuse(&m, &mut s).0, StepOutcome::Fused { .. }));
+
+    let m = mounted(false);
+    let mut s = known(&m, wrong, 1.0);
+    let heading_var = heading_variance(&s);
+    assert_eq!(sample.fuse(&m, &mut s).0, StepOutcome::Propagated);
+    let (r, p, y) = s.q().euler_angles();
+    let (tr, tp, _) = truth.euler_angles();
+    let (_, _, wy) = wrong.euler_angles();
+    assert!((r - tr).abs() < 1e-12 && (p - tp).abs() < 1e-12 && (y - wy).abs() < 1e-12, "{r} {p} {y}");
+    assert!((heading_variance(&s) - heading_var).abs() < 1e-12);
+    assert!(tilt_variance(&s) < 5e-4, "{}", tilt_variance(&s));
+}
+
+#[test]
+fn the_linear_model_refuses_it() {
+    let linear = LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap();
+    let mut ls = linear.initial_state();
+    let sample = AttitudeSample::new(1, 3, 0, [1.0, 0.0, 0.0, 0.0], COV);
+    assert_eq!(sample.fuse(&linear, &mut ls).0, StepOutcome::Refused);
+}
