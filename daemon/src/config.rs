@@ -461,6 +461,18 @@ impl std::ops::Deref for Config {
     }
 }
 
+impl Tables {
+    /// The topic map of a bag replay: each `[[sensor]]` with a `topic`, its
+    /// kinds under its id.
+    pub fn routes(&self) -> Vec<fusion_shared::ros::Route> {
+        let routes = self.sensors.iter().filter_map(|s| {
+            let kinds = s.kinds.iter().filter_map(|k| fusion_shared::SampleKind::from_name(k)).collect();
+            Some(fusion_shared::ros::Route { topic: s.topic.clone()?, kinds, sensor: s.id, name: s.name.clone() })
+        });
+        routes.collect()
+    }
+}
+
 impl PartialEq for Config {
     /// Equal tables (the model is built from them).
     fn eq(&self, other: &Self) -> bool {

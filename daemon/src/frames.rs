@@ -124,6 +124,11 @@ pub struct SensorConfig {
     /// all three without it).
     #[serde(default)]
     pub attitude: Option<AttitudeConfig>,
+    /// The ROS topic its samples come from when a bag is replayed (`fusiond
+    /// replay --input robot.bag`): each of its kinds is taken from that
+    /// topic's messages ([`fusion_shared::ros`]).
+    #[serde(default)]
+    pub topic: Option<String>,
 }
 
 /// The largest `[[sensor]] time_offset_ns` either way, ns (10 s): a sensor whose
@@ -496,6 +501,7 @@ mod tests {
             barometer: None,
             pose: None,
             attitude: None,
+            topic: None,
         }
     }
 

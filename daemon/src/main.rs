@@ -209,6 +209,38 @@ fn replay_config(
     }
 }
 
+/// `fusiond replay` of a ROS bag: `--config` maps its topics.
+fn replay_bag(
+    config: Option<&std::path::Path>,
+    input: &std::path::Path,
+    output: Option<std::path::PathBuf>,
+    smooth: bool,
+    compare: bool,
+) -> anyhow::Result<()> {
+    anyhow::ensure!(!compare, "--compare needs an MCAP recording (fusionctl record), not a ROS bag");
+    let Some(path) = config else {
+        anyhow::bail!(
+            "--config is needed: {} is a ROS bag, and the configuration's [[sensor]] topic keys say which of its \
+             topics are read",
+            input.display()
+        )
+    };
+    let config = Config::load(path)?;
+    eprintln!("replay: model {}, form {}", config.model.kind(), config.filter.form.name());
+    let writer = output
+        .map(|o| File::create(&o).map(BufWriter::new).with_context(|| format!("cannot create {}", o.display())))
+        .transpose()?;
+    let (summary, bag) = replay::bag::replay_bag(&config, input, writer, smooth)
+        .map_err(|e| match e {
+            replay::bag::BagReplayError::Replay(e) => anyhow::anyhow!(say_why(e)),
+            e => anyhow::anyhow!(e),
+        })
+        .with_context(|| format!("replaying {}", input.display()))?;
+    eprint!("{bag}");
+    eprint!("{summary}");
+    Ok(())
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Run { config, namespace, wait, summary_interval, cpu, fault_stall_after } => {
@@ -255,8 +287,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Command::Replay { config, input, output, smooth, compare } => {
             let mut file = File::open(&input).with_context(|| format!("cannot open {}", input.display()))?;
-            let mut magic = [0u8; 8];
+            let mut magic = [0u8; 16];
             let n = file.read(&mut magic).with_context(|| format!("cannot read {}", input.display()))?;
+            let ros2 = Recording::is_mcap(&magic[..n]) && {
+                let map = File::open(&input).and_then(|f| {
+                    // SAFETY: read-only input; a file changed under the map gives wrong samples, not unsoundness.
+                    unsafe { memmap2::Mmap::map(&f) }
+                });
+                map.is_ok_and(|m| fusion_shared::ros::is_ros2_mcap(&m))
+            };
+            if fusion_shared::ros::is_ros1(&magic[..n]) || ros2 {
+                return replay_bag(config.as_deref(), &input, output, smooth, compare);
+            }
             let named_mcap = input.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
             anyhow::ensure!(
                 !named_mcap || Recording::is_mcap(&magic[..n]),

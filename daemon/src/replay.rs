@@ -19,6 +19,7 @@
 //! Without smoothing, memory is bounded by the history window. With smoothing the
 //! whole run is kept for the backward pass.
 
+pub mod bag;
 pub mod recording;
 
 use std::io::{BufRead, Write};

@@ -12,6 +12,7 @@
 //! - `recording` (feature `json`): the topics, messages and schemas of an MCAP
 //!   recording (`fusionctl record`, `fusiond replay --input RUN.mcap`).
 //! - `mcap_scan` (feature `mcap`): where an MCAP file stops being readable.
+//! - `ros` (feature `ros`): ROS 1 and ROS 2 bags as samples, through a topic map.
 //! - [`transport`]: [`transport::Ipc`], the iceoryx2 service type of every port
 //!   (iceoryx2's `ipc` with pooled per-loan state: no allocation per sample).
 //! - [`permissions`]: only this user may touch fusiond's shared memory.
@@ -30,6 +31,8 @@ pub mod mcap_scan;
 pub mod permissions;
 #[cfg(feature = "json")]
 pub mod recording;
+#[cfg(feature = "ros")]
+pub mod ros;
 pub mod sample;
 pub mod service;
 pub mod snapshot;

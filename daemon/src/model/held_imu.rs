@@ -165,6 +165,7 @@ mod tests {
             barometer: None,
             pose: None,
             attitude: None,
+            topic: None,
         };
         let config = crate::frames::ImuConfig { combine, failover_after_ns: 20 };
         crate::frames::Frames::from_config(None, &[imu("a", 4), imu("b", 9)], config).unwrap()

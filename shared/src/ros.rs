@@ -1,0 +1,427 @@
+//! ROS bags in: ROS 1 bags (`.bag`, read by the `rosbag` crate, messages by
+//! `serde_rosmsg`) and ROS 2 bags in MCAP (read by the `mcap` crate, messages
+//! in CDR by `cdr`).
+//!
+//! A topic map ([`Route`]s: a topic, the kinds it gives and the sensor id they
+//! go to; fusiond's `[[sensor]] topic = …`) says which topics are read and as
+//! what. Each message's header stamp is its sample's time; axes and frames are
+//! REP-103 and REP-105 (FLU body, ENU world), as fusiond's own. Each kind of a
+//! route numbers its samples from 0. What each message type gives is in
+//! [`messages`]. A mapped topic of a type fusiond does not read, or mapped to a
+//! kind its type does not give, is an error before anything is read; a message
+//! that gives no sample (an orientation not given, a covariance unknown, a
+//! message that does not decode) is a counted refusal with its reason, and
+//! [`BagSummary`] says what each topic gave.
+
+pub mod messages;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use messages::{
+    Convert, FluidPressure, Imu, MagneticField, MessageType, NavSatFix, Odometry, PoseWithCovarianceStamped,
+    Ros1Header, Ros2Header, Stamp, TwistWithCovarianceStamped,
+};
+use serde::de::DeserializeOwned;
+
+use crate::sample::{Sample, SampleKind};
+
+/// A topic read as kinds of one sensor id.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Route {
+    /// The topic, as in the bag (`/imu/data`).
+    pub topic: String,
+    /// The kinds taken from each of its messages (an IMU topic: `imu`, and
+    /// `attitude` for its orientation).
+    pub kinds: Vec<SampleKind>,
+    /// The sensor id of the samples.
+    pub sensor: u32,
+    /// The `[[sensor]]` entry's name, for messages.
+    pub name: String,
+}
+
+/// A bag that cannot be read, or a topic map that does not fit it.
+#[derive(Debug, thiserror::Error)]
+pub enum BagError {
+    /// The file could not be opened or mapped.
+    #[error("cannot read it: {0}")]
+    Io(#[from] std::io::Error),
+    /// Not a bag fusiond reads, or damaged before its first message.
+    #[error("{0}")]
+    Format(String),
+    /// A mapped topic's type is not one fusiond reads.
+    #[error(
+        "topic {topic} (mapped to [[sensor]] {name:?}) is a {ty}, which fusiond does not read; it reads {}",
+        MessageType::ALL.map(|(_, n)| n).join(", ")
+    )]
+    UnknownType {
+        /// The topic.
+        topic: String,
+        /// Its message type.
+        ty: String,
+        /// The `[[sensor]]` it is mapped to.
+        name: String,
+    },
+    /// A mapped topic's type does not give a kind it is mapped to.
+    #[error("topic {topic} is a {ty}, which gives no {kind} sample ([[sensor]] {name:?}); it gives {gives}")]
+    WrongKind {
+        /// The topic.
+        topic: String,
+        /// Its message type.
+        ty: String,
+        /// The kind it cannot give.
+        kind: &'static str,
+        /// The `[[sensor]]` entry.
+        name: String,
+        /// The kinds it gives.
+        gives: String,
+    },
+}
+
+/// What a bag's topic gave.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TopicSummary {
+    /// Its message type.
+    pub ty: String,
+    /// Messages read.
+    pub messages: u64,
+    /// Whether the topic map reads it.
+    pub mapped: bool,
+    /// Samples made, by kind name.
+    pub samples: BTreeMap<&'static str, u64>,
+    /// Messages (per kind) that made no sample, by reason.
+    pub refused: BTreeMap<String, u64>,
+}
+
+/// What a bag gave, topic by topic (`fusiond replay` prints it).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BagSummary {
+    /// `"ROS 1"` or `"ROS 2 (MCAP)"`.
+    pub format: &'static str,
+    /// Each topic of the bag.
+    pub topics: BTreeMap<String, TopicSummary>,
+    /// Mapped topics with no message in the bag.
+    pub missing: Vec<String>,
+    /// Where the bag stopped being readable, if it did before its end.
+    pub damage: Option<String>,
+}
+
+impl std::fmt::Display for BagSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "bag ({}):", self.format)?;
+        for (topic, t) in &self.topics {
+            if !t.mapped {
+                writeln!(
+                    f,
+                    "  {topic} ({}): {} messages, not mapped (no [[sensor]] topic): ignored",
+                    t.ty, t.messages
+                )?;
+                continue;
+            }
+            let made: Vec<String> = t.samples.iter().map(|(k, n)| format!("{n} {k}")).collect();
+            write!(f, "  {topic} ({}): {} messages -> {}", t.ty, t.messages, made.join(", "))?;
+            let refused: Vec<String> = t.refused.iter().map(|(r, n)| format!("{n} refused: {r}")).collect();
+            if !refused.is_empty() {
+                write!(f, "; {}", refused.join("; "))?;
+            }
+            writeln!(f)?;
+        }
+        for topic in &self.missing {
+            writeln!(f, "  {topic}: mapped, but no message in the bag")?;
+        }
+        if let Some(d) = &self.damage {
+            writeln!(f, "  the bag is damaged: {d}; what comes after is not read")?;
+        }
+        Ok(())
+    }
+}
+
+/// One sample of a bag (or why a message gave none), in the bag's order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BagItem {
+    /// The message's number in the bag, from 1.
+    pub position: u64,
+    /// The sample, or why there is none.
+    pub sample: Result<Sample, String>,
+}
+
+/// The ROS 1 bag magic.
+pub const ROS1_MAGIC: &[u8] = b"#ROSBAG V2.0\n";
+
+/// Whether `head` (the first bytes of a file) starts a ROS 1 bag.
+pub fn is_ros1(head: &[u8]) -> bool {
+    head.starts_with(ROS1_MAGIC)
+}
+
+/// Whether `bytes` (a whole MCAP file) is a ROS 2 bag: its header's profile
+/// is `ros2` (fusiond's own recordings have none).
+pub fn is_ros2_mcap(bytes: &[u8]) -> bool {
+    let Ok(mut records) = mcap::read::LinearReader::new(bytes) else { return false };
+    matches!(records.next(), Some(Ok(mcap::records::Record::Header(h))) if h.profile == "ros2")
+}
+
+/// A topic's routes and its message type, once checked.
+struct Topic {
+    ty: Option<MessageType>,
+    /// (kind, sensor, next seq).
+    outputs: Vec<(SampleKind, u32, u64)>,
+}
+
+/// The topic map checked against a topic of type `ty`.
+fn topic_for(routes: &[Route], topic: &str, ty: &str) -> Result<Topic, BagError> {
+    let mapped: Vec<&Route> = routes.iter().filter(|r| r.topic == topic).collect();
+    if mapped.is_empty() {
+        return Ok(Topic { ty: None, outputs: Vec::new() });
+    }
+    let Some(t) = MessageType::from_name(ty) else {
+        return Err(BagError::UnknownType { topic: topic.into(), ty: ty.into(), name: mapped[0].name.clone() });
+    };
+    let mut outputs = Vec::new();
+    for r in mapped {
+        for &kind in &r.kinds {
+            if !t.kinds().contains(&kind) {
+                let gives: Vec<&str> = t.kinds().iter().map(|k| k.name()).collect();
+                return Err(BagError::WrongKind {
+                    topic: topic.into(),
+                    ty: ty.into(),
+                    kind: kind.name(),
+                    name: r.name.clone(),
+                    gives: gives.join(", "),
+                });
+            }
+            outputs.push((kind, r.sensor, 0));
+        }
+    }
+    Ok(Topic { ty: Some(t), outputs })
+}
+
+/// How messages are decoded: ROS 1 serialisation or CDR.
+trait Decode {
+    type Header: Stamp + DeserializeOwned + 'static;
+    fn decode<T: DeserializeOwned>(data: &[u8]) -> Result<T, String>;
+}
+
+struct Ros1;
+struct Ros2;
+
+impl Decode for Ros1 {
+    type Header = Ros1Header;
+    fn decode<T: DeserializeOwned>(data: &[u8]) -> Result<T, String> {
+        let len = u32::try_from(data.len()).map_err(|_| "a message over 4 GiB".to_string())?;
+        let mut de = serde_rosmsg::Deserializer::new(std::io::Cursor::new(data), len);
+        let v = T::deserialize(&mut de).map_err(|e| format!("does not decode: {e}"))?;
+        if !de.is_fully_read() {
+            return Err("does not decode: bytes left over".into());
+        }
+        Ok(v)
+    }
+}
+
+impl Decode for Ros2 {
+    type Header = Ros2Header;
+    fn decode<T: DeserializeOwned>(data: &[u8]) -> Result<T, String> {
+        cdr::deserialize::<T>(data).map_err(|e| format!("does not decode: {e}"))
+    }
+}
+
+fn decode<D: Decode>(ty: MessageType, data: &[u8]) -> Result<Box<dyn Convert>, String> {
+    fn boxed<T: Convert + 'static>(v: T) -> Box<dyn Convert> {
+        Box::new(v)
+    }
+    type H<D> = <D as Decode>::Header;
+    Ok(match ty {
+        MessageType::Imu => boxed(D::decode::<Imu<H<D>>>(data)?),
+        MessageType::Odometry => boxed(D::decode::<Odometry<H<D>>>(data)?),
+        MessageType::NavSatFix => boxed(D::decode::<NavSatFix<H<D>>>(data)?),
+        MessageType::TwistWithCovarianceStamped => boxed(D::decode::<TwistWithCovarianceStamped<H<D>>>(data)?),
+        MessageType::PoseWithCovarianceStamped => boxed(D::decode::<PoseWithCovarianceStamped<H<D>>>(data)?),
+        MessageType::FluidPressure => boxed(D::decode::<FluidPressure<H<D>>>(data)?),
+        MessageType::MagneticField => boxed(D::decode::<MagneticField<H<D>>>(data)?),
+    })
+}
+
+/// The state of one read: topics seen, the summary, the message count.
+struct Reading<'r, F> {
+    routes: &'r [Route],
+    topics: BTreeMap<String, Topic>,
+    summary: BagSummary,
+    position: u64,
+    each: F,
+}
+
+impl<F: FnMut(BagItem)> Reading<'_, F> {
+    /// Checks a topic (once) against the topic map.
+    fn topic(&mut self, topic: &str, ty: &str) -> Result<(), BagError> {
+        if !self.topics.contains_key(topic) {
+            let t = topic_for(self.routes, topic, ty)?;
+            let s = self.summary.topics.entry(topic.into()).or_default();
+            (s.ty, s.mapped) = (ty.into(), t.ty.is_some());
+            self.topics.insert(topic.into(), t);
+        }
+        Ok(())
+    }
+
+    fn message<D: Decode>(&mut self, topic: &str, data: &[u8]) {
+        self.position += 1;
+        let (Some(t), Some(s)) = (self.topics.get_mut(topic), self.summary.topics.get_mut(topic)) else { return };
+        s.messages += 1;
+        let Some(ty) = t.ty else { return };
+        let decoded = decode::<D>(ty, data);
+        for (kind, sensor, seq) in &mut t.outputs {
+            let sample = decoded.as_ref().map_err(Clone::clone).and_then(|m| m.sample(*kind, *sensor, *seq));
+            match &sample {
+                Ok(_) => {
+                    *seq += 1;
+                    *s.samples.entry(kind.name()).or_default() += 1;
+                }
+                Err(why) => *s.refused.entry(format!("{} {why}", kind.name())).or_default() += 1,
+            }
+            (self.each)(BagItem { position: self.position, sample });
+        }
+    }
+
+    fn finish(mut self, format: &'static str) -> BagSummary {
+        self.summary.format = format;
+        for r in self.routes {
+            if !self.summary.topics.contains_key(&r.topic) && !self.summary.missing.contains(&r.topic) {
+                self.summary.missing.push(r.topic.clone());
+            }
+        }
+        self.summary
+    }
+}
+
+/// Reads the bag at `path` (ROS 1, or ROS 2 in MCAP), calling `each` with every
+/// sample the topic map `routes` takes from it, in the bag's order.
+pub fn read_bag(path: &Path, routes: &[Route], each: impl FnMut(BagItem)) -> Result<BagSummary, BagError> {
+    let file = std::fs::File::open(path)?;
+    // SAFETY: the bag is read-only input; a file changed under the map gives
+    // wrong samples or a decode error, not unsoundness in this reader.
+    let map = unsafe { memmap2::Mmap::map(&file)? };
+    let mut reading = Reading { routes, topics: BTreeMap::new(), summary: BagSummary::default(), position: 0, each };
+    if is_ros1(&map) {
+        read_ros1(path, &map, &mut reading)?;
+        return Ok(reading.finish("ROS 1"));
+    }
+    if map.starts_with(mcap::MAGIC) {
+        if !is_ros2_mcap(&map) {
+            return Err(BagError::Format("an MCAP file, but not a ROS 2 bag (its profile is not \"ros2\")".into()));
+        }
+        read_ros2(&map, &mut reading)?;
+        return Ok(reading.finish("ROS 2 (MCAP)"));
+    }
+    Err(BagError::Format("neither a ROS 1 bag (#ROSBAG V2.0) nor a ROS 2 bag in MCAP".into()))
+}
+
+/// The `index_pos` of a ROS 1 bag's header record, checked against the file
+/// (the `rosbag` crate takes it on trust).
+fn ros1_index_pos(bytes: &[u8]) -> Result<u64, BagError> {
+    let bad = || BagError::Format("its bag header record is damaged".into());
+    let at = ROS1_MAGIC.len();
+    let len = bytes.get(at..at + 4).ok_or_else(bad)?;
+    let len = u32::from_le_bytes(len.try_into().map_err(|_| bad())?) as usize;
+    let mut fields = bytes.get(at + 4..at + 4 + len).ok_or_else(bad)?;
+    while fields.len() >= 4 {
+        let n = u32::from_le_bytes(fields[..4].try_into().map_err(|_| bad())?) as usize;
+        let field = fields.get(4..4 + n).ok_or_else(bad)?;
+        if let Some(v) = field.strip_prefix(b"index_pos=") {
+            let pos = u64::from_le_bytes(v.try_into().map_err(|_| bad())?);
+            let end = bytes.len() as u64;
+            if pos == 0 {
+                return Err(BagError::Format(
+                    "it has no index (its recording was cut off): `rosbag reindex` repairs it".into(),
+                ));
+            }
+            if pos > end || pos < (at + 4 + len) as u64 {
+                return Err(BagError::Format(format!(
+                    "it is truncated: its index is at byte {pos} of a file of {end} bytes (`rosbag reindex` \
+                     repairs a bag whose recording was cut off)"
+                )));
+            }
+            return Ok(pos);
+        }
+        fields = &fields[4 + n..];
+    }
+    Err(bad())
+}
+
+fn read_ros1<F: FnMut(BagItem)>(path: &Path, bytes: &[u8], r: &mut Reading<'_, F>) -> Result<(), BagError> {
+    use rosbag::{ChunkRecord, IndexRecord, MessageRecord, RosBag};
+    ros1_index_pos(bytes)?;
+    let bag = RosBag::new(path)?;
+    // The index lists every connection: the topic map is checked before a message is read.
+    for record in bag.index_records() {
+        match record {
+            Ok(IndexRecord::Connection(c)) => r.topic(c.topic, c.tp)?,
+            Ok(_) => {}
+            Err(e) => return Err(BagError::Format(format!("its index is damaged: {e}"))),
+        }
+    }
+    let mut connections: BTreeMap<u32, String> = BTreeMap::new();
+    for record in bag.chunk_records() {
+        let chunk = match record {
+            Ok(ChunkRecord::Chunk(chunk)) => chunk,
+            Ok(ChunkRecord::IndexData(_)) => continue,
+            Err(e) => {
+                r.summary.damage = Some(format!("a chunk after message {}: {e}", r.position));
+                return Ok(());
+            }
+        };
+        for m in chunk.messages() {
+            match m {
+                Ok(MessageRecord::Connection(c)) => {
+                    r.topic(c.topic, c.tp)?;
+                    connections.insert(c.id, c.topic.to_string());
+                }
+                Ok(MessageRecord::MessageData(d)) => match connections.get(&d.conn_id) {
+                    Some(topic) => {
+                        let topic = topic.clone();
+                        r.message::<Ros1>(&topic, d.data);
+                    }
+                    None => {
+                        r.summary.damage = Some(format!("message {} is of an unknown connection", r.position + 1));
+                        return Ok(());
+                    }
+                },
+                Err(e) => {
+                    r.summary.damage = Some(format!("a record after message {}: {e}", r.position));
+                    return Ok(());
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+fn read_ros2<F: FnMut(BagItem)>(bytes: &[u8], r: &mut Reading<'_, F>) -> Result<(), BagError> {
+    let scan = crate::mcap_scan::scan(bytes);
+    if let Some(d) = scan.damage {
+        r.summary.damage = Some(d.to_string());
+    }
+    let readable = &bytes[..scan.readable];
+    // The summary (when written) lists every channel: the topic map is checked first.
+    if let Ok(Some(summary)) = mcap::Summary::read(readable) {
+        for c in summary.channels.values() {
+            r.topic(&c.topic, c.schema.as_ref().map_or("", |s| s.name.as_str()))?;
+        }
+    }
+    let stream = mcap::MessageStream::new(readable).map_err(|e| BagError::Format(e.to_string()))?;
+    for m in stream {
+        let m = match m {
+            Ok(m) => m,
+            Err(e) => {
+                r.summary.damage.get_or_insert(format!("after message {}: {e}", r.position));
+                return Ok(());
+            }
+        };
+        let topic = &m.channel.topic;
+        if m.channel.message_encoding != "cdr" {
+            let ty = format!("{} message", m.channel.message_encoding);
+            r.topic(topic, &ty)?;
+        } else {
+            r.topic(topic, m.channel.schema.as_ref().map_or("", |s| s.name.as_str()))?;
+        }
+        r.message::<Ros2>(topic, &m.data);
+    }
+    Ok(())
+}
