@@ -190,6 +190,9 @@ pub struct HealthMonitor {
     last_loss_ns: Option<u64>,
     reinitialisations_seen: u64,
     last_reinitialisation_ns: Option<u64>,
+    /// Sensors whose measurements have fewer dimensions than their kind's
+    /// ([`SampleKind::innovation_dim`]): an AHRS fused for roll and pitch only.
+    fewer_dims: [Option<(SampleKind, u32, usize)>; MAX_SENSORS],
 }
 
 impl HealthMonitor {
@@ -231,7 +234,29 @@ impl HealthMonitor {
             last_loss_ns: None,
             reinitialisations_seen: 0,
             last_reinitialisation_ns: None,
+            fewer_dims: [None; MAX_SENSORS],
         }
+    }
+
+    /// The same monitor with the innovation dimensions of the configured
+    /// sensors of `frames` that fuse fewer than their kind's (an attitude
+    /// sensor with `[sensor.attitude] yaw = false`: 2): their NIS is judged
+    /// against χ² of that many degrees of freedom.
+    pub fn with_frames(mut self, frames: &crate::frames::Frames) -> Self {
+        let fewer = frames.sensors().iter().filter_map(|m| match m.attitude {
+            Some(a) if !a.yaw => Some((m.kind, m.id, 2)),
+            _ => None,
+        });
+        for (slot, f) in self.fewer_dims.iter_mut().zip(fewer) {
+            *slot = Some(f);
+        }
+        self
+    }
+
+    /// The innovation dimension of sensor `sensor` of `kind`.
+    fn innovation_dim(&self, kind: SampleKind, sensor: u32) -> usize {
+        let own = self.fewer_dims.iter().flatten().find(|(k, id, _)| *k == kind && *id == sensor);
+        own.map_or(kind.innovation_dim(), |(_, _, m)| *m)
     }
 
     /// The monitor for a model that dead-reckons ([`crate::model::Model::NEEDS_POSITION`]
@@ -302,7 +327,7 @@ impl HealthMonitor {
             }
             self.lost_seen[i] = s.stats.lost;
             let window = self.config.nis_window;
-            let (lo, hi) = self.nis_band(s.kind.innovation_dim(), self.windows[i].fused);
+            let (lo, hi) = self.nis_band(self.innovation_dim(s.kind, s.sensor), self.windows[i].fused);
             let w = &mut self.windows[i];
             // The measurements since the last evaluation count towards the
             // streak only once the window is full (each after it filled).
@@ -458,6 +483,24 @@ mod tests {
         assert_eq!(h.evaluate(e.sensors(), 0, true, 0).reasons, health::NIS_OUT_OF_BOUNDS, "far too pessimistic");
         // IMU steps carry no NIS and change nothing.
         h.record(0, &StepOutcome::Propagated, false);
+    }
+
+    /// An AHRS fused for roll and pitch only gives 2-D innovations: its NIS is
+    /// judged against χ² of 2 degrees of freedom per measurement (against the
+    /// kind's 3, a consistent stream read far too low); other sensors keep
+    /// their kind's.
+    #[test]
+    fn a_sensor_fusing_fewer_dimensions_is_judged_by_them() {
+        let toml =
+            |id, yaw| format!("name = \"ahrs{id}\"\nid = {id}\nkinds = [\"attitude\"]\n[attitude]\nyaw = {yaw}\n");
+        let sensors: Vec<crate::frames::SensorConfig> =
+            [toml(1, false), toml(2, true)].iter().map(|t| ::toml::from_str(t).unwrap()).collect();
+        let frames = crate::frames::Frames::from_config(None, &sensors, Default::default()).unwrap();
+        let h = HealthMonitor::new(HealthConfig::default()).with_frames(&frames);
+        assert_eq!(h.innovation_dim(SampleKind::Attitude, 1), 2);
+        assert_eq!(h.innovation_dim(SampleKind::Attitude, 2), 3);
+        assert_eq!(h.innovation_dim(SampleKind::Attitude, 3), 3, "an unconfigured one: the full attitude");
+        assert_eq!(h.innovation_dim(SampleKind::Position, 1), 3);
     }
 
     /// Wheels that stand read exactly 0: far below the band, and no fault

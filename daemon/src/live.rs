@@ -159,13 +159,11 @@ impl<M: Steps> LiveCore<M> {
     /// A core around `engine`, with a summary every `summary_interval` from `now_ns`.
     pub fn new(engine: Engine<M>, health: HealthConfig, summary_interval: Duration, now_ns: u64) -> Self {
         let initialising = HealthNow::INITIALISING;
+        let monitor = HealthMonitor::new(health);
+        let monitor = if M::NEEDS_POSITION { monitor } else { monitor.without_position() };
         Self {
+            health: monitor.with_frames(engine.model().frames()),
             engine,
-            health: if M::NEEDS_POSITION {
-                HealthMonitor::new(health)
-            } else {
-                HealthMonitor::new(health).without_position()
-            },
             health_now: initialising,
             published_health: initialising,
             // 1 ns to 10 s at 3 significant digits: allocated once, here. The

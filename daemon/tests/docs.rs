@@ -99,7 +99,9 @@ fn every_bench_command_names_a_bench_of_its_package() {
 }
 
 /// The ground-robot page's configuration is one fusiond takes, and it is what
-/// the page says: `ins`, the constraint at its lever arm and at every speed.
+/// the page says: `ins`, the constraint at its lever arm and at every speed, the
+/// AHRS's attitude and the topics of robot_localization's Husky bag (the bag
+/// itself is replayed with it in `ros_bags.rs`).
 #[test]
 fn the_ground_robot_page_configuration_is_valid() {
     let page = std::fs::read_to_string(docs().join("ground-robots.md")).unwrap();
@@ -108,5 +110,14 @@ fn the_ground_robot_page_configuration_is_valid() {
     let config = fusion_daemon::config::Config::parse(&page[start..end]).unwrap_or_else(|e| panic!("{e}"));
     let fusion_daemon::config::ModelConfig::Ins(p) = &config.model else { panic!("not ins") };
     let c = p.constraints.expect("the constraint");
-    assert_eq!((c.min_speed_mps, c.lever_arm_m), (0.0, [-0.12, 0.0, -0.25]));
+    assert_eq!((c.min_speed_mps, c.lever_arm_m), (0.0, [0.0, 0.3, -0.52]));
+    let topics: Vec<_> = config.routes().into_iter().map(|r| (r.topic, r.kinds)).collect();
+    use fusion_shared::SampleKind::{Attitude, Imu, Odometry};
+    assert_eq!(
+        topics,
+        [
+            ("/imu/data".to_string(), vec![Imu, Attitude]),
+            ("/husky_velocity_controller/odom".to_string(), vec![Odometry])
+        ]
+    );
 }

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use anyhow::Context;
 use clap::Args;
 use fusion_client::sim::{
-    BarometerConfig, FixPhase, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, LocaliserReset,
+    AttitudeConfig, BarometerConfig, FixPhase, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, LocaliserReset,
     MagneticDisturbance, MagnetometerConfig, MapFrame, OdometryConfig, Outage, PoseConfig, PositionConfig,
     ScenarioConfig, Stop, TwistConfig, VelocityConfig,
 };
@@ -102,6 +102,18 @@ pub(crate) struct SimArgs {
     /// Heading noise, degrees.
     #[arg(long, default_value_t = 0.5)]
     heading_noise_deg: f64,
+    /// Attitude (an AHRS's orientation) rate, Hz; 0: none (sensor id 0).
+    #[arg(long, default_value_t = 0.0)]
+    attitude_rate: f64,
+    /// Attitude noise per axis, degrees.
+    #[arg(long, default_value_t = 0.5)]
+    attitude_noise_deg: f64,
+    /// A constant error of the AHRS's yaw, degrees (a magnetic yaw indoors).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    attitude_yaw_error_deg: f64,
+    /// The AHRS's mount, `AXES:ROLL,PITCH,YAW` (degrees; body ← sensor).
+    #[arg(long, default_value = "flu:0,0,0")]
+    attitude_mount: String,
     /// Magnetometer rate, Hz; 0: none (sensor id 0; `--dropouts` applies).
     #[arg(long, default_value_t = 0.0)]
     magnetometer_rate: f64,
@@ -337,6 +349,15 @@ impl SimArgs {
                 rotation: parse_mount("--pose-mount", &self.pose_mount)?,
                 lever_arm_m: arm,
                 dropout_probability: self.dropouts,
+                ..Default::default()
+            }));
+        }
+        if self.attitude_rate > 0.0 {
+            c.aiding.push(Arc::new(AttitudeConfig {
+                rate_hz: self.attitude_rate,
+                noise_std_rad: self.attitude_noise_deg.to_radians(),
+                yaw_error_rad: self.attitude_yaw_error_deg.to_radians(),
+                rotation: parse_mount("--attitude-mount", &self.attitude_mount)?,
                 ..Default::default()
             }));
         }

@@ -1,0 +1,223 @@
+//! ROS bags in, as a robot_localization user brings them: robot_localization's
+//! own test bags (`tests/data/robot_localization`) replayed by the real
+//! `fusiond replay` with the configurations of the guide's ground-robot page,
+//! ending within robot_localization's own tolerance of its expected position;
+//! the same bag as ROS 2 (MCAP) giving the same estimate; bad bags giving clear
+//! errors or counted refusals, never a panic.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use fusion_daemon::replay::OutputLine;
+use nalgebra::{UnitQuaternion, Vector3};
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/robot_localization").join(name)
+}
+
+/// The ```toml block of the ground-robot page whose first line is `# <name>`.
+fn page_config(name: &str) -> String {
+    let page = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/ground-robots.md")).unwrap();
+    let marker = format!("```toml\n# {name}");
+    let start = page.find(&marker).unwrap_or_else(|| panic!("no {name} block on the page")) + "```toml\n".len();
+    let end = start + page[start..].find("```").unwrap();
+    page[start..end].to_string()
+}
+
+fn replay(dir: &Path, config: &str, input: &Path) -> (Output, PathBuf) {
+    let config_path = dir.join("config.toml");
+    std::fs::write(&config_path, config).unwrap();
+    let output = dir.join(format!("{}.jsonl", input.file_stem().unwrap().to_string_lossy()));
+    let out = Command::new(env!("CARGO_BIN_EXE_fusiond"))
+        .args(["replay", "--config"])
+        .arg(&config_path)
+        .arg("--input")
+        .arg(input)
+        .arg("--output")
+        .arg(&output)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    (out, output)
+}
+
+/// `base_link`'s displacement from its position at the first attitude sample
+/// (when the AHRS set the attitude; robot_localization starts `base_link` at
+/// its world origin), with the IMU at `imu_in_base` in `base_link`.
+fn base_link_end(output: &Path, imu_in_base: Vector3<f64>) -> Vector3<f64> {
+    let lines: Vec<OutputLine> =
+        std::fs::read_to_string(output).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let base = |l: &OutputLine| {
+        let x = &l.x;
+        let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]));
+        Vector3::new(x[0], x[1], x[2]) - q * imu_in_base
+    };
+    let start = lines.iter().find(|l| l.kind == "attitude").expect("an attitude sample");
+    base(lines.last().unwrap()) - base(start)
+}
+
+#[test]
+fn the_husky_bag_ends_within_robot_localizations_tolerance() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, output) = replay(dir.path(), &page_config("husky.toml"), &data("test1.bag"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("/imu/data (sensor_msgs/Imu): 11865 messages -> 11865 attitude, 11865 imu"), "{stderr}");
+    assert!(stderr.contains("3952 messages -> 3952 odometry"), "{stderr}");
+    assert!(stderr.contains("/fix (sensor_msgs/NavSatFix): 989 messages, not mapped"), "{stderr}");
+    let end = base_link_end(&output, Vector3::new(0.0, -0.3, 0.52));
+    let expected = Vector3::new(-40.0454, -76.9988, -2.6974);
+    let off = (end - expected).norm();
+    println!(
+        "test1.bag: base_link ends at {end:?}, {off:.3} m from robot_localization's expected (tolerance 1.0452 m)"
+    );
+    assert!(off < 1.0452, "{off} m off: {end:?}");
+}
+
+#[test]
+fn the_jackal_bag_ends_within_robot_localizations_tolerance_as_ros1_and_ros2() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = page_config("jackal.toml");
+    let (out, ros1) = replay(dir.path(), &config, &data("test2.bag"));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let end = base_link_end(&ros1, Vector3::zeros());
+    let off = (end - Vector3::new(1.0206, 3.4292, 0.7419)).norm();
+    println!(
+        "test2.bag: base_link ends at {end:?}, {off:.3} m from robot_localization's expected (tolerance 0.1383 m)"
+    );
+    assert!(off < 0.1383, "{off} m off: {end:?}");
+    let (out, ros2) = replay(dir.path(), &config, &data("test2.mcap"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("bag (ROS 2 (MCAP))") && stderr.contains("(sensor_msgs/msg/Imu): 3061 messages"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read(&ros1).unwrap(), std::fs::read(&ros2).unwrap(), "ROS 1 and ROS 2 differ");
+}
+
+fn failure(out: &Output) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{stderr}");
+    stderr
+}
+
+#[test]
+fn a_bag_that_does_not_fit_its_topic_map_is_refused_with_the_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let jackal = page_config("jackal.toml");
+    // The IMU's topic mapped to a kind an Imu message does not give.
+    let wrong = jackal.replace("kinds = [\"imu\", \"attitude\"]", "kinds = [\"imu\", \"twist\"]");
+    let stderr = failure(&replay(dir.path(), &wrong, &data("test2.bag")).0);
+    assert!(
+        stderr.contains("topic /imu/data is a sensor_msgs/Imu, which gives no twist sample ([[sensor]] \"imu\"); it gives imu, attitude"),
+        "{stderr}"
+    );
+    // No topic at all.
+    let none = jackal.replace("topic = ", "# topic = ");
+    let stderr = failure(&replay(dir.path(), &none, &data("test2.bag")).0);
+    assert!(stderr.contains("no [[sensor]] has a topic"), "{stderr}");
+    // A mapped topic that is not in the bag: said, and the rest replayed.
+    let missing = jackal.replace("/jackal_velocity_controller/odom", "/wheel/odom");
+    let (out, _) = replay(dir.path(), &missing, &data("test2.bag"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && stderr.contains("/wheel/odom: mapped, but no message in the bag"), "{stderr}");
+}
+
+#[test]
+fn damaged_bags_get_clear_errors_never_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let jackal = page_config("jackal.toml");
+    let bag = std::fs::read(data("test2.bag")).unwrap();
+    // Cut off: the index (at the end) is gone.
+    let cut = dir.path().join("cut.bag");
+    std::fs::write(&cut, &bag[..bag.len() / 2]).unwrap();
+    let stderr = failure(&replay(dir.path(), &jackal, &cut).0);
+    assert!(stderr.contains("truncated") && stderr.contains("rosbag reindex"), "{stderr}");
+    // Garbage over the middle: what comes before it is replayed, the damage named.
+    let mut garbage = bag.clone();
+    let mid = garbage.len() / 2;
+    garbage[mid..mid + 4096].fill(0xff);
+    let bad = dir.path().join("garbage.bag");
+    std::fs::write(&bad, &garbage).unwrap();
+    let (out, _) = replay(dir.path(), &jackal, &bad);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("the bag is damaged") || stderr.contains("does not decode"), "{stderr}");
+    // Not a bag at all.
+    let text = dir.path().join("notes.bag");
+    std::fs::write(&text, b"#ROSBAG V2.0\nhello").unwrap();
+    let stderr = failure(&replay(dir.path(), &jackal, &text).0);
+    assert!(stderr.contains("header record is damaged"), "{stderr}");
+}
+
+/// A ROS 2 bag written here: IMU messages on `/imu/data`, one with a NaN in its
+/// orientation covariance and one with its orientation "not given", and an
+/// image topic.
+fn ros2_bag(path: &Path) {
+    #[derive(serde::Serialize)]
+    struct Stamp(i32, u32);
+    #[derive(serde::Serialize)]
+    struct Header(Stamp, String);
+    #[derive(serde::Serialize)]
+    struct Imu(Header, [f64; 4], [f64; 9], [f64; 3], [f64; 9], [f64; 3], [f64; 9]);
+    let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    let mut w = mcap::WriteOptions::new().profile("ros2").create(file).unwrap();
+    let imu_schema = w.add_schema("sensor_msgs/msg/Imu", "ros2msg", b"").unwrap();
+    let image_schema = w.add_schema("sensor_msgs/msg/Image", "ros2msg", b"").unwrap();
+    let imu = w.add_channel(imu_schema, "/imu/data", "cdr", &Default::default()).unwrap();
+    let image = w.add_channel(image_schema, "/camera/image", "cdr", &Default::default()).unwrap();
+    let var = [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-4];
+    for i in 0..400u32 {
+        let t = 1_000_000_000 + u64::from(i) * 10_000_000;
+        let mut cov = var;
+        if i == 150 {
+            cov[4] = f64::NAN;
+        }
+        if i == 151 {
+            cov[0] = -1.0;
+        }
+        let header = Header(Stamp((t / 1_000_000_000) as i32, (t % 1_000_000_000) as u32), "base_link".into());
+        let msg = Imu(header, [0.0, 0.0, 0.0, 1.0], cov, [0.0; 3], var, [0.0, 0.0, 9.80665], var);
+        let data = cdr::serialize::<_, _, cdr::CdrLe>(&msg, cdr::Infinite).unwrap();
+        let header = mcap::records::MessageHeader { channel_id: imu, sequence: i, log_time: t, publish_time: t };
+        w.write_to_known_channel(&header, &data).unwrap();
+        if i % 10 == 0 {
+            let header = mcap::records::MessageHeader { channel_id: image, sequence: i, log_time: t, publish_time: t };
+            w.write_to_known_channel(&header, b"\0\x01\0\0").unwrap();
+        }
+    }
+    w.finish().unwrap();
+}
+
+#[test]
+fn ros2_messages_that_give_no_sample_are_counted_with_their_reasons() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("robot.mcap");
+    ros2_bag(&path);
+    let jackal = page_config("jackal.toml");
+    let (out, output) = replay(dir.path(), &jackal, &path);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains(
+            "/imu/data (sensor_msgs/msg/Imu): 400 messages -> 399 attitude, 400 imu; \
+                         1 refused: attitude orientation not given (orientation_covariance[0] = -1)"
+        ),
+        "{stderr}"
+    );
+    assert!(stderr.contains("/camera/image (sensor_msgs/msg/Image): 40 messages, not mapped"), "{stderr}");
+    // The NaN covariance is a sample the daemon's validation refuses, the
+    // orientation not given one that was never made: both counted invalid.
+    assert!(stderr.contains("invalid 2") && stderr.contains(": non-finite value"), "{stderr}");
+    let lines = std::fs::read_to_string(&output).unwrap();
+    assert!(lines.lines().all(|l| !l.contains("NaN") && !l.contains("null,\"P\"")));
+    // The image topic mapped: an error naming it and what fusiond reads.
+    let camera =
+        format!("{jackal}\n[[sensor]]\nname = \"camera\"\nid = 0\nkinds = [\"pose\"]\ntopic = \"/camera/image\"\n");
+    let stderr = failure(&replay(dir.path(), &camera, &path).0);
+    assert!(
+        stderr.contains("topic /camera/image (mapped to [[sensor]] \"camera\") is a sensor_msgs/msg/Image, which fusiond does not read; it reads sensor_msgs/Imu"),
+        "{stderr}"
+    );
+}
