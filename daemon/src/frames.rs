@@ -546,7 +546,7 @@ mod tests {
         assert!(err(&[sensor("x", 0, &[])]).contains("names no kind"));
         let mut rotated_gnss = gnss.clone();
         rotated_gnss.rotation_rpy_deg = [0.0, 0.0, 10.0];
-        assert!(err(&[rotated_gnss]).contains("an imu, a magnetometer, a twist or a pose sensor only"));
+        assert!(err(&[rotated_gnss]).contains("an imu, a magnetometer, a twist, a pose or an attitude sensor only"));
         let mut imu_arm = imu.clone();
         imu_arm.lever_arm_m = [0.1, 0.0, 0.0];
         assert!(err(&[imu_arm]).contains("body origin"));

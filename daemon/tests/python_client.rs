@@ -14,8 +14,8 @@ use common::live::{Daemon, Running, TestDomain, publish_in_lockstep, wait_for_st
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_shared::snapshot::{Counters, SensorCounters};
 use fusion_shared::{
-    BarometerSample, GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, PoseSample,
-    PositionSample, SampleHeader, SampleKind, StateSnapshot, TwistSample, VelocitySample,
+    AttitudeSample, BarometerSample, GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample,
+    PoseSample, PositionSample, SampleHeader, SampleKind, StateSnapshot, TwistSample, VelocitySample,
 };
 use iceoryx2::prelude::ZeroCopySend;
 use serde_json::{Value, json};
@@ -55,6 +55,7 @@ fn rust_layout() -> Value {
         layout!(TwistSample { header, linear_mps, angular_radps, cov }),
         layout!(BarometerSample { header, pressure_pa, var_pa2 }),
         layout!(PoseSample { header, position_m, orientation_wxyz, cov, reset_counter, reserved }),
+        layout!(AttitudeSample { header, orientation_wxyz, cov_rad2 }),
         layout!(Counters {
             received,
             processed,
@@ -225,7 +226,7 @@ fn the_python_mirrors_have_the_rust_layout() {
     let out = common::python_command("unused", "tests/check_layout.py", &[path.to_str().unwrap()]).output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
-    assert!(said.contains("14 types, 50 constants: 0 differences"), "{said}");
+    assert!(said.contains("15 types, 51 constants: 0 differences"), "{said}");
 
     // The check sees a difference: a layout with one offset moved fails it.
     let mut broken = rust_layout();

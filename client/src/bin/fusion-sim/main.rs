@@ -58,7 +58,7 @@ enum Command {
         #[arg(long, value_delimiter = ',')]
         imu_ids: Option<Vec<u32>>,
         /// Publish only the sensors besides the IMUs: position, velocity, geodetic, odometry, heading,
-        /// magnetometer, twist, barometer and pose, as their rates are set.
+        /// magnetometer, twist, barometer, pose and attitude, as their rates are set.
         #[arg(long)]
         position_only: bool,
         /// Publish this file (replay input format) instead of simulating.
