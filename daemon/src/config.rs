@@ -67,8 +67,9 @@ form = "joseph"
 probability = 0.999
 # Lock-out recovery: when every position fix for lockout_ns (and at least
 # lockout_fixes of them) was gated, the filter re-initialises its position and
-# velocity from the fixes (health "degraded: re-initialised from fixes"). 0 turns
-# it off.
+# velocity from the fixes (health "degraded: re-initialised from fixes"); when
+# every sample of another kind (wheels, twist, heading, attitude, ...) was, its
+# next sample resets the states it observes to what it says. 0 turns it off.
 lockout_ns = 5_000_000_000
 lockout_fixes = 5
 

@@ -151,7 +151,8 @@ impl std::fmt::Display for ReplaySummary {
             let lines: Vec<String> = self.reinitialised_at.iter().map(u64::to_string).collect();
             writeln!(
                 f,
-                "filter re-initialised from the fixes {} times after a lock-out (at line {})",
+                "filter re-initialised {} times after a lock-out: from the fixes, or reset by the samples of a kind \
+                 gated for [gating] lockout_ns (at line {})",
                 self.reinitialisations,
                 lines.join(", ")
             )?;

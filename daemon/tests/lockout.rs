@@ -56,7 +56,7 @@ fn a_locked_out_filter_reinitialises_from_the_fixes_says_so_and_live_equals_repl
     let expected = lines.last().unwrap();
     assert_eq!(last.state()[..6], expected.x[..], "live equals replay");
     assert_eq!(last.covariance()[..36], expected.p[..]);
-    assert!(stderr.contains("re-initialised from the fixes 1 times"), "{stderr}");
+    assert!(stderr.contains("re-initialised 1 times after a lock-out"), "{stderr}");
     // Smoothing succeeds across the re-initialisation and ends where filtering does.
     let (smoothed, _) = common::run_replay(dir.path(), &config(), &input, true);
     assert_eq!(smoothed.last().unwrap().x, expected.x);

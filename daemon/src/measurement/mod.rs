@@ -193,9 +193,13 @@ macro_rules! registry {
         where
             $(fusion_shared::$ty: Fuse<M>,)*
         {
-            match sample {
+            let kind = sample.kind();
+            model.before_fuse(state, kind);
+            let out = match sample {
                 $(Sample::$variant(s) => s.fuse(model, state),)*
-            }
+            };
+            model.after_fuse(state, kind, sample.t_ns(), &out.0);
+            out
         }
     };
 }

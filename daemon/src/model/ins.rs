@@ -534,6 +534,20 @@ impl<const D: usize> Model for InsModel<D> {
         s.ready
     }
 
+    fn before_fuse(&self, s: &mut InsState<D>, kind: fusion_shared::SampleKind) {
+        s.lockout.kinds.before(self.lockout.as_ref(), kind);
+    }
+
+    fn after_fuse(
+        &self,
+        s: &mut InsState<D>,
+        kind: fusion_shared::SampleKind,
+        t_ns: u64,
+        outcome: &crate::model::StepOutcome,
+    ) {
+        s.lockout.kinds.after(self.lockout.as_ref(), kind, t_ns, outcome);
+    }
+
     fn reinitialisations(s: &InsState<D>) -> u64 {
         s.lockout.count()
     }

@@ -24,13 +24,36 @@
 //! acceleration over the run that the mean velocity does not. The fix positions
 //! are of the body origin (the `ins` model takes the lever arm off first).
 //!
-//! The run lives in the filter state, so a rewind replays it exactly and live
-//! equals replay. Each re-initialisation is counted in the state
+//! **Every other kind** that a gate can refuse (wheel odometry, twist, heading,
+//! magnetometer, attitude, pose, barometer) has the same rule, per kind, on its
+//! own samples ([`KindRuns`]): a run starts at its first gated sample and a
+//! fused one ends it; when the run holds at least `fixes` samples spanning at
+//! least `after_ns`, the next sample of that kind resets the states it
+//! observes to what it says instead of being gated. With the residual `y`, the
+//! Jacobian `H` and `S = H P Hᵀ + R`, the prior is forgotten along what the
+//! sample observes,
+//!
+//! ```text
+//! A = Hᵀ (H Hᵀ)⁻¹,    P ← P + A (y yᵀ + S) Aᵀ,
+//! ```
+//!
+//! so that `H P Hᵀ` grows by `y yᵀ + S` and the innovation is plausible again
+//! (`NIS < 1`), and the sample is fused without the gate: the estimate takes
+//! what the sample says in the directions it observes (PX4 EKF2 resets a
+//! velocity or a heading to its aid source after `reset_timeout_max`), and
+//! keeps everything else with its correlations. Wheels that a wrong velocity
+//! estimate had locked out take hold again; an outlier is still gated (it makes
+//! no run of the whole timeout).
+//!
+//! The runs live in the filter state, so a rewind replays them exactly and live
+//! equals replay. Each re-initialisation and reset is counted in the state
 //! ([`Lockout::count`]); the health reports it and the daemon logs it.
 
 #![allow(non_snake_case)]
 
 use nalgebra::{Matrix3, SMatrix, Vector3};
+
+use fusion_shared::SampleKind;
 
 use crate::model::StepOutcome;
 use crate::setting::{ConfigError, invalid};
@@ -72,6 +95,69 @@ impl LockoutConfig {
 pub struct Lockout {
     run: Option<Run>,
     count: u64,
+    /// The runs of every other kind.
+    pub kinds: KindRuns,
+}
+
+/// The runs of gated samples of each kind fused through a residual (every
+/// kind but the IMU and the fixes, which re-initialise instead), and the
+/// resets they made (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct KindRuns {
+    /// Per kind ([`SampleKind::index`]): first and last gated sample, ns, and
+    /// how many.
+    runs: [Option<(u64, u64, u32)>; SampleKind::COUNT],
+    /// The sample being fused resets (its run is due).
+    resetting: bool,
+    resets: u64,
+}
+
+impl KindRuns {
+    /// Whether `kind` has a run of its own (the fixes' is [`Lockout::observe`]'s).
+    pub const fn tracked(kind: SampleKind) -> bool {
+        !matches!(kind, SampleKind::Imu | SampleKind::Position | SampleKind::Velocity | SampleKind::Geodetic)
+    }
+
+    /// Before a sample of `kind` is fused: whether its run is due, in which
+    /// case the sample resets ([`resetting`](Self::resetting)).
+    pub fn before(&mut self, config: Option<&LockoutConfig>, kind: SampleKind) {
+        self.resetting = match (config, self.runs[kind.index()]) {
+            (Some(c), Some((first, last, n))) if Self::tracked(kind) => {
+                n >= c.fixes && last.saturating_sub(first) >= c.after_ns
+            }
+            _ => false,
+        };
+    }
+
+    /// Whether the sample being fused resets what it observes.
+    pub fn resetting(&self) -> bool {
+        self.resetting
+    }
+
+    /// After a sample of `kind` at `t_ns` was fused with `outcome`.
+    pub fn after(&mut self, config: Option<&LockoutConfig>, kind: SampleKind, t_ns: u64, outcome: &StepOutcome) {
+        let reset = std::mem::take(&mut self.resetting);
+        if config.is_none() || !Self::tracked(kind) {
+            return;
+        }
+        let run = &mut self.runs[kind.index()];
+        match outcome {
+            StepOutcome::Fused { .. } => {
+                self.resets += u64::from(reset);
+                *run = None;
+            }
+            StepOutcome::Gated { .. } => {
+                let (first, _, n) = run.unwrap_or((t_ns, t_ns, 0));
+                *run = Some((first, t_ns.max(first), n + 1));
+            }
+            StepOutcome::Refused | StepOutcome::Propagated => {}
+        }
+    }
+
+    /// Resets made so far.
+    pub fn resets(&self) -> u64 {
+        self.resets
+    }
 }
 
 /// The first gated fix of a run, and how many followed.
@@ -111,9 +197,9 @@ impl Reinit {
 }
 
 impl Lockout {
-    /// Re-initialisations so far.
+    /// Re-initialisations from the fixes and resets of the other kinds so far.
     pub fn count(&self) -> u64 {
-        self.count
+        self.count + self.kinds.resets
     }
 
     /// Takes the outcome of a fix of the body origin at `z` (covariance `R`) at
@@ -185,6 +271,46 @@ mod tests {
             assert_eq!(off.observe(None, &GATED, t * 1_000_000_000, &at(t), &R), None);
         }
         assert_eq!(off.count(), 0);
+    }
+
+    /// A kind's run: due after `fixes` gated samples spanning `after_ns`; the
+    /// sample fused then is a reset (counted); a fused sample ends a run; the
+    /// fixes and the IMU have no such run; nothing without a config.
+    #[test]
+    fn a_kind_locked_out_long_enough_resets_at_its_next_sample() {
+        let config = LockoutConfig { after_ns: 1_000_000_000, fixes: 3 };
+        let fused = StepOutcome::Fused { nis: 1.0 };
+        let mut k = KindRuns::default();
+        let wheels = SampleKind::Odometry;
+        for t in [0, 500_000_000, 900_000_000] {
+            k.before(Some(&config), wheels);
+            assert!(!k.resetting());
+            k.after(Some(&config), wheels, t, &GATED);
+        }
+        // 3 gated over 0.9 s: not yet; a fourth at 1.0 s makes the run due.
+        k.before(Some(&config), wheels);
+        assert!(!k.resetting());
+        k.after(Some(&config), wheels, 1_000_000_000, &GATED);
+        // Another kind's run is its own.
+        k.before(Some(&config), SampleKind::Heading);
+        assert!(!k.resetting());
+        k.after(Some(&config), SampleKind::Heading, 1_010_000_000, &fused);
+        k.before(Some(&config), wheels);
+        assert!(k.resetting(), "due");
+        k.after(Some(&config), wheels, 1_100_000_000, &fused);
+        assert_eq!((k.resetting(), k.resets()), (false, 1));
+        k.before(Some(&config), wheels);
+        assert!(!k.resetting(), "the run ended with the reset");
+        // The fixes re-initialise instead; without a config nothing happens.
+        for kind in [SampleKind::Position, SampleKind::Geodetic, SampleKind::Velocity, SampleKind::Imu] {
+            assert!(!KindRuns::tracked(kind));
+        }
+        let mut off = KindRuns::default();
+        for t in 0..20u64 {
+            off.before(None, wheels);
+            assert!(!off.resetting());
+            off.after(None, wheels, t * 1_000_000_000, &GATED);
+        }
     }
 
     use crate::engine::{Engine, EngineConfig, Entry, Insert};
@@ -271,5 +397,58 @@ mod tests {
         let (x, n, after) = run(gated(None), G);
         assert_eq!(n, 0);
         assert!(after.iter().all(|f| !*f) && x[0].abs() < 1.0, "{x:?}");
+    }
+
+    /// Wheels reading 0 m/s for 10 s, then 2 m/s (a vehicle carried off
+    /// unseen by its IMU): every odometry sample is gated against the
+    /// confident velocity estimate. After 5 s of it the next sample resets the
+    /// velocity along what the wheels observe, and the wheels are fused from
+    /// then on; without lock-out recovery they stay gated for good.
+    #[test]
+    fn an_ins_whose_wheels_are_locked_out_resets_from_them() {
+        use fusion_shared::OdometrySample;
+        let run = |lockout| {
+            let mut x0 = [0.0; 16];
+            x0[6] = 1.0;
+            let mut p0 = [1e-4; 15];
+            p0[12..15].copy_from_slice(&[1e-8; 3]);
+            let model = InsModel::new(tests_support::NOISE, 9.80665, x0, p0, ChiSquareGate::new(0.999).ok(), 0)
+                .unwrap()
+                .with_lockout(lockout);
+            let mut engine = Engine::new(model, EngineConfig { max_future_ns: u64::MAX, ..EngineConfig::default() });
+            let mut after = Vec::new();
+            for i in 0..4000u64 {
+                let t = i * 5_000_000;
+                let mut samples = vec![Sample::Imu(ImuSample::new(t, 0, i, G, [0.0; 3]))];
+                if i % 4 == 2 {
+                    let speed = if t < 10_000_000_000 { 0.0 } else { 2.0 };
+                    samples.push(Sample::Odometry(OdometrySample::new(t, 0, i / 4, speed, 1e-4)));
+                }
+                for s in samples {
+                    let out = engine.insert(&s, None, &mut |_: &Entry<_>| {});
+                    if let (Sample::Odometry(_), Insert::Processed { outcome, .. }) = (&s, out)
+                        && s.t_ns() >= 10_000_000_000
+                    {
+                        after.push(outcome.accepted() == Some(true));
+                    }
+                }
+            }
+            let latest = engine.latest().unwrap();
+            (
+                <InsModel as crate::model::Model>::x(&latest.state).to_vec(),
+                <InsModel as crate::model::Model>::reinitialisations(&latest.state),
+                after,
+            )
+        };
+        let (x, n, after) = run(Some(LockoutConfig::default()));
+        assert_eq!(n, 1);
+        // Gated for 5 s (251 samples at 50 Hz, 10.01 s to 15.01 s), then fused.
+        let gated = after.iter().take_while(|f| !**f).count();
+        assert_eq!(gated, 251, "{after:?}");
+        assert!(after[gated..].iter().all(|f| *f), "{after:?}");
+        assert!((x[3] - 2.0).abs() < 0.05 && x[4].abs() < 0.05, "{x:?}");
+        let (x, n, after) = run(None);
+        assert_eq!(n, 0);
+        assert!(after.iter().all(|f| !*f) && x[3].abs() < 0.1, "{x:?}");
     }
 }

@@ -117,6 +117,20 @@ pub trait Model {
     /// measurement update left ([`Correction`](Self::Correction)).
     fn finish_record(log: Self::Log, state: &Self::State, correction: Self::Correction) -> Self::Record;
 
+    /// Called before a measurement of `kind` at `t_ns` is fused (the `ins`
+    /// model: whether its lock-out run is due, [`lockout::KindRuns`]).
+    fn before_fuse(&self, _state: &mut Self::State, _kind: fusion_shared::SampleKind) {}
+
+    /// Called after a measurement of `kind` at `t_ns` was fused with `outcome`.
+    fn after_fuse(
+        &self,
+        _state: &mut Self::State,
+        _kind: fusion_shared::SampleKind,
+        _t_ns: u64,
+        _outcome: &StepOutcome,
+    ) {
+    }
+
     /// Times the filter re-initialised itself from the fixes after a lock-out
     /// ([`crate::model::lockout`]) up to this state.
     fn reinitialisations(_state: &Self::State) -> u64 {

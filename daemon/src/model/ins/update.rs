@@ -36,6 +36,12 @@ impl<const D: usize> InsModel<D> {
         R: &SMatrix<f64, M, M>,
         gate: Option<&ChiSquareGate>,
     ) -> (StepOutcome, Option<SVector<f64, D>>) {
+        let gate = if s.lockout.kinds.resetting() {
+            forget_observed(s, y, H, R);
+            None
+        } else {
+            gate
+        };
         let options = UpdateOptions { gate, fault_detector: None };
         match s.kf.update_nonlinear(y, &SVector::zeros(), H, R, options) {
             Ok(d) if d.decision == UpdateDecision::Accepted => {
@@ -68,4 +74,22 @@ impl<const D: usize> InsModel<D> {
         }
         (StepOutcome::Fused { nis }, Some(inject_and_reset(s)))
     }
+}
+
+/// A reset after a lock-out ([`crate::model::lockout`]): the prior forgotten
+/// along what the measurement observes, `P ← P + A (y yᵀ + S) Aᵀ` with
+/// `A = Hᵀ (H Hᵀ)⁻¹` and `S = H P Hᵀ + R`, so that `H P Hᵀ` grows by
+/// `y yᵀ + S`. Nothing is forgotten where `H Hᵀ` is singular.
+fn forget_observed<const D: usize, const M: usize>(
+    s: &mut InsState<D>,
+    y: &SVector<f64, M>,
+    H: &SMatrix<f64, M, D>,
+    R: &SMatrix<f64, M, M>,
+) {
+    let Some(G) = (H * H.transpose()).try_inverse() else { return };
+    let A = H.transpose() * G;
+    s.kf.reset_error(|P| {
+        let W = y * y.transpose() + *H * *P * H.transpose() + R;
+        *P += A * W * A.transpose();
+    });
 }
