@@ -33,6 +33,17 @@
 //! windows) at most `odometry_speed_mps`; else the
 //! estimated speed `|v|` at most `max_speed_mps`.
 //!
+//! **Wheels reading exactly 0** in a window (every odometry speed of it, and at
+//! least one) are a ground robot's best evidence of rest: encoders that do not
+//! move. The mean tests then give way, since they fail for an estimate whose
+//! biases are not learnt yet (a gyro bias outside its σ makes `T_m` fail at
+//! rest, and with it every standstill that would have taught the bias): the
+//! wheels stand for `T_a` (no translation), and `T_m` becomes a bound on the
+//! bias-corrected mean rate, every axis at most [`WHEELS_STILL_MAX_RATE_RADPS`]
+//! (2°/s: above a MEMS gyro's turn-on bias, below a skid-steer robot's turn on
+//! the spot, which its forward speed of 0 does not show). The variance tests
+//! stay.
+//!
 //! **While standing**, at the end of every quiet window, one update of six rows
 //! (Groves, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation
 //! Systems*, 2nd ed. 2013, §15.3.1 zero-velocity and §15.3.2 zero-angular-rate
@@ -100,6 +111,10 @@ pub const INNOVATION_DIM: usize = 6;
 
 /// The bound of the mean tests `T_m` and `T_a`: χ²₃ at 1 − 10⁻⁶ (tables: 30.664).
 pub const MEAN_CHI2: f64 = 30.664;
+
+/// With wheels reading exactly 0, the most the bias-corrected mean rate of a
+/// window may be on any axis, rad/s (2°/s).
+pub const WHEELS_STILL_MAX_RATE_RADPS: f64 = 0.035;
 
 /// Standard deviations of one sample at rest beyond which a gyro axis ends a
 /// standstill at once (a false end, once in about 10⁸ samples, costs one window).
@@ -344,7 +359,12 @@ pub fn observe<const D: usize>(
         return None;
     };
     let [t_f, t_w, t_m, t_a] = stats.tests;
-    let quiet = t_f <= c.imu_threshold && t_w <= c.imu_threshold && t_m <= MEAN_CHI2 && t_a <= MEAN_CHI2;
+    let still_mean = if d.window_odometry == Some(0.0) {
+        (stats.mean_w - b_g).amax() <= WHEELS_STILL_MAX_RATE_RADPS
+    } else {
+        t_m <= MEAN_CHI2 && t_a <= MEAN_CHI2
+    };
+    let quiet = t_f <= c.imu_threshold && t_w <= c.imu_threshold && still_mean;
     if !(quiet && slow(c, &d, s, t_ns)) {
         s.still.standing = false;
         return None;
@@ -531,6 +551,44 @@ mod tests {
             observe(&c, &m, &mut s, t, g + shake, Vector3::zeros());
             assert!(!s.standing(), "an engine shaking the body at 1.5 m/s² is not rest");
         }
+    }
+
+    /// A gyro bias of 0.02 rad/s that the filter believes it knows (σ 10⁻⁴):
+    /// the mean-rate test fails at rest, and the vehicle is never found
+    /// standing; with the wheels reading exactly 0 it is, and the standstill
+    /// updates are fused (velocity held at zero). A turn on the spot
+    /// (0.3 rad/s, wheels' forward speed 0) is not rest.
+    #[test]
+    fn wheels_reading_zero_find_a_standstill_the_unlearnt_bias_hides() {
+        let m = model();
+        let c = *m.standstill().unwrap();
+        let g = Vector3::new(0.0, 0.0, GRAVITY);
+        let bias = Vector3::new(0.0, 0.0, 0.02);
+        let run = |wheels: bool, w: Vector3<f64>| {
+            let mut s = m.initial_state();
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+            let mut standing = Vec::new();
+            for k in 0..1200u64 {
+                let t = 1_000_000_000 + k * 5_000_000;
+                m.propagate_to(&mut s, t, None);
+                if wheels && k % 4 == 0 {
+                    s.still.odometry(&c, t, 0.0);
+                }
+                let n = Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut rng));
+                let w = w + bias + n * NOISE.gyroscope_noise_density * RATE_HZ.sqrt();
+                m.hold_imu(&mut s, 0, t, g, w);
+                observe(&c, &m, &mut s, t, g, w);
+                standing.push(s.standing());
+            }
+            (standing, s.standstill_updates())
+        };
+        let (standing, _) = run(false, Vector3::zeros());
+        assert!(standing.iter().all(|&b| !b), "the unlearnt bias fails the mean-rate test");
+        let (standing, updates) = run(true, Vector3::zeros());
+        assert!(standing[100..].iter().all(|&b| b), "standing from the second window on");
+        assert!(updates >= 25, "{updates} standstill updates");
+        let (standing, _) = run(true, Vector3::new(0.0, 0.0, 0.3));
+        assert!(standing.iter().all(|&b| !b), "a turn on the spot is not rest");
     }
 
     #[test]
