@@ -162,6 +162,8 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   axes = "frd"
 #   rotation_rpy_deg = [0.0, 10.0, 0.0]    # body <- sensor
 #   lever_arm_m = [0.8, 0.0, 1.2]          # its optical centre, m
+#   [sensor.twist]                         # optional
+#   fuse = ["vx", "vy", "vz", "vroll", "vpitch", "vyaw"]   # the components fused (default all)
 #   [[sensor]]
 #   name = "baro"
 #   id = 0
@@ -183,6 +185,7 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   frame_origin_random_walk_m = 0.01      # and m/sqrt(s)
 #   realign_after_gated = 5                # this many gated poses in a row: the map jumped, set the frame again
 #   relative = false                       # true: fuse only the change between poses (a drifting localiser)
+#   fuse = ["x", "y", "z", "roll", "pitch", "yaw"]   # the components fused (default all)
 #   [[sensor]]
 #   name = "ahrs"                          # an IMU with its own attitude filter (Microstrain, Xsens, BNO055)
 #   id = 0

@@ -29,7 +29,7 @@ use serde::Deserialize;
 
 use crate::gnss_quality::{GnssQuality, QualityConfig};
 use crate::magnetic::{EarthField, MagneticConfig};
-use crate::sensor_states::{AttitudeConfig, BarometerConfig, PoseConfig};
+use crate::sensor_states::{AttitudeConfig, BarometerConfig, PoseConfig, TwistConfig};
 use crate::setting::{ConfigError, invalid};
 
 /// The `[datum]` table: the origin of the world frame, checked by [`Datum::new`].
@@ -124,6 +124,10 @@ pub struct SensorConfig {
     /// all three without it).
     #[serde(default)]
     pub attitude: Option<AttitudeConfig>,
+    /// Which components of its twists are fused (`[sensor.twist]`; all six
+    /// without it).
+    #[serde(default)]
+    pub twist: Option<TwistConfig>,
     /// The ROS topic its samples come from when a bag is replayed (`fusiond
     /// replay --input robot.bag`): each of its kinds is taken from that
     /// topic's messages ([`fusion_shared::ros`]).
@@ -257,6 +261,8 @@ pub struct MountedSensor {
     pub pose: Option<PoseConfig>,
     /// The angles it fuses (attitude only).
     pub attitude: Option<AttitudeConfig>,
+    /// The components it fuses (twist only).
+    pub twist: Option<TwistConfig>,
 }
 
 /// The datum of the world frame (set once) and the sensors' mounts.
@@ -350,6 +356,12 @@ impl Frames {
                 Some(p) => Some(p.check(|f| key(&format!("pose.{f}")))?),
                 None => has(SampleKind::Pose).then(PoseConfig::default),
             };
+            let twist = match &s.twist {
+                Some(_) if !has(SampleKind::Twist) => {
+                    return Err(invalid(key("twist"), "applies to a twist sensor: the sensor has no kind \"twist\""));
+                }
+                t => *t,
+            };
             let attitude = match &s.attitude {
                 Some(_) if !has(SampleKind::Attitude) => {
                     return Err(invalid(
@@ -410,6 +422,7 @@ impl Frames {
                     barometer: (kind == SampleKind::Barometer).then_some(barometer).flatten(),
                     pose: (kind == SampleKind::Pose).then_some(pose).flatten(),
                     attitude: (kind == SampleKind::Attitude).then_some(attitude).flatten(),
+                    twist: (kind == SampleKind::Twist).then_some(twist).flatten(),
                 });
             }
         }
@@ -454,6 +467,11 @@ impl Frames {
     /// The map frame settings of pose sensor `sensor` (`None`: not configured).
     pub fn pose(&self, sensor: u32) -> Option<&PoseConfig> {
         self.sensors.iter().find(|m| m.kind == SampleKind::Pose && m.id == sensor)?.pose.as_ref()
+    }
+
+    /// The components twist sensor `sensor` fuses (`None`: all six).
+    pub fn twist(&self, sensor: u32) -> Option<&TwistConfig> {
+        self.sensors.iter().find(|m| m.kind == SampleKind::Twist && m.id == sensor)?.twist.as_ref()
     }
 
     /// The angles attitude sensor `sensor` fuses (`None`: not configured; all

@@ -240,12 +240,18 @@ impl HealthMonitor {
 
     /// The same monitor with the innovation dimensions of the configured
     /// sensors of `frames` that fuse fewer than their kind's (an attitude
-    /// sensor with `[sensor.attitude] yaw = false`: 2): their NIS is judged
-    /// against χ² of that many degrees of freedom.
+    /// sensor with `[sensor.attitude] yaw = false`: 2; a twist or pose sensor
+    /// with `fuse = [...]`: as many as it names): their NIS is judged against
+    /// χ² of that many degrees of freedom.
     pub fn with_frames(mut self, frames: &crate::frames::Frames) -> Self {
-        let fewer = frames.sensors().iter().filter_map(|m| match m.attitude {
-            Some(a) if !a.yaw => Some((m.kind, m.id, 2)),
-            _ => None,
+        let fewer = frames.sensors().iter().filter_map(|m| {
+            let dims = match (m.attitude, m.twist, m.pose) {
+                (Some(a), _, _) if !a.yaw => 2,
+                (_, Some(t), _) => t.fuse.count(),
+                (_, _, Some(p)) => p.fuse.count(),
+                _ => return None,
+            };
+            (dims < m.kind.innovation_dim()).then_some((m.kind, m.id, dims))
         });
         for (slot, f) in self.fewer_dims.iter_mut().zip(fewer) {
             *slot = Some(f);

@@ -5,6 +5,8 @@
 //! Also an attitude sensor's axes fused (`[sensor.attitude]`), which brings no
 //! state.
 
+use std::marker::PhantomData;
+
 use serde::Deserialize;
 
 use crate::setting::{ConfigError, invalid};
@@ -68,6 +70,90 @@ impl Default for AttitudeConfig {
     }
 }
 
+/// The names of a kind's six components, in its sample's order.
+pub trait ComponentNames {
+    /// The names, as `fuse = [...]` spells them.
+    const NAMES: [&'static str; 6];
+}
+
+/// A twist's components: linear then angular velocity in the sensor's axes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TwistNames;
+impl ComponentNames for TwistNames {
+    const NAMES: [&'static str; 6] = ["vx", "vy", "vz", "vroll", "vpitch", "vyaw"];
+}
+
+/// A pose's components: position in the map, then the attitude as small
+/// rotations about the sensor's x, y and z axes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PoseNames;
+impl ComponentNames for PoseNames {
+    const NAMES: [&'static str; 6] = ["x", "y", "z", "roll", "pitch", "yaw"];
+}
+
+/// `fuse = [...]`: which of a sample's six components are fused
+/// (robot_localization's `odom0_config`); the others are left out of the
+/// update, their correlations with the fused ones dropped (the marginal of the
+/// fused ones), and the gate and the health count only the fused ones.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Components<N> {
+    /// Whether each component is fused.
+    pub mask: [bool; 6],
+    names: PhantomData<N>,
+}
+
+impl<N> Default for Components<N> {
+    /// All six.
+    fn default() -> Self {
+        Self { mask: [true; 6], names: PhantomData }
+    }
+}
+
+impl<N> Components<N> {
+    /// How many are fused.
+    pub fn count(&self) -> usize {
+        self.mask.iter().filter(|m| **m).count()
+    }
+
+    /// Whether all six are.
+    pub fn all(&self) -> bool {
+        self.count() == 6
+    }
+}
+
+impl<'de, N: ComponentNames> Deserialize<'de> for Components<N> {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let names = Vec::<String>::deserialize(d)?;
+        let mut mask = [false; 6];
+        for name in &names {
+            let Some(i) = N::NAMES.iter().position(|n| n == name) else {
+                return Err(serde::de::Error::custom(format!(
+                    "unknown component {name:?}; the components are {}",
+                    N::NAMES.join(", ")
+                )));
+            };
+            mask[i] = true;
+        }
+        if !mask.contains(&true) {
+            return Err(serde::de::Error::custom(format!(
+                "selects no component; the components are {}",
+                N::NAMES.join(", ")
+            )));
+        }
+        Ok(Self { mask, names: PhantomData })
+    }
+}
+
+/// `[sensor.twist]`: which components of a twist are fused (optional: all six
+/// without the table).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TwistConfig {
+    /// The components fused (`["vx", "vy", "vyaw"]`; default all six).
+    #[serde(default)]
+    pub fuse: Components<TwistNames>,
+}
+
 /// `[sensor.pose]`: how a pose sensor's map frame relates to the world frame
 /// (optional: without the table the frame is estimated with the defaults).
 ///
@@ -106,6 +192,11 @@ pub struct PoseConfig {
     /// localisers that drift like odometry (default false).
     #[serde(default)]
     pub relative: bool,
+    /// The components fused (`["x", "y", "yaw"]`; default all six). In
+    /// relative mode they select the twist's (x: the velocity along x, yaw: the
+    /// rate about z).
+    #[serde(default)]
+    pub fuse: Components<PoseNames>,
 }
 
 impl PoseConfig {
@@ -167,6 +258,7 @@ impl Default for PoseConfig {
             frame_origin_random_walk_m: Self::default_origin_random_walk(),
             realign_after_gated: Self::default_realign_after_gated(),
             relative: false,
+            fuse: Components::default(),
         }
     }
 }

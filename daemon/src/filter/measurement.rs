@@ -49,7 +49,7 @@ pub struct MeasurementView<T: RealField + Copy, const N: usize, const M: usize> 
 }
 
 impl<T: RealField + Copy, const N: usize, const M: usize> MeasurementView<T, N, M> {
-    pub(super) fn new(residual: SVector<T, M>, H: SMatrix<T, M, N>, R: SMatrix<T, M, M>, S: SMatrix<T, M, M>) -> Self {
+    pub(crate) fn new(residual: SVector<T, M>, H: SMatrix<T, M, N>, R: SMatrix<T, M, M>, S: SMatrix<T, M, M>) -> Self {
         Self { residual, H, R, S, active: [true; M] }
     }
 

@@ -14,6 +14,7 @@ fn sensor(name: &str, id: u32, kinds: &[&str]) -> SensorConfig {
         barometer: None,
         pose: None,
         attitude: None,
+        twist: None,
         topic: None,
     }
 }

@@ -112,14 +112,20 @@ fn persistently_inconsistent_nis_is_flagged_and_recovers() {
 #[test]
 fn a_sensor_fusing_fewer_dimensions_is_judged_by_them() {
     let toml = |id, yaw| format!("name = \"ahrs{id}\"\nid = {id}\nkinds = [\"attitude\"]\n[attitude]\nyaw = {yaw}\n");
-    let sensors: Vec<crate::frames::SensorConfig> =
-        [toml(1, false), toml(2, true)].iter().map(|t| ::toml::from_str(t).unwrap()).collect();
+    let twist = "name = \"wheels\"\nid = 1\nkinds = [\"twist\"]\n[twist]\nfuse = [\"vx\", \"vy\", \"vyaw\"]\n";
+    let pose = "name = \"slam\"\nid = 1\nkinds = [\"pose\"]\n[pose]\nfuse = [\"x\", \"y\", \"yaw\"]\n";
+    let sensors: Vec<crate::frames::SensorConfig> = [toml(1, false), toml(2, true), twist.into(), pose.into()]
+        .iter()
+        .map(|t| ::toml::from_str(t).unwrap())
+        .collect();
     let frames = crate::frames::Frames::from_config(None, &sensors, Default::default()).unwrap();
     let h = HealthMonitor::new(HealthConfig::default()).with_frames(&frames);
     assert_eq!(h.innovation_dim(SampleKind::Attitude, 1), 2);
     assert_eq!(h.innovation_dim(SampleKind::Attitude, 2), 3);
     assert_eq!(h.innovation_dim(SampleKind::Attitude, 3), 3, "an unconfigured one: the full attitude");
     assert_eq!(h.innovation_dim(SampleKind::Position, 1), 3);
+    assert_eq!((h.innovation_dim(SampleKind::Twist, 1), h.innovation_dim(SampleKind::Twist, 2)), (3, 6));
+    assert_eq!(h.innovation_dim(SampleKind::Pose, 1), 3);
 }
 
 /// Wheels that stand read exactly 0: far below the band, and no fault

@@ -278,12 +278,12 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
             }
             let (h, H) = super::twist::twist(s, mount);
             let R = cov + super::twist::gyro_noise(model, s, mount);
-            return model.update_residual(s, &(z - h), &H, &R);
+            return model.update_residual_selected(s, &(z - h), &H, &R, &config.fuse.mask);
         }
         if let Some((yaw, origin)) = config.configured_frame() {
             let frame = MapFrame { yaw, origin: Vector3::from(origin), states: None };
             let (m, S, H) = pose(s, mount, &frame);
-            return model.update_residual(s, &residual(&m, &S, self), &H, &R);
+            return model.update_residual_selected(s, &residual(&m, &S, self), &H, &R, &config.fuse.mask);
         }
         let Some(i) = s.aux_index(aux::POSE_FRAME_YAW) else { return (StepOutcome::Refused, None) };
         let gated_out = config.realign_after_gated > 0 && s.aux.pose_gated >= config.realign_after_gated;
@@ -298,7 +298,7 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
         }
         // The estimated frame's sensor: its run of gated poses.
         let (m, S, H) = pose(s, mount, &MapFrame::estimated_at(s, i));
-        let out = model.update_residual(s, &residual(&m, &S, self), &H, &R);
+        let out = model.update_residual_selected(s, &residual(&m, &S, self), &H, &R, &config.fuse.mask);
         match out.0 {
             StepOutcome::Gated { .. } => s.aux.pose_gated += 1,
             _ => s.aux.pose_gated = 0,

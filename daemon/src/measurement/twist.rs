@@ -122,7 +122,8 @@ impl<const D: usize> Fuse<InsModel<D>> for TwistSample {
         z.fixed_rows_mut::<3>(3).copy_from(&Vector3::from(self.angular_radps));
         let (h, H) = twist(s, mount);
         let R = SMatrix::<f64, 6, 6>::from_row_slice(&self.cov) + gyro_noise(model, s, mount);
-        model.update_residual(s, &(z - h), &H, &R)
+        let keep = model.frames().twist(self.header.sensor).map_or([true; 6], |c| c.fuse.mask);
+        model.update_residual_selected(s, &(z - h), &H, &R, &keep)
     }
 }
 
@@ -130,7 +131,7 @@ impl<const D: usize> Fuse<InsModel<D>> for TwistSample {
 mod tests {
     use super::*;
     use crate::frames::Axes;
-    use crate::model::ins::tests_support::{model, moving_scaled_state, moving_state, numeric_jacobian};
+    use crate::model::ins::tests_support::{model, moving, moving_scaled_state, moving_state, numeric_jacobian};
 
     fn cov() -> [f64; 36] {
         TwistSample::diagonal_cov([0.05; 3], [0.01; 3])
@@ -212,4 +213,44 @@ mod tests {
         let mut ls = linear.initial_state();
         assert_eq!(sample(faster).fuse(&linear, &mut ls).0, StepOutcome::Refused);
     }
+
+    /// `[sensor.twist] fuse = ["vx", "vyaw"]`: a sample whose sideways speed
+    /// is 5 m/s off (a skid-steer's wheels do not measure it) is fused for its
+    /// forward speed and yaw rate alone, the NIS of those two; all six
+    /// components, the same sample is gated.
+    #[test]
+    fn selected_components_alone_are_fused() {
+        let toml = "name = \"wheels\"\nid = 4\nkinds = [\"twist\"]\n[twist]\nfuse = [\"vx\", \"vyaw\"]\n";
+        let sensor: crate::frames::SensorConfig = ::toml::from_str(toml).unwrap();
+        let frames = crate::frames::Frames::from_config(None, &[sensor], Default::default()).unwrap();
+        let gate = crate::filter::ChiSquareGate::new(0.999).ok();
+        let mut x0 = [0.0; 16];
+        x0[6] = 1.0;
+        let m = InsModel::new(crate::model::ins::tests_support::NOISE, 9.80665, x0, [1.0; 15], gate, 0)
+            .unwrap()
+            .with_frames(frames);
+        let mut s = moving(&m);
+        s.kf.reset_error(|P| (0..15).for_each(|i| P[(i, i)] = 1e-4));
+        let (h, _) = twist(&s, &Mount::IDENTITY);
+        let mut z = h;
+        z[0] += 0.01;
+        z[1] += 5.0;
+        let sample = |sensor| TwistSample::new(1, sensor, 0, z.fixed_rows::<3>(0).into(), z.fixed_rows::<3>(3).into(), cov());
+        let before = s;
+        let (out, _) = sample(4).fuse(&m, &mut s);
+        let StepOutcome::Fused { nis } = out else { panic!("{out:?}") };
+        assert!(nis < 1.0, "the forward speed's 0.01 m/s and the yaw rate alone: {nis}");
+        let lateral = |s: &InsState| s.q().inverse_transform_vector(&s.v()).y;
+        assert!((lateral(&s) - lateral(&before)).abs() < 1e-3, "{} -> {}", lateral(&before), lateral(&s));
+        // Sensor 5 has no selection: all six, gated.
+        let mut all = before;
+        assert!(matches!(sample(5).fuse(&m, &mut all).0, StepOutcome::Gated { .. }));
+        // Unknown or no components are configuration errors.
+        for (fuse, said) in [("[\"vw\"]", "unknown component \"vw\""), ("[]", "selects no component")] {
+            let toml = format!("name = \"w\"\nid = 4\nkinds = [\"twist\"]\n[twist]\nfuse = {fuse}\n");
+            let e = ::toml::from_str::<crate::frames::SensorConfig>(&toml).unwrap_err().to_string();
+            assert!(e.contains(said) && e.contains("vx, vy, vz, vroll, vpitch, vyaw"), "{e}");
+        }
+    }
 }
+

@@ -165,6 +165,7 @@ mod tests {
             barometer: None,
             pose: None,
             attitude: None,
+            twist: None,
             topic: None,
         };
         let config = crate::frames::ImuConfig { combine, failover_after_ns: 20 };

@@ -304,6 +304,7 @@ fn when_the_imus_in_use_change_the_bias_variances_grow_back() {
         barometer: None,
         pose: None,
         attitude: None,
+        twist: None,
         topic: None,
     };
     let f = Vector3::new(0.0, 0.0, G);

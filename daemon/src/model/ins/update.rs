@@ -8,7 +8,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use super::{InsModel, InsState, inject_and_reset};
-use crate::filter::{ChiSquareGate, UpdateDecision, UpdateOptions};
+use crate::filter::{ChiSquareGate, FaultDecision, FaultDetector, MeasurementView, UpdateDecision, UpdateOptions};
 use crate::model::StepOutcome;
 
 impl<const D: usize> InsModel<D> {
@@ -26,6 +26,24 @@ impl<const D: usize> InsModel<D> {
         self.update_residual_gated(s, y, H, R, self.gate.as_ref())
     }
 
+    /// [`update_residual`](Self::update_residual) of the components `keep`
+    /// selects only (`[sensor.twist] fuse`, `[sensor.pose] fuse`): the others
+    /// are dropped from the update (their rows of `H` and `y` zero, decorrelated
+    /// in `R`), and the gate counts the kept ones.
+    pub(crate) fn update_residual_selected<const M: usize>(
+        &self,
+        s: &mut InsState<D>,
+        y: &SVector<f64, M>,
+        H: &SMatrix<f64, M, D>,
+        R: &SMatrix<f64, M, M>,
+        keep: &[bool; M],
+    ) -> (StepOutcome, Option<SVector<f64, D>>) {
+        if keep.iter().all(|k| *k) {
+            return self.update_residual(s, y, H, R);
+        }
+        self.update_with(s, y, H, R, self.gate.as_ref(), Some(keep))
+    }
+
     /// [`update_residual`](Self::update_residual) with `gate` instead of the
     /// configured one (`None`: not gated).
     pub(crate) fn update_residual_gated<const M: usize>(
@@ -36,13 +54,31 @@ impl<const D: usize> InsModel<D> {
         R: &SMatrix<f64, M, M>,
         gate: Option<&ChiSquareGate>,
     ) -> (StepOutcome, Option<SVector<f64, D>>) {
+        self.update_with(s, y, H, R, gate, None)
+    }
+
+    fn update_with<const M: usize>(
+        &self,
+        s: &mut InsState<D>,
+        y: &SVector<f64, M>,
+        H: &SMatrix<f64, M, D>,
+        R: &SMatrix<f64, M, M>,
+        gate: Option<&ChiSquareGate>,
+        keep: Option<&[bool; M]>,
+    ) -> (StepOutcome, Option<SVector<f64, D>>) {
         let gate = if s.lockout.kinds.resetting() {
-            forget_observed(s, y, H, R);
+            let mut view = MeasurementView::new(*y, *H, *R, *R);
+            if let Some(keep) = keep {
+                Select(keep).inspect(&mut view);
+            }
+            forget_observed(s, &view.residual, &view.H, &view.R, keep);
             None
         } else {
             gate
         };
-        let options = UpdateOptions { gate, fault_detector: None };
+        let mut select = keep.map(Select);
+        let fault_detector = select.as_mut().map(|s| s as &mut dyn FaultDetector<f64, D, M>);
+        let options = UpdateOptions { gate, fault_detector };
         match s.kf.update_nonlinear(y, &SVector::zeros(), H, R, options) {
             Ok(d) if d.decision == UpdateDecision::Accepted => {
                 (StepOutcome::Fused { nis: d.nis }, Some(inject_and_reset(s)))
@@ -76,17 +112,41 @@ impl<const D: usize> InsModel<D> {
     }
 }
 
+/// The components a selection leaves out, dropped from an update (the
+/// filter's hook, [`MeasurementView::drop_component`]).
+struct Select<'a, const M: usize>(&'a [bool; M]);
+
+impl<const D: usize, const M: usize> FaultDetector<f64, D, M> for Select<'_, M> {
+    fn inspect(&mut self, m: &mut MeasurementView<f64, D, M>) -> FaultDecision {
+        for (i, keep) in self.0.iter().enumerate() {
+            if !keep {
+                m.drop_component(i);
+            }
+        }
+        FaultDecision::Modified
+    }
+}
+
 /// A reset after a lock-out ([`crate::model::lockout`]): the prior forgotten
 /// along what the measurement observes, `P ← P + A (y yᵀ + S) Aᵀ` with
 /// `A = Hᵀ (H Hᵀ)⁻¹` and `S = H P Hᵀ + R`, so that `H P Hᵀ` grows by
-/// `y yᵀ + S`. Nothing is forgotten where `H Hᵀ` is singular.
+/// `y yᵀ + S`; of a selection, its kept rows (the dropped ones are zero in
+/// `y`, `H`, and unit in `(H Hᵀ)` so that they add nothing). Nothing is
+/// forgotten where `H Hᵀ` is singular.
 fn forget_observed<const D: usize, const M: usize>(
     s: &mut InsState<D>,
     y: &SVector<f64, M>,
     H: &SMatrix<f64, M, D>,
     R: &SMatrix<f64, M, M>,
+    keep: Option<&[bool; M]>,
 ) {
-    let Some(G) = (H * H.transpose()).try_inverse() else { return };
+    let mut HHt = H * H.transpose();
+    for (i, k) in keep.into_iter().flatten().enumerate() {
+        if !k {
+            HHt[(i, i)] = 1.0;
+        }
+    }
+    let Some(G) = HHt.try_inverse() else { return };
     let A = H.transpose() * G;
     s.kf.reset_error(|P| {
         let W = y * y.transpose() + *H * *P * H.transpose() + R;
