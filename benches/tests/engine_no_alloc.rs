@@ -86,7 +86,7 @@ fn ins_standing_still() {
         seed: 4,
         duration_s: 30.0,
         imu_output: ImuOutput::BodySpecificForce,
-        stops: vec![Stop { at_s: 8.0, duration_s: 10.0 }],
+        stops: vec![Stop::new(8.0, 10.0)],
         ..Default::default()
     };
     c.imu =

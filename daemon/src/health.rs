@@ -261,6 +261,9 @@ impl HealthMonitor {
 
     /// The innovation dimension of sensor `sensor` of `kind`.
     fn innovation_dim(&self, kind: SampleKind, sensor: u32) -> usize {
+        if self.fewer_dims[0].is_none() {
+            return kind.innovation_dim();
+        }
         let own = self.fewer_dims.iter().flatten().find(|(k, id, _)| *k == kind && *id == sensor);
         own.map_or(kind.innovation_dim(), |(_, _, m)| *m)
     }

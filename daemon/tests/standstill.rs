@@ -48,7 +48,7 @@ const SIGMA0: [f64; 5] = [0.5, 0.3, 0.02, 0.05, 0.0005];
 const LEVER_ARM: [f64; 3] = [1.0, 0.5, 1.0];
 const ODOMETRY_ARM: [f64; 3] = [-1.3, 0.0, -0.3];
 const DATUM: Datum = Datum { latitude_deg: 48.1316, longitude_deg: 11.5494, height_m: 519.0 };
-const STOP: Stop = Stop { at_s: 20.0, duration_s: 60.0 };
+const STOP: Stop = Stop::new(20.0, 60.0);
 const STANDSTILL: &str = "[model.standstill]\n";
 
 #[derive(Debug, Clone, Copy)]
@@ -288,7 +288,7 @@ fn a_live_fusiond_reports_the_stop_in_its_snapshots() {
     use fusion_shared::{SampleKind, StateSnapshot, now_ns};
 
     const SEED: u64 = 5;
-    let stop = Stop { at_s: 1.5, duration_s: 4.0 };
+    let stop = Stop::new(1.5, 4.0);
     let drive_s = stop.end_s() + 1.0;
     let _heartbeat = common::heartbeat::Heartbeat::start("standstill live", Duration::from_secs(12));
     let domain = TestDomain::new("standstill-live");

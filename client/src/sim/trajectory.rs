@@ -78,34 +78,56 @@ struct Term {
     phase: f64,
 }
 
-/// A stop of a drive: the car brakes to a standstill, stands, and drives off.
+/// A stop of a drive: the car brakes to a standstill, stands, reverses for a
+/// while if it is to, and drives off.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Stop {
     /// When the braking starts, s since the start of the drive.
     pub at_s: f64,
     /// How long the car stands still, s.
     pub duration_s: f64,
+    /// How long it then reverses, s (0: it does not): back along the road it
+    /// came, up to [`REVERSE_SPEED`] of the road's speed and back to rest.
+    pub reverse_s: f64,
 }
 
 /// Braking to a stop, and pulling away after it, each take this long, s.
 pub const STOP_RAMP_S: f64 = 4.0;
 
+/// The most a reversing car drives backwards, as a fraction of the road's
+/// speed there: its speed factor goes from 0 to `−REVERSE_SPEED` and back,
+/// `s = −r ½(1 − cos(2π w / R))` over the `R` seconds of reversing.
+pub const REVERSE_SPEED: f64 = 0.25;
+
 impl std::str::FromStr for Stop {
     type Err = String;
 
-    /// `AT:SECONDS`, e.g. `20:60` (braking from 20 s into the drive, standing for 60 s).
+    /// `AT:SECONDS[:REVERSE]`, e.g. `20:60` (braking from 20 s into the drive,
+    /// standing for 60 s) or `20:5:4` (then reversing for 4 s).
     fn from_str(text: &str) -> Result<Self, String> {
-        let bad = || format!("{text:?}: expected AT:SECONDS (both >= 0), e.g. 20:60");
-        let (at, duration) = text.split_once(':').ok_or_else(bad)?;
+        let bad = || format!("{text:?}: expected AT:SECONDS[:REVERSE] (all >= 0), e.g. 20:60 or 20:5:4");
+        let (at, rest) = text.split_once(':').ok_or_else(bad)?;
+        let (duration, reverse) = rest.split_once(':').unwrap_or((rest, "0"));
         let number = |t: &str| t.trim().parse::<f64>().ok().filter(|v| v.is_finite() && *v >= 0.0).ok_or_else(bad);
-        Ok(Self { at_s: number(at)?, duration_s: number(duration)? })
+        Ok(Self { at_s: number(at)?, duration_s: number(duration)?, reverse_s: number(reverse)? })
     }
 }
 
 impl Stop {
+    /// A stop of `duration_s` at `at_s`, without reversing.
+    pub const fn new(at_s: f64, duration_s: f64) -> Self {
+        Self { at_s, duration_s, reverse_s: 0.0 }
+    }
+
     /// When the car drives at full speed again, s.
     pub fn end_s(&self) -> f64 {
-        self.at_s + 2.0 * STOP_RAMP_S + self.duration_s
+        self.at_s + 2.0 * STOP_RAMP_S + self.duration_s + self.reverse_s
+    }
+
+    /// Whether the car reverses at `t_s`.
+    pub fn reversing(&self, t_s: f64) -> bool {
+        let from = self.at_s + STOP_RAMP_S + self.duration_s;
+        self.reverse_s > 0.0 && t_s > from && t_s < from + self.reverse_s
     }
 
     /// Whether the car stands still at `t_s`.
@@ -116,9 +138,11 @@ impl Stop {
     /// Road time lost by `t_s` (`∫ (1 − s)`), and `s`, `ṡ`, `s̈` at `t_s`.
     fn warp(&self, t_s: f64) -> (f64, f64, f64, f64) {
         use std::f64::consts::PI;
-        let (ramp, stand) = (STOP_RAMP_S, self.duration_s);
+        let (ramp, stand, back, r) = (STOP_RAMP_S, self.duration_s, self.reverse_s, REVERSE_SPEED);
         let u = t_s - self.at_s;
         let k = PI / ramp;
+        // Road time lost while reversing: ∫ (1 − s) over its R seconds.
+        let reversed = back * (1.0 + 0.5 * r);
         if u <= 0.0 {
             (0.0, 1.0, 0.0, 0.0)
         } else if u < ramp {
@@ -126,12 +150,19 @@ impl Stop {
             (0.5 * u - sin / (2.0 * k), 0.5 * (1.0 + cos), -0.5 * k * sin, -0.5 * k * k * cos)
         } else if u <= ramp + stand {
             (0.5 * ramp + (u - ramp), 0.0, 0.0, 0.0)
-        } else if u < 2.0 * ramp + stand {
+        } else if u < ramp + stand + back {
             let w = u - ramp - stand;
+            let c = 2.0 * PI / back;
+            let (sin, cos) = (c * w).sin_cos();
+            let lost = 0.5 * ramp + stand + w + r * (0.5 * w - sin / (2.0 * c));
+            (lost, -0.5 * r * (1.0 - cos), -0.5 * r * c * sin, -0.5 * r * c * c * cos)
+        } else if u < 2.0 * ramp + stand + back {
+            let w = u - ramp - stand - back;
             let (sin, cos) = (k * w).sin_cos();
-            (0.5 * ramp + stand + 0.5 * w + sin / (2.0 * k), 0.5 * (1.0 - cos), 0.5 * k * sin, 0.5 * k * k * cos)
+            let lost = 0.5 * ramp + stand + reversed + 0.5 * w + sin / (2.0 * k);
+            (lost, 0.5 * (1.0 - cos), 0.5 * k * sin, 0.5 * k * k * cos)
         } else {
-            (ramp + stand, 1.0, 0.0, 0.0)
+            (ramp + stand + reversed, 1.0, 0.0, 0.0)
         }
     }
 }
@@ -308,8 +339,8 @@ mod tests {
 
     #[test]
     fn stops_keep_the_derivatives_consistent_and_stand_still() {
-        let stop = Stop { at_s: 5.0, duration_s: 10.0 };
-        let traj = CarTrajectory::new(3).with_stops(&[stop, Stop { at_s: 30.0, duration_s: 2.0 }]).unwrap();
+        let stop = Stop::new(5.0, 10.0);
+        let traj = CarTrajectory::new(3).with_stops(&[stop, Stop::new(30.0, 2.0)]).unwrap();
         let h = 1e-4;
         for t in [2.0, 5.5, 7.9, 12.0, 19.2, 22.0, 31.0, 36.5, 45.0] {
             let (a, b, c) = (traj.at(t - h), traj.at(t), traj.at(t + h));
@@ -332,12 +363,37 @@ mod tests {
         // Without stops the trajectory is the road's, bit for bit.
         let plain = CarTrajectory::new(3);
         assert_eq!(plain.clone().with_stops(&[]).unwrap().at(7.0), plain.at(7.0));
-        assert!(CarTrajectory::new(3).with_stops(&[stop, Stop { at_s: 10.0, duration_s: 1.0 }]).is_err());
-        assert!(CarTrajectory::new(3).with_stops(&[Stop { at_s: 1.0, duration_s: f64::NAN }]).is_err());
-        assert_eq!("20:60".parse::<Stop>(), Ok(Stop { at_s: 20.0, duration_s: 60.0 }));
-        for bad in ["20", "20:-1", "x:5", "nan:5", "5:inf", ""] {
+        assert!(CarTrajectory::new(3).with_stops(&[stop, Stop::new(10.0, 1.0)]).is_err());
+        assert!(CarTrajectory::new(3).with_stops(&[Stop::new(1.0, f64::NAN)]).is_err());
+        assert_eq!("20:60".parse::<Stop>(), Ok(Stop::new(20.0, 60.0)));
+        assert_eq!("20:5:4".parse::<Stop>(), Ok(Stop { at_s: 20.0, duration_s: 5.0, reverse_s: 4.0 }));
+        for bad in ["20", "20:-1", "x:5", "nan:5", "5:inf", "", "5:1:-2"] {
             assert!(bad.parse::<Stop>().is_err(), "{bad}");
         }
+    }
+
+    /// Reversing: the car drives backwards (its velocity against its nose,
+    /// up to a quarter of the road's speed), the derivatives stay consistent,
+    /// and it comes back to rest before pulling away; the road then goes on,
+    /// late by what braking, standing and reversing lost.
+    #[test]
+    fn reversing_drives_backwards_with_consistent_derivatives() {
+        let stop = Stop { at_s: 5.0, duration_s: 2.0, reverse_s: 4.0 };
+        let traj = CarTrajectory::new(3).with_stops(&[stop]).unwrap();
+        let h = 1e-4;
+        for t in [6.0, 10.5, 11.0, 12.0, 13.0, 14.9, 15.5, 17.0, 20.0] {
+            let (a, b, c) = (traj.at(t - h), traj.at(t), traj.at(t + h));
+            assert!(((c.pos_m - a.pos_m) / (2.0 * h) - b.vel_mps).amax() < 1e-6, "t {t}");
+            assert!(((c.vel_mps - a.vel_mps) / (2.0 * h) - b.acc_mps2).amax() < 1e-6, "t {t}");
+            assert!(((c.acc_mps2 - a.acc_mps2) / (2.0 * h) - b.jerk_mps3).amax() < 1e-5, "t {t}");
+        }
+        let mid = traj.at(5.0 + STOP_RAMP_S + 2.0 + 2.0);
+        let forward = mid.attitude * Vector3::x();
+        assert!(stop.reversing(mid.t_s) && forward.dot(&mid.vel_mps) < -0.5, "backwards: {}", mid.vel_mps);
+        let road = CarTrajectory::new(3);
+        let lost = 2.0 * STOP_RAMP_S + 2.0 + 4.0 * (1.0 + 0.5 * REVERSE_SPEED);
+        assert!((traj.at(40.0).pos_m - road.at(40.0 - lost).pos_m).norm() < 1e-9);
+        assert!(!stop.reversing(8.0) && !stop.reversing(16.0) && stop.end_s() == 5.0 + 8.0 + 2.0 + 4.0);
     }
 
     #[test]

@@ -90,7 +90,7 @@ use super::{Model, advance_time};
 use crate::filter::{ChiSquareGate, FilterError, KalmanFilter, RtsStep, StepLog, rts_smooth};
 use crate::frames::Frames;
 use crate::model::held_imu::{Held, HeldImu};
-use crate::model::lockout::{Lockout, LockoutConfig};
+use crate::model::lockout::{KindRuns, Lockout, LockoutConfig};
 pub use aux::{AuxStates, BaroBias, PoseFrame};
 pub use course::CourseAlignment;
 pub use nonholonomic::Nonholonomic;
@@ -153,6 +153,8 @@ pub struct InsState<const D: usize = N> {
     pub(crate) constrained_ns: Option<u64>,
     /// The run of gated fixes ([`crate::model::lockout`]).
     lockout: Lockout,
+    /// The runs of gated samples of the other kinds ([`crate::model::lockout::KindRuns`]).
+    pub(crate) kind_runs: KindRuns,
     /// Standstill detection ([`standstill`]).
     pub(crate) still: standstill::Detector,
     /// The velocity sensors' time offset estimate ([`clock`]).
@@ -179,6 +181,7 @@ impl<const D: usize> InsState<D> {
             ready: false,
             constrained_ns: None,
             lockout: Lockout::default(),
+            kind_runs: KindRuns::default(),
             still: standstill::Detector::default(),
             clock: clock::ClockEstimate::default(),
             aux_bits,
@@ -535,7 +538,7 @@ impl<const D: usize> Model for InsModel<D> {
     }
 
     fn before_fuse(&self, s: &mut InsState<D>, kind: fusion_shared::SampleKind) {
-        s.lockout.kinds.before(self.lockout.as_ref(), kind);
+        s.kind_runs.before(kind);
     }
 
     fn after_fuse(
@@ -545,11 +548,11 @@ impl<const D: usize> Model for InsModel<D> {
         t_ns: u64,
         outcome: &crate::model::StepOutcome,
     ) {
-        s.lockout.kinds.after(self.lockout.as_ref(), kind, t_ns, outcome);
+        s.kind_runs.after(self.lockout.as_ref(), kind, t_ns, outcome);
     }
 
     fn reinitialisations(s: &InsState<D>) -> u64 {
-        s.lockout.count()
+        s.lockout.count() + s.kind_runs.resets()
     }
 
     fn standstill(s: &InsState<D>) -> (bool, u64) {

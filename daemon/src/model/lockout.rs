@@ -95,21 +95,36 @@ impl LockoutConfig {
 pub struct Lockout {
     run: Option<Run>,
     count: u64,
-    /// The runs of every other kind.
-    pub kinds: KindRuns,
 }
 
 /// The runs of gated samples of each kind fused through a residual (every
 /// kind but the IMU and the fixes, which re-initialise instead), and the
-/// resets they made (see the module doc).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+/// resets they made (see the module doc). Compact (it is copied with the
+/// filter state into the history at every sample).
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct KindRuns {
-    /// Per kind ([`SampleKind::index`]): first and last gated sample, ns, and
-    /// how many.
-    runs: [Option<(u64, u64, u32)>; SampleKind::COUNT],
+    /// Per kind ([`SampleKind::index`]): the first gated sample of its run, ns
+    /// (`u64::MAX`: no run).
+    first_ns: [u64; SampleKind::COUNT],
+    /// How many (saturating).
+    gated: [u16; SampleKind::COUNT],
+    /// Bit per kind: its run is long enough.
+    due: u16,
     /// The sample being fused resets (its run is due).
     resetting: bool,
-    resets: u64,
+    resets: u32,
+}
+
+impl Default for KindRuns {
+    fn default() -> Self {
+        Self {
+            first_ns: [u64::MAX; SampleKind::COUNT],
+            gated: [0; SampleKind::COUNT],
+            due: 0,
+            resetting: false,
+            resets: 0,
+        }
+    }
 }
 
 impl KindRuns {
@@ -120,13 +135,8 @@ impl KindRuns {
 
     /// Before a sample of `kind` is fused: whether its run is due, in which
     /// case the sample resets ([`resetting`](Self::resetting)).
-    pub fn before(&mut self, config: Option<&LockoutConfig>, kind: SampleKind) {
-        self.resetting = match (config, self.runs[kind.index()]) {
-            (Some(c), Some((first, last, n))) if Self::tracked(kind) => {
-                n >= c.fixes && last.saturating_sub(first) >= c.after_ns
-            }
-            _ => false,
-        };
+    pub fn before(&mut self, kind: SampleKind) {
+        self.resetting = self.due & (1 << kind.index()) != 0;
     }
 
     /// Whether the sample being fused resets what it observes.
@@ -137,18 +147,22 @@ impl KindRuns {
     /// After a sample of `kind` at `t_ns` was fused with `outcome`.
     pub fn after(&mut self, config: Option<&LockoutConfig>, kind: SampleKind, t_ns: u64, outcome: &StepOutcome) {
         let reset = std::mem::take(&mut self.resetting);
-        if config.is_none() || !Self::tracked(kind) {
-            return;
-        }
-        let run = &mut self.runs[kind.index()];
+        let Some(c) = config.filter(|_| Self::tracked(kind)) else { return };
+        let i = kind.index();
         match outcome {
             StepOutcome::Fused { .. } => {
-                self.resets += u64::from(reset);
-                *run = None;
+                self.resets += u32::from(reset);
+                (self.first_ns[i], self.gated[i]) = (u64::MAX, 0);
+                self.due &= !(1 << i);
             }
             StepOutcome::Gated { .. } => {
-                let (first, _, n) = run.unwrap_or((t_ns, t_ns, 0));
-                *run = Some((first, t_ns.max(first), n + 1));
+                if self.first_ns[i] == u64::MAX {
+                    self.first_ns[i] = t_ns;
+                }
+                self.gated[i] = self.gated[i].saturating_add(1);
+                if u32::from(self.gated[i]) >= c.fixes && t_ns.saturating_sub(self.first_ns[i]) >= c.after_ns {
+                    self.due |= 1 << i;
+                }
             }
             StepOutcome::Refused | StepOutcome::Propagated => {}
         }
@@ -156,7 +170,7 @@ impl KindRuns {
 
     /// Resets made so far.
     pub fn resets(&self) -> u64 {
-        self.resets
+        u64::from(self.resets)
     }
 }
 
@@ -197,9 +211,9 @@ impl Reinit {
 }
 
 impl Lockout {
-    /// Re-initialisations from the fixes and resets of the other kinds so far.
+    /// Re-initialisations from the fixes so far.
     pub fn count(&self) -> u64 {
-        self.count + self.kinds.resets
+        self.count
     }
 
     /// Takes the outcome of a fix of the body origin at `z` (covariance `R`) at
@@ -283,23 +297,23 @@ mod tests {
         let mut k = KindRuns::default();
         let wheels = SampleKind::Odometry;
         for t in [0, 500_000_000, 900_000_000] {
-            k.before(Some(&config), wheels);
+            k.before(wheels);
             assert!(!k.resetting());
             k.after(Some(&config), wheels, t, &GATED);
         }
         // 3 gated over 0.9 s: not yet; a fourth at 1.0 s makes the run due.
-        k.before(Some(&config), wheels);
+        k.before(wheels);
         assert!(!k.resetting());
         k.after(Some(&config), wheels, 1_000_000_000, &GATED);
         // Another kind's run is its own.
-        k.before(Some(&config), SampleKind::Heading);
+        k.before(SampleKind::Heading);
         assert!(!k.resetting());
         k.after(Some(&config), SampleKind::Heading, 1_010_000_000, &fused);
-        k.before(Some(&config), wheels);
+        k.before(wheels);
         assert!(k.resetting(), "due");
         k.after(Some(&config), wheels, 1_100_000_000, &fused);
         assert_eq!((k.resetting(), k.resets()), (false, 1));
-        k.before(Some(&config), wheels);
+        k.before(wheels);
         assert!(!k.resetting(), "the run ended with the reset");
         // The fixes re-initialise instead; without a config nothing happens.
         for kind in [SampleKind::Position, SampleKind::Geodetic, SampleKind::Velocity, SampleKind::Imu] {
@@ -307,7 +321,7 @@ mod tests {
         }
         let mut off = KindRuns::default();
         for t in 0..20u64 {
-            off.before(None, wheels);
+            off.before(wheels);
             assert!(!off.resetting());
             off.after(None, wheels, t * 1_000_000_000, &GATED);
         }

@@ -190,10 +190,11 @@ pub(crate) struct SimArgs {
     /// linear model) or `body` specific force and angular rate (a real IMU).
     #[arg(long, value_enum, default_value_t = ImuKind::World)]
     imu_output: ImuKind,
-    /// A stop of the car, `AT:SECONDS`: it brakes from AT s into the drive, stands
-    /// still for SECONDS (4 s after braking starts) and drives off (4 s to full
-    /// speed). Repeat for more stops, in order.
-    #[arg(long, value_name = "AT:SECONDS")]
+    /// A stop of the car, `AT:SECONDS[:REVERSE]`: it brakes from AT s into the
+    /// drive, stands still for SECONDS (4 s after braking starts), reverses for
+    /// REVERSE s if given (up to a quarter of the road's speed backwards) and
+    /// drives off (4 s to full speed). Repeat for more stops, in order.
+    #[arg(long, value_name = "AT:SECONDS[:REVERSE]")]
     stop: Vec<Stop>,
     /// A GNSS outage (a tunnel), `AT:SECONDS`: no position, geodetic, velocity or
     /// heading sample valid from AT s into the drive for SECONDS. Repeatable.

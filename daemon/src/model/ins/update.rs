@@ -66,7 +66,7 @@ impl<const D: usize> InsModel<D> {
         gate: Option<&ChiSquareGate>,
         keep: Option<&[bool; M]>,
     ) -> (StepOutcome, Option<SVector<f64, D>>) {
-        let gate = if s.lockout.kinds.resetting() {
+        let gate = if s.kind_runs.resetting() {
             let mut view = MeasurementView::new(*y, *H, *R, *R);
             if let Some(keep) = keep {
                 Select(keep).inspect(&mut view);
