@@ -5,6 +5,8 @@
 //! the same bag as ROS 2 (MCAP) giving the same estimate; bad bags giving clear
 //! errors or counted refusals, never a panic.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -220,4 +222,58 @@ fn ros2_messages_that_give_no_sample_are_counted_with_their_reasons() {
         stderr.contains("topic /camera/image (mapped to [[sensor]] \"camera\") is a sensor_msgs/msg/Image, which fusiond does not read; it reads sensor_msgs/Imu"),
         "{stderr}"
     );
+}
+
+/// `fusion-sim run --input robot.mcap --config robot.toml` publishes a bag
+/// live, restamped onto this host's clock: a running fusiond takes every
+/// sample (the imu and attitude of each message, less the two refused), the
+/// message without an orientation is said, none is refused for its time.
+#[test]
+fn fusion_sim_publishes_a_bag_live() {
+    use common::live::{Daemon, TestDomain, workspace_bin};
+    use fusion_shared::SampleKind;
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("robot.mcap");
+    ros2_bag(&bag);
+    let config = page_config("jackal.toml");
+    let config_path = dir.path().join("robot.toml");
+    std::fs::write(&config_path, &config).unwrap();
+    let domain = TestDomain::new("sim-bag");
+    let mut daemon = Daemon::start(&domain, &config, "event");
+    let out = Command::new("timeout")
+        .arg("60")
+        .arg(workspace_bin("fusion-sim"))
+        .args(["run", "--namespace", &domain.namespace, "--input"])
+        .arg(&bag)
+        .arg("--config")
+        .arg(&config_path)
+        .env(fusion_shared::service::DOMAIN_ENV, &domain.domain)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("400 messages -> 399 attitude, 400 imu; 1 refused: attitude orientation not given"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("published 799 samples") && stderr.contains("1 messages gave none"), "{stderr}");
+    let client = domain.client();
+    let mut reader = client.state_subscriber().unwrap();
+    let snap = match reader.latest().unwrap() {
+        Some(s) => *s,
+        None => *reader.wait_next(std::time::Duration::from_secs(5)).unwrap().expect("a snapshot"),
+    };
+    let counts = |kind: SampleKind| {
+        let rows = &snap.sensors[..snap.sensor_count as usize];
+        rows.iter().find(|r| r.kind == kind as u32).map(|r| r.counts).expect("its row")
+    };
+    let (imu, attitude) = (counts(SampleKind::Imu), counts(SampleKind::Attitude));
+    assert_eq!((imu.received, imu.processed), (400, 400), "{imu:?}");
+    // The NaN covariance is refused by fusiond's validation; the rest fused
+    // (the first sets the attitude).
+    assert_eq!((attitude.received, attitude.invalid), (399, 1), "{attitude:?}");
+    assert!(attitude.fused >= 390, "{attitude:?}");
+    assert_eq!(snap.rejected(), 1, "none refused for its time: {:?}", snap.rejections);
+    drop((reader, client));
+    assert!(daemon.terminate().success());
 }

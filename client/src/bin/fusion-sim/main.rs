@@ -8,7 +8,7 @@
 //!   some of them with `--imu-ids`) or the other sensors alone (`--position-only`)
 //!   so they can run as separate processes on the same trajectory and start
 //!   time; or a file (`--input`), as fast as the daemon takes it or paced by its
-//!   timestamps.
+//!   timestamps; or a ROS bag (`--input robot.bag --config robot.toml`), live.
 //! - `fusion-sim record`: write a drive as replay input (JSON lines, arrival
 //!   order) and its truth (JSON lines, one per sample, timestamp order).
 
@@ -23,6 +23,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
+mod bag;
 mod scenario_args;
 
 use scenario_args::SimArgs;
@@ -61,9 +62,15 @@ enum Command {
         /// magnetometer, twist, barometer, pose and attitude, as their rates are set.
         #[arg(long)]
         position_only: bool,
-        /// Publish this file (replay input format) instead of simulating.
+        /// Publish this file instead of simulating: JSON lines (replay input
+        /// format), or a ROS bag (ROS 1, or ROS 2 in MCAP) with --config,
+        /// restamped onto this host's clock and paced by its stamps.
         #[arg(long, conflicts_with_all = ["imu_only", "position_only"])]
         input: Option<PathBuf>,
+        /// With a ROS bag as --input: the fusiond configuration whose
+        /// [[sensor]] topic keys say which topics are published as what.
+        #[arg(long, requires = "input")]
+        config: Option<PathBuf>,
         /// With --input: pace by the samples' timestamps instead of as fast as the daemon takes them.
         #[arg(long, requires = "input")]
         realtime: bool,
@@ -111,6 +118,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             imu_ids,
             position_only,
             input,
+            config: topic_map,
             realtime,
             start_at_ns,
             sim,
@@ -127,6 +135,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             let client = Client::connect(&namespace)?;
             if let Some(path) = input {
+                if bag::is_bag(&path) {
+                    let Some(map) = topic_map else {
+                        usage_error(anyhow::anyhow!(
+                            "{} is a ROS bag: --config names the fusiond configuration whose [[sensor]] topic keys \
+                             map its topics",
+                            path.display()
+                        ))
+                    };
+                    let routes = bag::routes(&map).unwrap_or_else(|e| usage_error(e));
+                    return publish_bag(&client, &path, &routes, allow_no_daemon, &stop);
+                }
                 return publish_file(&client, &path, realtime, allow_no_daemon, &stop);
             }
             let mut daemon_seen = daemon_runs(&client);
@@ -218,6 +237,56 @@ const SILENCE: Duration = Duration::from_secs(2);
 /// Whether a fusiond runs in the client's namespace (its state service is there).
 fn daemon_runs(client: &Client) -> bool {
     !matches!(client.state_subscriber_with_buffer(1), Err(fusion_client::ClientError::DaemonNotRunning { .. }))
+}
+
+/// Publishes a ROS bag live, restamped onto this host's clock and paced by its
+/// stamps ([`bag`]).
+fn publish_bag(
+    client: &Client,
+    path: &std::path::Path,
+    routes: &[fusion_shared::ros::Route],
+    allow_no_daemon: bool,
+    stop: &AtomicBool,
+) -> anyhow::Result<()> {
+    let mut publishers = SensorPublishers::all(client)?;
+    let (mut published, mut delivered, mut refused) = (0u64, 0u64, 0u64);
+    let mut failed = None;
+    let start = now_ns() + 100_000_000;
+    let summary = bag::samples(path, routes, start, |_, sample| {
+        if stop.load(Ordering::Relaxed) {
+            return false;
+        }
+        let Ok(sample) = sample else {
+            refused += 1;
+            return true;
+        };
+        sleep_until(sample.t_ns(), stop);
+        match publishers.publish(sample) {
+            Ok(readers) => delivered += u64::from(readers.is_some_and(|r| r > 0)),
+            Err(e) => {
+                failed = Some(e);
+                return false;
+            }
+        }
+        published += 1;
+        true
+    })?;
+    if let Some(e) = failed {
+        return Err(e.into());
+    }
+    eprint!("{summary}");
+    eprintln!(
+        "fusion-sim: published {published} samples from {} ({refused} messages gave none, {} reached no reader)",
+        path.display(),
+        published - delivered
+    );
+    if published > 0 && (delivered == 0 || !daemon_runs(client)) && !allow_no_daemon {
+        anyhow::bail!(
+            "no fusiond received the samples: none runs in namespace {:?} (--allow-no-daemon to publish anyway)",
+            client.names().namespace
+        );
+    }
+    Ok(())
 }
 
 /// Publishes a file in file order: paced by its timestamps (`realtime`), or in
