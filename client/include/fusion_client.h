@@ -148,6 +148,11 @@
 // Braking to a stop, and pulling away after it, each take this long, s.
 #define STOP_RAMP_S 4.0
 
+// The most a reversing car drives backwards, as a fraction of the road's
+// speed there: its speed factor goes from 0 to `−REVERSE_SPEED` and back,
+// `s = −r ½(1 − cos(2π w / R))` over the `R` seconds of reversing.
+#define REVERSE_SPEED 0.25
+
 // What a C API call did.
 typedef enum FusionStatus {
   // Done.
