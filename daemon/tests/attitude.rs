@@ -33,7 +33,7 @@ use nalgebra::{Matrix2, Matrix3, Rotation3, Vector3};
 
 const SIGMA0: [f64; 5] = [0.5, 0.3, 0.0, 0.05, 0.0005];
 const RUNS: u64 = 20;
-const WRONG_YAW: f64 = 0.5236; // 30°
+const WRONG_YAW: f64 = std::f64::consts::FRAC_PI_6; // 30°
 
 #[derive(Debug, Default)]
 struct Run {
