@@ -338,8 +338,9 @@ typedef struct FusionStateSnapshot {
   uint32_t nis_sensors;
   // Zero.
   uint32_t reserved;
-  // Times the filter re-initialised itself from the position fixes after a
-  // lock-out (every fix gated for `[gating] lockout_ns`).
+  // Times the filter re-initialised itself after a lock-out: from the
+  // position fixes (every fix gated for `[gating] lockout_ns`), or reset
+  // from another kind's samples (every sample of it gated as long).
   uint64_t reinitialisations;
   // State readers refused because every reader slot (`[ipc] max_readers`)
   // was taken, as the refused readers reported it.

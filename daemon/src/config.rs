@@ -67,7 +67,7 @@ form = "joseph"
 probability = 0.999
 # Lock-out recovery: when every position fix for lockout_ns (and at least
 # lockout_fixes of them) was gated, the filter re-initialises its position and
-# velocity from the fixes (health "degraded: re-initialised from fixes"); when
+# velocity from the fixes (health "degraded: re-initialised after a lock-out"); when
 # every sample of another kind (wheels, twist, heading, attitude, ...) was, its
 # next sample resets the states it observes to what it says. 0 turns it off.
 lockout_ns = 5_000_000_000

@@ -46,7 +46,7 @@ pub const MAX_NIS_WINDOW: usize = 256;
 /// How long a loss keeps the `samples lost` reason set, ns.
 pub const LOSS_HOLD_NS: u64 = 5_000_000_000;
 
-/// How long a re-initialisation keeps the `re-initialised from fixes` reason set, ns.
+/// How long a re-initialisation keeps the `re-initialised after a lock-out` reason set, ns.
 pub const REINITIALISED_HOLD_NS: u64 = 10_000_000_000;
 
 /// Health settings (the `[health]` config table).

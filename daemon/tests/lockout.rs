@@ -45,7 +45,7 @@ fn a_locked_out_filter_reinitialises_from_the_fixes_says_so_and_live_equals_repl
     assert!(snaps[..first_reinit].iter().all(|s| s.health_reasons & health::REINITIALISED == 0));
     let after = &snaps[first_reinit];
     assert_eq!(after.health, health::DEGRADED);
-    assert!(after.health_reason_names().any(|r| r == "re-initialised from fixes"), "{:?}", after.health_reasons);
+    assert!(after.health_reason_names().any(|r| r == "re-initialised after a lock-out"), "{:?}", after.health_reasons);
     assert!(daemon.stderr().contains("filter re-initialised from the position fixes"), "{}", daemon.stderr());
 
     let dir = tempfile::tempdir().unwrap();

@@ -364,8 +364,9 @@ pub struct StateSnapshot {
     pub nis_sensors: u32,
     /// Zero.
     pub reserved: u32,
-    /// Times the filter re-initialised itself from the position fixes after a
-    /// lock-out (every fix gated for `[gating] lockout_ns`).
+    /// Times the filter re-initialised itself after a lock-out: from the
+    /// position fixes (every fix gated for `[gating] lockout_ns`), or reset
+    /// from another kind's samples (every sample of it gated as long).
     pub reinitialisations: u64,
     /// State readers refused because every reader slot (`[ipc] max_readers`)
     /// was taken, as the refused readers reported it.

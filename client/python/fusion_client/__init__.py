@@ -80,7 +80,7 @@ READER_REFUSED_EVENT = 1
 MAX_NAMESPACE_LEN = 64
 
 # Health reason bits (`fusion_shared::snapshot::health`).
-_GENERAL_REASONS = ((1 << 0, "nis out of bounds"), (1 << 1, "samples lost"), (1 << 2, "re-initialised from fixes"))
+_GENERAL_REASONS = ((1 << 0, "nis out of bounds"), (1 << 1, "samples lost"), (1 << 2, "re-initialised after a lock-out"))
 
 # Index of the attitude error δθ in the ins covariance.
 _ATTITUDE_ERROR = 6

@@ -117,7 +117,7 @@ pub trait Model {
     /// measurement update left ([`Correction`](Self::Correction)).
     fn finish_record(log: Self::Log, state: &Self::State, correction: Self::Correction) -> Self::Record;
 
-    /// Called before a measurement of `kind` at `t_ns` is fused (the `ins`
+    /// Called before a measurement of `kind` is fused (the `ins`
     /// model: whether its lock-out run is due, [`lockout::KindRuns`]).
     fn before_fuse(&self, _state: &mut Self::State, _kind: fusion_shared::SampleKind) {}
 

@@ -15,8 +15,9 @@ pub const DEGRADED: u32 = 2;
 pub const NIS_OUT_OF_BOUNDS: u32 = 1 << 0;
 /// Reason bit: samples were lost (subscriber buffer overflow or sensor gaps).
 pub const SAMPLES_LOST: u32 = 1 << 1;
-/// Reason bit: the filter re-initialised itself from the position fixes
-/// recently, after they had all been gated for `[gating] lockout_ns`
+/// Reason bit: the filter re-initialised itself recently after a lock-out:
+/// from the position fixes after they had all been gated for `[gating]
+/// lockout_ns`, or from another kind's samples after a run of them
 /// ([`StateSnapshot::reinitialisations`](super::StateSnapshot::reinitialisations)).
 pub const REINITIALISED: u32 = 1 << 2;
 
@@ -44,7 +45,7 @@ pub const fn name(state: u32) -> &'static str {
 pub const GENERAL_REASONS: [(u32, &str); 3] = [
     (NIS_OUT_OF_BOUNDS, "nis out of bounds"),
     (SAMPLES_LOST, "samples lost"),
-    (REINITIALISED, "re-initialised from fixes"),
+    (REINITIALISED, "re-initialised after a lock-out"),
 ];
 
 /// Every reason bit set in `reasons`, by name: the general ones, then the

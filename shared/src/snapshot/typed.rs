@@ -153,7 +153,7 @@ pub enum HealthReason {
     NisOutOfBounds,
     /// Samples were lost ([`health::SAMPLES_LOST`]).
     SamplesLost,
-    /// The filter re-initialised itself from the position fixes recently
+    /// The filter re-initialised itself after a lock-out recently
     /// ([`health::REINITIALISED`]).
     Reinitialised,
     /// No sample of this kind for longer than its timeout ([`health::stale`]);
