@@ -206,13 +206,24 @@ impl<M: Steps> LiveCore<M> {
     fn evaluate_health(&mut self, now: u64) {
         let reinitialisations = self.engine.latest().map_or(0, |e| M::reinitialisations(&e.state));
         if reinitialisations > self.reinitialisations_logged {
-            let t_ns = self.engine.latest().map_or(0, |e| e.key.t_ns);
-            tracing::warn!(
-                reinitialisations,
-                t_ns,
-                "filter re-initialised from the position fixes: every fix was gated for the lock-out time \
-                 ([gating] lockout_ns); position and velocity now come from the fixes"
-            );
+            let (t_ns, kind) = self.engine.latest().map_or((0, SampleKind::Imu), |e| (e.key.t_ns, e.key.kind));
+            if crate::model::lockout::KindRuns::tracked(kind) {
+                tracing::warn!(
+                    reinitialisations,
+                    t_ns,
+                    kind = kind.name(),
+                    "filter reset from a {} sample: every one was gated for the lock-out time ([gating] \
+                     lockout_ns); what it observes now comes from it",
+                    kind.name()
+                );
+            } else {
+                tracing::warn!(
+                    reinitialisations,
+                    t_ns,
+                    "filter re-initialised from the position fixes: every fix was gated for the lock-out time \
+                     ([gating] lockout_ns); position and velocity now come from the fixes"
+                );
+            }
         }
         self.reinitialisations_logged = reinitialisations;
         let initialised = self.initialised();
