@@ -58,9 +58,12 @@ pub fn routes(path: &Path) -> anyhow::Result<Vec<Route>> {
 
 /// Whether the file at `path` is a ROS bag (ROS 1, or ROS 2 in MCAP).
 pub fn is_bag(path: &Path) -> bool {
-    let Ok(bytes) = std::fs::read(path).map(|b| b.into_iter().take(1 << 16).collect::<Vec<u8>>()) else { return false };
-    fusion_shared::ros::is_ros1(&bytes)
-        || (bytes.starts_with(mcap::MAGIC) && {
+    use std::io::Read;
+    let mut head = [0u8; 16];
+    let Ok(n) = std::fs::File::open(path).and_then(|mut f| f.read(&mut head)) else { return false };
+    let head = &head[..n];
+    fusion_shared::ros::is_ros1(head)
+        || (head.starts_with(mcap::MAGIC) && {
             let file = std::fs::File::open(path);
             // SAFETY: read-only input; a file changed under the map gives wrong samples, not unsoundness.
             let map = file.and_then(|f| unsafe { memmap2::Mmap::map(&f) });
