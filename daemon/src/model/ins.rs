@@ -312,50 +312,6 @@ fn pad(x: [f64; NOMINAL]) -> [f64; NOMINAL_MAX] {
 }
 
 impl<const D: usize> InsModel<D> {
-    /// The same model with these frames (a configured datum).
-    pub fn with_frames(mut self, frames: Frames) -> Self {
-        self.frames = frames;
-        self
-    }
-
-    /// The same model with its error-state filter in `form` (`[filter] form`).
-    pub fn with_form(mut self, form: crate::filter::Form) -> Result<Self, FilterError> {
-        self.initial = self.initial.with_form(form)?;
-        Ok(self)
-    }
-
-    /// The same model with the land-vehicle motion constraint applied.
-    pub fn with_nonholonomic(mut self, constraint: Option<Nonholonomic>) -> Self {
-        self.nonholonomic = constraint;
-        self
-    }
-
-    /// The same model with standstill detection and its updates.
-    pub fn with_standstill(mut self, standstill: Option<Standstill>) -> Self {
-        self.standstill = standstill;
-        self
-    }
-
-    /// Standstill detection, if configured.
-    pub fn standstill(&self) -> Option<&Standstill> {
-        self.standstill.as_ref()
-    }
-
-    /// The odometry scale state's parameters, if it is estimated.
-    pub fn odometry_scale(&self) -> Option<&OdometryScale> {
-        self.aux.odometry_scale.as_ref()
-    }
-
-    /// The auxiliary states and their parameters.
-    pub fn aux(&self) -> &AuxStates {
-        &self.aux
-    }
-
-    /// The IMU noise.
-    pub fn noise(&self) -> &ImuNoise {
-        &self.noise
-    }
-
     fn g(&self) -> Vector3<f64> {
         Vector3::new(0.0, 0.0, -self.gravity)
     }

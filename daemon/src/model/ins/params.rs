@@ -1,7 +1,10 @@
 //! The `ins` model's parameters as configured: the IMU noise (Kalibr's names and
-//! units), gravity, and the optional tables of `[model]`.
+//! units), gravity, and the optional tables of `[model]`; the model's builders
+//! and accessors of them.
 
-use super::{Nonholonomic, OdometryScale, Standstill};
+use super::{AuxStates, InsModel, Nonholonomic, OdometryScale, Standstill};
+use crate::filter::FilterError;
+use crate::frames::Frames;
 
 /// IMU noise parameters, named and scaled as in Kalibr's IMU model.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -70,5 +73,51 @@ pub struct AlignmentParams {
 impl AlignmentParams {
     fn default_sideslip_deg() -> f64 {
         2.0
+    }
+}
+
+impl<const D: usize> InsModel<D> {
+    /// The same model with these frames (a configured datum).
+    pub fn with_frames(mut self, frames: Frames) -> Self {
+        self.frames = frames;
+        self
+    }
+
+    /// The same model with its error-state filter in `form` (`[filter] form`).
+    pub fn with_form(mut self, form: crate::filter::Form) -> Result<Self, FilterError> {
+        self.initial = self.initial.with_form(form)?;
+        Ok(self)
+    }
+
+    /// The same model with the land-vehicle motion constraint applied.
+    pub fn with_nonholonomic(mut self, constraint: Option<Nonholonomic>) -> Self {
+        self.nonholonomic = constraint;
+        self
+    }
+
+    /// The same model with standstill detection and its updates.
+    pub fn with_standstill(mut self, standstill: Option<Standstill>) -> Self {
+        self.standstill = standstill;
+        self
+    }
+
+    /// Standstill detection, if configured.
+    pub fn standstill(&self) -> Option<&Standstill> {
+        self.standstill.as_ref()
+    }
+
+    /// The odometry scale state's parameters, if it is estimated.
+    pub fn odometry_scale(&self) -> Option<&OdometryScale> {
+        self.aux.odometry_scale.as_ref()
+    }
+
+    /// The auxiliary states and their parameters.
+    pub fn aux(&self) -> &AuxStates {
+        &self.aux
+    }
+
+    /// The IMU noise.
+    pub fn noise(&self) -> &ImuNoise {
+        &self.noise
     }
 }
