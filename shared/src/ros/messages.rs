@@ -355,8 +355,14 @@ fn pose_cov(p: &PoseWithCovariance) -> [f64; 36] {
     out
 }
 
-fn twist(t: &TwistWithCovariance) -> ([f64; 3], [f64; 3], [f64; 36]) {
-    (t.twist.linear.array(), t.twist.angular.array(), flat6(&t.covariance))
+/// A twist as a `twist` sample (the whole twist), or else as an `odometry`
+/// one (its forward speed, `linear.x`, with its variance).
+fn moving(t: &TwistWithCovariance, kind: SampleKind, t_ns: u64, sensor: u32, seq: u64) -> Sample {
+    if kind == SampleKind::Twist {
+        let (v, w) = (t.twist.linear.array(), t.twist.angular.array());
+        return TwistSample::new(t_ns, sensor, seq, v, w, flat6(&t.covariance)).into();
+    }
+    OdometrySample::new(t_ns, sensor, seq, t.twist.linear.x, t.covariance[0][0]).into()
 }
 
 /// What a decoded message gives for `kind`, numbered `seq` of sensor `sensor`:
@@ -405,31 +411,14 @@ impl<H: Stamp> Convert for Odometry<H> {
                 0,
             )
             .into()),
-            SampleKind::Twist => {
-                let (v, w, cov) = twist(&self.twist);
-                Ok(TwistSample::new(t, sensor, seq, v, w, cov).into())
-            }
-            _ => {
-                let var = self.twist.covariance[0][0];
-                Ok(OdometrySample::new(t, sensor, seq, self.twist.twist.linear.x, var).into())
-            }
+            _ => Ok(moving(&self.twist, kind, t, sensor, seq)),
         }
     }
 }
 
 impl<H: Stamp> Convert for TwistWithCovarianceStamped<H> {
     fn sample(&self, kind: SampleKind, sensor: u32, seq: u64) -> Result<Sample, String> {
-        let t = self.header.t_ns()?;
-        match kind {
-            SampleKind::Twist => {
-                let (v, w, cov) = twist(&self.twist);
-                Ok(TwistSample::new(t, sensor, seq, v, w, cov).into())
-            }
-            _ => {
-                let var = self.twist.covariance[0][0];
-                Ok(OdometrySample::new(t, sensor, seq, self.twist.twist.linear.x, var).into())
-            }
-        }
+        Ok(moving(&self.twist, kind, self.header.t_ns()?, sensor, seq))
     }
 }
 
@@ -502,5 +491,26 @@ mod tests {
         let cov = to_sensor_axes(&q.matrix(), &[1.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 3.0]);
         let expected = [2.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 3.0];
         assert!(cov.iter().zip(expected).all(|(a, b)| (a - b).abs() < 1e-12), "{cov:?}");
+    }
+
+    /// A twist gives the whole twist to `twist` (its 6×6 covariance row-major)
+    /// and its forward speed with that variance to `odometry`.
+    #[test]
+    fn a_twist_is_a_twist_or_a_forward_speed() {
+        let mut covariance = [[0.0; 6]; 6];
+        for (i, row) in covariance.iter_mut().enumerate() {
+            row[i] = 0.01 * (i + 1) as f64;
+        }
+        covariance[0][5] = 0.001;
+        let t = TwistWithCovariance {
+            twist: Twist { linear: Vector3 { x: 1.5, y: -0.1, z: 0.0 }, angular: Vector3 { x: 0.0, y: 0.0, z: 0.3 } },
+            covariance,
+        };
+        let Sample::Twist(s) = moving(&t, SampleKind::Twist, 7, 2, 3) else { panic!() };
+        assert_eq!((s.header.t_ns, s.header.sensor, s.header.seq), (7, 2, 3));
+        assert_eq!((s.linear_mps, s.angular_radps), ([1.5, -0.1, 0.0], [0.0, 0.0, 0.3]));
+        assert_eq!((s.cov[0], s.cov[5], s.cov[35]), (0.01, 0.001, 0.06));
+        let Sample::Odometry(o) = moving(&t, SampleKind::Odometry, 7, 2, 3) else { panic!() };
+        assert_eq!((o.speed_mps, o.var_m2ps2), (1.5, 0.01));
     }
 }
