@@ -469,11 +469,10 @@ impl Tables {
     /// The topic map of a bag replay: each `[[sensor]]` with a `topic`, its
     /// kinds under its id.
     pub fn routes(&self) -> Vec<fusion_shared::ros::Route> {
-        let routes = self.sensors.iter().filter_map(|s| {
-            let kinds = s.kinds.iter().filter_map(|k| fusion_shared::SampleKind::from_name(k)).collect();
-            Some(fusion_shared::ros::Route { topic: s.topic.clone()?, kinds, sensor: s.id, name: s.name.clone() })
-        });
-        routes.collect()
+        // The kinds were checked when the configuration was read.
+        let route =
+            |s: &SensorConfig| fusion_shared::ros::Route::of_sensor(&s.name, s.id, &s.kinds, s.topic.as_deref());
+        self.sensors.iter().filter_map(|s| route(s).ok().flatten()).collect()
     }
 }
 

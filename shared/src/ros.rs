@@ -40,6 +40,20 @@ pub struct Route {
     pub name: String,
 }
 
+impl Route {
+    /// The route of a `[[sensor]]` entry named `name` with id `sensor`, its
+    /// `kinds` (by name) and its `topic`: `None` without a topic; an error
+    /// naming the first kind that is not one.
+    pub fn of_sensor(name: &str, sensor: u32, kinds: &[String], topic: Option<&str>) -> Result<Option<Self>, String> {
+        let Some(topic) = topic else { return Ok(None) };
+        let kinds = kinds
+            .iter()
+            .map(|k| SampleKind::from_name(k).ok_or_else(|| format!("[[sensor]] {name:?} names an unknown kind {k:?}")))
+            .collect::<Result<_, _>>()?;
+        Ok(Some(Self { topic: topic.into(), kinds, sensor, name: name.into() }))
+    }
+}
+
 /// A bag that cannot be read, or a topic map that does not fit it.
 #[derive(Debug, thiserror::Error)]
 pub enum BagError {
@@ -374,10 +388,7 @@ fn read_ros1<F: FnMut(BagItem)>(path: &Path, bytes: &[u8], r: &mut Reading<'_, F
                     connections.insert(c.id, c.topic.to_string());
                 }
                 Ok(MessageRecord::MessageData(d)) => match connections.get(&d.conn_id) {
-                    Some(topic) => {
-                        let topic = topic.clone();
-                        r.message::<Ros1>(&topic, d.data);
-                    }
+                    Some(topic) => r.message::<Ros1>(topic, d.data),
                     None => {
                         r.summary.damage = Some(format!("message {} is of an unknown connection", r.position + 1));
                         return Ok(());
@@ -415,13 +426,32 @@ fn read_ros2<F: FnMut(BagItem)>(bytes: &[u8], r: &mut Reading<'_, F>) -> Result<
             }
         };
         let topic = &m.channel.topic;
-        if m.channel.message_encoding != "cdr" {
-            let ty = format!("{} message", m.channel.message_encoding);
-            r.topic(topic, &ty)?;
-        } else {
-            r.topic(topic, m.channel.schema.as_ref().map_or("", |s| s.name.as_str()))?;
+        if !r.topics.contains_key(topic) {
+            if m.channel.message_encoding == "cdr" {
+                r.topic(topic, m.channel.schema.as_ref().map_or("", |s| s.name.as_str()))?;
+            } else {
+                r.topic(topic, &format!("{} message", m.channel.message_encoding))?;
+            }
         }
         r.message::<Ros2>(topic, &m.data);
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_sensor_entry_is_a_route_if_it_has_a_topic() {
+        let kinds = ["imu".to_string(), "attitude".to_string()];
+        let r = Route::of_sensor("ahrs", 3, &kinds, Some("/imu/data")).unwrap().unwrap();
+        assert_eq!(
+            (r.topic.as_str(), r.sensor, r.kinds.as_slice()),
+            ("/imu/data", 3, &[SampleKind::Imu, SampleKind::Attitude][..])
+        );
+        assert_eq!(Route::of_sensor("ahrs", 3, &kinds, None), Ok(None));
+        let e = Route::of_sensor("ahrs", 3, &["imu".into(), "ahrs".into()], Some("/imu/data")).unwrap_err();
+        assert_eq!(e, "[[sensor]] \"ahrs\" names an unknown kind \"ahrs\"");
+    }
 }

@@ -34,20 +34,12 @@ pub fn routes(path: &Path) -> anyhow::Result<Vec<Route>> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let map: TopicMap =
         toml::from_str(&text).with_context(|| format!("{}: not a fusiond configuration", path.display()))?;
-    let mut routes = Vec::new();
-    for s in map.sensor {
-        let Some(topic) = s.topic else { continue };
-        let kinds = s
-            .kinds
-            .iter()
-            .map(|k| {
-                fusion_shared::SampleKind::from_name(k).ok_or_else(|| {
-                    anyhow::anyhow!("{}: [[sensor]] {:?} names an unknown kind {k:?}", path.display(), s.name)
-                })
-            })
-            .collect::<anyhow::Result<_>>()?;
-        routes.push(Route { topic, kinds, sensor: s.id, name: s.name });
-    }
+    let routes: Vec<Route> = map
+        .sensor
+        .iter()
+        .filter_map(|s| Route::of_sensor(&s.name, s.id, &s.kinds, s.topic.as_deref()).transpose())
+        .collect::<Result<_, _>>()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     anyhow::ensure!(
         !routes.is_empty(),
         "{}: no [[sensor]] has a topic: give each sensor the ROS topic it is read from (topic = \"/imu/data\")",

@@ -57,25 +57,23 @@ fn every_bad_value_has_its_reason() {
     assert_eq!(att([1.0, 0.0, 0.0, 0.0], neg), Err(Rejection::CovarianceNotPositiveDefinite));
 }
 
+/// `H` of both updates against central differences of `Log(Ŝ₀ᵀ Ŝ(x))` and
+/// `P u(x)` at state `s`.
+fn check_jacobians<const D: usize>(s: &InsState<D>, C: &Matrix3<f64>) {
+    let (S0, H) = full(s, C);
+    let numeric = numeric_jacobian(s, |x| super::super::pose::log(&(S0.transpose() * full(x, C).0)));
+    assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+    let (_, P, H) = tilt(s, C);
+    let numeric = numeric_jacobian(s, |x| P * tilt(x, C).0);
+    assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+}
+
 #[test]
 fn jacobians_match_central_differences() {
-    let m = mounted(true);
-    let C = mount(&m);
-    let s = moving_state();
-    let (S0, H) = full(&s, &C);
-    let numeric = numeric_jacobian(&s, |x| super::super::pose::log(&(S0.transpose() * full(x, &C).0)));
-    assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
-    let (_, P, H) = tilt(&s, &C);
-    let numeric = numeric_jacobian(&s, |x| P * tilt(x, &C).0);
-    assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+    let C = mount(&mounted(true));
+    check_jacobians(&moving_state(), &C);
     // With the odometry scale state: its column is zero.
-    let s = moving_scaled_state();
-    let (S0, H) = full(&s, &C);
-    let numeric = numeric_jacobian(&s, |x| super::super::pose::log(&(S0.transpose() * full(x, &C).0)));
-    assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
-    let (_, P, H) = tilt(&s, &C);
-    let numeric = numeric_jacobian(&s, |x| P * tilt(x, &C).0);
-    assert!((H - numeric).amax() < 1e-7, "{}", H - numeric);
+    check_jacobians(&moving_scaled_state(), &C);
 }
 
 /// The mounted sensor's reading of the true attitude corrects a known
