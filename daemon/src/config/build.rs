@@ -359,7 +359,8 @@ impl InsModel {
         Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)
             .map(|m| {
                 let m = m.with_nonholonomic(p.constraints).with_standstill(p.standstill).with_course_alignment(course);
-                m.with_frames(frames).with_lockout(config.lockout)
+                let unobserved = ins::observability::yaw_unobserved(frames.sensors());
+                m.with_yaw_unobserved(unobserved).with_frames(frames).with_lockout(config.lockout)
             })
             .map_err(|e| invalid("filter.initial_state", e.to_string()))
     }

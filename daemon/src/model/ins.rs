@@ -76,6 +76,7 @@ pub mod course;
 mod error_state;
 mod linearised;
 pub mod nonholonomic;
+pub mod observability;
 mod odometry_scale;
 mod params;
 mod record;
@@ -125,6 +126,9 @@ pub struct InsModel<const D: usize = N> {
     course: Option<CourseAlignment>,
     nonholonomic: Option<Nonholonomic>,
     standstill: Option<Standstill>,
+    /// Nothing configured observes the yaw: the observability constraint is on
+    /// ([`observability`]).
+    yaw_unobserved: bool,
     aux: AuxStates,
     /// Random-walk variance per second of each auxiliary error state (index
     /// `N + i`).
@@ -297,6 +301,7 @@ impl InsModel {
             course: None,
             nonholonomic: None,
             standstill: None,
+            yaw_unobserved: false,
             aux: AuxStates::default(),
             aux_noise: [0.0; MAX_AUX],
             frames: Frames::default(),

@@ -181,6 +181,7 @@ impl InsModel {
             course: self.course,
             nonholonomic: self.nonholonomic,
             standstill: self.standstill,
+            yaw_unobserved: self.yaw_unobserved,
             aux,
             aux_noise: q,
             frames: self.frames,

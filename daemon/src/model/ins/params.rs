@@ -101,6 +101,13 @@ impl<const D: usize> InsModel<D> {
         self
     }
 
+    /// The same model with the observability constraint on when `unobserved`:
+    /// nothing configured observes the yaw ([`super::observability`]).
+    pub fn with_yaw_unobserved(mut self, unobserved: bool) -> Self {
+        self.yaw_unobserved = unobserved;
+        self
+    }
+
     /// Standstill detection, if configured.
     pub fn standstill(&self) -> Option<&Standstill> {
         self.standstill.as_ref()

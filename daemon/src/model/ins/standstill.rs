@@ -405,7 +405,12 @@ fn fuse<const D: usize>(
     if entering {
         return model.update_residual_gated(s, &y, &H, &R, None);
     }
-    consider_yaw_update(s, &y, &H, &R)
+    let entitled = model.turn_information(s);
+    let out = consider_yaw_update(s, &y, &H, &R);
+    if out.1.is_some() {
+        model.cap_turn_information(s, entitled);
+    }
+    out
 }
 
 /// The update of `y`, `H`, `R` with the yaw as a consider direction (see the

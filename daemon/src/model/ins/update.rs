@@ -7,7 +7,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use super::{InsModel, InsState, inject_and_reset};
+use super::{InsModel, InsState, inject_and_reset, observability};
 use crate::filter::{ChiSquareGate, FaultDecision, FaultDetector, MeasurementView, UpdateDecision, UpdateOptions};
 use crate::model::StepOutcome;
 
@@ -79,12 +79,38 @@ impl<const D: usize> InsModel<D> {
         let mut select = keep.map(Select);
         let fault_detector = select.as_mut().map(|s| s as &mut dyn FaultDetector<f64, D, M>);
         let options = UpdateOptions { gate, fault_detector };
+        let entitled = self.turn_information(s);
         match s.kf.update_nonlinear(y, &SVector::zeros(), H, R, options) {
             Ok(d) if d.decision == UpdateDecision::Accepted => {
-                (StepOutcome::Fused { nis: d.nis }, Some(inject_and_reset(s)))
+                let injected = inject_and_reset(s);
+                self.cap_turn_information(s, entitled);
+                (StepOutcome::Fused { nis: d.nis }, Some(injected))
             }
             Ok(d) => (StepOutcome::Gated { nis: d.nis }, None),
             Err(_) => (StepOutcome::Refused, None),
+        }
+    }
+
+    /// The information `Nᵀ P⁻¹ N` along the unobservable turn at the estimate,
+    /// while nothing configured observes the yaw ([`super::observability`]);
+    /// `None` otherwise.
+    pub(crate) fn turn_information(&self, s: &InsState<D>) -> Option<f64> {
+        if !self.yaw_unobserved {
+            return None;
+        }
+        observability::information(&s.kf.P(), &observability::turn(&s.v(), &s.q()))
+    }
+
+    /// After an update: the information along the turn at the new estimate
+    /// brought down to `entitled`, the [`turn_information`](Self::turn_information)
+    /// before it, by a turn's variance added ([`super::observability`]).
+    pub(crate) fn cap_turn_information(&self, s: &mut InsState<D>, entitled: Option<f64>) {
+        let Some(entitled) = entitled else { return };
+        let n = observability::turn::<D>(&s.v(), &s.q());
+        let Some(now) = observability::information(&s.kf.P(), &n) else { return };
+        let g = observability::excess(now, entitled);
+        if g > 0.0 {
+            s.kf.reset_error(|P| *P += n * n.transpose() * g);
         }
     }
 
