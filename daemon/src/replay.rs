@@ -182,7 +182,7 @@ pub fn parse_line(line: &str) -> Result<Sample, String> {
 pub struct OutputLine {
     /// Time of validity, ns.
     pub t_ns: u64,
-    /// `"imu"` or `"position"`.
+    /// The sample's kind, as in JSON lines (`"imu"`, `"odometry"`, …).
     pub kind: String,
     /// Sensor id.
     pub sensor: u32,

@@ -11,11 +11,11 @@
 //! world frame would be a heading.
 //!
 //! Held over 100 runs (from 2 s on): NEES/dof of position and velocity, and of
-//! the yaw, in [0.75, 1.35]; the yaw σ never below the least the start allows
-//! (`1/√I₀`: the yaw's starting σ, less the little the start's uncertain world
-//! velocity tells of the heading; within 0.3 % of the starting σ). Without the
-//! cap on the heading information ([`fusion_daemon::model::ins::observability`])
-//! it fell to 0.56 of its start in the first second of driving, while the yaw
+//! the yaw, in [0.75, 1.35]; the yaw σ never below its start (to 1 %: the
+//! yaw is about the estimated up, which moves while the tilt converges). No
+//! update moves the heading where nothing observes it
+//! ([`fusion_daemon::model::ins::observability`]); without that rule the yaw σ
+//! fell to 0.56 of its start in the first second of driving while the yaw
 //! error did not fall. With the odometry scale as a state (`[model.odometry_scale]`, its
 //! error drawn with σ 1 %): the scale's NEES in [0.5, 1.5] and its σ never
 //! below what the wheels and the IMU can teach (they do observe it: the IMU's
@@ -50,9 +50,6 @@ struct Run {
     yaw: (f64, u64),
     /// The yaw σ at the start and its smallest after.
     yaw_sd: (f64, f64),
-    /// The least yaw σ the start allows: `1/√I₀`, `I₀ = 1/σ_yaw² + |e₃ × v̂₀|²/σ_v²`
-    /// (the start's world velocity, uncertain by σ_v, tells a little of the heading).
-    yaw_sd_floor: f64,
     /// The scale's normalised squared error (sum, steps), when it is a state.
     scale: (f64, u64),
     /// Odometry samples fused, of all.
@@ -104,14 +101,11 @@ fn run(seed: u64, scale_std: Option<f64>) -> Run {
         common::car::imu_sensors()
     ))
     .unwrap();
-    let mut out = match InsBuilt::from_config(&config).unwrap() {
+    match InsBuilt::from_config(&config).unwrap() {
         InsBuilt::Core(model) => drive(model, &config, &scenario, t0, None),
         InsBuilt::Aux1(model) => drive(model, &config, &scenario, t0, Some(1.0 + scale_error)),
         _ => unreachable!("one auxiliary state at most"),
-    };
-    let horizontal = x0[3].hypot(x0[4]);
-    out.yaw_sd_floor = (SIGMA0[2].powi(-2) + (horizontal / SIGMA0[1]).powi(2)).powf(-0.5);
-    out
+    }
 }
 
 fn drive<const D: usize>(
@@ -172,23 +166,22 @@ fn dead_reckoning_stays_consistent_and_its_yaw_sigma_never_falls() {
     let pv = mean(&runs, |r| r.pv) / 6.0;
     let yaw = mean(&runs, |r| r.yaw);
     let lowest = runs.iter().map(|r| r.yaw_sd.1 / r.yaw_sd.0).fold(f64::INFINITY, f64::min);
-    let floor = runs.iter().map(|r| r.yaw_sd.1 / r.yaw_sd_floor).fold(f64::INFINITY, f64::min);
     let rms = |f: &dyn Fn(&Run) -> f64| (runs.iter().map(|r| f(r).powi(2)).sum::<f64>() / runs.len() as f64).sqrt();
     let wheels = runs.iter().fold((0, 0), |(f, n), r| (f + r.wheels.0, n + r.wheels.1));
     println!(
         "dead reckoning, {RUNS} runs: NEES/dof p,v {pv:.3}; yaw {yaw:.3}; yaw error RMS {:.2}° at the start, {:.2}° at \
-         the end; the yaw σ at least {lowest:.6} of its start, {floor:.6} of the least the start allows; wheels \
-         fused {:.1} %",
+         the end; the yaw σ at least {lowest:.4} of its start; wheels fused {:.1} %",
         rms(&|r| r.err0).to_degrees(),
         rms(&|r| r.err_end).to_degrees(),
         100.0 * wheels.0 as f64 / wheels.1 as f64
     );
     assert!((0.75..=1.35).contains(&pv), "p,v NEES/dof {pv}");
     assert!((0.75..=1.35).contains(&yaw), "yaw NEES {yaw}");
-    // Nothing observes the heading: the yaw σ never falls below what the
-    // start allows (at most 0.3 % below its starting value at these speeds).
-    assert!(floor >= 1.0 - 1e-9, "the yaw σ fell to {floor} of the least the start allows");
-    assert!(lowest >= 0.997, "the yaw σ fell to {lowest} of its start");
+    // Nothing observes the heading, and no update moves it: its σ does not
+    // fall (within 1 %: the yaw is about the estimated up, which turns while
+    // the tilt converges in the first second; 2 ‰ at most on these drives,
+    // 5 ‰ on other seeds). Without the rule it fell to 0.56 of its start.
+    assert!(lowest >= 0.99, "the yaw σ fell to {lowest} of its start");
 }
 
 #[test]

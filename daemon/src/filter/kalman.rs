@@ -349,6 +349,7 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         if !all_finite(z) || !all_finite(predicted) || !all_finite(H) || !all_finite(R) {
             return Err(FilterError::NonFinite("measurement"));
         }
+        let consider = options.consider;
         let PHt = self.times_transpose(H);
         let mut view = MeasurementView::new(z - predicted, *H, *R, H * PHt + R);
         let mut decision = UpdateDecision::Accepted;
@@ -369,8 +370,12 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
         let y = view.residual;
         let dims = view.active_dims();
 
-        // K = P Hᵀ S⁻¹, solved, never inverted.
-        let K = chol.gain(&PHt);
+        // K = P Hᵀ S⁻¹, solved, never inverted; with a consider direction c,
+        // K ← (I − c cᵀ) K.
+        let mut K = chol.gain(&PHt);
+        if let Some(c) = &consider {
+            K -= c * (c.transpose() * K);
+        }
         let dx = K * y;
         let w = chol.whiten(&y);
         let nis = w.dot(&w);
@@ -402,7 +407,14 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
                 *x += dx;
                 joseph::joseph_low_rank(P, &K, &PHt, &S);
             })?,
-            Form::Udu => self.update_factors(&y, &view.H, &view.R)?,
+            Form::Udu if consider.is_none() => self.update_factors(&y, &view.H, &view.R)?,
+            // Thornton-Bierman's update is the optimal gain's: a consider
+            // update composes P, takes the Joseph form and factorises again.
+            Form::Udu => {
+                let mut P = self.P();
+                joseph::joseph_low_rank(&mut P, &K, &PHt, &S);
+                self.set_state(self.x + dx, P)?;
+            }
         }
         Ok(diagnostics)
     }

@@ -144,10 +144,18 @@ pub struct UpdateOptions<'a, T: RealField + Copy, const N: usize, const M: usize
     pub gate: Option<&'a ChiSquareGate>,
     /// Fault-detection hook; `None` keeps every measurement as it is.
     pub fault_detector: Option<&'a mut dyn FaultDetector<T, N, M>>,
+    /// A unit direction `c` of the state that the update must not move: a
+    /// consider state (Schmidt, "Application of state-space methods to
+    /// navigation problems", 1966). The gain becomes `K ← (I − c cᵀ) K` and the
+    /// covariance the Joseph form's for that gain,
+    /// `P⁺ = (I − K H) P (I − K H)ᵀ + K R Kᵀ`, exact for any gain: the variance
+    /// along `c` is left as it was, its correlations with the rest follow the
+    /// update. `None`: the optimal gain.
+    pub consider: Option<SVector<T, N>>,
 }
 
 impl<T: RealField + Copy, const N: usize, const M: usize> Default for UpdateOptions<'_, T, N, M> {
     fn default() -> Self {
-        Self { gate: None, fault_detector: None }
+        Self { gate: None, fault_detector: None, consider: None }
     }
 }

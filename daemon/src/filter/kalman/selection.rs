@@ -75,7 +75,7 @@ impl<T: RealField + Copy, const N: usize> KalmanFilter<T, N> {
             // The factors have no cheap selection: the general update serves.
             let mut H = SMatrix::<T, M, N>::zeros();
             H.fixed_view_mut::<M, M>(0, offset).fill_with_identity();
-            let options = UpdateOptions { gate, fault_detector: None };
+            let options = UpdateOptions { gate, fault_detector: None, consider: None };
             let d = self.update_nonlinear(z, predicted, &H, R, options)?;
             let (decision, nis, gate_threshold, S, K) = (d.decision, d.nis, d.gate_threshold, d.S, d.K);
             return Ok(SelectionCore { decision, nis, gate_threshold, S, K });
@@ -145,7 +145,8 @@ mod tests {
         let R = nalgebra::Matrix3::new(0.5, 0.1, 0.0, 0.1, 0.4, 0.05, 0.0, 0.05, 0.6);
         let mut H = SMatrix::<f64, 3, 6>::zeros();
         H.fixed_view_mut::<3, 3>(0, 2).fill_with_identity();
-        let da = a.update(&z, &H, &R, UpdateOptions { gate: Some(&gate), fault_detector: None }).unwrap();
+        let da =
+            a.update(&z, &H, &R, UpdateOptions { gate: Some(&gate), fault_detector: None, consider: None }).unwrap();
         let predicted = H * x;
         let db = b.update_selection(&z, &predicted, 2, &R, Some(&gate)).unwrap();
         assert_eq!(da.decision, db.decision);

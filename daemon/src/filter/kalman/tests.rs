@@ -121,7 +121,7 @@ fn gated_measurement_leaves_the_state_untouched() {
     let gate = ChiSquareGate::new(0.99).unwrap();
     let mut kf = hand_filter();
     let before = kf;
-    let opts = UpdateOptions { gate: Some(&gate), fault_detector: None };
+    let opts = UpdateOptions { gate: Some(&gate), fault_detector: None, consider: None };
     // y = 99, S = 5: NIS = 1960 ≫ 6.63.
     let d = kf.update(&Vector1::new(100.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(1.0), opts).unwrap();
     assert_eq!(d.decision, UpdateDecision::Gated);
@@ -148,7 +148,7 @@ fn fault_hook_can_drop_a_component() {
             &Vector2::new(3.0, 1000.0),
             &Matrix2::identity(),
             &Matrix2::new(1.0, 0.3, 0.3, 1.0),
-            UpdateOptions { gate: None, fault_detector: Some(&mut hook) },
+            UpdateOptions { gate: None, fault_detector: Some(&mut hook), consider: None },
         )
         .unwrap();
     b.update(&Vector1::new(3.0), &Matrix1x2::new(1.0, 0.0), &Matrix1::new(1.0), UpdateOptions::default()).unwrap();
@@ -173,8 +173,13 @@ fn fault_hook_reweighting_and_rejection() {
     let mut a = hand_filter();
     let mut b = hand_filter();
     let mut hook = Inflate(9.0);
-    a.update(&Vector1::new(3.0), &H, &Matrix1::new(1.0), UpdateOptions { gate: None, fault_detector: Some(&mut hook) })
-        .unwrap();
+    a.update(
+        &Vector1::new(3.0),
+        &H,
+        &Matrix1::new(1.0),
+        UpdateOptions { gate: None, fault_detector: Some(&mut hook), consider: None },
+    )
+    .unwrap();
     b.update(&Vector1::new(3.0), &H, &Matrix1::new(9.0), UpdateOptions::default()).unwrap();
     assert!((a.x() - b.x()).amax() < 1e-12 && (a.P() - b.P()).amax() < 1e-12);
 
@@ -186,7 +191,7 @@ fn fault_hook_reweighting_and_rejection() {
             &Vector1::new(3.0),
             &H,
             &Matrix1::new(1.0),
-            UpdateOptions { gate: None, fault_detector: Some(&mut reject) },
+            UpdateOptions { gate: None, fault_detector: Some(&mut reject), consider: None },
         )
         .unwrap();
     assert_eq!(d.decision, UpdateDecision::RejectedByHook);
@@ -242,16 +247,31 @@ fn udu_form_gate_hook_and_refusals_as_joseph() {
     // Gated: nothing changes in either form.
     let (_, mut u) = both_forms();
     let before = u;
-    let d = u.update(&Vector2::new(100.0, 2.0), &H, &R, UpdateOptions { gate: Some(&gate), fault_detector: None });
+    let d = u.update(
+        &Vector2::new(100.0, 2.0),
+        &H,
+        &R,
+        UpdateOptions { gate: Some(&gate), fault_detector: None, consider: None },
+    );
     assert_eq!(d.unwrap().decision, UpdateDecision::Gated);
     assert_eq!(u, before);
     // A hook that drops component 1: the same result as in the Joseph form.
     let (mut j, mut u) = both_forms();
     let mut hook = DropSecond3;
-    j.update(&Vector2::new(3.0, 1000.0), &H, &R, UpdateOptions { gate: None, fault_detector: Some(&mut hook) })
-        .unwrap();
-    u.update(&Vector2::new(3.0, 1000.0), &H, &R, UpdateOptions { gate: None, fault_detector: Some(&mut hook) })
-        .unwrap();
+    j.update(
+        &Vector2::new(3.0, 1000.0),
+        &H,
+        &R,
+        UpdateOptions { gate: None, fault_detector: Some(&mut hook), consider: None },
+    )
+    .unwrap();
+    u.update(
+        &Vector2::new(3.0, 1000.0),
+        &H,
+        &R,
+        UpdateOptions { gate: None, fault_detector: Some(&mut hook), consider: None },
+    )
+    .unwrap();
     assert_same(&j, &u);
     // An indefinite S, a NaN, a non-PD R with an indefinite S: refused, state kept.
     let before = u;
@@ -296,4 +316,35 @@ impl FaultDetector<f64, 3, 2> for DropSecond3 {
 
 fn indefinite3() -> nalgebra::Matrix3<f64> {
     nalgebra::Matrix3::new(1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+}
+
+/// A consider direction: the update leaves the state and its variance along it
+/// as they were, its covariance is the Joseph form's for the projected gain,
+/// and both forms agree.
+#[test]
+fn a_consider_direction_is_not_moved_and_the_covariance_is_exact() {
+    let (mut j, mut u) = both_forms();
+    let (x0, P0) = (*j.x(), j.P());
+    let c = nalgebra::Vector3::new(0.0, 0.6, 0.8);
+    let z = Vector2::new(1.5, 0.4);
+    let H = nalgebra::Matrix2x3::new(1.0, 0.0, 0.5, 0.0, 1.0, -1.0);
+    let R = Matrix2::new(0.5, 0.2, 0.2, 0.3);
+    let options = || UpdateOptions { consider: Some(c), ..UpdateOptions::default() };
+    let d = j.update(&z, &H, &R, options()).unwrap();
+    u.update(&z, &H, &R, options()).unwrap();
+    assert_same(&j, &u);
+    assert!((c.dot(j.x()) - c.dot(&x0)).abs() < 1e-14, "moved along c");
+    assert!((c.dot(&(j.P() * c)) - c.dot(&(P0 * c))).abs() < 1e-13, "variance along c changed");
+    let S = H * P0 * H.transpose() + R;
+    let K = P0 * H.transpose() * S.try_inverse().unwrap();
+    let K = K - c * (c.transpose() * K);
+    assert!((d.K - K).amax() < 1e-13);
+    let I_KH = nalgebra::Matrix3::identity() - K * H;
+    let P = I_KH * P0 * I_KH.transpose() + K * R * K.transpose();
+    assert!((j.P() - P).amax() < 1e-13, "{} against {P}", j.P());
+    assert!((j.x() - (x0 + K * (z - H * x0))).amax() < 1e-13);
+    // The optimal update does move along c.
+    let (mut o, _) = both_forms();
+    o.update(&z, &H, &R, UpdateOptions::default()).unwrap();
+    assert!((c.dot(o.x()) - c.dot(&x0)).abs() > 0.1);
 }

@@ -108,6 +108,12 @@ impl<const D: usize> InsModel<D> {
         self
     }
 
+    /// Whether nothing configured observes the yaw: it is then a consider
+    /// direction of every update ([`super::observability`]).
+    pub fn yaw_unobserved(&self) -> bool {
+        self.yaw_unobserved
+    }
+
     /// Standstill detection, if configured.
     pub fn standstill(&self) -> Option<&Standstill> {
         self.standstill.as_ref()

@@ -405,12 +405,7 @@ fn fuse<const D: usize>(
     if entering {
         return model.update_residual_gated(s, &y, &H, &R, None);
     }
-    let entitled = model.turn_information(s);
-    let out = consider_yaw_update(s, &y, &H, &R);
-    if out.1.is_some() {
-        model.cap_turn_information(s, entitled);
-    }
-    out
+    consider_yaw_update(s, &y, &H, &R)
 }
 
 /// The update of `y`, `H`, `R` with the yaw as a consider direction (see the

@@ -78,40 +78,20 @@ impl<const D: usize> InsModel<D> {
         };
         let mut select = keep.map(Select);
         let fault_detector = select.as_mut().map(|s| s as &mut dyn FaultDetector<f64, D, M>);
-        let options = UpdateOptions { gate, fault_detector };
-        let entitled = self.turn_information(s);
+        let options = UpdateOptions { gate, fault_detector, consider: self.heading_considered(s) };
         match s.kf.update_nonlinear(y, &SVector::zeros(), H, R, options) {
             Ok(d) if d.decision == UpdateDecision::Accepted => {
-                let injected = inject_and_reset(s);
-                self.cap_turn_information(s, entitled);
-                (StepOutcome::Fused { nis: d.nis }, Some(injected))
+                (StepOutcome::Fused { nis: d.nis }, Some(inject_and_reset(s)))
             }
             Ok(d) => (StepOutcome::Gated { nis: d.nis }, None),
             Err(_) => (StepOutcome::Refused, None),
         }
     }
 
-    /// The information `Nᵀ P⁻¹ N` along the unobservable turn at the estimate,
-    /// while nothing configured observes the yaw ([`super::observability`]);
-    /// `None` otherwise.
-    pub(crate) fn turn_information(&self, s: &InsState<D>) -> Option<f64> {
-        if !self.yaw_unobserved {
-            return None;
-        }
-        observability::information(&s.kf.P(), &observability::turn(&s.v(), &s.q()))
-    }
-
-    /// After an update: the information along the turn at the new estimate
-    /// brought down to `entitled`, the [`turn_information`](Self::turn_information)
-    /// before it, by a turn's variance added ([`super::observability`]).
-    pub(crate) fn cap_turn_information(&self, s: &mut InsState<D>, entitled: Option<f64>) {
-        let Some(entitled) = entitled else { return };
-        let n = observability::turn::<D>(&s.v(), &s.q());
-        let Some(now) = observability::information(&s.kf.P(), &n) else { return };
-        let g = observability::excess(now, entitled);
-        if g > 0.0 {
-            s.kf.reset_error(|P| *P += n * n.transpose() * g);
-        }
+    /// The heading as a consider direction of every update while nothing
+    /// configured observes it ([`super::observability`]); `None` otherwise.
+    fn heading_considered(&self, s: &InsState<D>) -> Option<SVector<f64, D>> {
+        self.yaw_unobserved.then(|| observability::heading(&s.q()))
     }
 
     /// Fuses `z = x[offset..offset+3] + n`, `n ~ N(0, R)`, a measurement of three
