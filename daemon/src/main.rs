@@ -289,14 +289,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let mut file = File::open(&input).with_context(|| format!("cannot open {}", input.display()))?;
             let mut magic = [0u8; 16];
             let n = file.read(&mut magic).with_context(|| format!("cannot read {}", input.display()))?;
-            let ros2 = Recording::is_mcap(&magic[..n]) && {
-                let map = File::open(&input).and_then(|f| {
-                    // SAFETY: read-only input; a file changed under the map gives wrong samples, not unsoundness.
-                    unsafe { memmap2::Mmap::map(&f) }
-                });
-                map.is_ok_and(|m| fusion_shared::ros::is_ros2_mcap(&m))
-            };
-            if fusion_shared::ros::is_ros1(&magic[..n]) || ros2 {
+            if fusion_shared::ros::is_bag(&input) {
                 return replay_bag(config.as_deref(), &input, output, smooth, compare);
             }
             let named_mcap = input.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap"));

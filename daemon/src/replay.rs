@@ -56,8 +56,11 @@ pub enum ReplayError {
 /// Counts of one replay, printed on stderr by `fusiond replay`.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ReplaySummary {
-    /// Non-blank lines read.
+    /// Non-blank lines read (of a bag: samples its messages gave).
     pub read: u64,
+    /// What `read` counts, as the summary says it: `"lines"` (also when
+    /// empty), or `"samples"` of a bag.
+    pub read_what: &'static str,
     /// What became of the samples, every sensor added up. Lines that were not
     /// samples at all (malformed JSON, wrong shape) count as `invalid` too.
     pub counts: Counters,
@@ -111,14 +114,20 @@ pub fn offset_advice(tau: f64, sd: f64, n: u64) -> Option<String> {
     })
 }
 
+/// The summary of a replay of samples (a recording's, a bag's), not lines.
+pub(crate) fn samples_read(summary: ReplaySummary) -> ReplaySummary {
+    ReplaySummary { read_what: "samples", ..summary }
+}
+
 impl std::fmt::Display for ReplaySummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let c = &self.counts;
         writeln!(
             f,
-            "read {} lines: processed {}, fused {}, gated {}, refused {}, fused late {}, dropped too late {}, duplicates {}, \
+            "read {} {}: processed {}, fused {}, gated {}, refused {}, fused late {}, dropped too late {}, duplicates {}, \
              invalid {}, rate-limited {}, sensor restarts {}",
             self.read,
+            if self.read_what.is_empty() { "lines" } else { self.read_what },
             c.processed,
             c.fused,
             c.gated,

@@ -145,6 +145,15 @@ fn the_jackal_bag_ends_within_robot_localizations_tolerance_as_ros1_and_ros2() {
         "{stderr}"
     );
     assert_eq!(std::fs::read(&ros1).unwrap(), std::fs::read(&ros2).unwrap(), "ROS 1 and ROS 2 differ");
+    let (out, db3) = replay(dir.path(), &config, &data("test2.db3"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("bag (ROS 2 (SQLite))")
+            && stderr.contains("(nav_msgs/msg/Odometry): 3060 messages -> 3060 odometry"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read(&ros1).unwrap(), std::fs::read(&db3).unwrap(), "ROS 1 and ROS 2 in SQLite differ");
 }
 
 fn failure(out: &Output) -> String {
@@ -194,6 +203,16 @@ fn damaged_bags_get_clear_errors_never_a_panic() {
     let (out, _) = replay(dir.path(), &jackal, &bad);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("the bag is damaged") || stderr.contains("does not decode"), "{stderr}");
+    // A ROS 2 bag in SQLite cut in half, or to its first page: an error or
+    // what comes before the damage, named; never a panic.
+    let db3 = std::fs::read(data("test2.db3")).unwrap();
+    for (name, len) in [("half.db3", db3.len() / 2), ("page.db3", 4096)] {
+        let cut = dir.path().join(name);
+        std::fs::write(&cut, &db3[..len]).unwrap();
+        let (out, _) = replay(dir.path(), &jackal, &cut);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains("cannot be read as a ROS 2 bag") || stderr.contains("damaged"), "{name}: {stderr}");
+    }
     // Not a bag at all.
     let text = dir.path().join("notes.bag");
     std::fs::write(&text, b"#ROSBAG V2.0\nhello").unwrap();

@@ -110,7 +110,7 @@ pub struct TopicSummary {
 /// What a bag gave, topic by topic (`fusiond replay` prints it).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct BagSummary {
-    /// `"ROS 1"` or `"ROS 2 (MCAP)"`.
+    /// `"ROS 1"`, `"ROS 2 (MCAP)"` or `"ROS 2 (SQLite)"`.
     pub format: &'static str,
     /// Each topic of the bag.
     pub topics: BTreeMap<String, TopicSummary>,
@@ -172,6 +172,27 @@ pub fn is_ros1(head: &[u8]) -> bool {
 pub fn is_ros2_mcap(bytes: &[u8]) -> bool {
     let Ok(mut records) = mcap::read::LinearReader::new(bytes) else { return false };
     matches!(records.next(), Some(Ok(mcap::records::Record::Header(h))) if h.profile == "ros2")
+}
+
+/// The first bytes of an SQLite database: a ROS 2 bag in `.db3`.
+pub const SQLITE_MAGIC: &[u8] = b"SQLite format 3\0";
+
+/// Whether the file at `path` is a ROS bag fusiond reads: ROS 1, or ROS 2 in
+/// MCAP (profile `ros2`) or in SQLite (`.db3`). Told by its first bytes (and
+/// an MCAP file's header), not its name.
+pub fn is_bag(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = [0u8; 16];
+    let Ok(n) = std::fs::File::open(path).and_then(|mut f| f.read(&mut head)) else { return false };
+    let head = &head[..n];
+    is_ros1(head)
+        || head.starts_with(SQLITE_MAGIC)
+        || (head.starts_with(mcap::MAGIC) && {
+            let file = std::fs::File::open(path);
+            // SAFETY: read-only input; a file changed under the map gives wrong samples, not unsoundness.
+            let map = file.and_then(|f| unsafe { memmap2::Mmap::map(&f) });
+            map.is_ok_and(|m| is_ros2_mcap(&m))
+        })
 }
 
 /// A topic's routes and its message type, once checked.
@@ -324,7 +345,12 @@ pub fn read_bag(path: &Path, routes: &[Route], each: impl FnMut(BagItem)) -> Res
         read_ros2(&map, &mut reading)?;
         return Ok(reading.finish("ROS 2 (MCAP)"));
     }
-    Err(BagError::Format("neither a ROS 1 bag (#ROSBAG V2.0) nor a ROS 2 bag in MCAP".into()))
+    if map.starts_with(SQLITE_MAGIC) {
+        drop(map);
+        read_db3(path, &mut reading)?;
+        return Ok(reading.finish("ROS 2 (SQLite)"));
+    }
+    Err(BagError::Format("neither a ROS 1 bag (#ROSBAG V2.0) nor a ROS 2 bag (MCAP, or SQLite .db3)".into()))
 }
 
 /// The `index_pos` of a ROS 1 bag's header record, checked against the file
@@ -436,6 +462,54 @@ fn read_ros2<F: FnMut(BagItem)>(bytes: &[u8], r: &mut Reading<'_, F>) -> Result<
         r.message::<Ros2>(topic, &m.data);
     }
     Ok(())
+}
+
+/// A ROS 2 bag in SQLite (rosbag2's `sqlite3` storage: tables `topics` and
+/// `messages`, CDR messages), read in the order `ros2 bag play` plays it
+/// (by timestamp, then as written). A database that fails after some
+/// messages is read up to there, the damage named.
+fn read_db3<F: FnMut(BagItem)>(path: &Path, r: &mut Reading<'_, F>) -> Result<(), BagError> {
+    use rusqlite::{Connection, OpenFlags};
+    let format =
+        |e: rusqlite::Error| BagError::Format(format!("an SQLite database, but it cannot be read as a ROS 2 bag: {e}"));
+    let flags = OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX;
+    let db = Connection::open_with_flags(path, flags).map_err(format)?;
+    let mut topics =
+        db.prepare("SELECT id, name, type, serialization_format FROM topics ORDER BY id").map_err(format)?;
+    let rows = topics
+        .query_map([], |row| Ok((row.get::<_, i64>(0)?, row.get::<_, String>(1)?, row.get(2)?, row.get(3)?)))
+        .map_err(format)?;
+    let mut names = BTreeMap::new();
+    for row in rows {
+        let (id, name, ty, serialization): (i64, String, String, String) = row.map_err(format)?;
+        let ty = if serialization == "cdr" { ty } else { format!("{serialization} message") };
+        r.topic(&name, &ty)?;
+        names.insert(id, name);
+    }
+    let mut messages = db.prepare("SELECT topic_id, data FROM messages ORDER BY timestamp, id").map_err(format)?;
+    let mut rows = messages.query([]).map_err(format)?;
+    loop {
+        let row = match rows.next() {
+            Ok(Some(row)) => row,
+            Ok(None) => return Ok(()),
+            Err(e) if r.position == 0 => return Err(format(e)),
+            Err(e) => {
+                r.summary.damage.get_or_insert(format!("after message {}: {e}", r.position));
+                return Ok(());
+            }
+        };
+        let message = row.get::<_, i64>(0).and_then(|id| Ok((id, row.get_ref(1)?.as_blob()?)));
+        match message {
+            Ok((id, data)) => match names.get(&id) {
+                Some(name) => r.message::<Ros2>(name, data),
+                None => r.position += 1,
+            },
+            Err(e) => {
+                r.summary.damage.get_or_insert(format!("after message {}: {e}", r.position));
+                return Ok(());
+            }
+        }
+    }
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ use std::path::Path;
 
 use fusion_shared::ros::{BagError, BagSummary, read_bag};
 
-use super::{InputItem, NoCheck, ReplayError, ReplaySummary, replay_items};
+use super::{InputItem, NoCheck, ReplayError, ReplaySummary, replay_items, samples_read};
 use crate::config::Config;
 
 /// Samples in flight between the bag's reader and the engine.
@@ -58,6 +58,6 @@ pub fn replay_bag(
         });
         let replayed = replay_items(config, items, output, smooth, &mut NoCheck);
         let bag = reader.join().unwrap_or_else(|_| Err(BagError::Format("the bag's reader failed".into())))?;
-        Ok((replayed?, bag))
+        Ok((replayed.map(samples_read)?, bag))
     })
 }

@@ -18,7 +18,7 @@ use fusion_shared::SampleKind;
 use fusion_shared::mcap_scan::{self, Damage, Scan};
 use fusion_shared::recording::{self, SAMPLE_TOPIC_PREFIX, SnapshotJson};
 
-use super::{InputItem, ReplayCheck, ReplayError, ReplaySummary, replay_items};
+use super::{InputItem, ReplayCheck, ReplayError, ReplaySummary, replay_items, samples_read};
 use crate::config::Config;
 use crate::engine::Engine;
 use crate::health::HealthNow;
@@ -545,10 +545,10 @@ pub fn replay_recording(
             })
             .inspect(|_| progress());
         if !compare {
-            return Ok((replay_items(config, samples, output, smooth, &mut super::NoCheck)?, None));
+            return Ok((replay_items(config, samples, output, smooth, &mut super::NoCheck).map(samples_read)?, None));
         }
         let mut comparison = LiveComparison::new(recording.live_snapshots()?);
-        let summary = replay_items(config, samples, output, smooth, &mut comparison)?;
+        let summary = replay_items(config, samples, output, smooth, &mut comparison).map(samples_read)?;
         let mut report = comparison.finish()?;
         report.cut = recording.was_cut_off() || recording.damage().is_some();
         Ok((summary, Some(report)))

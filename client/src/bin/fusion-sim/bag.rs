@@ -48,21 +48,6 @@ pub fn routes(path: &Path) -> anyhow::Result<Vec<Route>> {
     Ok(routes)
 }
 
-/// Whether the file at `path` is a ROS bag (ROS 1, or ROS 2 in MCAP).
-pub fn is_bag(path: &Path) -> bool {
-    use std::io::Read;
-    let mut head = [0u8; 16];
-    let Ok(n) = std::fs::File::open(path).and_then(|mut f| f.read(&mut head)) else { return false };
-    let head = &head[..n];
-    fusion_shared::ros::is_ros1(head)
-        || (head.starts_with(mcap::MAGIC) && {
-            let file = std::fs::File::open(path);
-            // SAFETY: read-only input; a file changed under the map gives wrong samples, not unsoundness.
-            let map = file.and_then(|f| unsafe { memmap2::Mmap::map(&f) });
-            map.is_ok_and(|m| fusion_shared::ros::is_ros2_mcap(&m))
-        })
-}
-
 /// Reads the bag at `path` on a thread of its own, calling `each` with every
 /// sample (or why a message gave none) restamped onto this host's clock from
 /// `now_ns` on; stops reading when `each` returns false. Returns what the bag gave.

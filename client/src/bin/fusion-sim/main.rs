@@ -135,7 +135,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             let client = Client::connect(&namespace)?;
             if let Some(path) = input {
-                if bag::is_bag(&path) {
+                if fusion_shared::ros::is_bag(&path) {
                     let Some(map) = topic_map else {
                         usage_error(anyhow::anyhow!(
                             "{} is a ROS bag: --config names the fusiond configuration whose [[sensor]] topic keys \
