@@ -139,8 +139,10 @@ impl std::fmt::Display for ReplaySummary {
             c.rate_limited,
             c.restarts
         )?;
+        // A bag's or a recording's positions are its messages', a file's its lines'.
+        let at = if self.read_what == "samples" { "message" } else { "line" };
         for (line, reason) in &self.invalid_lines {
-            writeln!(f, "  line {line}: {reason}")?;
+            writeln!(f, "  {at} {line}: {reason}")?;
         }
         if c.invalid > self.invalid_lines.len() as u64 {
             writeln!(f, "  … and {} more invalid lines", c.invalid - self.invalid_lines.len() as u64)?;

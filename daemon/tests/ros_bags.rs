@@ -278,7 +278,7 @@ fn ros2_messages_that_give_no_sample_are_counted_with_their_reasons() {
     assert!(stderr.contains("/camera/image (sensor_msgs/msg/Image): 40 messages, not mapped"), "{stderr}");
     // The NaN covariance is a sample the daemon's validation refuses, the
     // orientation not given one that was never made: both counted invalid.
-    assert!(stderr.contains("invalid 2") && stderr.contains(": non-finite value"), "{stderr}");
+    assert!(stderr.contains("invalid 2") && stderr.contains("  message 166: non-finite value"), "{stderr}");
     let lines = std::fs::read_to_string(&output).unwrap();
     assert!(lines.lines().all(|l| !l.contains("NaN") && !l.contains("null,\"P\"")));
     // The image topic mapped: an error naming it and what fusiond reads.
