@@ -8,7 +8,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::scenario::{Arrival, schedule};
+use super::arrival::{Arrival, schedule};
 use super::trajectory::CarTrajectory;
 
 /// Barometer simulation settings.

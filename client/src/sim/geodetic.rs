@@ -12,7 +12,7 @@ use nalgebra::Vector3;
 
 use super::AidingSim;
 use super::position::{PositionConfig, PositionSim};
-use super::scenario::Arrival;
+use super::arrival::Arrival;
 use super::trajectory::CarTrajectory;
 
 /// Geodetic GNSS simulation settings.

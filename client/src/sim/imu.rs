@@ -7,7 +7,7 @@ use nalgebra::{Matrix3, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::scenario::{Arrival, gaussian3};
+use super::arrival::{Arrival, gaussian3};
 use super::trajectory::CarTrajectory;
 
 /// IMU simulation settings.

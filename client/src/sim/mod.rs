@@ -1,6 +1,8 @@
 //! Simulated sensors for tests, demos and benchmarks.
 //!
 //! - [`trajectory`]: closed-form car-like ground truth.
+//! - [`arrival`]: a sample with the time it is published, and the draws every
+//!   sensor makes (schedule, noise);
 //! - one module per sample kind ([`imu`], [`position`], [`velocity`], …, declared from
 //!   `fusion_shared::for_each_sample_kind!`): that kind's sensor model (rate, noise,
 //!   delay, …), an endless iterator of [`Arrival`]s;
@@ -11,6 +13,7 @@ use std::fmt::Debug;
 
 use fusion_shared::SampleKind;
 
+pub mod arrival;
 pub mod player;
 pub mod scenario;
 pub mod trajectory;
@@ -53,7 +56,8 @@ macro_rules! aiding_sim {
 }
 use aiding_sim;
 
-pub use scenario::{Arrival, Outage, Scenario, ScenarioConfig, without_outages};
+pub use arrival::Arrival;
+pub use scenario::{Outage, Scenario, ScenarioConfig, without_outages};
 pub use trajectory::{CarTrajectory, Stop, TruthState};
 
 /// A simulated sensor besides the IMU (whose stream drives time): its settings,

@@ -9,7 +9,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::scenario::{Arrival, schedule};
+use super::arrival::{Arrival, schedule};
 use super::trajectory::CarTrajectory;
 
 /// Wheel odometry simulation settings.

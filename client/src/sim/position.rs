@@ -7,7 +7,7 @@ use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::scenario::{Arrival, gaussian3, to_ns};
+use super::arrival::{Arrival, gaussian3, to_ns};
 use super::trajectory::CarTrajectory;
 
 /// Position simulation settings.

@@ -6,7 +6,7 @@ use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use super::scenario::{Arrival, gaussian3, schedule};
+use super::arrival::{Arrival, gaussian3, schedule};
 use super::trajectory::CarTrajectory;
 
 /// Velocity (GNSS Doppler) simulation settings.

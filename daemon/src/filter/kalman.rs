@@ -79,8 +79,8 @@ impl Form {
 /// or as its UDU factors, by [`Form`]), nothing else, so that a history of filter
 /// states stays small and cheap to copy.
 ///
-/// What the RTS smoother needs of a step (prior, transition) is kept by a
-/// [`StepLog`](super::smoother::StepLog) around the calls, only when a caller smooths.
+/// What the RTS smoother needs of a step (prior, transition) is kept by the
+/// smoother's `StepLog` around the calls, only when a caller smooths.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct KalmanFilter<T: RealField + Copy, const N: usize> {
     x: SVector<T, N>,

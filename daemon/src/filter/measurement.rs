@@ -8,10 +8,8 @@
 use nalgebra::{Cholesky, RealField, SMatrix, SVector};
 
 use super::gate::ChiSquareGate;
-#[cfg(doc)]
-use super::kalman::KalmanFilter;
 
-/// What happened to a measurement offered to [`KalmanFilter::update`].
+/// What happened to a measurement offered to `KalmanFilter::update`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum UpdateDecision {
     /// Fused into the state.
@@ -92,7 +90,7 @@ pub trait FaultDetector<T: RealField + Copy, const N: usize, const M: usize> {
     fn inspect(&mut self, measurement: &mut MeasurementView<T, N, M>) -> FaultDecision;
 }
 
-/// Diagnostics of one update, returned by [`KalmanFilter::update`] whether or not
+/// Diagnostics of one update, returned by `KalmanFilter::update` whether or not
 /// the measurement was fused.
 #[derive(Debug, Clone, Copy)]
 pub struct UpdateDiagnostics<T: RealField + Copy, const N: usize, const M: usize> {

@@ -27,7 +27,7 @@ fn row_major(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
 pub(super) struct Transition {
     pub dt: f64,
     /// The `δθ`–`δb_g` coupling `G` of `F` (block `−G I`): `dt`, or 0 while the
-    /// attitude is held at a standstill ([`super::standstill`]).
+    /// attitude is held at a standstill (the standstill module's held step).
     pub gyro_dt: f64,
     pub A: Matrix3<f64>,
     pub B: Matrix3<f64>,

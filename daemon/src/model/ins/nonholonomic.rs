@@ -118,7 +118,7 @@ pub fn fuse<const D: usize>(c: &Nonholonomic, model: &InsModel<D>, s: &mut InsSt
     // The constraint is linear in δθ only for small attitude errors: with the
     // heading still unknown (e.g. at start, before fixes have shown the track)
     // it would pull the estimate the wrong way. Where nothing observes the
-    // heading, no update moves it ([`super::observability`]) and the velocity
+    // heading, no update moves it (the observability module) and the velocity
     // is the body's turned by the estimated heading: the tilt is enough.
     if !(attitude_known(s) || (model.yaw_unobserved() && tilt_known(s))) {
         return None;

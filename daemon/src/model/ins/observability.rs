@@ -28,7 +28,7 @@
 //! direction of every update (Schmidt, "Application of state-space methods to
 //! navigation problems", 1966; Brink, "Partial-update Schmidt–Kalman filter",
 //! J. Guid. Control Dyn. 40(9), 2017), as the standstill's updates already
-//! hold it ([`super::standstill`]):
+//! hold it (the standstill module):
 //!
 //! ```text
 //! c = [ 0 ; 0 ; u ; 0 ; 0 ; 0 ],   K ← (I − c cᵀ) K,   P⁺ = (I − K H) P (I − K H)ᵀ + K R Kᵀ

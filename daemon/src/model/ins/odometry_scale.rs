@@ -1,7 +1,7 @@
 //! The odometry scale factor as a state of the `ins` model
 //! (`[model.odometry_scale]`): its parameters (the state is one of the
-//! auxiliary states, [`super::aux`]). The measurement that uses it is the odometry's
-//! (`crate::measurement::odometry`).
+//! auxiliary states, [`super::aux`]). The measurement that uses it is the odometry
+//! kind's, in the layer above.
 
 /// `[model.odometry_scale]`: the odometry scale factor `k` as a state
 /// (odometry speed = `k` × true speed, one factor for every odometry sensor).
