@@ -10,7 +10,6 @@
 
 #![allow(missing_docs)]
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -26,23 +25,14 @@ use fusion_client::{Client, ImuSample, StateSnapshot};
 use fusion_daemon::ipc::WaitMode;
 use hdrhistogram::Histogram;
 use iceoryx2::service::port_factory::PortFactory as _;
+use report::{Row, print_report};
+
+#[path = "latency/report.rs"]
+mod report;
 
 /// Counts the allocations of the daemon loop run in this process (section 6).
 #[global_allocator]
 static GLOBAL: Counting = Counting;
-
-struct Row {
-    name: String,
-    mode: Mode,
-    one_way: bool,
-    h: Histogram<u64>,
-    /// The legs of an end-to-end row (trip in, daemon, trip out), where measured.
-    legs: Option<EndToEnd>,
-    /// Raw ping-pong round trips measured in blocks taking turns with this row's.
-    raw_rtt: Option<Histogram<u64>>,
-    /// Per pair of blocks: end-to-end p50 / raw round-trip p50.
-    block_ratios: Vec<f64>,
-}
 
 /// The IMU values each model is fed: at rest (linear: a small world acceleration;
 /// ins: gravity along body z).
@@ -165,43 +155,105 @@ fn main() -> anyhow::Result<()> {
     if !filters.is_empty() && !filters.iter().any(|f| "latency".contains(f.as_str()) || f.contains("latency")) {
         return Ok(());
     }
-    let quick = std::env::var("FUSION_BENCH_QUICK").is_ok_and(|v| v != "0");
-    let count: u64 = std::env::var("FUSION_BENCH_SAMPLES").ok().and_then(|v| v.parse().ok()).unwrap_or(if quick {
-        1_000
-    } else {
-        10_000
-    });
-    let imu_hz: f64 = std::env::var("FUSION_BENCH_IMU_HZ").ok().and_then(|v| v.parse().ok()).unwrap_or(1000.0);
-    // The sections to run besides the raw floor (all unless named).
-    let sections = std::env::var("FUSION_BENCH_ONLY").ok();
-    let only = |section: &str| sections.as_deref().is_none_or(|list| list.split(',').any(|s| s.trim() == section));
     let started = Instant::now();
+    let run = Run::from_env()?;
+    let mut rows = raw_rows(&run)?;
+    if run.only("e2e") {
+        rows.extend(e2e_rows(&run)?);
+    }
+    let (late_rows, throughput_rows) = late_and_throughput(&run)?;
+    let alloc_rows = if run.only("alloc") { alloc_rows(&run)? } else { Vec::new() };
+    let record_rows = if run.only("record") { record_rows(&run)? } else { Vec::new() };
+    print_report(&rows, &late_rows, &throughput_rows, &alloc_rows, run.quick, &run.out_dir)?;
+    print_record_rows(&record_rows, run.imu_hz);
+    println!("whole run: {:.0} s", started.elapsed().as_secs_f64());
+    Ok(())
+}
 
-    // The daemon binary, built as cargo bench builds (release), or the one
-    // `FUSION_BENCH_FUSIOND` names (to compare two builds on the same machine).
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let target = std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| root.join("target"));
-    let fusiond = match std::env::var("FUSION_BENCH_FUSIOND") {
-        Ok(path) => PathBuf::from(path),
-        Err(_) => {
-            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-            let status = Command::new(cargo)
-                .args(["build", "--quiet", "--release", "-p", "fusion-daemon", "--bin", "fusiond"])
-                .current_dir(&root)
-                .status()?;
-            anyhow::ensure!(status.success(), "building fusiond failed");
-            target.join("release").join("fusiond")
-        }
-    };
-    let out_dir = target.join("fusion-bench");
-    std::fs::create_dir_all(&out_dir)?;
-    let pid = std::process::id();
+/// One run's settings (from the environment, see the crate docs) and where
+/// its binaries and outputs are.
+struct Run {
+    quick: bool,
+    /// Samples per latency row.
+    count: u64,
+    imu_hz: f64,
+    /// The sections to run besides the raw floor (all unless named).
+    sections: Option<String>,
+    root: PathBuf,
+    target: PathBuf,
+    /// The daemon binary under test.
+    fusiond: PathBuf,
+    out_dir: PathBuf,
+    pid: u32,
+    /// Latency rows run in `blocks` blocks of `per_block` samples (after `warm`),
+    /// taking turns with blocks of their baseline.
+    blocks: u64,
+    per_block: u64,
+    warm: u64,
+}
 
+impl Run {
+    fn from_env() -> anyhow::Result<Self> {
+        let quick = std::env::var("FUSION_BENCH_QUICK").is_ok_and(|v| v != "0");
+        let count: u64 = std::env::var("FUSION_BENCH_SAMPLES").ok().and_then(|v| v.parse().ok()).unwrap_or(if quick {
+            1_000
+        } else {
+            10_000
+        });
+        let imu_hz: f64 = std::env::var("FUSION_BENCH_IMU_HZ").ok().and_then(|v| v.parse().ok()).unwrap_or(1000.0);
+        // The daemon binary, built as cargo bench builds (release), or the one
+        // `FUSION_BENCH_FUSIOND` names (to compare two builds on the same machine).
+        let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+        let target = std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| root.join("target"));
+        let fusiond = match std::env::var("FUSION_BENCH_FUSIOND") {
+            Ok(path) => PathBuf::from(path),
+            Err(_) => build(&root, &target, &["-p", "fusion-daemon", "--bin", "fusiond"], "fusiond")?,
+        };
+        let out_dir = target.join("fusion-bench");
+        std::fs::create_dir_all(&out_dir)?;
+        let blocks = 10;
+        let per_block = (count / blocks).max(1);
+        Ok(Self {
+            quick,
+            count,
+            imu_hz,
+            sections: std::env::var("FUSION_BENCH_ONLY").ok(),
+            root,
+            target,
+            fusiond,
+            out_dir,
+            pid: std::process::id(),
+            blocks,
+            per_block,
+            warm: (per_block / 10).max(5),
+        })
+    }
+
+    /// Whether `section` runs (every one unless `FUSION_BENCH_ONLY` names some).
+    fn only(&self, section: &str) -> bool {
+        self.sections.as_deref().is_none_or(|list| list.split(',').any(|s| s.trim() == section))
+    }
+}
+
+/// Builds `binary` with `package_args` in release, as cargo bench builds.
+fn build(
+    root: &std::path::Path,
+    target: &std::path::Path,
+    package_args: &[&str],
+    binary: &str,
+) -> anyhow::Result<PathBuf> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let status =
+        Command::new(cargo).args(["build", "--quiet", "--release"]).args(package_args).current_dir(root).status()?;
+    anyhow::ensure!(status.success(), "building {binary} failed");
+    Ok(target.join("release").join(binary))
+}
+
+/// 1. Raw iceoryx2 ping-pong alone, paced like the end-to-end rows.
+fn raw_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
+    let Run { count, imu_hz, pid, blocks, per_block, warm, .. } = *run;
     // 1. Raw iceoryx2 ping-pong alone, paced like the end-to-end rows. Busy-poll also
     //    with a 4.2 KB answer (what fusiond answers with), in blocks taking turns.
-    let blocks = 10;
-    let per_block = (count / blocks).max(1);
-    let warm = (per_block / 10).max(5);
     let mut rows = Vec::new();
     for mode in [Mode::Spin, Mode::Event] {
         let base = format!("fusion-bench-{pid}-raw-{}", mode.name());
@@ -252,14 +304,21 @@ fn main() -> anyhow::Result<()> {
             block_ratios,
         });
     }
+    Ok(rows)
+}
+
+/// 2. End to end (see the section's comment).
+fn e2e_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
+    let Run { count, imu_hz, pid, blocks, per_block, warm, .. } = *run;
+    let fusiond = &run.fusiond;
+    let mut rows = Vec::new();
     // 2. End to end, publisher and reader in one process, in blocks that take
     //    turns with blocks of raw ping-pong (the other side paused); then the
     //    fan-out case with the publisher in a process of its own.
-    let e2e_models: &[&str] = if only("e2e") { &["linear", "ins", "vehicle", "vehicle-late"] } else { &[] };
-    for &model in e2e_models {
+    for model in ["linear", "ins", "vehicle", "vehicle-late"] {
         for mode in [Mode::Spin, Mode::Event] {
             let namespace = format!("fusion-bench-{pid}-{model}-{}", mode.name());
-            let rig = start_rig(&fusiond, &namespace, model, mode)?;
+            let rig = start_rig(fusiond, &namespace, model, mode)?;
             let base = format!("{namespace}-raw");
             let pong = spawn_pong(&base, mode, false)?;
             let mut pinger = Pinger::<ImuSample>::connect(&base, mode)?;
@@ -317,6 +376,18 @@ fn main() -> anyhow::Result<()> {
         }
     }
 
+    Ok(rows)
+}
+
+/// Late-data and throughput rows (sections 3 and 4).
+type LateRows = Vec<(&'static str, Mode, LateCost)>;
+/// Throughput trials per model and rate (rate −1: the best clean one).
+type ThroughputRows = Vec<(&'static str, f64, Trial)>;
+
+/// 3. Late data and 4. throughput, spin mode.
+fn late_and_throughput(run: &Run) -> anyhow::Result<(LateRows, ThroughputRows)> {
+    let (quick, pid, fusiond) = (run.quick, run.pid, &run.fusiond);
+    let only = |section: &str| run.only(section);
     // 3. Late data and 4. throughput, spin mode.
     let late_count = if quick { 1_000 } else { 5_000 };
     let mut late_rows = Vec::new();
@@ -326,7 +397,7 @@ fn main() -> anyhow::Result<()> {
     for model in ["linear", "ins"] {
         for mode in [Mode::Spin, Mode::Event].into_iter().filter(|_| only("late")) {
             let namespace = format!("fusion-bench-{pid}-{model}-late-{}", mode.name());
-            let rig = start_rig(&fusiond, &namespace, model, mode)?;
+            let rig = start_rig(fusiond, &namespace, model, mode)?;
             let cost = late_data(&rig.client, mode, late_count, 1000.0, 100_000_000, imu_value(model))?;
             late_rows.push((model, mode, cost));
         }
@@ -336,7 +407,7 @@ fn main() -> anyhow::Result<()> {
         }
         let namespace = format!("fusion-bench-{pid}-{model}-throughput");
         let config = format!("{}{UNLIMITED_RATE}", config_of(model));
-        let rig = start_rig_with(&fusiond, &namespace, &config, Mode::Spin)?;
+        let rig = start_rig_with(fusiond, &namespace, &config, Mode::Spin)?;
         let mut best = None;
         for (i, &rate) in rates.iter().enumerate() {
             // Half a second per rate: 50 to 500 thousand samples.
@@ -352,11 +423,16 @@ fn main() -> anyhow::Result<()> {
         throughput_rows.push((model, -1.0, Trial { published: best.unwrap_or(0.0) as u64, ..Trial::default() }));
     }
 
+    Ok((late_rows, throughput_rows))
+}
+
+/// 6. Allocations of the daemon loop per processed sample, in this process.
+fn alloc_rows(run: &Run) -> anyhow::Result<Vec<(&'static str, Mode, Window)>> {
+    let (quick, pid) = (run.quick, run.pid);
     // 6. Allocations of the daemon loop per processed sample, in this process.
     let mut alloc_rows = Vec::new();
     let (warm, measured) = if quick { (500, 1000) } else { (1000, 2000) };
-    let alloc_models: &[&str] = if only("alloc") { &["linear", "ins", "vehicle"] } else { &[] };
-    for &model in alloc_models {
+    for model in ["linear", "ins", "vehicle"] {
         for (mode, wait) in [(Mode::Spin, WaitMode::Spin), (Mode::Event, WaitMode::Event)] {
             let namespace = format!("fusion-bench-{pid}-{model}-{}-alloc", mode.name());
             let vehicle = model == "vehicle";
@@ -368,26 +444,28 @@ fn main() -> anyhow::Result<()> {
         }
     }
 
+    Ok(alloc_rows)
+}
+
+/// 7. Recorder rows: per model, p50s without and with a recorder, and the per-block ratios.
+type RecordRows = Vec<(&'static str, Histogram<u64>, Histogram<u64>, Vec<f64>)>;
+
+/// 7. A recorder attached (see the section's comment).
+fn record_rows(run: &Run) -> anyhow::Result<RecordRows> {
+    let Run { imu_hz, pid, blocks, per_block, warm, .. } = *run;
+    let (root, target, out_dir, fusiond) = (&run.root, &run.target, &run.out_dir, &run.fusiond);
     // 7. A recorder attached (`fusionctl record`), spin mode: blocks without and
     //    with one, taking turns; the recorder is started and stopped per block.
     let fusionctl = match std::env::var("FUSION_BENCH_FUSIONCTL") {
         Ok(path) => PathBuf::from(path),
         Err(_) => {
-            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-            let status = Command::new(cargo)
-                .args(["build", "--quiet", "--release", "-p", "fusion-client", "--features", "cli", "--bin"])
-                .arg("fusionctl")
-                .current_dir(&root)
-                .status()?;
-            anyhow::ensure!(status.success(), "building fusionctl failed");
-            target.join("release").join("fusionctl")
+            build(root, target, &["-p", "fusion-client", "--features", "cli", "--bin", "fusionctl"], "fusionctl")?
         }
     };
     let mut record_rows = Vec::new();
-    let record_models: &[&str] = if only("record") { &["linear", "ins"] } else { &[] };
-    for &model in record_models {
+    for model in ["linear", "ins"] {
         let namespace = format!("fusion-bench-{pid}-{model}-record");
-        let rig = start_rig(&fusiond, &namespace, model, Mode::Spin)?;
+        let rig = start_rig(fusiond, &namespace, model, Mode::Spin)?;
         let mut prober = Prober::new(&rig.client, Mode::Spin, imu_value(model))?;
         let (mut alone, mut recorded, mut block_ratios) = (histogram(), histogram(), Vec::new());
         let mcap = out_dir.join(format!("record-{model}.mcap"));
@@ -407,11 +485,15 @@ fn main() -> anyhow::Result<()> {
         record_rows.push((model, alone, recorded, block_ratios));
     }
 
-    print_report(&rows, &late_rows, &throughput_rows, &alloc_rows, quick, &out_dir)?;
+    Ok(record_rows)
+}
+
+/// The recorder rows' table.
+fn print_record_rows(record_rows: &RecordRows, imu_hz: f64) {
     println!("\n## End to end with a recorder attached (spin, {imu_hz} Hz, blocks taking turns)\n");
     println!("| model | without p50 | with p50 | without p99 | with p99 | with/without p50 per block |");
     println!("|---|---|---|---|---|---|");
-    for (model, alone, recorded, ratios) in &record_rows {
+    for (model, alone, recorded, ratios) in record_rows {
         let us = |h: &Histogram<u64>, q: f64| h.value_at_quantile(q) as f64 / 1000.0;
         let ratios: Vec<String> = ratios.iter().map(|r| format!("{r:.2}")).collect();
         println!(
@@ -423,216 +505,4 @@ fn main() -> anyhow::Result<()> {
             ratios.join(" ")
         );
     }
-    println!("whole run: {:.0} s", started.elapsed().as_secs_f64());
-    Ok(())
-}
-
-fn print_report(
-    rows: &[Row],
-    late_rows: &[(&str, Mode, LateCost)],
-    throughput_rows: &[(&str, f64, Trial)],
-    alloc_rows: &[(&str, Mode, Window)],
-    quick: bool,
-    out_dir: &std::path::Path,
-) -> anyhow::Result<()> {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
-        })
-        .unwrap_or_default();
-    println!(
-        "\nfusiond latency ({} cores, {cpu}){}",
-        std::thread::available_parallelism().map_or(0, |n| n.get()),
-        if quick { ", quick" } else { "" }
-    );
-    println!(
-        "{:<42} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>10} {:>14} {:>12}",
-        "", "p50", "p90", "p99", "p99.9", "max", "count", "p50/RTT", "raw 1-way p50", "daemon p50"
-    );
-    let us = |ns: u64| format!("{:.2} us", ns as f64 / 1e3);
-    let mut json = Vec::new();
-    let raw_rtt_p50 =
-        |mode: Mode| rows.iter().find(|r| r.one_way && r.mode == mode).map(|r| r.h.value_at_quantile(0.5));
-    for r in rows {
-        // Raw rows report one way (RTT / 2); end-to-end rows are already one way.
-        let div = if r.one_way { 2 } else { 1 };
-        let q = |p: f64| r.h.value_at_quantile(p) / div;
-        // Against the raw round trip measured in turns with this row's blocks (an
-        // end-to-end time, or the round trip with the 4.2 KB answer), or else the
-        // raw row of the same mode.
-        let ratio = match &r.raw_rtt {
-            Some(raw) => Some(r.h.value_at_quantile(0.5) as f64 / raw.value_at_quantile(0.5) as f64),
-            None if !r.one_way => raw_rtt_p50(r.mode).map(|rtt| q(0.5) as f64 / rtt as f64),
-            None => None,
-        };
-        let interleaved_one_way = r.raw_rtt.as_ref().map(|h| h.value_at_quantile(0.5) / 2);
-        let leg = |f: fn(&EndToEnd) -> &Histogram<u64>, p: f64| r.legs.as_ref().map(|e| f(e).value_at_quantile(p));
-        let daemon_p50 = leg(|e| &e.daemon, 0.5);
-        let mut blocks = r.block_ratios.clone();
-        blocks.sort_by(f64::total_cmp);
-        println!(
-            "{:<42} {:>9} {:>9} {:>9} {:>9} {:>10} {:>7} {:>10} {:>14} {:>12}",
-            r.name,
-            us(q(0.5)),
-            us(q(0.9)),
-            us(q(0.99)),
-            us(q(0.999)),
-            us(r.h.max() / div),
-            r.h.len(),
-            ratio.map_or_else(|| "-".into(), |x| format!("{x:.2}x")),
-            interleaved_one_way.map_or_else(|| "-".into(), us),
-            daemon_p50.map_or_else(|| "-".into(), us),
-        );
-        json.push(serde_json::json!({
-            "name": r.name, "mode": r.mode.name(), "one_way_of_round_trip": r.one_way,
-            "p50": q(0.5), "p90": q(0.9), "p99": q(0.99), "p999": q(0.999), "max": r.h.max() / div,
-            "count": r.h.len(), "ratio_p50_to_raw_round_trip": ratio,
-            "daemon_p50": daemon_p50, "daemon_p99": leg(|e| &e.daemon, 0.99),
-            "to_daemon_p50": leg(|e| &e.to_daemon, 0.5), "from_daemon_p50": leg(|e| &e.from_daemon, 0.5),
-            "raw_one_way_p50_interleaved": interleaved_one_way,
-            "block_ratios_min_median_max": (!blocks.is_empty())
-                .then(|| [blocks[0], blocks[blocks.len() / 2], blocks[blocks.len() - 1]]),
-        }));
-    }
-
-    println!("\nwhere the end-to-end time goes (p50 of each leg; raw one way from the blocks in turn)");
-    println!("{:<42} {:>12} {:>12} {:>12} {:>14}", "", "trip in", "daemon", "trip out", "raw one way");
-    for r in rows {
-        if let (Some(e), Some(raw)) = (&r.legs, &r.raw_rtt) {
-            let p50 = |h: &Histogram<u64>| us(h.value_at_quantile(0.5));
-            println!(
-                "{:<42} {:>12} {:>12} {:>12} {:>14}",
-                r.name,
-                p50(&e.to_daemon),
-                p50(&e.daemon),
-                p50(&e.from_daemon),
-                us(raw.value_at_quantile(0.5) / 2)
-            );
-        }
-    }
-
-    println!(
-        "\nlate position fix, 100 ms late at 1 kHz IMU (daemon time = snapshot published - sample received; \
-         landed = late fix received -> settled snapshot published)"
-    );
-    println!(
-        "{:<8} {:<6} {:>9} {:>13} {:>13} {:>17} {:>18} {:>10} {:>13} {:>12}",
-        "model",
-        "wait",
-        "replayed",
-        "late fix p50",
-        "IMU step p50",
-        "next IMU e2e p50",
-        "other IMU e2e p50",
-        "next/other",
-        "next IMU p99",
-        "landed p50"
-    );
-    for (model, mode, c) in late_rows {
-        let replayed = c.replayed.value_at_quantile(0.5);
-        let late = c.late_processing.value_at_quantile(0.5);
-        let imu = c.imu_processing.value_at_quantile(0.5);
-        let (next, other) = (c.next_after_late.value_at_quantile(0.5), c.normal.value_at_quantile(0.5));
-        let landed = (!c.landed.is_empty()).then(|| c.landed.value_at_quantile(0.5));
-        println!(
-            "{:<8} {:<6} {:>9} {:>13} {:>13} {:>17} {:>18} {:>10} {:>13} {:>12}",
-            model,
-            mode.name(),
-            replayed,
-            us(late),
-            us(imu),
-            us(next),
-            us(other),
-            format!("{:.2}x", next as f64 / other.max(1) as f64),
-            us(c.next_after_late.value_at_quantile(0.99)),
-            landed.map_or_else(|| "-".into(), us),
-        );
-        json.push(serde_json::json!({
-            "name": format!("late fix 100 ms at 1 kHz, {model}, {}", mode.name()), "replayed_p50": replayed,
-            "late_fix_daemon_p50": late, "late_fix_daemon_p99": c.late_processing.value_at_quantile(0.99),
-            "imu_daemon_p50": imu,
-            "next_imu_e2e_p50": next, "next_imu_e2e_p99": c.next_after_late.value_at_quantile(0.99),
-            "other_imu_e2e_p50": other, "next_over_other_p50": next as f64 / other.max(1) as f64,
-            "landed_p50": landed, "landed_p99": landed.map(|_| c.landed.value_at_quantile(0.99)),
-            "next_imu_provisional": c.next_provisional, "count": c.late_processing.len(),
-            "overtaken": c.overtaken,
-        }));
-    }
-    println!("where the next IMU sample's time goes (p50 of each leg; IMU first: its snapshot came before the fix's)");
-    println!(
-        "{:<8} {:<6} {:>12} {:>12} {:>12} {:>14} {:>10}",
-        "model", "wait", "trip in", "daemon", "trip out", "provisional", "IMU first"
-    );
-    for (model, mode, c) in late_rows {
-        let [to, daemon, from] = &c.next_legs;
-        let p50 = |h: &Histogram<u64>| us(h.value_at_quantile(0.5));
-        println!(
-            "{:<8} {:<6} {:>12} {:>12} {:>12} {:>14} {:>10}",
-            model,
-            mode.name(),
-            p50(to),
-            p50(daemon),
-            p50(from),
-            format!("{} of {}", c.next_provisional, c.next_after_late.len()),
-            c.overtaken
-        );
-    }
-    let overtaken: u64 = late_rows.iter().map(|(_, _, c)| c.overtaken).sum();
-    if overtaken > 0 {
-        println!("({overtaken} IMU samples sent behind a late fix were published before the fix's snapshot)");
-    }
-
-    println!(
-        "\nthroughput (spin daemon; one bench thread publishes in 100 us slices and busy-polls every snapshot in between)"
-    );
-    println!(
-        "{:<8} {:>12} {:>10} {:>10} {:>8} {:>13}",
-        "model", "rate", "published", "received", "lost", "reader missed"
-    );
-    for (model, rate, t) in throughput_rows {
-        if *rate < 0.0 {
-            println!("{model}: highest clean rate {} samples/s", t.published);
-            json.push(serde_json::json!({"name": format!("max sustained IMU rate, {model}"), "rate_hz": t.published}));
-            continue;
-        }
-        println!(
-            "{:<8} {:>10.0}/s {:>10} {:>10} {:>8} {:>13}",
-            model, rate, t.published, t.received, t.lost, t.reader_missed
-        );
-        json.push(serde_json::json!({
-            "name": format!("throughput trial, {model}"), "rate_hz": rate, "published": t.published,
-            "received": t.received, "lost": t.lost, "reader_missed": t.reader_missed, "clean": t.clean(),
-        }));
-    }
-
-    println!("\nallocations of the daemon loop (fusiond run's, on a counted thread of this process), steady state");
-    println!(
-        "{:<8} {:<6} {:>9} {:>10} {:>12} {:>11}",
-        "model", "wait", "samples", "snapshots", "allocations", "per sample"
-    );
-    for (model, mode, w) in alloc_rows {
-        let per_sample = w.allocations() as f64 / w.samples.max(1) as f64;
-        println!(
-            "{:<8} {:<6} {:>9} {:>10} {:>12} {:>11}",
-            model,
-            mode.name(),
-            w.samples,
-            w.snapshots,
-            w.allocations(),
-            format!("{per_sample:.3}")
-        );
-        json.push(serde_json::json!({
-            "name": format!("allocations, {model}, {}", mode.name()), "samples": w.samples,
-            "snapshots": w.snapshots, "allocations": w.allocations(), "per_sample": per_sample,
-            "sizes": w.sizes,
-        }));
-    }
-    let path = out_dir.join("latency.json");
-    let mut f = std::fs::File::create(&path)?;
-    writeln!(f, "{}", serde_json::to_string_pretty(&json)?)?;
-    println!("written to {}", path.display());
-    Ok(())
 }
