@@ -58,9 +58,9 @@ pub enum ReplayError {
 pub struct ReplaySummary {
     /// Non-blank lines read (of a bag: samples its messages gave).
     pub read: u64,
-    /// What `read` counts, as the summary says it: `"lines"` (also when
-    /// empty), or `"samples"` of a bag.
-    pub read_what: &'static str,
+    /// `read` counts the samples of a bag's or a recording's messages, not
+    /// lines (the summary says "samples" and names a refused one's message).
+    pub of_messages: bool,
     /// What became of the samples, every sensor added up. Lines that were not
     /// samples at all (malformed JSON, wrong shape) count as `invalid` too.
     pub counts: Counters,
@@ -116,7 +116,7 @@ pub fn offset_advice(tau: f64, sd: f64, n: u64) -> Option<String> {
 
 /// The summary of a replay of samples (a recording's, a bag's), not lines.
 pub(crate) fn samples_read(summary: ReplaySummary) -> ReplaySummary {
-    ReplaySummary { read_what: "samples", ..summary }
+    ReplaySummary { of_messages: true, ..summary }
 }
 
 impl std::fmt::Display for ReplaySummary {
@@ -127,7 +127,7 @@ impl std::fmt::Display for ReplaySummary {
             "read {} {}: processed {}, fused {}, gated {}, refused {}, fused late {}, dropped too late {}, duplicates {}, \
              invalid {}, rate-limited {}, sensor restarts {}",
             self.read,
-            if self.read_what.is_empty() { "lines" } else { self.read_what },
+            if self.of_messages { "samples" } else { "lines" },
             c.processed,
             c.fused,
             c.gated,
@@ -140,7 +140,7 @@ impl std::fmt::Display for ReplaySummary {
             c.restarts
         )?;
         // A bag's or a recording's positions are its messages', a file's its lines'.
-        let at = if self.read_what == "samples" { "message" } else { "line" };
+        let at = if self.of_messages { "message" } else { "line" };
         for (line, reason) in &self.invalid_lines {
             writeln!(f, "  {at} {line}: {reason}")?;
         }

@@ -77,7 +77,7 @@ fn the_husky_bag_ends_within_robot_localizations_tolerance() {
     assert!(off < 1.0452, "{off} m off: {end:?}");
 }
 
-/// The yaw σ of each line, rad: the attitude error's variance about world up.
+/// The yaw σ of each line, rad: the attitude error's σ about world up.
 fn yaw_sds(output: &Path) -> Vec<f64> {
     let text = std::fs::read_to_string(output).unwrap();
     let lines = text.lines().map(|l| serde_json::from_str::<OutputLine>(l).unwrap());
@@ -85,13 +85,7 @@ fn yaw_sds(output: &Path) -> Vec<f64> {
         .map(|l| {
             let x = &l.x;
             let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]));
-            let u = q.inverse_transform_vector(&Vector3::z());
-            let n = x.len() - 1;
-            let var: f64 = (0..3)
-                .flat_map(|i| (0..3).map(move |j| (i, j)))
-                .map(|(i, j)| u[i] * l.p[(6 + i) * n + 6 + j] * u[j])
-                .sum();
-            var.sqrt()
+            common::heading_error(&q, &l.p, &q).1
         })
         .collect()
 }

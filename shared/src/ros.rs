@@ -489,21 +489,17 @@ fn read_db3<F: FnMut(BagItem)>(path: &Path, r: &mut Reading<'_, F>) -> Result<()
     let mut messages = db.prepare("SELECT topic_id, data FROM messages ORDER BY timestamp, id").map_err(format)?;
     let mut rows = messages.query([]).map_err(format)?;
     loop {
-        let row = match rows.next() {
-            Ok(Some(row)) => row,
+        let message = match rows.next() {
             Ok(None) => return Ok(()),
-            Err(e) if r.position == 0 => return Err(format(e)),
-            Err(e) => {
-                r.summary.damage.get_or_insert(format!("after message {}: {e}", r.position));
-                return Ok(());
-            }
+            Ok(Some(row)) => row.get::<_, i64>(0).and_then(|id| Ok((id, row.get_ref(1)?.as_blob()?))),
+            Err(e) => Err(e),
         };
-        let message = row.get::<_, i64>(0).and_then(|id| Ok((id, row.get_ref(1)?.as_blob()?)));
         match message {
             Ok((id, data)) => match names.get(&id) {
                 Some(name) => r.message::<Ros2>(name, data),
                 None => r.position += 1,
             },
+            Err(e) if r.position == 0 => return Err(format(e)),
             Err(e) => {
                 r.summary.damage.get_or_insert(format!("after message {}: {e}", r.position));
                 return Ok(());
