@@ -250,16 +250,36 @@ fn numbers(v: &Value) -> Vec<f64> {
     v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
 }
 
+/// IMU samples that continue `samples` in time (10 ms apart, after its last
+/// sample): in order, so they bring no correction of their own.
+fn continuation(samples: &[fusion_shared::Sample], n: usize) -> Vec<fusion_shared::Sample> {
+    let last = *samples.iter().rev().find(|s| s.kind() == SampleKind::Imu).expect("an IMU sample");
+    let end = samples.iter().map(|s| s.header().t_ns).max().unwrap();
+    (1..=n as u64)
+        .map(|i| {
+            let mut s = last;
+            let h = s.header_mut();
+            h.t_ns = end + i * 10_000_000;
+            h.seq += i;
+            s
+        })
+        .collect()
+}
+
 #[test]
 fn python_reads_the_snapshots_fusionctl_echo_reads() {
     let domain = TestDomain::new("py-echo");
     let _daemon = Daemon::start(&domain, &common::linear_config(Some(0.999)), "event");
     let samples = drive();
-    let count = samples.len().to_string();
+    // The drive's late fixes land when the daemon gets to them, each with a
+    // snapshot of its own: at most one per sample. The readers take this many
+    // snapshots; after the drive has settled, IMU samples fill the count up,
+    // so the last snapshot both read is settled and holds every fix.
+    let count = 2 * samples.len() + 1;
     let fusionctl = workspace_bin("fusionctl");
 
     let mut python = Running(
-        common::python_command(&domain.domain, "tests/echo.py", &[&domain.namespace, &count])
+        common::python_command(&domain.domain, "tests/echo.py", &[&domain.namespace, &count.to_string()])
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
@@ -271,7 +291,7 @@ fn python_reads_the_snapshots_fusionctl_echo_reads() {
     assert_eq!(ready, "ready\n", "the Python reader did not start");
     let mut echo = Running(
         Command::new(fusionctl)
-            .args(["echo", "--namespace", &domain.namespace, "--count", &count, "--idle-timeout", "20"])
+            .args(["echo", "--namespace", &domain.namespace, "--count", &count.to_string(), "--idle-timeout", "20"])
             .env(fusion_shared::service::DOMAIN_ENV, &domain.domain)
             .stdout(Stdio::piped())
             .spawn()
@@ -283,15 +303,29 @@ fn python_reads_the_snapshots_fusionctl_echo_reads() {
 
     let client = domain.client();
     let mut reader = client.state_subscriber_with_buffer(16).unwrap();
-    publish_in_lockstep(&client, &mut reader, &samples);
+    let mut last = *publish_in_lockstep(&client, &mut reader, &samples).last().unwrap();
+    while !last.settled() {
+        last = *reader.wait_next(Duration::from_secs(10)).unwrap().expect("the settled snapshot of the drive");
+    }
+    assert!((last.seq as usize) < count - 1, "{} snapshots for {} samples", last.seq + 1, samples.len());
+    // Health-only snapshots (a stream goes stale) come when the wall clock says,
+    // so the continuation goes one sample at a time until the count is reached.
+    let mut publishers = fusion_client::SensorPublishers::all(&client).unwrap();
+    for s in continuation(&samples, count) {
+        if last.seq as usize + 1 >= count {
+            break;
+        }
+        publishers.publish(s).unwrap().expect("an IMU publisher");
+        last = common::live::snapshot_of(&mut reader, &s);
+    }
 
     let python_lines: Vec<Value> = python_out.lines().map(|l| serde_json::from_str(&l.unwrap()).unwrap()).collect();
     let echo_lines: Vec<Value> =
         BufReader::new(echo_out).lines().map(|l| serde_json::from_str(&l.unwrap()).unwrap()).collect();
     assert!(python.wait_for(Duration::from_secs(20)).is_some_and(|s| s.success()));
     assert!(echo.wait_for(Duration::from_secs(20)).is_some_and(|s| s.success()));
-    assert_eq!(python_lines.len(), samples.len());
-    assert_eq!(echo_lines.len(), samples.len());
+    assert_eq!(python_lines.len(), count);
+    assert_eq!(echo_lines.len(), count);
 
     let mut fused = 0;
     for (i, (py, rs)) in python_lines.iter().zip(&echo_lines).enumerate() {
@@ -310,7 +344,10 @@ fn python_reads_the_snapshots_fusionctl_echo_reads() {
         assert_eq!(py["fused"], json!(fused_now), "snapshot {i}");
         fused = fused_now.iter().sum();
     }
-    assert!(fused > 5, "the drive's fixes were fused: {fused}");
+    // The last snapshot both read is the settled one after the drive.
+    assert!(python_lines[count - 1]["pending"].is_null());
+    let fixes = samples.iter().filter(|s| s.kind() == SampleKind::Position).count();
+    assert!(fused > 5, "the drive's {fixes} fixes were fused: {fused}");
 }
 
 #[test]
