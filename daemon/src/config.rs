@@ -119,19 +119,6 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   kinds = ["geodetic", "velocity"]
 #   lever_arm_m = [1.2, 0.0, 1.4]          # antenna from the IMU, m, body frame
 #   time_offset_ns = 0                     # its stamps are this late (valid at t - offset); |offset| <= 10 s
-#   [sensor.quality]                       # optional: the receiver's fix type, DOPs -> noise
-#   refuse = ["none"]                      # fix types not fused: unknown none 2d 3d dgnss rtk_float rtk_fixed
-#   covariance_scale = 1.0                 # the reported covariance times this
-#   uere_m = 0.0                           # > 0: HDOP x uere_m, VDOP x uere_m are floors too
-#   min_satellites = 0                     # fewer satellites (when reported): refused
-#   [sensor.quality.horizontal_floor_m]    # least horizontal sigma per fix type, m
-#   rtk_fixed = 0.02
-#   rtk_float = 0.3
-#   "3d" = 1.5
-#   [sensor.quality.vertical_floor_m]      # least vertical sigma per fix type, m
-#   rtk_fixed = 0.03
-#   rtk_float = 0.5
-#   "3d" = 2.5
 #   [[sensor]]
 #   name = "imu-left"
 #   id = 0
@@ -149,12 +136,6 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   kinds = ["magnetometer"]               # ins only
 #   axes = "frd"                           # its axes, as an IMU's
 #   rotation_rpy_deg = [0.0, 0.0, 0.0]
-#   [sensor.magnetic]                      # required: the Earth's field at the site (World Magnetic Model)
-#   declination_deg = 3.5                  # east of true north
-#   inclination_deg = 64.5                 # below the horizontal
-#   strength_ut = 48.5                     # microtesla
-#   max_strength_deviation = 0.15          # a sample this far off in strength is disturbed: refused
-#   max_inclination_deviation_deg = 10.0   # or this far off in inclination (once roll and pitch are known)
 #   [[sensor]]
 #   name = "camera"
 #   id = 0
@@ -162,15 +143,11 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   axes = "frd"
 #   rotation_rpy_deg = [0.0, 10.0, 0.0]    # body <- sensor
 #   lever_arm_m = [0.8, 0.0, 1.2]          # its optical centre, m
-#   [sensor.twist]                         # optional
-#   fuse = ["vx", "vy", "vz", "vroll", "vpitch", "vyaw"]   # the components fused (default all)
 #   [[sensor]]
 #   name = "baro"
 #   id = 0
 #   kinds = ["barometer"]                  # ins only; one per fusiond
 #   lever_arm_m = [0.0, 0.0, 0.3]          # its static port, m
-#   [sensor.barometer]                     # optional: its bias state (set at the first sample)
-#   bias_random_walk_m = 0.05              # how fast the weather moves it, m/sqrt(s)
 #   [[sensor]]
 #   name = "slam"
 #   id = 0
@@ -178,22 +155,13 @@ gyro_range_radps = 35.0      # 2000 deg/s
 #   axes = "frd"
 #   rotation_rpy_deg = [0.0, 10.0, 0.0]    # body <- sensor
 #   lever_arm_m = [0.8, 0.0, 1.2]
-#   [sensor.pose]                          # optional: the map frame in the world
-#   frame_yaw_deg = 30.0                   # configured (with frame_origin_m), or without both: estimated
-#   frame_origin_m = [20.0, -15.0, 0.5]    #   (4 states, set at the first pose and at each localiser reset)
-#   frame_yaw_random_walk_deg = 0.01       # estimated frame's drift, degrees/sqrt(s)
-#   frame_origin_random_walk_m = 0.01      # and m/sqrt(s)
-#   realign_after_gated = 5                # this many gated poses in a row: the map jumped, set the frame again
-#   relative = false                       # true: fuse only the change between poses (a drifting localiser)
-#   fuse = ["x", "y", "z", "roll", "pitch", "yaw"]   # the components fused (default all)
 #   [[sensor]]
 #   name = "ahrs"                          # an IMU with its own attitude filter (Microstrain, Xsens, BNO055)
 #   id = 0
 #   kinds = ["imu", "attitude"]            # attitude: ins only, its orientation in ENU
 #   rotation_rpy_deg = [90.0, 0.0, -90.0]  # body <- sensor, for both kinds
-#   [sensor.attitude]                      # optional
-#   yaw = true                             # false: roll and pitch only (a magnetic yaw indoors)
-# Several IMUs: "average" the samples of each instant (IMUs on one clock), or
+# Each kind with settings of its own reads them from a table under its [[sensor]]:
+{tables}# Several IMUs: "average" the samples of each instant (IMUs on one clock), or
 # "failover" (different clocks or rates): the first listed alive IMU is used.
 [imu]
 combine = "average"
@@ -291,6 +259,7 @@ pub fn default_config_text() -> String {
         .replace("{required}", &needed.join(", and of "))
         .replace("{timeouts}", &timeouts)
         .replace("{kinds}", &names(None).join(", "))
+        .replace("{tables}", &crate::measurement::table_docs())
 }
 
 /// `n` with its digits in groups of three (`1_000_000`), as TOML allows.

@@ -20,16 +20,16 @@
 //! A sensor without a `[[sensor]]` entry has the identity mount. Several IMUs sit
 //! at the body origin (on one board); each may be rotated ([`ImuSet`]).
 
+use std::any::Any;
 use std::cell::OnceCell;
+use std::fmt::Debug;
+use std::sync::Arc;
 
 use fusion_shared::SampleKind;
 use fusion_shared::geodesy::Datum;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 
-use crate::gnss_quality::{GnssQuality, QualityConfig};
-use crate::magnetic::{EarthField, MagneticConfig};
-use crate::sensor_states::{AttitudeConfig, BarometerConfig, PoseConfig, TwistConfig};
 use crate::setting::{ConfigError, invalid};
 
 /// The `[datum]` table: the origin of the world frame, checked by [`Datum::new`].
@@ -51,11 +51,61 @@ impl DatumTable {
 /// Most IMUs combined ([`ImuSet`]).
 pub const MAX_IMUS: usize = 8;
 
-/// The kinds whose samples are in the sensor's own axes, so a rotation and an
-/// axis convention apply (the others are in the world frame, or a scalar along
-/// the body's x axis).
-pub const ROTATED_KINDS: [SampleKind; 5] =
-    [SampleKind::Imu, SampleKind::Magnetometer, SampleKind::Twist, SampleKind::Pose, SampleKind::Attitude];
+/// What reading the `[[sensor]]` entries needs to know of each kind. The kind
+/// list above the frames gives it (`measurement::Kinds`): each kind's module declares
+/// whether its samples are rotated, and the type and the reading of its table.
+pub trait KindCatalog {
+    /// Whether samples of `kind` are in the sensor's own axes, so that a
+    /// rotation and an axis convention apply (the others are in the world
+    /// frame, or a scalar along the body's x axis).
+    fn rotated(&self, kind: SampleKind) -> bool;
+
+    /// The key of `kind`'s settings table in a `[[sensor]]` entry
+    /// (`[sensor.<key>]`), if the kind has one.
+    fn table(&self, kind: SampleKind) -> Option<&'static str>;
+
+    /// A sensor's settings of `kind` from its table (`None`: not given),
+    /// checked; an error names the key (`key(field)`).
+    fn settings(
+        &self,
+        kind: SampleKind,
+        table: Option<&toml::Value>,
+        key: &dyn Fn(&str) -> String,
+    ) -> Result<Settings, ConfigError>;
+}
+
+/// A sensor's settings of its kind, of the type its kind's module declares
+/// (`Measurement::Settings`), or none. Held here without
+/// their type, so the frames know no kind; [`Settings::get`] gives them typed.
+#[derive(Clone, Default)]
+pub struct Settings(Option<Arc<dyn SettingsValue>>);
+
+/// What a kind's settings type is: any value, with its `Debug`.
+pub trait SettingsValue: Any + Debug + Send + Sync {}
+impl<T: Any + Debug + Send + Sync> SettingsValue for T {}
+
+impl Settings {
+    /// The settings `value`.
+    pub fn new<S: SettingsValue>(value: S) -> Self {
+        Self(Some(Arc::new(value)))
+    }
+
+    /// The settings, if they are an `S`.
+    #[inline]
+    pub fn get<S: SettingsValue>(&self) -> Option<&S> {
+        let value: &dyn Any = self.0.as_deref()?;
+        value.downcast_ref()
+    }
+}
+
+impl Debug for Settings {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.0 {
+            Some(v) => v.fmt(f),
+            None => f.write_str("none"),
+        }
+    }
+}
 
 /// An angle wrapped into (−π, π], rad.
 pub fn wrap_angle(a: f64) -> f64 {
@@ -80,7 +130,6 @@ pub enum Axes {
 
 /// One `[[sensor]]` entry as configured.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct SensorConfig {
     /// A name for logs and status ("gnss", "imu-left").
     pub name: String,
@@ -89,11 +138,11 @@ pub struct SensorConfig {
     /// The kinds of sample it publishes under that id (a GNSS receiver:
     /// `["geodetic", "velocity"]`).
     pub kinds: Vec<String>,
-    /// Its axis convention ([`ROTATED_KINDS`] only).
+    /// Its axis convention (rotated kinds only: [`KindCatalog::rotated`]).
     #[serde(default)]
     pub axes: Axes,
     /// Rotation of its (FLU) axes into the body frame: roll, pitch, yaw in
-    /// degrees, applied as `Rz(yaw) Ry(pitch) Rx(roll)` ([`ROTATED_KINDS`] only).
+    /// degrees, applied as `Rz(yaw) Ry(pitch) Rx(roll)` (rotated kinds only).
     #[serde(default)]
     pub rotation_rpy_deg: [f64; 3],
     /// Position of its reference point in the body frame, m (not for an IMU: the
@@ -106,33 +155,16 @@ pub struct SensorConfig {
     /// checked and ordered. At most [`MAX_TIME_OFFSET_NS`] either way.
     #[serde(default)]
     pub time_offset_ns: i64,
-    /// How its geodetic fixes' reported quality maps to noise, and which fix
-    /// types are refused (`[sensor.quality]`; [`crate::gnss_quality`]).
-    #[serde(default)]
-    pub quality: Option<QualityConfig>,
-    /// The Earth's field at the site and the disturbance check of its
-    /// magnetometer samples (`[sensor.magnetic]`; [`crate::magnetic`]).
-    #[serde(default)]
-    pub magnetic: Option<MagneticConfig>,
-    /// Its barometer's bias state (`[sensor.barometer]`; defaults without it).
-    #[serde(default)]
-    pub barometer: Option<BarometerConfig>,
-    /// Its pose samples' map frame (`[sensor.pose]`; estimated without it).
-    #[serde(default)]
-    pub pose: Option<PoseConfig>,
-    /// Which of its attitude samples' angles are fused (`[sensor.attitude]`;
-    /// all three without it).
-    #[serde(default)]
-    pub attitude: Option<AttitudeConfig>,
-    /// Which components of its twists are fused (`[sensor.twist]`; all six
-    /// without it).
-    #[serde(default)]
-    pub twist: Option<TwistConfig>,
     /// The ROS topic its samples come from when a bag is replayed (`fusiond
     /// replay --input robot.bag`): each of its kinds is taken from that
     /// topic's messages ([`fusion_shared::ros`]).
     #[serde(default)]
     pub topic: Option<String>,
+    /// Its kinds' settings tables, each read by its kind (`[sensor.quality]`
+    /// of a geodetic sensor, `[sensor.magnetic]` of a magnetometer, ...:
+    /// [`KindCatalog::table`]); any other key is an error.
+    #[serde(flatten)]
+    pub tables: toml::Table,
 }
 
 /// The largest `[[sensor]] time_offset_ns` either way, ns (10 s): a sensor whose
@@ -238,8 +270,8 @@ impl ImuSet {
     }
 }
 
-/// A configured sensor stream: its kind and id, its name, its mount.
-#[derive(Debug, Clone, PartialEq)]
+/// A configured sensor stream: its kind and id, its name, its mount, its settings.
+#[derive(Debug, Clone)]
 pub struct MountedSensor {
     /// Kind of its samples.
     pub kind: SampleKind,
@@ -251,18 +283,8 @@ pub struct MountedSensor {
     pub mount: Mount,
     /// How late its timestamps are, ns ([`SensorConfig::time_offset_ns`]).
     pub time_offset_ns: i64,
-    /// Its fixes' quality mapping (geodetic only; the default elsewhere).
-    pub quality: GnssQuality,
-    /// The Earth's field it measures (magnetometer only).
-    pub magnetic: Option<EarthField>,
-    /// Its bias state's settings (barometer only).
-    pub barometer: Option<BarometerConfig>,
-    /// Its map frame (pose only).
-    pub pose: Option<PoseConfig>,
-    /// The angles it fuses (attitude only).
-    pub attitude: Option<AttitudeConfig>,
-    /// The components it fuses (twist only).
-    pub twist: Option<TwistConfig>,
+    /// Its settings of its kind (the kind's table, checked; [`Settings::get`]).
+    pub settings: Settings,
 }
 
 /// The datum of the world frame (set once) and the sensors' mounts.
@@ -288,9 +310,14 @@ impl Frames {
 
     /// Frames with the configured datum, sensors and IMU combination, checked:
     /// known kinds, no (kind, id) twice, finite angles and lever arms, a rotation
-    /// or axis convention only for an IMU, no lever arm for an IMU, at most
-    /// [`MAX_IMUS`] IMUs.
-    pub fn from_config(datum: Option<Datum>, sensors: &[SensorConfig], imu: ImuConfig) -> Result<Self, ConfigError> {
+    /// or axis convention only for a rotated kind, no lever arm for an IMU, at
+    /// most [`MAX_IMUS`] IMUs, and each table read by its kind (`kinds`).
+    pub fn from_config(
+        datum: Option<Datum>,
+        sensors: &[SensorConfig],
+        imu: ImuConfig,
+        kinds: &dyn KindCatalog,
+    ) -> Result<Self, ConfigError> {
         let mut frames = Self::new(datum);
         frames.imus.config = imu;
         if imu.failover_after_ns == 0 {
@@ -311,67 +338,6 @@ impl Frames {
                 ));
             }
             frames.offsets |= s.time_offset_ns != 0;
-            let quality = match &s.quality {
-                Some(_) if !s.kinds.iter().any(|k| k == SampleKind::Geodetic.name()) => {
-                    return Err(invalid(
-                        key("quality"),
-                        "applies to geodetic fixes: the sensor has no kind \"geodetic\"",
-                    ));
-                }
-                Some(q) => GnssQuality::from_config(q, |f| key(&format!("quality.{f}")))?,
-                None => GnssQuality::default(),
-            };
-            let has = |kind: SampleKind| s.kinds.iter().any(|k| k == kind.name());
-            let magnetic = match &s.magnetic {
-                Some(_) if !has(SampleKind::Magnetometer) => {
-                    return Err(invalid(
-                        key("magnetic"),
-                        "applies to a magnetometer: the sensor has no kind \"magnetometer\"",
-                    ));
-                }
-                Some(m) => Some(EarthField::from_config(m, |f| key(&format!("magnetic.{f}")))?),
-                None if has(SampleKind::Magnetometer) => {
-                    return Err(invalid(
-                        key("magnetic"),
-                        "a magnetometer needs the Earth's field at the site: declination_deg, inclination_deg and \
-                         strength_ut (the World Magnetic Model's)",
-                    ));
-                }
-                None => None,
-            };
-            let barometer = match &s.barometer {
-                Some(_) if !has(SampleKind::Barometer) => {
-                    return Err(invalid(
-                        key("barometer"),
-                        "applies to a barometer: the sensor has no kind \"barometer\"",
-                    ));
-                }
-                Some(b) => Some(b.check(|f| key(&format!("barometer.{f}")))?),
-                None => has(SampleKind::Barometer).then(BarometerConfig::default),
-            };
-            let pose = match &s.pose {
-                Some(_) if !has(SampleKind::Pose) => {
-                    return Err(invalid(key("pose"), "applies to a pose sensor: the sensor has no kind \"pose\""));
-                }
-                Some(p) => Some(p.check(|f| key(&format!("pose.{f}")))?),
-                None => has(SampleKind::Pose).then(PoseConfig::default),
-            };
-            let twist = match &s.twist {
-                Some(_) if !has(SampleKind::Twist) => {
-                    return Err(invalid(key("twist"), "applies to a twist sensor: the sensor has no kind \"twist\""));
-                }
-                t => *t,
-            };
-            let attitude = match &s.attitude {
-                Some(_) if !has(SampleKind::Attitude) => {
-                    return Err(invalid(
-                        key("attitude"),
-                        "applies to an attitude sensor: the sensor has no kind \"attitude\"",
-                    ));
-                }
-                Some(a) => Some(*a),
-                None => has(SampleKind::Attitude).then(AttitudeConfig::default),
-            };
             let arm = Vector3::from(s.lever_arm_m);
             if !(arm.iter().all(|v| v.is_finite()) && arm.norm() <= MAX_LEVER_ARM_M) {
                 return Err(invalid(
@@ -379,11 +345,16 @@ impl Frames {
                     format!("must be finite and at most {MAX_LEVER_ARM_M} m long"),
                 ));
             }
+            let mut own = Vec::with_capacity(s.kinds.len());
             for name in &s.kinds {
                 let kind = SampleKind::from_name(name).ok_or_else(|| {
                     let known: Vec<&str> = SampleKind::ALL.iter().map(|k| k.name()).collect();
                     invalid(key("kinds"), format!("unknown kind {name:?}; known: {}", known.join(", ")))
                 })?;
+                own.push(kind);
+            }
+            check_tables(s, &own, kinds, &key)?;
+            for (name, &kind) in s.kinds.iter().zip(&own) {
                 if frames.sensors.iter().any(|m| m.kind == kind && m.id == s.id) {
                     return Err(invalid(key("id"), format!("{name} sensor {} is configured twice", s.id)));
                 }
@@ -399,30 +370,32 @@ impl Frames {
                         return Err(invalid(key("id"), format!("at most {MAX_IMUS} IMUs")));
                     }
                     frames.imus.ids.push(s.id);
-                } else if rotated && !ROTATED_KINDS.contains(&kind) {
+                } else if rotated && !kinds.rotated(kind) {
+                    let of: Vec<&str> =
+                        SampleKind::ALL.iter().filter(|&&k| kinds.rotated(k)).map(|k| k.name()).collect();
                     return Err(invalid(
                         key("rotation_rpy_deg"),
                         format!(
-                            "a rotation or axis convention applies to an imu, a magnetometer, a twist, a pose or \
-                             an attitude sensor only, not to {name}"
+                            "a rotation or axis convention applies to the kinds in the sensor's own axes ({}), not \
+                             to {name}",
+                            of.join(", ")
                         ),
                     ));
                 }
+                let table = kinds.table(kind).and_then(|t| s.tables.get(t));
+                let table_key = |f: &str| match (kinds.table(kind), f) {
+                    (Some(t), "") => key(t),
+                    (t, f) => key(&format!("{}.{f}", t.unwrap_or("settings"))),
+                };
+                let settings = kinds.settings(kind, table, &table_key)?;
                 let rpy = s.rotation_rpy_deg.map(f64::to_radians);
-                let mount = Mount::new(s.axes, rpy, s.lever_arm_m);
-                let time_offset_ns = s.time_offset_ns;
                 frames.sensors.push(MountedSensor {
                     kind,
                     id: s.id,
                     name: s.name.clone(),
-                    mount,
-                    time_offset_ns,
-                    quality,
-                    magnetic,
-                    barometer: (kind == SampleKind::Barometer).then_some(barometer).flatten(),
-                    pose: (kind == SampleKind::Pose).then_some(pose).flatten(),
-                    attitude: (kind == SampleKind::Attitude).then_some(attitude).flatten(),
-                    twist: (kind == SampleKind::Twist).then_some(twist).flatten(),
+                    mount: Mount::new(s.axes, rpy, s.lever_arm_m),
+                    time_offset_ns: s.time_offset_ns,
+                    settings,
                 });
             }
         }
@@ -445,39 +418,12 @@ impl Frames {
         self.sensors.iter().find(|m| m.kind == kind && m.id == sensor).map_or(&Mount::IDENTITY, |m| &m.mount)
     }
 
-    /// The quality mapping of geodetic sensor `sensor` (the default if not
-    /// configured).
-    pub fn quality(&self, sensor: u32) -> GnssQuality {
-        self.sensors
-            .iter()
-            .find(|m| m.kind == SampleKind::Geodetic && m.id == sensor)
-            .map_or_else(GnssQuality::default, |m| m.quality)
-    }
-
-    /// The Earth's field magnetometer `sensor` measures (`None`: not configured).
-    pub fn magnetic(&self, sensor: u32) -> Option<&EarthField> {
-        self.sensors.iter().find(|m| m.kind == SampleKind::Magnetometer && m.id == sensor)?.magnetic.as_ref()
-    }
-
-    /// The bias settings of barometer `sensor` (`None`: not configured).
-    pub fn barometer(&self, sensor: u32) -> Option<&BarometerConfig> {
-        self.sensors.iter().find(|m| m.kind == SampleKind::Barometer && m.id == sensor)?.barometer.as_ref()
-    }
-
-    /// The map frame settings of pose sensor `sensor` (`None`: not configured).
-    pub fn pose(&self, sensor: u32) -> Option<&PoseConfig> {
-        self.sensors.iter().find(|m| m.kind == SampleKind::Pose && m.id == sensor)?.pose.as_ref()
-    }
-
-    /// The components twist sensor `sensor` fuses (`None`: all six).
-    pub fn twist(&self, sensor: u32) -> Option<&TwistConfig> {
-        self.sensors.iter().find(|m| m.kind == SampleKind::Twist && m.id == sensor)?.twist.as_ref()
-    }
-
-    /// The angles attitude sensor `sensor` fuses (`None`: not configured; all
-    /// three).
-    pub fn attitude(&self, sensor: u32) -> Option<&AttitudeConfig> {
-        self.sensors.iter().find(|m| m.kind == SampleKind::Attitude && m.id == sensor)?.attitude.as_ref()
+    /// The settings of sensor `sensor` of `kind`, if it is configured and they
+    /// are an `S` (the kind's type: `measurement::settings` gives
+    /// them by the kind's sample type).
+    #[inline]
+    pub fn settings<S: SettingsValue>(&self, kind: SampleKind, sensor: u32) -> Option<&S> {
+        self.sensors.iter().find(|m| m.kind == kind && m.id == sensor)?.settings.get()
     }
 
     /// How late the timestamps of sensor `sensor` of `kind` are, ns (0 if not
@@ -500,6 +446,37 @@ impl Frames {
         &self.imus
     }
 }
+
+/// Checks that each table of `s` belongs to one of its kinds (`own`): an unknown
+/// key, or the table of a kind the sensor does not have, is an error.
+fn check_tables(
+    s: &SensorConfig,
+    own: &[SampleKind],
+    kinds: &dyn KindCatalog,
+    key: &dyn Fn(&str) -> String,
+) -> Result<(), ConfigError> {
+    for name in s.tables.keys() {
+        match SampleKind::ALL.iter().find(|&&k| kinds.table(k) == Some(name.as_str())) {
+            Some(kind) if !own.contains(kind) => {
+                return Err(invalid(
+                    key(name),
+                    format!("applies to a {0} sensor: the sensor has no kind \"{0}\"", kind.name()),
+                ));
+            }
+            Some(_) => {}
+            None => {
+                let tables = SampleKind::ALL.iter().filter_map(|&k| kinds.table(k));
+                let known: Vec<&str> = SENSOR_KEYS.iter().copied().chain(tables).collect();
+                return Err(invalid(key(name), format!("unknown key; a [[sensor]] has {}", known.join(", "))));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The keys of a `[[sensor]]` entry besides its kinds' tables.
+const SENSOR_KEYS: [&str; 8] =
+    ["name", "id", "kinds", "axes", "rotation_rpy_deg", "lever_arm_m", "time_offset_ns", "topic"];
 
 #[cfg(test)]
 mod tests;

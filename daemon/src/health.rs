@@ -245,12 +245,7 @@ impl HealthMonitor {
     /// χ² of that many degrees of freedom.
     pub fn with_frames(mut self, frames: &crate::frames::Frames) -> Self {
         let fewer = frames.sensors().iter().filter_map(|m| {
-            let dims = match (m.attitude, m.twist, m.pose) {
-                (Some(a), _, _) if !a.yaw => 2,
-                (_, Some(t), _) => t.fuse.count(),
-                (_, _, Some(p)) => p.fuse.count(),
-                _ => return None,
-            };
+            let dims = crate::measurement::fused_dim(m);
             (dims < m.kind.innovation_dim()).then_some((m.kind, m.id, dims))
         });
         for (slot, f) in self.fewer_dims.iter_mut().zip(fewer) {

@@ -6,6 +6,8 @@ use super::{Config, ConfigError, ModelConfig, Tables, invalid, positive};
 use crate::engine::EngineConfig;
 use crate::frames::{Frames, MountedSensor};
 use crate::measurement::Steps;
+use crate::measurement::barometer::BarometerConfig;
+use crate::measurement::pose::PoseConfig;
 use crate::model::Model;
 use crate::model::ins::{self, AlignmentParams, CourseAlignment, ImuNoise, InsModel, OdometryScale};
 use crate::model::linear::{self, LinearModel};
@@ -102,15 +104,16 @@ fn aux_states(scale: Option<OdometryScale>, frames: &Frames) -> Result<ins::AuxS
     }
     let of = |kind: SampleKind| frames.sensors().iter().filter(move |m| m.kind == kind);
     let mut baros = of(SampleKind::Barometer);
-    let barometer = baros.next().map(|m| m.barometer.unwrap_or_default());
+    let barometer = baros.next().map(|m| m.settings.get::<BarometerConfig>().copied().unwrap_or_default());
     if let Some(second) = baros.next() {
         return Err(invalid(
             "sensor",
             format!("{:?}: one barometer per fusiond (its bias is one state); fuse the best one", second.name),
         ));
     }
-    let mut estimated = of(SampleKind::Pose).filter(|m| m.pose.unwrap_or_default().estimated());
-    let pose = estimated.next().map(|m| m.pose.unwrap_or_default());
+    let mut estimated =
+        of(SampleKind::Pose).filter(|m| m.settings.get::<PoseConfig>().copied().unwrap_or_default().estimated());
+    let pose = estimated.next().map(|m| m.settings.get::<PoseConfig>().copied().unwrap_or_default());
     if let Some(second) = estimated.next() {
         return Err(invalid(
             "sensor",
@@ -121,7 +124,7 @@ fn aux_states(scale: Option<OdometryScale>, frames: &Frames) -> Result<ins::AuxS
             ),
         ));
     }
-    let relative = of(SampleKind::Pose).filter(|m| m.pose.is_some_and(|p| p.relative)).nth(1);
+    let relative = of(SampleKind::Pose).filter(|m| m.settings.get::<PoseConfig>().is_some_and(|p| p.relative)).nth(1);
     if let Some(second) = relative {
         return Err(invalid(
             "sensor",
@@ -244,7 +247,7 @@ impl LinearModel {
         };
         let sigma_a = positive("model.accel_noise_std", params.accel_noise_std)?;
         let (x0, p0) = initial_values::<{ linear::N }, { linear::N }>(config)?;
-        let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
+        let frames = Frames::from_config(config.datum, &config.sensors, config.imu, &crate::measurement::Kinds)?;
         for MountedSensor { kind, name, mount, .. } in frames.sensors() {
             if !crate::measurement::accepts::<LinearModel>(*kind) {
                 return Err(invalid(
@@ -352,7 +355,7 @@ impl InsModel {
             }
             _ => None,
         };
-        let frames = Frames::from_config(config.datum, &config.sensors, config.imu)?;
+        let frames = Frames::from_config(config.datum, &config.sensors, config.imu, &crate::measurement::Kinds)?;
         if let Some(m) = frames.sensors().iter().find(|m| !crate::measurement::accepts::<InsModel>(m.kind)) {
             return Err(invalid("sensor", format!("{:?}: the ins model cannot fuse {}", m.name, m.kind.name())));
         }

@@ -191,12 +191,13 @@ fn a_receivers_quality_table_reaches_its_geodetic_fixes_and_nothing_else() {
     let frames = crate::model::Model::frames(m);
     let cov = [0.0025, 0.0, 0.0, 0.0, 0.0025, 0.0, 0.0, 0.0, 0.01];
     let f = |code| GeodeticSample::new(0, 3, 0, 48.1, 11.5, 500.0, cov).with_quality(code, 12, 0.9, 1.4);
-    let q = frames.quality(3);
+    let quality = |id| crate::measurement::settings::<GeodeticSample>(frames, id).copied().unwrap_or_default();
+    let q = quality(3);
     assert!(q.noise(&f(fix::TWO_D)).is_err() && q.noise(&f(fix::NONE)).is_err());
     assert!((q.noise(&f(fix::RTK_FLOAT)).unwrap()[0] - 0.09).abs() < 1e-12);
     assert_eq!(q.noise(&f(fix::RTK_FIXED)).unwrap(), cov);
     // Another receiver without a table: fused as reported, no fix refused.
-    let other = frames.quality(4);
+    let other = quality(4);
     assert_eq!(other.noise(&f(fix::TWO_D)).unwrap(), cov);
     assert!(other.noise(&f(fix::NONE)).is_err());
     // Only a geodetic sensor has a quality.

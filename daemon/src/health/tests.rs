@@ -118,7 +118,8 @@ fn a_sensor_fusing_fewer_dimensions_is_judged_by_them() {
         .iter()
         .map(|t| ::toml::from_str(t).unwrap())
         .collect();
-    let frames = crate::frames::Frames::from_config(None, &sensors, Default::default()).unwrap();
+    let frames =
+        crate::frames::Frames::from_config(None, &sensors, Default::default(), &crate::measurement::Kinds).unwrap();
     let h = HealthMonitor::new(HealthConfig::default()).with_frames(&frames);
     assert_eq!(h.innovation_dim(SampleKind::Attitude, 1), 2);
     assert_eq!(h.innovation_dim(SampleKind::Attitude, 2), 3);

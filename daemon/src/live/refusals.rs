@@ -9,9 +9,9 @@
 //! beyond that, one warning per reason for all the others.
 
 use fusion_shared::snapshot::rejection;
-use fusion_shared::{Sample, SampleKind};
+use fusion_shared::{BarometerSample, MagnetometerSample, PoseSample, Sample, SampleKind};
 
-use crate::measurement::Steps;
+use crate::measurement::{Steps, settings};
 use crate::reorder::key_of;
 use crate::validate::Rejection;
 
@@ -99,9 +99,11 @@ impl ConfigRefusal {
         }
         let frames = model.frames();
         match kind {
-            SampleKind::Barometer if frames.barometer(sensor).is_none() => Some(Self::NoBarometer),
-            SampleKind::Pose if frames.pose(sensor).is_none() => Some(Self::NoPoseFrame),
-            SampleKind::Magnetometer if frames.magnetic(sensor).is_none() => Some(Self::NoMagneticField),
+            SampleKind::Barometer if settings::<BarometerSample>(frames, sensor).is_none() => Some(Self::NoBarometer),
+            SampleKind::Pose if settings::<PoseSample>(frames, sensor).is_none() => Some(Self::NoPoseFrame),
+            SampleKind::Magnetometer if settings::<MagnetometerSample>(frames, sensor).is_none() => {
+                Some(Self::NoMagneticField)
+            }
             _ => None,
         }
     }

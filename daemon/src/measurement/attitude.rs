@@ -50,6 +50,9 @@
 
 #![allow(non_snake_case)]
 
+pub mod settings;
+pub use settings::AttitudeConfig;
+
 use fusion_shared::{AttitudeSample, SampleKind};
 use nalgebra::{Matrix3, Quaternion, Rotation3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 
@@ -59,6 +62,7 @@ use crate::model::ins::nonholonomic::{MAX_ATTITUDE_SD, tilt_variance};
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
+use crate::setting::ConfigError;
 
 pub use super::pose::QUATERNION_NORM_TOLERANCE;
 
@@ -66,6 +70,21 @@ impl Measurement for AttitudeSample {
     const RANK: u8 = 2;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
+    const ROTATED: bool = true;
+    type Settings = AttitudeConfig;
+    const TABLE: Option<&'static str> = Some("attitude");
+    const TABLE_DOC: &'static str = r#"#   [sensor.attitude]                      # attitude, optional
+#   yaw = true                             # false: roll and pitch only (a magnetic yaw indoors)
+"#;
+
+    /// All three angles without the table.
+    fn settings(table: Option<&toml::Value>, key: &dyn Fn(&str) -> String) -> Result<Option<AttitudeConfig>, ConfigError> {
+        Ok(Some(table.map(|t| super::read_table(t, key)).transpose()?.unwrap_or_default()))
+    }
+
+    fn fused_dim(settings: &AttitudeConfig) -> usize {
+        if settings.yaw { 3 } else { 2 }
+    }
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
         finite(&self.orientation_wxyz)?;
@@ -183,7 +202,7 @@ impl Fuse<LinearModel> for AttitudeSample {
 impl<const D: usize> Fuse<InsModel<D>> for AttitudeSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         let frames = model.frames();
-        let yaw = frames.attitude(self.header.sensor).is_none_or(|c| c.yaw);
+        let yaw = super::settings::<AttitudeSample>(frames, self.header.sensor).is_none_or(|c| c.yaw);
         let C = frames.mount(SampleKind::Attitude, self.header.sensor).rotation;
         let Z = rotation_of(&self.orientation_wxyz);
         let Sigma = Matrix3::from_row_slice(&self.cov_rad2);

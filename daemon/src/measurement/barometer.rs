@@ -35,6 +35,9 @@
 
 #![allow(non_snake_case)]
 
+pub mod settings;
+pub use settings::BarometerConfig;
+
 use fusion_shared::snapshot::aux;
 use fusion_shared::{BarometerSample, MAX_PRESSURE_PA, SampleKind, pressure_altitude_m, pressure_altitude_slope};
 use nalgebra::{Matrix1, SMatrix, SVector, Vector1, Vector3};
@@ -43,11 +46,23 @@ use super::{Fuse, Limits, Measurement, Needed, Rejection, finite};
 use crate::model::ins::{InsModel, InsState, aux::augment};
 use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
+use crate::setting::ConfigError;
 
 impl Measurement for BarometerSample {
     const RANK: u8 = 2;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
+    type Settings = BarometerConfig;
+    const TABLE: Option<&'static str> = Some("barometer");
+    const TABLE_DOC: &'static str = r#"#   [sensor.barometer]                     # barometer, optional: its bias state (set at the first sample)
+#   bias_random_walk_m = 0.05              # how fast the weather moves it, m/sqrt(s)
+"#;
+
+    /// The defaults without the table.
+    fn settings(table: Option<&toml::Value>, key: &dyn Fn(&str) -> String) -> Result<Option<BarometerConfig>, ConfigError> {
+        let table: BarometerConfig = table.map(|t| super::read_table(t, key)).transpose()?.unwrap_or_default();
+        table.check(key).map(Some)
+    }
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
         finite(&[self.pressure_pa, self.var_pa2])?;
@@ -94,7 +109,7 @@ impl<const D: usize> Fuse<InsModel<D>> for BarometerSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         // A barometer that is not configured has no bias state (the state is
         // the configured one's).
-        let Some(b) = s.aux_index(aux::BARO_BIAS).filter(|_| model.frames().barometer(self.header.sensor).is_some())
+        let Some(b) = s.aux_index(aux::BARO_BIAS).filter(|_| super::settings::<BarometerSample>(model.frames(), self.header.sensor).is_some())
         else {
             return (StepOutcome::Refused, None);
         };
@@ -129,7 +144,7 @@ mod tests {
     /// An `ins` model with barometer 0 and its bias state.
     fn baro_model() -> InsModel<{ N + 1 }> {
         let sensor = toml::from_str("name = \"baro\"\nid = 0\nkinds = [\"barometer\"]\n").unwrap();
-        let frames = crate::frames::Frames::from_config(None, &[sensor], Default::default()).unwrap();
+        let frames = crate::frames::Frames::from_config(None, &[sensor], Default::default(), &crate::measurement::Kinds).unwrap();
         let aux = AuxStates { barometer: Some(BaroBias::default()), ..AuxStates::default() };
         model().with_frames(frames).with_aux(aux).unwrap()
     }

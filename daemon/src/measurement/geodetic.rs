@@ -16,7 +16,7 @@
 //!
 //! The receiver's quality (fix type, satellites, HDOP/VDOP) maps to the noise `R`
 //! the fix is fused with, and refused fix types are refused, as the sensor's
-//! `[sensor.quality]` says ([`crate::gnss_quality`]).
+//! `[sensor.quality]` says ([`quality`]).
 //!
 //! Validation: latitude in [−90°, 90°], longitude in [−180°, 180°], height within
 //! [−1 km, 18 km] of the ellipsoid, all finite; covariance symmetric positive
@@ -26,11 +26,15 @@
 
 #![allow(non_snake_case)]
 
+pub mod quality;
+use quality::GnssQuality;
+
 use fusion_shared::geodesy::{self, Datum, InvalidGeodetic};
 use fusion_shared::{GeodeticSample, PositionSample, SampleKind, fix};
 use nalgebra::{Matrix3, SVector, Vector3};
 
 use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, lever_arm};
+use crate::setting::ConfigError;
 use crate::frames::Frames;
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
@@ -40,6 +44,27 @@ impl Measurement for GeodeticSample {
     const RANK: u8 = 1;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = Some(Needed::Position);
+    type Settings = GnssQuality;
+    const TABLE: Option<&'static str> = Some("quality");
+    const TABLE_DOC: &'static str = r#"#   [sensor.quality]                       # geodetic, optional: the receiver's fix type, DOPs -> noise
+#   refuse = ["none"]                      # fix types not fused: unknown none 2d 3d dgnss rtk_float rtk_fixed
+#   covariance_scale = 1.0                 # the reported covariance times this
+#   uere_m = 0.0                           # > 0: HDOP x uere_m, VDOP x uere_m are floors too
+#   min_satellites = 0                     # fewer satellites (when reported): refused
+#   [sensor.quality.horizontal_floor_m]    # least horizontal sigma per fix type, m
+#   rtk_fixed = 0.02
+#   rtk_float = 0.3
+#   "3d" = 1.5
+#   [sensor.quality.vertical_floor_m]      # least vertical sigma per fix type, m
+#   rtk_fixed = 0.03
+#   rtk_float = 0.5
+#   "3d" = 2.5
+"#;
+
+    fn settings(table: Option<&toml::Value>, key: &dyn Fn(&str) -> String) -> Result<Option<GnssQuality>, ConfigError> {
+        let Some(table) = table else { return Ok(None) };
+        GnssQuality::from_config(&super::read_table(table, key)?, key).map(Some)
+    }
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
         geodesy::check(self.lat_deg, self.lon_deg, self.height_m).map_err(|e| match e {
@@ -75,7 +100,7 @@ pub const MAX_DOP: f64 = 100.0;
 /// when its quality refuses it, and before any datum (never, once the engine
 /// admitted the fix).
 fn as_position(f: &GeodeticSample, frames: &Frames) -> Option<PositionSample> {
-    let cov = frames.quality(f.header.sensor).noise(f).ok()?;
+    let cov = super::settings::<GeodeticSample>(frames, f.header.sensor).copied().unwrap_or_default().noise(f).ok()?;
     let enu = frames.datum()?.to_enu(f.lat_deg, f.lon_deg, f.height_m);
     let h = f.header;
     Some(PositionSample::new(h.t_ns, h.sensor, h.seq, enu, cov))

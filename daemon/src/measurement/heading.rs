@@ -44,6 +44,7 @@ impl Measurement for HeadingSample {
     const RANK: u8 = 2;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
+    type Settings = ();
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
         finite(&[self.yaw_rad, self.var_rad2])?;

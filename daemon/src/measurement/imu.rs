@@ -29,6 +29,8 @@ impl Measurement for ImuSample {
     const RANK: u8 = 0;
     const TIMEOUT_NS: u64 = 100_000_000;
     const NEEDED: Option<Needed> = Some(Needed::Propagation);
+    const ROTATED: bool = true;
+    type Settings = ();
 
     fn validate(&self, limits: &Limits) -> Result<(), Rejection> {
         finite(&self.accel_mps2)?;

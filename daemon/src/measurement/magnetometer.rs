@@ -1,5 +1,5 @@
 //! The magnetometer: the Earth's magnetic field in the body frame, fused as a
-//! 3-D vector against the field of `[sensor.magnetic]` ([`crate::magnetic`]).
+//! 3-D vector against the field of `[sensor.magnetic]` ([`field`]).
 //!
 //! With `m_w` the configured field (ENU), the sample `m_s` in the sensor's axes
 //! and its mounting `C_bs` (body ← sensor):
@@ -33,11 +33,15 @@
 
 #![allow(non_snake_case)]
 
+pub mod field;
+use field::EarthField;
+
 use fusion_shared::{MagnetometerSample, SampleKind};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite};
 use crate::model::{Model, StepOutcome};
+use crate::setting::{ConfigError, invalid};
 use crate::frames::wrap_angle;
 use crate::model::ins::course::{ALIGN_ABOVE_SD, heading_variance, turn_heading};
 use crate::model::ins::nonholonomic::{MAX_ATTITUDE_SD, tilt_variance};
@@ -52,6 +56,28 @@ impl Measurement for MagnetometerSample {
     const RANK: u8 = 2;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
+    const ROTATED: bool = true;
+    type Settings = EarthField;
+    const TABLE: Option<&'static str> = Some("magnetic");
+    const TABLE_DOC: &'static str = r#"#   [sensor.magnetic]                      # magnetometer, required: the Earth's field at the site (World Magnetic Model)
+#   declination_deg = 3.5                  # east of true north
+#   inclination_deg = 64.5                 # below the horizontal
+#   strength_ut = 48.5                     # microtesla
+#   max_strength_deviation = 0.15          # a sample this far off in strength is disturbed: refused
+#   max_inclination_deviation_deg = 10.0   # or this far off in inclination (once roll and pitch are known)
+"#;
+
+    /// The table is required: a magnetometer is compared with the Earth's field.
+    fn settings(table: Option<&toml::Value>, key: &dyn Fn(&str) -> String) -> Result<Option<EarthField>, ConfigError> {
+        let Some(table) = table else {
+            return Err(invalid(
+                key(""),
+                "a magnetometer needs the Earth's field at the site: declination_deg, inclination_deg and \
+                 strength_ut (the World Magnetic Model's)",
+            ));
+        };
+        EarthField::from_config(&super::read_table(table, key)?, key).map(Some)
+    }
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
         finite(&self.field_ut)?;
@@ -83,7 +109,7 @@ impl Fuse<LinearModel> for MagnetometerSample {
 impl<const D: usize> Fuse<InsModel<D>> for MagnetometerSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         let frames = model.frames();
-        let Some(earth) = frames.magnetic(self.header.sensor) else { return (StepOutcome::Refused, None) };
+        let Some(earth) = super::settings::<MagnetometerSample>(frames, self.header.sensor) else { return (StepOutcome::Refused, None) };
         let C = frames.mount(SampleKind::Magnetometer, self.header.sensor).rotation;
         let z = C * Vector3::from(self.field_ut);
         let tilt_var = tilt_variance(s);
@@ -146,7 +172,7 @@ mod tests {
 
     use super::*;
     use crate::frames::{Frames, SensorConfig};
-    use crate::magnetic::MUNICH;
+    use super::field::MUNICH;
     use crate::model::ins::tests_support::{model, moving_scaled_state, moving_state, numeric_jacobian};
 
     const COV: [f64; 9] = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.25];
@@ -157,12 +183,12 @@ mod tests {
         let toml = "name = \"mag\"\nid = 2\nkinds = [\"magnetometer\"]\naxes = \"frd\"\nrotation_rpy_deg = [0, 0, 90]\n\
                     [magnetic]\ndeclination_deg = 3.5\ninclination_deg = 64.5\nstrength_ut = 48.5\n";
         let sensor: SensorConfig = toml::from_str(toml).unwrap();
-        let frames = Frames::from_config(None, &[sensor], Default::default()).unwrap();
+        let frames = Frames::from_config(None, &[sensor], Default::default(), &crate::measurement::Kinds).unwrap();
         model().with_frames(frames)
     }
 
     fn earth() -> Vector3<f64> {
-        crate::magnetic::EarthField::from_config(&MUNICH, |k| k.into()).unwrap().world_ut
+        super::field::EarthField::from_config(&MUNICH, |k| k.into()).unwrap().world_ut
     }
 
     /// What magnetometer 2 of [`mounted`] reads in state `s`, without noise.

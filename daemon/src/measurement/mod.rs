@@ -5,24 +5,30 @@
 //! - [`Measurement`]: its validation, its processing rank at equal time, its
 //!   default health timeout, and whether the health waits for it (its
 //!   innovation dimension, the NIS band of the health, is the wire type's own:
-//!   [`WireSample::INNOVATION_DIM`]);
+//!   [`WireSample::INNOVATION_DIM`], or fewer by a sensor's settings); whether
+//!   its samples are in the sensor's own axes; a sensor's settings of it (the
+//!   type of its `[sensor.<table>]` table, its reading and its checks, held in
+//!   a leaf module of the kind's), which [`settings`] looks up;
 //! - [`Fuse`]: how each model fuses it (h(x), H, R, or a model-specific step).
 //!
 //! The daemon keeps no list of kinds of its own: the registry at the end of this
 //! file is generated from `fusion_shared::for_each_sample_kind!`, declaring each
-//! kind's module (`measurement/<module>.rs`) and the dispatch from a [`Sample`] to
-//! it. Adding a kind is its wire type and one line in `fusion-shared`, and its
-//! module here (see `docs/architecture.md`). The land-vehicle motion constraint, a
+//! kind's module (`measurement/<module>.rs`), the dispatch from a [`Sample`] to
+//! it, and [`Kinds`], what the `[[sensor]]` reading needs of each kind. Adding
+//! a kind is its wire type and one line in `fusion-shared`, and its module here
+//! (see `docs/architecture.md`). The land-vehicle motion constraint, a
 //! pseudo-measurement without a wire type, belongs to the `ins` model
 //! ([`crate::model::ins::nonholonomic`]) and is fused after IMU samples.
 
+pub mod components;
 pub mod lever_arm;
 
 use fusion_shared::{Sample, SampleKind, WireSample};
 use nalgebra::SMatrix;
 
-use crate::frames::Frames;
+use crate::frames::{Frames, KindCatalog, MountedSensor, Settings, SettingsValue};
 use crate::model::{Model, StepOutcome};
+use crate::setting::ConfigError;
 pub use crate::validate::{Limits, Rejection};
 
 /// What the health waits for before it leaves "initialising": a sample of at
@@ -45,6 +51,36 @@ pub trait Measurement: WireSample {
     const TIMEOUT_NS: u64;
     /// The group of kinds of which the health waits for one ([`Needed`]), if any.
     const NEEDED: Option<Needed>;
+    /// Whether its samples are in the sensor's own axes, so that a `[[sensor]]`
+    /// rotation and axis convention apply to them (the others are in the world
+    /// frame, or a scalar along the body's x axis).
+    const ROTATED: bool = false;
+
+    /// A sensor's settings of this kind: the type of its `[sensor.<TABLE>]`
+    /// table, checked (`()` for a kind without one).
+    type Settings: SettingsValue;
+    /// The key of its table in a `[[sensor]]` entry, if it has one.
+    const TABLE: Option<&'static str> = None;
+    /// The table's keys with their defaults, as `fusiond print-config` prints
+    /// them (commented lines).
+    const TABLE_DOC: &'static str = "";
+
+    /// A configured sensor's settings from its table as written (`None`: not
+    /// given), checked; an error names the key (`key(field)`; `key("")` is the
+    /// table's). `None`: the sensor has none (the kind's defaults apply).
+    fn settings(
+        _table: Option<&toml::Value>,
+        _key: &dyn Fn(&str) -> String,
+    ) -> Result<Option<Self::Settings>, ConfigError> {
+        Ok(None)
+    }
+
+    /// How many of its innovation's components a sensor with `settings` fuses
+    /// (the health's NIS band; the wire type's whole [`WireSample::INNOVATION_DIM`]
+    /// by default).
+    fn fused_dim(_settings: &Self::Settings) -> usize {
+        Self::INNOVATION_DIM
+    }
 
     /// Checks the payload; the header is the engine's business.
     fn validate(&self, limits: &Limits) -> Result<(), Rejection>;
@@ -84,6 +120,15 @@ pub trait Steps: Model {
     fn step_recorded(&self, state: &mut Self::State, sample: &Sample) -> (StepOutcome, Self::Record);
 }
 
+/// A kind's settings table as written (`[sensor.<table>]`), read into its type;
+/// an error names the table (`key("")`) and says what is wrong in it.
+pub fn read_table<T: serde::de::DeserializeOwned>(
+    table: &toml::Value,
+    key: &dyn Fn(&str) -> String,
+) -> Result<T, ConfigError> {
+    table.clone().try_into().map_err(|e: toml::de::Error| crate::setting::invalid(key(""), e.message()))
+}
+
 /// Checks that every value is finite.
 pub fn finite(values: &[f64]) -> Result<(), Rejection> {
     if values.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(Rejection::NonFinite) }
@@ -111,11 +156,66 @@ pub fn covariance<const N: usize>(cov: &[f64]) -> Result<(), Rejection> {
 /// Relative tolerance of the symmetry check, against the largest entry.
 const SYMMETRY_TOLERANCE: f64 = 1e-9;
 
+/// The settings of sensor `sensor` of kind `T` (`None`: not configured, or
+/// without settings: the kind's defaults apply).
+#[inline]
+pub fn settings<T: Measurement>(frames: &Frames, sensor: u32) -> Option<&T::Settings> {
+    frames.settings(T::KIND, sensor)
+}
+
+/// The kind list as the `[[sensor]]` reading needs it ([`KindCatalog`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Kinds;
+
 /// Generates each kind's module and the dispatch from a [`Sample`] (or a
 /// [`SampleKind`]) to it, from `fusion_shared::for_each_sample_kind!`.
 macro_rules! registry {
     ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident;)*) => {
         $(pub mod $module;)*
+
+        impl KindCatalog for Kinds {
+            fn rotated(&self, kind: SampleKind) -> bool {
+                match kind {
+                    $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::ROTATED,)*
+                }
+            }
+
+            fn table(&self, kind: SampleKind) -> Option<&'static str> {
+                match kind {
+                    $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::TABLE,)*
+                }
+            }
+
+            fn settings(
+                &self,
+                kind: SampleKind,
+                table: Option<&toml::Value>,
+                key: &dyn Fn(&str) -> String,
+            ) -> Result<Settings, ConfigError> {
+                Ok(match kind {
+                    $(SampleKind::$variant => {
+                        <fusion_shared::$ty as Measurement>::settings(table, key)?.map_or_else(Settings::default, Settings::new)
+                    })*
+                })
+            }
+        }
+
+        /// Every kind's settings table as `fusiond print-config` prints it, in
+        /// kind order ([`Measurement::TABLE_DOC`]).
+        pub fn table_docs() -> String {
+            [$(<fusion_shared::$ty as Measurement>::TABLE_DOC),*].concat()
+        }
+
+        /// How many of its innovation's components sensor `m` fuses
+        /// ([`Measurement::fused_dim`]; its kind's whole dimension without settings).
+        pub fn fused_dim(m: &MountedSensor) -> usize {
+            match m.kind {
+                $(SampleKind::$variant => m
+                    .settings
+                    .get::<<fusion_shared::$ty as Measurement>::Settings>()
+                    .map_or(m.kind.innovation_dim(), <fusion_shared::$ty as Measurement>::fused_dim),)*
+            }
+        }
 
         /// Processing rank of a kind ([`Measurement::RANK`]).
         pub const fn rank(kind: SampleKind) -> u8 {

@@ -56,6 +56,7 @@ impl Measurement for OdometrySample {
     const RANK: u8 = 2;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
+    type Settings = ();
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
         finite(&[self.speed_mps, self.var_m2ps2])?;

@@ -59,6 +59,9 @@
 
 #![allow(non_snake_case)]
 
+pub mod settings;
+pub use settings::PoseConfig;
+
 use fusion_shared::snapshot::aux;
 use fusion_shared::{PoseSample, SampleKind};
 use nalgebra::{Matrix3, Quaternion, Rotation3, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
@@ -69,6 +72,7 @@ use crate::model::ins::aux::{PreviousPose, augment};
 use crate::model::ins::{InsModel, InsState, nonholonomic};
 use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
+use crate::setting::ConfigError;
 
 /// The farthest position accepted, m.
 pub const MAX_POSITION_M: f64 = 1e7;
@@ -81,6 +85,28 @@ impl Measurement for PoseSample {
     const RANK: u8 = 2;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
+    const ROTATED: bool = true;
+    type Settings = PoseConfig;
+    const TABLE: Option<&'static str> = Some("pose");
+    const TABLE_DOC: &'static str = r#"#   [sensor.pose]                          # pose, optional: the map frame in the world
+#   frame_yaw_deg = 30.0                   # configured (with frame_origin_m), or without both: estimated
+#   frame_origin_m = [20.0, -15.0, 0.5]    #   (4 states, set at the first pose and at each localiser reset)
+#   frame_yaw_random_walk_deg = 0.01       # estimated frame's drift, degrees/sqrt(s)
+#   frame_origin_random_walk_m = 0.01      # and m/sqrt(s)
+#   realign_after_gated = 5                # this many gated poses in a row: the map jumped, set the frame again
+#   relative = false                       # true: fuse only the change between poses (a drifting localiser)
+#   fuse = ["x", "y", "z", "roll", "pitch", "yaw"]   # the components fused (default all)
+"#;
+
+    /// The defaults (an estimated frame) without the table.
+    fn settings(table: Option<&toml::Value>, key: &dyn Fn(&str) -> String) -> Result<Option<PoseConfig>, ConfigError> {
+        let table: PoseConfig = table.map(|t| super::read_table(t, key)).transpose()?.unwrap_or_default();
+        table.check(key).map(Some)
+    }
+
+    fn fused_dim(settings: &PoseConfig) -> usize {
+        settings.fuse.count()
+    }
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
         finite(&self.position_m)?;
@@ -263,7 +289,7 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         let frames = model.frames();
         // A pose sensor that is not configured has no frame.
-        let Some(config) = frames.pose(self.header.sensor) else { return (StepOutcome::Refused, None) };
+        let Some(config) = super::settings::<PoseSample>(frames, self.header.sensor) else { return (StepOutcome::Refused, None) };
         let mount = frames.mount(SampleKind::Pose, self.header.sensor);
         let R = SMatrix::<f64, 6, 6>::from_row_slice(&self.cov);
         if config.relative {

@@ -25,6 +25,7 @@ impl Measurement for PositionSample {
     const RANK: u8 = 1;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = Some(Needed::Position);
+    type Settings = ();
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
         finite(&self.pos_m)?;

@@ -36,6 +36,9 @@
 
 #![allow(non_snake_case)]
 
+pub mod settings;
+pub use settings::TwistConfig;
+
 use fusion_shared::{SampleKind, TwistSample};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector6};
 
@@ -46,11 +49,26 @@ use crate::model::ins::nonholonomic;
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
+use crate::setting::ConfigError;
 
 impl Measurement for TwistSample {
     const RANK: u8 = 2;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
+    const ROTATED: bool = true;
+    type Settings = TwistConfig;
+    const TABLE: Option<&'static str> = Some("twist");
+    const TABLE_DOC: &'static str = r#"#   [sensor.twist]                         # twist, optional
+#   fuse = ["vx", "vy", "vz", "vroll", "vpitch", "vyaw"]   # the components fused (default all)
+"#;
+
+    fn settings(table: Option<&toml::Value>, key: &dyn Fn(&str) -> String) -> Result<Option<TwistConfig>, ConfigError> {
+        table.map(|t| super::read_table(t, key)).transpose()
+    }
+
+    fn fused_dim(settings: &TwistConfig) -> usize {
+        settings.fuse.count()
+    }
 
     fn validate(&self, limits: &Limits) -> Result<(), Rejection> {
         finite(&self.linear_mps)?;
@@ -122,7 +140,7 @@ impl<const D: usize> Fuse<InsModel<D>> for TwistSample {
         z.fixed_rows_mut::<3>(3).copy_from(&Vector3::from(self.angular_radps));
         let (h, H) = twist(s, mount);
         let R = SMatrix::<f64, 6, 6>::from_row_slice(&self.cov) + gyro_noise(model, s, mount);
-        let keep = model.frames().twist(self.header.sensor).map_or([true; 6], |c| c.fuse.mask);
+        let keep = super::settings::<TwistSample>(model.frames(), self.header.sensor).map_or([true; 6], |c| c.fuse.mask);
         model.update_residual_selected(s, &(z - h), &H, &R, &keep)
     }
 }
@@ -222,7 +240,7 @@ mod tests {
     fn selected_components_alone_are_fused() {
         let toml = "name = \"wheels\"\nid = 4\nkinds = [\"twist\"]\n[twist]\nfuse = [\"vx\", \"vyaw\"]\n";
         let sensor: crate::frames::SensorConfig = ::toml::from_str(toml).unwrap();
-        let frames = crate::frames::Frames::from_config(None, &[sensor], Default::default()).unwrap();
+        let frames = crate::frames::Frames::from_config(None, &[sensor], Default::default(), &crate::measurement::Kinds).unwrap();
         let gate = crate::filter::ChiSquareGate::new(0.999).ok();
         let mut x0 = [0.0; 16];
         x0[6] = 1.0;
@@ -248,7 +266,11 @@ mod tests {
         // Unknown or no components are configuration errors.
         for (fuse, said) in [("[\"vw\"]", "unknown component \"vw\""), ("[]", "selects no component")] {
             let toml = format!("name = \"w\"\nid = 4\nkinds = [\"twist\"]\n[twist]\nfuse = {fuse}\n");
-            let e = ::toml::from_str::<crate::frames::SensorConfig>(&toml).unwrap_err().to_string();
+            let sensor = ::toml::from_str::<crate::frames::SensorConfig>(&toml).unwrap();
+            let e = crate::frames::Frames::from_config(None, &[sensor], Default::default(), &crate::measurement::Kinds)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("sensor[0] (\"w\").twist"), "{e}");
             assert!(e.contains(said) && e.contains("vx, vy, vz, vroll, vpitch, vyaw"), "{e}");
         }
     }

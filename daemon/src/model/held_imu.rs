@@ -160,16 +160,12 @@ mod tests {
             rotation_rpy_deg: [0.0; 3],
             lever_arm_m: [0.0; 3],
             time_offset_ns: 0,
-            quality: None,
-            magnetic: None,
-            barometer: None,
-            pose: None,
-            attitude: None,
-            twist: None,
             topic: None,
+            tables: toml::Table::new(),
         };
         let config = crate::frames::ImuConfig { combine, failover_after_ns: 20 };
-        crate::frames::Frames::from_config(None, &[imu("a", 4), imu("b", 9)], config).unwrap()
+        crate::frames::Frames::from_config(None, &[imu("a", 4), imu("b", 9)], config, &crate::measurement::Kinds)
+            .unwrap()
     }
 
     /// The samples of one instant are averaged; a new instant starts afresh; an

@@ -14,7 +14,7 @@ fn mounted(yaw: bool) -> InsModel {
          [attitude]\nyaw = {yaw}\n"
     );
     let sensor: SensorConfig = toml::from_str(&toml).unwrap();
-    let frames = Frames::from_config(None, &[sensor], Default::default()).unwrap();
+    let frames = Frames::from_config(None, &[sensor], Default::default(), &crate::measurement::Kinds).unwrap();
     model().with_frames(frames)
 }
 

@@ -15,7 +15,7 @@ fn sensor(pose_table: &str) -> SensorConfig {
 
 /// An `ins` model with the map frame of [`sensor`] as four states.
 fn estimated() -> InsModel<{ N + 4 }> {
-    let frames = Frames::from_config(None, &[sensor("")], Default::default()).unwrap();
+    let frames = Frames::from_config(None, &[sensor("")], Default::default(), &crate::measurement::Kinds).unwrap();
     let aux = AuxStates { pose: Some(PoseFrame::default()), ..AuxStates::default() };
     model().with_frames(frames).with_aux(aux).unwrap()
 }
@@ -23,7 +23,7 @@ fn estimated() -> InsModel<{ N + 4 }> {
 /// An `ins` model whose map frame is configured (yaw 30°, origin [100, −50, 2]).
 fn configured() -> InsModel {
     let table = "[pose]\nframe_yaw_deg = 30\nframe_origin_m = [100, -50, 2]\n";
-    model().with_frames(Frames::from_config(None, &[sensor(table)], Default::default()).unwrap())
+    model().with_frames(Frames::from_config(None, &[sensor(table)], Default::default(), &crate::measurement::Kinds).unwrap())
 }
 
 fn cov() -> [f64; 36] {
@@ -124,7 +124,7 @@ fn the_first_pose_and_a_reset_set_the_frame_without_a_jump() {
 #[test]
 fn gated_poses_in_a_row_set_the_frame_again() {
     let gate = crate::filter::ChiSquareGate::new(0.999).ok();
-    let frames = Frames::from_config(None, &[sensor("")], Default::default()).unwrap();
+    let frames = Frames::from_config(None, &[sensor("")], Default::default(), &crate::measurement::Kinds).unwrap();
     let aux = AuxStates { pose: Some(PoseFrame::default()), ..AuxStates::default() };
     let core = InsModel::new(crate::model::ins::tests_support::NOISE, 9.80665, x0(), [1e-4; N], gate, 0).unwrap();
     let m = core.with_frames(frames).with_aux::<{ N + 4 }>(aux).unwrap();
@@ -176,7 +176,7 @@ fn a_configured_frame_is_fused_as_it_is() {
 /// differenced.
 #[test]
 fn relative_poses_are_fused_as_their_change() {
-    let frames = Frames::from_config(None, &[sensor("[pose]\nrelative = true\n")], Default::default()).unwrap();
+    let frames = Frames::from_config(None, &[sensor("[pose]\nrelative = true\n")], Default::default(), &crate::measurement::Kinds).unwrap();
     let m = model().with_frames(frames);
     let mut s = moving(&m);
     let mut P = s.filter().P();

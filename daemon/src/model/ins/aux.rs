@@ -26,7 +26,8 @@ use nalgebra::{SMatrix, SVector};
 use super::OdometryScale;
 use super::{InsModel, InsState, MAX_AUX, N, NOMINAL};
 use crate::filter::{FilterError, KalmanFilter};
-pub use crate::sensor_states::{BarometerConfig, PoseConfig};
+pub use crate::measurement::barometer::settings::BarometerConfig;
+pub use crate::measurement::pose::settings::PoseConfig;
 
 /// The barometer's bias state's parameters (`[sensor.barometer]`).
 pub type BaroBias = BarometerConfig;

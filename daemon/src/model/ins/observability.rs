@@ -52,6 +52,7 @@
 use nalgebra::{SVector, UnitQuaternion, Vector3};
 
 use crate::frames::MountedSensor;
+use crate::measurement::attitude::settings::AttitudeConfig;
 use fusion_shared::SampleKind;
 
 /// The consider direction `c` of the world yaw at attitude `q`: world up in
@@ -66,7 +67,7 @@ pub(crate) fn heading<const D: usize>(q: &UnitQuaternion<f64>) -> SVector<f64, D
 pub fn gives_no_heading(m: &MountedSensor) -> bool {
     match m.kind {
         SampleKind::Imu | SampleKind::Odometry | SampleKind::Twist | SampleKind::Barometer => true,
-        SampleKind::Attitude => !m.attitude.unwrap_or_default().yaw,
+        SampleKind::Attitude => !m.settings.get::<AttitudeConfig>().copied().unwrap_or_default().yaw,
         _ => false,
     }
 }
@@ -106,7 +107,8 @@ mod tests {
                      initial_state = [0,0,0, 0,0,0, 1,0,0,0, 0,0,0, 0,0,0]\ninitial_covariance_diagonal = [1,1,1, 1,1,1, \
                      1,1,1, 1,1,1, 1,1,1]\n";
         let c = crate::config::Config::parse(&format!("{model}{sensors}")).unwrap();
-        let frames = crate::frames::Frames::from_config(c.datum, &c.sensors, c.imu).unwrap();
+        let frames =
+            crate::frames::Frames::from_config(c.datum, &c.sensors, c.imu, &crate::measurement::Kinds).unwrap();
         yaw_unobserved(frames.sensors())
     }
 

@@ -299,18 +299,14 @@ fn when_the_imus_in_use_change_the_bias_variances_grow_back() {
         rotation_rpy_deg: [0.0; 3],
         lever_arm_m: [0.0; 3],
         time_offset_ns: 0,
-        quality: None,
-        magnetic: None,
-        barometer: None,
-        pose: None,
-        attitude: None,
-        twist: None,
         topic: None,
+        tables: toml::Table::new(),
     };
     let f = Vector3::new(0.0, 0.0, G);
     for combine in [Combine::Failover, Combine::Average] {
         let config = ImuConfig { combine, failover_after_ns: 20 };
-        let frames = crate::frames::Frames::from_config(None, &[imu(0), imu(1)], config).unwrap();
+        let frames =
+            crate::frames::Frames::from_config(None, &[imu(0), imu(1)], config, &crate::measurement::Kinds).unwrap();
         let m = InsModel::new(noise(), G, x0(), p0(), None, 0).unwrap().with_frames(frames);
         let mut s = m.initial_state();
         assert_eq!(m.hold_imu(&mut s, 0, 0, f, Vector3::zeros()), Held::Held);

@@ -1,87 +1,10 @@
-//! Settings of the sensors that bring states of their own into the `ins`
-//! model: a barometer's bias (`[sensor.barometer]`) and a pose sensor's map
-//! frame (`[sensor.pose]`). The states are the model's auxiliary states; the
-//! measurements are in the barometer's and the pose's measurement modules.
-//! Also an attitude sensor's axes fused (`[sensor.attitude]`), which brings no
-//! state.
-
-use std::marker::PhantomData;
+//! `[sensor.pose]`: how a pose sensor's map frame relates to the world frame,
+//! and which components of its poses are fused.
 
 use serde::Deserialize;
 
+use crate::measurement::components::{ComponentNames, Components};
 use crate::setting::{ConfigError, invalid};
-
-/// `[sensor.barometer]`: the barometer's bias state (optional: the defaults
-/// apply without the table).
-///
-/// The barometer's pressure altitude differs from the height by a bias that
-/// the weather moves (1 hPa, about 8 m, in a few hours) and that the airflow
-/// of the vehicle shifts; the bias is a state, set at the first sample so that
-/// the first sample agrees with the height estimate, and then a random walk.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BarometerConfig {
-    /// Random-walk density of the bias, m/√s (default 0.05: 3 m in an hour).
-    #[serde(default = "BarometerConfig::default_random_walk")]
-    pub bias_random_walk_m: f64,
-}
-
-impl BarometerConfig {
-    fn default_random_walk() -> f64 {
-        0.05
-    }
-
-    /// The checked settings: the random walk finite and in [0, 10) m/√s.
-    pub fn check(&self, key: impl Fn(&str) -> String) -> Result<Self, ConfigError> {
-        let rw = self.bias_random_walk_m;
-        if !(rw.is_finite() && (0.0..10.0).contains(&rw)) {
-            return Err(invalid(key("bias_random_walk_m"), format!("must be in [0, 10) m/√s, got {rw}")));
-        }
-        Ok(*self)
-    }
-}
-
-impl Default for BarometerConfig {
-    fn default() -> Self {
-        Self { bias_random_walk_m: Self::default_random_walk() }
-    }
-}
-
-/// `[sensor.attitude]`: which of an AHRS's angles are fused (optional: all
-/// three without the table).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct AttitudeConfig {
-    /// Fuse the yaw too (default true); false: roll and pitch only, for an AHRS
-    /// whose magnetic yaw is not to be trusted (indoors, near motors and steel).
-    #[serde(default = "AttitudeConfig::default_yaw")]
-    pub yaw: bool,
-}
-
-impl AttitudeConfig {
-    fn default_yaw() -> bool {
-        true
-    }
-}
-
-impl Default for AttitudeConfig {
-    fn default() -> Self {
-        Self { yaw: true }
-    }
-}
-
-/// The names of a kind's six components, in its sample's order.
-pub trait ComponentNames {
-    /// The names, as `fuse = [...]` spells them.
-    const NAMES: [&'static str; 6];
-}
-
-/// A twist's components: linear then angular velocity in the sensor's axes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct TwistNames;
-impl ComponentNames for TwistNames {
-    const NAMES: [&'static str; 6] = ["vx", "vy", "vz", "vroll", "vpitch", "vyaw"];
-}
 
 /// A pose's components: position in the map, then the attitude as small
 /// rotations about the sensor's x, y and z axes.
@@ -89,69 +12,6 @@ impl ComponentNames for TwistNames {
 pub struct PoseNames;
 impl ComponentNames for PoseNames {
     const NAMES: [&'static str; 6] = ["x", "y", "z", "roll", "pitch", "yaw"];
-}
-
-/// `fuse = [...]`: which of a sample's six components are fused
-/// (robot_localization's `odom0_config`); the others are left out of the
-/// update, their correlations with the fused ones dropped (the marginal of the
-/// fused ones), and the gate and the health count only the fused ones.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Components<N> {
-    /// Whether each component is fused.
-    pub mask: [bool; 6],
-    names: PhantomData<N>,
-}
-
-impl<N> Default for Components<N> {
-    /// All six.
-    fn default() -> Self {
-        Self { mask: [true; 6], names: PhantomData }
-    }
-}
-
-impl<N> Components<N> {
-    /// How many are fused.
-    pub fn count(&self) -> usize {
-        self.mask.iter().filter(|m| **m).count()
-    }
-
-    /// Whether all six are.
-    pub fn all(&self) -> bool {
-        self.count() == 6
-    }
-}
-
-impl<'de, N: ComponentNames> Deserialize<'de> for Components<N> {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let names = Vec::<String>::deserialize(d)?;
-        let mut mask = [false; 6];
-        for name in &names {
-            let Some(i) = N::NAMES.iter().position(|n| n == name) else {
-                return Err(serde::de::Error::custom(format!(
-                    "unknown component {name:?}; the components are {}",
-                    N::NAMES.join(", ")
-                )));
-            };
-            mask[i] = true;
-        }
-        if !mask.contains(&true) {
-            return Err(serde::de::Error::custom(format!(
-                "selects no component; the components are {}",
-                N::NAMES.join(", ")
-            )));
-        }
-        Ok(Self { mask, names: PhantomData })
-    }
-}
-
-/// `[sensor.twist]`: which components of a twist are fused (optional: all six
-/// without the table).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TwistConfig {
-    /// The components fused (`["vx", "vy", "vyaw"]`; default all six).
-    #[serde(default)]
-    pub fuse: Components<TwistNames>,
 }
 
 /// `[sensor.pose]`: how a pose sensor's map frame relates to the world frame
@@ -281,7 +141,5 @@ mod tests {
         assert!(err(PoseConfig { frame_origin_m: Some([0.0; 3]), ..estimated }).contains("frame_yaw_deg"));
         assert!(err(PoseConfig { frame_yaw_random_walk_deg: f64::NAN, ..estimated }).contains("random_walk"));
         assert!(!PoseConfig { relative: true, ..estimated }.estimated());
-        let baro = BarometerConfig { bias_random_walk_m: -1.0 };
-        assert!(baro.check(key).unwrap_err().to_string().contains("bias_random_walk_m"));
     }
 }
