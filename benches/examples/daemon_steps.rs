@@ -184,7 +184,7 @@ fn handle<M: Steps>(
     };
     engine.take_first_outcomes(|slot, outcome, exact| health.record(slot, outcome, exact));
     let initialised = engine.latest().is_some_and(|e| M::initialised(&e.state));
-    let reinitialisations = engine.latest().map_or(0, |e| M::reinitialisations(&e.state));
+    let reinitialisations = engine.latest().map_or(0, |e| M::diagnostics(&e.state).reinitialisations);
     let now = health.evaluate(engine.sensors(), received_ns, initialised, reinitialisations);
     snapshot::fill(snap, engine, Some(Input { sample, received_ns, replayed }), now);
 }

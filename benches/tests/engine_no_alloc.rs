@@ -28,7 +28,7 @@ fn steady_state_allocates_nothing<M: Steps>(model: M, config: &Config, samples: 
     for s in warm {
         engine.insert(s, None, &mut sink);
     }
-    let updates_before = engine.latest().map_or(0, |e| M::standstill(&e.state).1);
+    let updates_before = engine.latest().map_or(0, |e| M::diagnostics(&e.state).standstill_updates);
     count_this_thread();
     let before = sizes();
     let mut late = 0;
@@ -41,7 +41,7 @@ fn steady_state_allocates_nothing<M: Steps>(model: M, config: &Config, samples: 
     assert!(late > 50, "the measured stretch must include late samples (rewinds), had {late}");
     assert!(finals > 1500);
     assert_eq!(after, before, "allocations (size, count) while inserting {} samples", rest.len());
-    engine.latest().map_or(0, |e| M::standstill(&e.state).1) - updates_before
+    engine.latest().map_or(0, |e| M::diagnostics(&e.state).standstill_updates) - updates_before
 }
 
 /// One test: the counters are the process's, summed over the counted threads, so

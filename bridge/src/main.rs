@@ -30,7 +30,7 @@ use anyhow::Context;
 use clap::{CommandFactory, Parser, ValueEnum};
 use fusion_shared::SampleKind;
 use fusion_shared::service::{self, ServiceNames};
-use zenoh::Wait;
+use zenoh::{Session, Wait};
 
 #[cfg(target_endian = "big")]
 compile_error!("fusion-bridge sends the wire types' little-endian bytes");
@@ -158,6 +158,31 @@ fn run(cli: Cli, args: Checked) -> anyhow::Result<()> {
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(signal, Arc::clone(&stop)).context("cannot install signal handler")?;
     }
+    let streams = start_streams(&cli, &names.namespace, kinds, &keys, &session, &stop)?;
+    tracing::info!(
+        namespace = %names.namespace,
+        zenoh_id = %session.zid(),
+        listen = ?cli.listen,
+        connect = ?cli.connect,
+        "fusion-bridge running: {}",
+        streams.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")
+    );
+    watch(&cli, status_interval, &session, &streams, &stop);
+    let result = join(streams);
+    let _ = session.close().wait();
+    result
+}
+
+/// Starts a thread per stream the directions ask for (`--state`, `--samples`),
+/// between iceoryx2 in `namespace` and Zenoh at `keys`.
+fn start_streams(
+    cli: &Cli,
+    namespace: &str,
+    kinds: Vec<SampleKind>,
+    keys: &Keys,
+    session: &Session,
+    stop: &Arc<AtomicBool>,
+) -> anyhow::Result<Vec<Stream>> {
     let mut streams: Vec<Stream> = Vec::new();
     let mut spawn = |name: &'static str, body: StreamBody| {
         let counts = Arc::new(Counts::default());
@@ -165,7 +190,7 @@ fn run(cli: Cli, args: Checked) -> anyhow::Result<()> {
         let thread = std::thread::Builder::new().name(format!("bridge-{name}")).spawn(move || body(&mine));
         thread.map(|t| streams.push((name, counts, t)))
     };
-    let (ns, s) = (names.namespace.clone(), Arc::clone(&stop));
+    let (ns, s) = (namespace.to_string(), Arc::clone(stop));
     match cli.state {
         Direction::Out => {
             let (z, key) = (session.clone(), keys.state());
@@ -177,7 +202,7 @@ fn run(cli: Cli, args: Checked) -> anyhow::Result<()> {
         }
         Direction::Off => {}
     }
-    let (ns, s) = (names.namespace.clone(), Arc::clone(&stop));
+    let (ns, s) = (namespace.to_string(), Arc::clone(stop));
     match cli.samples {
         Direction::Out => {
             let (z, keys) = (session.clone(), keys.clone());
@@ -189,17 +214,14 @@ fn run(cli: Cli, args: Checked) -> anyhow::Result<()> {
         }
         Direction::Off => {}
     }
-    tracing::info!(
-        namespace = %names.namespace,
-        zenoh_id = %session.zid(),
-        listen = ?cli.listen,
-        connect = ?cli.connect,
-        "fusion-bridge running: {}",
-        streams.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")
-    );
+    Ok(streams)
+}
 
+/// Until `stop`: says when the Zenoh peers change, when `--connect` reaches
+/// none, each stream's counts every `status_interval`, and stops every stream
+/// when one ends by itself (only an error ends one).
+fn watch(cli: &Cli, status_interval: Duration, session: &Session, streams: &[Stream], stop: &AtomicBool) {
     let mut next_status = Instant::now() + status_interval;
-    let mut result = Ok(());
     let mut peers = 0;
     // While --connect endpoints reach no peer, say so (Zenoh keeps retrying
     // them in silence; the status lines only ever said "forwarded 0").
@@ -223,16 +245,21 @@ fn run(cli: Cli, args: Checked) -> anyhow::Result<()> {
         if let Some((name, _, _)) = streams.iter().find(|s| s.2.is_finished())
             && !stop.swap(true, Ordering::Relaxed)
         {
-            // A stream ends by itself only on an error (reported below): stop the others.
             tracing::error!("stream {name} stopped");
         }
         if Instant::now() >= next_status {
             next_status += status_interval;
-            for (name, counts, _) in &streams {
+            for (name, counts, _) in streams {
                 tracing::info!("{name}: {}; zenoh peers {peers}", counts.line());
             }
         }
     }
+}
+
+/// Waits for every stream's thread, says its final counts, and returns the
+/// last error a stream ended with.
+fn join(streams: Vec<Stream>) -> anyhow::Result<()> {
+    let mut result = Ok(());
     for (name, counts, thread) in streams {
         let outcome = thread.join().map_err(|_| anyhow::anyhow!("stream {name} panicked")).and_then(|r| r);
         tracing::info!("{name}: {}", counts.line());
@@ -240,7 +267,6 @@ fn run(cli: Cli, args: Checked) -> anyhow::Result<()> {
             result = Err(e.context(format!("stream {name}")));
         }
     }
-    let _ = session.close().wait();
     result
 }
 

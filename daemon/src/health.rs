@@ -306,7 +306,7 @@ impl HealthMonitor {
     /// Health state, reason bits and stale sensors at `now_ns` for the engine's
     /// sensors. `initialised` is the model's own readiness (e.g. alignment done),
     /// `reinitialisations` the model's count of re-initialisations
-    /// ([`crate::model::Model::reinitialisations`]).
+    /// ([`crate::model::Diagnostics::reinitialisations`]).
     pub fn evaluate(
         &mut self,
         sensors: &[SensorRow],

@@ -204,7 +204,7 @@ impl<M: Steps> LiveCore<M> {
     /// Re-evaluates the health at `now`, and logs a re-initialisation of the
     /// filter the first time it is seen (a rare event, never per sample).
     fn evaluate_health(&mut self, now: u64) {
-        let reinitialisations = self.engine.latest().map_or(0, |e| M::reinitialisations(&e.state));
+        let reinitialisations = self.engine.latest().map_or(0, |e| M::diagnostics(&e.state).reinitialisations);
         if reinitialisations > self.reinitialisations_logged {
             let (t_ns, kind) = self.engine.latest().map_or((0, SampleKind::Imu), |e| (e.key.t_ns, e.key.kind));
             if crate::model::lockout::KindRuns::tracked(kind) {
@@ -368,7 +368,11 @@ impl<M: Steps> LiveCore<M> {
             snapshots: self.report.snapshots - snapshots,
             latency_ns,
             health: self.health_now.pair(),
-            standing: self.engine.latest().map(|e| M::standstill(&e.state)),
+            standing: self
+                .engine
+                .latest()
+                .map(|e| M::diagnostics(&e.state))
+                .map(|d| (d.standing, d.standstill_updates)),
             rejections,
         };
         self.latency.reset();

@@ -32,7 +32,7 @@ use fusion_shared::Counters;
 use crate::config::{Config, ConfigError, WithModel, with_model};
 use crate::engine::{Engine, EngineConfig, Entry, Insert};
 use crate::measurement::Steps;
-use crate::model::StepOutcome;
+use crate::model::{Diagnostics, StepOutcome};
 use crate::reorder::{Sample, SampleKey};
 
 /// How many invalid lines the summary describes one by one.
@@ -80,7 +80,7 @@ pub struct ReplaySummary {
     standing: bool,
     /// How late the velocity sensors' stamps look beyond their configured
     /// offset at the end of the run: `(τ̂, σ_τ, samples)`, s
-    /// ([`crate::model::Model::velocity_time_offset`]).
+    /// ([`Diagnostics::velocity_time_offset`]).
     pub velocity_time_offset: Option<(f64, f64, u64)>,
     /// With `--smooth`: steps the smoothing could not pass back through (a
     /// prior covariance without a Cholesky factor, or a smoothed result that
@@ -89,6 +89,29 @@ pub struct ReplaySummary {
     pub smoothing_breaks: u64,
     /// The times of the first of them, ns.
     pub smoothing_breaks_at: Vec<u64>,
+}
+
+impl ReplaySummary {
+    /// An input at `position` that gave no sample, or a refused sample, with
+    /// its reason (the first [`INVALID_LINES_REPORTED`] are kept).
+    fn invalid(&mut self, position: u64, reason: String) {
+        if self.invalid_lines.len() < INVALID_LINES_REPORTED {
+            self.invalid_lines.push((position, reason));
+        }
+    }
+
+    /// Follows the model's [`Diagnostics`] after the input at `position`: the
+    /// re-initialisations and where they happened, the standstills begun, the
+    /// velocity time offset.
+    fn follow(&mut self, position: u64, d: Diagnostics) {
+        if d.reinitialisations > self.reinitialisations && self.reinitialised_at.len() < INVALID_LINES_REPORTED {
+            self.reinitialised_at.push(position);
+        }
+        self.reinitialisations = d.reinitialisations;
+        self.standstills += u64::from(d.standing && !self.standing);
+        (self.standing, self.standstill_updates) = (d.standing, d.standstill_updates);
+        self.velocity_time_offset = d.velocity_time_offset;
+    }
 }
 
 /// What the velocity time offset estimate (`τ̂` ± `σ_τ` s from `n` samples) says
@@ -393,14 +416,8 @@ fn replay_model<M: Steps>(
         cov: Vec::new(),
         _model: Default::default(),
     };
-
     // Inputs that never became a sample; the engine counts the rest.
     let mut unreadable = 0;
-    let invalid = |summary: &mut ReplaySummary, position: u64, reason: String| {
-        if summary.invalid_lines.len() < INVALID_LINES_REPORTED {
-            summary.invalid_lines.push((position, reason));
-        }
-    };
     for item in items {
         let InputItem { position, received_ns, sample } = item?;
         summary.read += 1;
@@ -408,7 +425,7 @@ fn replay_model<M: Steps>(
             Ok(s) => s,
             Err(reason) => {
                 unreadable += 1;
-                invalid(&mut summary, position, reason);
+                summary.invalid(position, reason);
                 continue;
             }
         };
@@ -419,62 +436,28 @@ fn replay_model<M: Steps>(
             engine.insert(&sample, received_ns, &mut |e| sink.take(e))
         };
         match inserted {
-            Insert::Rejected(r) => invalid(&mut summary, position, r.reason().to_string()),
+            Insert::Rejected(r) => summary.invalid(position, r.reason().to_string()),
             Insert::Processed { replayed, .. } | Insert::Placed { replayed } => {
                 check.processed(&engine, &sample, received_ns, replayed)
             }
             _ => {}
         }
-        let reinitialisations = engine.latest().map_or(0, |e| M::reinitialisations(&e.state));
-        if reinitialisations > summary.reinitialisations && summary.reinitialised_at.len() < INVALID_LINES_REPORTED {
-            summary.reinitialised_at.push(position);
-        }
-        summary.reinitialisations = reinitialisations;
-        let (standing, updates) = engine.latest().map_or((false, 0), |e| M::standstill(&e.state));
-        summary.standstills += u64::from(standing && !summary.standing);
-        (summary.standing, summary.standstill_updates) = (standing, updates);
-        summary.velocity_time_offset = engine.latest().and_then(|e| M::velocity_time_offset(&e.state));
+        summary.follow(position, engine.latest().map(|e| M::diagnostics(&e.state)).unwrap_or_default());
         sink.check()?;
     }
     engine.flush(&mut |e| sink.take(e));
     sink.check()?;
-
     if let Some(finals) = sink.finals.take() {
-        let model = engine.model();
-        let mut state = model.initial_state();
-        let mut smoothed: Vec<M::Record> = Vec::with_capacity(finals.len());
-        // A re-initialisation cuts the run: the estimate after it owes nothing
-        // to the one before, so each stretch between them is smoothed alone.
-        let mut stretches = vec![0];
-        for (i, (_, outcome, sample)) in finals.iter().enumerate() {
-            let before = M::reinitialisations(&state);
-            let (again, record) = model.step_recorded(&mut state, sample);
-            debug_assert_eq!(again, *outcome, "the re-run reproduces the engine");
-            smoothed.push(record);
-            if M::reinitialisations(&state) > before {
-                stretches.push(i);
-            }
-        }
-        stretches.push(smoothed.len());
-        for pair in stretches.windows(2) {
-            for k in M::smooth(&mut smoothed[pair[0]..pair[1]]) {
-                summary.smoothing_breaks += 1;
-                if summary.smoothing_breaks_at.len() < INVALID_LINES_REPORTED {
-                    summary.smoothing_breaks_at.push(finals[pair[0] + k].0.t_ns);
-                }
-            }
-        }
+        let smoothed = smooth_run(engine.model(), &finals, &mut summary);
         if let Some(output) = &mut sink.output {
             for ((key, outcome, _), record) in finals.iter().zip(&smoothed) {
-                let (x, p) = M::record_output(record);
-                write_output(output, key, outcome, (x, p), true)?;
+                write_output(output, key, outcome, M::record_output(record), true)?;
             }
         }
     }
     if let Some(output) = &mut sink.output {
         output.flush()?;
     }
-
     summary.counts = engine.totals(None);
     // A sample refused for a full sensor table has no sensor to be counted on.
     summary.counts.invalid += unreadable + engine.stats().unknown_sensor;
@@ -482,6 +465,40 @@ fn replay_model<M: Steps>(
         return Err(ReplayError::NothingProcessed(Box::new(summary)));
     }
     Ok(summary)
+}
+
+/// Re-runs the final samples of a run through `model`, keeping each step's
+/// record, and smooths them (RTS). A re-initialisation cuts the run: the
+/// estimate after it owes nothing to the one before, so each stretch between
+/// them is smoothed alone. The steps the smoothing could not pass back through
+/// are counted in `summary`.
+fn smooth_run<M: Steps>(
+    model: &M,
+    finals: &[(SampleKey, StepOutcome, Sample)],
+    summary: &mut ReplaySummary,
+) -> Vec<M::Record> {
+    let mut state = model.initial_state();
+    let mut smoothed: Vec<M::Record> = Vec::with_capacity(finals.len());
+    let mut stretches = vec![0];
+    for (i, (_, outcome, sample)) in finals.iter().enumerate() {
+        let before = M::diagnostics(&state).reinitialisations;
+        let (again, record) = model.step_recorded(&mut state, sample);
+        debug_assert_eq!(again, *outcome, "the re-run reproduces the engine");
+        smoothed.push(record);
+        if M::diagnostics(&state).reinitialisations > before {
+            stretches.push(i);
+        }
+    }
+    stretches.push(smoothed.len());
+    for pair in stretches.windows(2) {
+        for k in M::smooth(&mut smoothed[pair[0]..pair[1]]) {
+            summary.smoothing_breaks += 1;
+            if summary.smoothing_breaks_at.len() < INVALID_LINES_REPORTED {
+                summary.smoothing_breaks_at.push(finals[pair[0] + k].0.t_ns);
+            }
+        }
+    }
+    smoothed
 }
 
 #[cfg(test)]

@@ -75,12 +75,12 @@ pub fn fill<M: Steps>(snap: &mut StateSnapshot, engine: &Engine<M>, input: Optio
         M::write_covariance(&latest.state, &mut snap.cov[..M::COV_DIM * M::COV_DIM]);
         snap.cov_dim = M::COV_DIM as u32;
         snap.aux_states = M::aux_states(&latest.state);
-        let (tau, sd, n) = M::velocity_time_offset(&latest.state).unwrap_or((0.0, 0.0, 0));
+        let d = M::diagnostics(&latest.state);
+        let (tau, sd, n) = d.velocity_time_offset.unwrap_or((0.0, 0.0, 0));
         (snap.velocity_offset_ns, snap.velocity_offset_std_ns, snap.velocity_offset_samples) = (tau * 1e9, sd * 1e9, n);
-        snap.reinitialisations = M::reinitialisations(&latest.state);
-        let (standing, updates) = M::standstill(&latest.state);
-        snap.standing = u32::from(standing);
-        snap.standstill_updates = updates;
+        snap.reinitialisations = d.reinitialisations;
+        snap.standing = u32::from(d.standing);
+        snap.standstill_updates = d.standstill_updates;
     }
     match input {
         Some(i) => {

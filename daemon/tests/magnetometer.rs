@@ -177,7 +177,7 @@ fn drive(model: InsModel, config: &Config, scenario: &Scenario, t0: u64) -> Run 
     }
     engine.flush(&mut sink);
     out.refused_counter = engine.totals(Some(SampleKind::Magnetometer)).refused;
-    out.reinitialisations = engine.latest().map_or(0, |e| <InsModel as Model>::reinitialisations(&e.state));
+    out.reinitialisations = engine.latest().map_or(0, |e| <InsModel as Model>::diagnostics(&e.state).reinitialisations);
     out
 }
 

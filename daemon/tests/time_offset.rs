@@ -134,7 +134,7 @@ fn offset_estimate(seed: u64, lag_ns: u64, configured_ns: u64) -> (f64, f64, u64
     let config = config(&filter, "\"geodetic\", \"velocity\"", configured_ns);
     let mut engine = Engine::new(InsModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
     let mut estimate = None;
-    let mut sink = |e: &Entry<_>| estimate = <InsModel as Model>::velocity_time_offset(&e.state);
+    let mut sink = |e: &Entry<_>| estimate = <InsModel as Model>::diagnostics(&e.state).velocity_time_offset;
     for a in &scenario.arrivals {
         engine.insert(&a.sample, None, &mut sink);
     }

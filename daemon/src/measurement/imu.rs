@@ -13,7 +13,6 @@ use nalgebra::Vector3;
 
 use super::{Fuse, Limits, Measurement, Needed, Rejection, finite};
 use crate::model::held_imu::Held;
-use crate::model::ins::{nonholonomic, standstill};
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
@@ -56,10 +55,9 @@ impl Fuse<LinearModel> for ImuSample {
 }
 
 /// `ins`: specific force and rate, rotated into the body frame, are held
-/// (combined over the IMUs, and summed during the static alignment); then, if
-/// configured, standstill detection and its updates ([`standstill`]), and while
-/// the vehicle does not stand the motion constraint, due at most every
-/// `interval` ([`nonholonomic`]). One update at most per sample.
+/// (combined over the IMUs, and summed during the static alignment); then the
+/// model's own pseudo-measurements, standstill and the motion constraint, as
+/// configured ([`InsModel::pseudo_measurements`]).
 impl<const D: usize> Fuse<InsModel<D>> for ImuSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<nalgebra::SVector<f64, D>>) {
         let (f, w) = body_values(self, model);
@@ -68,23 +66,7 @@ impl<const D: usize> Fuse<InsModel<D>> for ImuSample {
             Held::Standby => return (StepOutcome::Propagated, None),
             Held::Unknown => return (StepOutcome::Refused, None),
         }
-        let t = self.header.t_ns;
-        let mut injected = None;
-        if let Some(c) = model.standstill()
-            && s.ready
-        {
-            injected = standstill::observe(c, model, s, t, f, w);
-        }
-        if let Some(c) = model.nonholonomic()
-            && s.ready
-            && injected.is_none()
-            && !s.standing()
-            && s.constrained_ns.is_none_or(|last| t >= last.saturating_add(c.interval_ns))
-        {
-            s.constrained_ns = Some(t);
-            injected = nonholonomic::fuse(c, model, s);
-        }
-        (StepOutcome::Propagated, injected)
+        (StepOutcome::Propagated, model.pseudo_measurements(s, self.header.t_ns, f, w))
     }
 }
 

@@ -293,13 +293,9 @@ macro_rules! registry {
         where
             $(fusion_shared::$ty: Fuse<M>,)*
         {
-            let kind = sample.kind();
-            model.before_fuse(state, kind);
-            let out = match sample {
+            model.fuse_kind(state, sample.kind(), sample.t_ns(), |model, state| match sample {
                 $(Sample::$variant(s) => s.fuse(model, state),)*
-            };
-            model.after_fuse(state, kind, sample.t_ns(), &out.0);
-            out
+            })
         }
     };
 }

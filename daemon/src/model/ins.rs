@@ -154,7 +154,7 @@ pub struct InsState<const D: usize = N> {
     /// IMU values are held and the alignment (if any) is done.
     pub(crate) ready: bool,
     /// Time of the last motion-constraint update.
-    pub(crate) constrained_ns: Option<u64>,
+    constrained_ns: Option<u64>,
     /// The run of gated fixes ([`crate::model::lockout`]).
     lockout: Lockout,
     /// The runs of gated samples of the other kinds ([`crate::model::lockout::KindRuns`]).
@@ -410,6 +410,37 @@ impl<const D: usize> InsModel<D> {
         held
     }
 
+    /// The model's own pseudo-measurements after an IMU sample at `t_ns` whose
+    /// body values `f`, `w` were held, once the state is ready, at most one
+    /// update per sample: standstill detection and its updates
+    /// ([`standstill`]), else, while the vehicle does not stand, the motion
+    /// constraint when due (at most every `interval`: [`nonholonomic`]).
+    /// Returns the correction injected, if any.
+    pub(crate) fn pseudo_measurements(
+        &self,
+        s: &mut InsState<D>,
+        t_ns: u64,
+        f: Vector3<f64>,
+        w: Vector3<f64>,
+    ) -> Option<SVector<f64, D>> {
+        if !s.ready {
+            return None;
+        }
+        let mut injected = None;
+        if let Some(c) = self.standstill() {
+            injected = standstill::observe(c, self, s, t_ns, f, w);
+        }
+        if let Some(c) = self.nonholonomic()
+            && injected.is_none()
+            && !s.standing()
+            && s.constrained_ns.is_none_or(|last| t_ns >= last.saturating_add(c.interval_ns))
+        {
+            s.constrained_ns = Some(t_ns);
+            injected = nonholonomic::fuse(c, self, s);
+        }
+        injected
+    }
+
     /// The body angular rate `ω = ω_m − b_g` of the held IMU values (zero before
     /// any, and while the vehicle stands: [`standstill`]), rad/s.
     pub(crate) fn body_rate(s: &InsState<D>) -> Vector3<f64> {
@@ -498,30 +529,29 @@ impl<const D: usize> Model for InsModel<D> {
         s.ready
     }
 
-    fn before_fuse(&self, s: &mut InsState<D>, kind: fusion_shared::SampleKind) {
-        s.kind_runs.before(kind);
-    }
-
-    fn after_fuse(
+    /// Keeps each kind's lock-out run ([`crate::model::lockout::KindRuns`]):
+    /// whether it is due before the fusion, its outcome after.
+    #[inline]
+    fn fuse_kind(
         &self,
         s: &mut InsState<D>,
         kind: fusion_shared::SampleKind,
         t_ns: u64,
-        outcome: &crate::model::StepOutcome,
-    ) {
-        s.kind_runs.after(self.lockout.as_ref(), kind, t_ns, outcome);
+        fuse: impl FnOnce(&Self, &mut InsState<D>) -> (crate::model::StepOutcome, Option<SVector<f64, D>>),
+    ) -> (crate::model::StepOutcome, Option<SVector<f64, D>>) {
+        s.kind_runs.before(kind);
+        let out = fuse(self, s);
+        s.kind_runs.after(self.lockout.as_ref(), kind, t_ns, &out.0);
+        out
     }
 
-    fn reinitialisations(s: &InsState<D>) -> u64 {
-        s.lockout.count() + s.kind_runs.resets()
-    }
-
-    fn standstill(s: &InsState<D>) -> (bool, u64) {
-        (s.standing(), s.standstill_updates())
-    }
-
-    fn velocity_time_offset(s: &InsState<D>) -> Option<(f64, f64, u64)> {
-        s.clock.estimate()
+    fn diagnostics(s: &InsState<D>) -> crate::model::Diagnostics {
+        crate::model::Diagnostics {
+            reinitialisations: s.lockout.count() + s.kind_runs.resets(),
+            standing: s.standing(),
+            standstill_updates: s.standstill_updates(),
+            velocity_time_offset: s.clock.estimate(),
+        }
     }
 
     fn x(s: &InsState<D>) -> &[f64] {

@@ -27,7 +27,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use super::{Model, StepOutcome, advance_time};
+use super::{Diagnostics, Model, StepOutcome, advance_time};
 use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, StepLog, UpdateDecision, rts_smooth};
 use crate::frames::Frames;
 use crate::model::held_imu::HeldImu;
@@ -257,8 +257,8 @@ impl Model for LinearModel {
         log.finish(&s.kf)
     }
 
-    fn reinitialisations(s: &LinearState) -> u64 {
-        s.lockout.count()
+    fn diagnostics(s: &LinearState) -> Diagnostics {
+        Diagnostics { reinitialisations: s.lockout.count(), ..Diagnostics::default() }
     }
 
     fn time_ns(s: &LinearState) -> Option<u64> {

@@ -367,7 +367,7 @@ mod tests {
             }
         }
         let latest = engine.latest().unwrap();
-        (M::x(&latest.state).to_vec(), M::reinitialisations(&latest.state), after)
+        (M::x(&latest.state).to_vec(), M::diagnostics(&latest.state).reinitialisations, after)
     }
 
     const G: [f64; 3] = [0.0, 0.0, 9.80665];
@@ -450,7 +450,7 @@ mod tests {
             let latest = engine.latest().unwrap();
             (
                 <InsModel as crate::model::Model>::x(&latest.state).to_vec(),
-                <InsModel as crate::model::Model>::reinitialisations(&latest.state),
+                <InsModel as crate::model::Model>::diagnostics(&latest.state).reinitialisations,
                 after,
             )
         };

@@ -75,6 +75,26 @@ impl StepOutcome {
     }
 }
 
+/// What a model tells of its state besides the estimate: the counts and
+/// estimates the health, the snapshot and the replay summary report. A model
+/// without one of them leaves it at its default.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Diagnostics {
+    /// Times the filter re-initialised itself up to this state: from the fixes
+    /// after a lock-out, or the states a gated kind observes
+    /// ([`crate::model::lockout`]).
+    pub reinitialisations: u64,
+    /// Whether the vehicle stands still at this state (the model's standstill
+    /// detection, if it has one).
+    pub standing: bool,
+    /// The standstill updates fused up to this state.
+    pub standstill_updates: u64,
+    /// How late the velocity sensors' stamps look beyond their configured
+    /// offset, from the residuals up to this state: `(τ̂, σ_τ, samples)`, s
+    /// (`ins`: [`ins::clock`]); `None` where the model has no estimate.
+    pub velocity_time_offset: Option<(f64, f64, u64)>,
+}
+
 /// A process and measurement model the engine can run.
 pub trait Model {
     /// The complete filter state at one point of the sample stream: estimate,
@@ -117,38 +137,23 @@ pub trait Model {
     /// measurement update left ([`Correction`](Self::Correction)).
     fn finish_record(log: Self::Log, state: &Self::State, correction: Self::Correction) -> Self::Record;
 
-    /// Called before a measurement of `kind` is fused (the `ins`
-    /// model: whether its lock-out run is due, [`lockout::KindRuns`]).
-    fn before_fuse(&self, _state: &mut Self::State, _kind: fusion_shared::SampleKind) {}
-
-    /// Called after a measurement of `kind` at `t_ns` was fused with `outcome`.
-    fn after_fuse(
+    /// Fuses a measurement of `kind` at `t_ns` by `fuse` (the kind's fusion
+    /// into this model): a model that keeps account of each kind's outcomes
+    /// (the `ins` model: its lock-out runs, [`lockout::KindRuns`]) wraps it.
+    #[inline]
+    fn fuse_kind(
         &self,
-        _state: &mut Self::State,
+        state: &mut Self::State,
         _kind: fusion_shared::SampleKind,
         _t_ns: u64,
-        _outcome: &StepOutcome,
-    ) {
+        fuse: impl FnOnce(&Self, &mut Self::State) -> (StepOutcome, Self::Correction),
+    ) -> (StepOutcome, Self::Correction) {
+        fuse(self, state)
     }
 
-    /// Times the filter re-initialised itself from the fixes after a lock-out
-    /// ([`crate::model::lockout`]) up to this state.
-    fn reinitialisations(_state: &Self::State) -> u64 {
-        0
-    }
-
-    /// Whether the vehicle stands still at this state (detected by the model's
-    /// standstill detection, if it has one) and the standstill updates fused up
-    /// to it.
-    fn standstill(_state: &Self::State) -> (bool, u64) {
-        (false, 0)
-    }
-
-    /// How late the velocity sensors' stamps look beyond their configured
-    /// offset, from the residuals up to this state: `(τ̂, σ_τ, samples)`, s
-    /// (`ins`: [`ins::clock`]); `None` where the model has no estimate.
-    fn velocity_time_offset(_state: &Self::State) -> Option<(f64, f64, u64)> {
-        None
+    /// What the model tells of `state` besides the estimate ([`Diagnostics`]).
+    fn diagnostics(_state: &Self::State) -> Diagnostics {
+        Diagnostics::default()
     }
 
     /// Filter time, ns, or `None` before the first sample.
