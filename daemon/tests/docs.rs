@@ -111,7 +111,7 @@ fn the_ground_robot_page_configuration_is_valid() {
     let fusion_daemon::config::ModelConfig::Ins(p) = &config.model else { panic!("not ins") };
     let c = p.constraints.expect("the constraint");
     assert_eq!((c.min_speed_mps, c.lever_arm_m), (0.0, [0.0, 0.3, -0.52]));
-    let topics: Vec<_> = config.routes().into_iter().map(|r| (r.topic, r.kinds)).collect();
+    let topics: Vec<_> = fusion_daemon::replay::bag::routes(&config).into_iter().map(|r| (r.topic, r.kinds)).collect();
     use fusion_shared::SampleKind::{Attitude, Imu, Odometry};
     assert_eq!(
         topics,

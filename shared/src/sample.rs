@@ -91,7 +91,7 @@ pub trait PayloadFn {
 /// Each line is `Variant = code, "name", module, WireType;`: the [`SampleKind`]
 /// variant, its wire code (from 1, never reused), its lower-case name (service
 /// `<ns>/<name>`, JSON-lines tag, config keys), the module of its files
-/// (`shared/src/sample/<module>.rs`, `daemon/src/measurement/<module>.rs`,
+/// (`shared/src/sample/<module>.rs`, `core/src/measurement/<module>.rs`,
 /// `client/src/sim/<module>.rs`) and its wire type.
 ///
 /// `for_each_sample_kind!(callback)` expands to `callback! { <the list> }`, so each

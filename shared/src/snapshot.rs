@@ -36,7 +36,7 @@ pub const INPUT_NONE: u32 = 0;
 /// Each line is `Variant = code, "name", module, ModelType, ParamsType;`: the
 /// [`Model`] variant, its code in snapshots ([`StateSnapshot::model`], from 1,
 /// never reused), its name (`[model] kind` in the config), and, for the daemon,
-/// its module (`daemon/src/model/<module>.rs`), its model type and the type of its
+/// its module (`core/src/model/<module>.rs`), its model type and the type of its
 /// `[model]` parameters. `for_each_model!(callback)` expands to `callback! { <the
 /// list> }`: this crate generates [`Model`] from it, the daemon its `[model]`
 /// table and the mapping from a config to a model type.

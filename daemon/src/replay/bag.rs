@@ -9,10 +9,11 @@
 use std::io::Write;
 use std::path::Path;
 
-use fusion_shared::ros::{BagError, BagSummary, read_bag};
+use fusion_shared::ros::{BagError, BagSummary, Route, read_bag};
 
 use super::{InputItem, NoCheck, ReplayError, ReplaySummary, replay_items, samples_read};
 use crate::config::Config;
+use crate::frames::SensorConfig;
 
 /// Samples in flight between the bag's reader and the engine.
 const CHANNEL_CAPACITY: usize = 4096;
@@ -34,6 +35,14 @@ pub enum BagReplayError {
     Replay(#[from] ReplayError),
 }
 
+/// The topic map of a bag replay: each `[[sensor]]` of `config` with a
+/// `topic`, its kinds under its id.
+pub fn routes(config: &Config) -> Vec<Route> {
+    // The kinds were checked when the configuration was read.
+    let route = |s: &SensorConfig| Route::of_sensor(&s.name, s.id, &s.kinds, s.topic.as_deref());
+    config.sensors.iter().filter_map(|s| route(s).ok().flatten()).collect()
+}
+
 /// Replays the bag at `path` with `config` (whose `[[sensor]] topic`s map the
 /// bag's topics), writing estimates to `output`; returns the replay's summary
 /// and the bag's.
@@ -43,7 +52,7 @@ pub fn replay_bag(
     output: Option<impl Write>,
     smooth: bool,
 ) -> Result<(ReplaySummary, BagSummary), BagReplayError> {
-    let routes = config.routes();
+    let routes = routes(config);
     if routes.is_empty() {
         return Err(BagReplayError::NoTopics);
     }

@@ -57,7 +57,7 @@ impl Fuse<LinearModel> for ImuSample {
 /// `ins`: specific force and rate, rotated into the body frame, are held
 /// (combined over the IMUs, and summed during the static alignment); then the
 /// model's own pseudo-measurements, standstill and the motion constraint, as
-/// configured ([`InsModel::pseudo_measurements`]).
+/// configured (`InsModel::pseudo_measurements`).
 impl<const D: usize> Fuse<InsModel<D>> for ImuSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<nalgebra::SVector<f64, D>>) {
         let (f, w) = body_values(self, model);

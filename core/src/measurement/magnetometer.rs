@@ -1,5 +1,5 @@
 //! The magnetometer: the Earth's magnetic field in the body frame, fused as a
-//! 3-D vector against the field of `[sensor.magnetic]` ([`field`]).
+//! 3-D vector against the field of `[sensor.magnetic]` ([`field`](mod@field)).
 //!
 //! With `m_w` the configured field (ENU), the sample `m_s` in the sensor's axes
 //! and its mounting `C_bs` (body ← sensor):

@@ -88,7 +88,7 @@ pub fn tilt_variance<const D: usize>(s: &InsState<D>) -> f64 {
 /// The body-frame velocity of the point at lever arm `l` from the IMU,
 /// `v_p = Rᵀ v + ω × l`, and its Jacobian in the error state: `Rᵀ` on δv,
 /// `[Rᵀ v]×` on δθ, `[l]×` on δb_g (none while standing, when `ω` is 0
-/// whatever `b_g` is: [`InsModel::body_rate`]).
+/// whatever `b_g` is: `InsModel::body_rate`).
 pub fn point_velocity<const D: usize>(s: &InsState<D>, l: &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, D>) {
     let R = s.q().to_rotation_matrix().into_inner();
     let v_b = R.transpose() * s.v();

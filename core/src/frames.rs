@@ -157,7 +157,7 @@ pub struct SensorConfig {
     pub time_offset_ns: i64,
     /// The ROS topic its samples come from when a bag is replayed (`fusiond
     /// replay --input robot.bag`): each of its kinds is taken from that
-    /// topic's messages ([`fusion_shared::ros`]).
+    /// topic's messages (`fusiond replay`'s ROS bag reading).
     #[serde(default)]
     pub topic: Option<String>,
     /// Its kinds' settings tables, each read by its kind (`[sensor.quality]`

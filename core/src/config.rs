@@ -434,17 +434,6 @@ impl std::ops::Deref for Config {
     }
 }
 
-impl Tables {
-    /// The topic map of a bag replay: each `[[sensor]]` with a `topic`, its
-    /// kinds under its id.
-    pub fn routes(&self) -> Vec<fusion_shared::ros::Route> {
-        // The kinds were checked when the configuration was read.
-        let route =
-            |s: &SensorConfig| fusion_shared::ros::Route::of_sensor(&s.name, s.id, &s.kinds, s.topic.as_deref());
-        self.sensors.iter().filter_map(|s| route(s).ok().flatten()).collect()
-    }
-}
-
 impl PartialEq for Config {
     /// Equal tables (the model is built from them).
     fn eq(&self, other: &Self) -> bool {
