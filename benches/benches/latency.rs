@@ -18,8 +18,8 @@ use anyhow::Context;
 use fusion_benches::alloc::{Counting, Scenario, Window, steady_state};
 use fusion_benches::latency::{
     ChildGuard, EndToEnd, INS_CONFIG, LINEAR_CONFIG, LateCost, Mode, Pinger, Prober, PublisherPlan, Trial,
-    VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST, VEHICLE_LATE_CONFIG, fan_out_reader, histogram, late_data, ping, pong,
-    publisher, start_daemon, throughput,
+    VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST, VEHICLE_LATE_CONFIG, VEHICLE21_CONFIG, fan_out_reader, histogram, late_data,
+    ping, pong, publisher, start_daemon, throughput,
 };
 use fusion_client::{Client, ImuSample, StateSnapshot};
 use fusion_daemon::ipc::WaitMode;
@@ -42,12 +42,15 @@ fn imu_value(model: &str) -> ([f64; 3], [f64; 3]) {
 
 /// The config of a row set: `linear`, `ins`, `vehicle` (`ins` with two IMUs,
 /// geodetic GNSS with a lever arm and odometry) or `vehicle-late` (the same with
-/// GNSS velocity, the GNSS samples 80–120 ms late and the odometry 10–30 ms).
+/// GNSS velocity, the GNSS samples 80–120 ms late and the odometry 10–30 ms),
+/// `vehicle21` (the largest state: the vehicle set with the odometry scale, a
+/// barometer and a pose sensor's estimated map frame, 21 error states).
 fn config_of(model: &str) -> &'static str {
     match model {
         "ins" => INS_CONFIG,
         "vehicle" => VEHICLE_CONFIG,
         "vehicle-late" => VEHICLE_LATE_CONFIG,
+        "vehicle21" => VEHICLE21_CONFIG,
         _ => LINEAR_CONFIG,
     }
 }
@@ -315,7 +318,7 @@ fn e2e_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
     // 2. End to end, publisher and reader in one process, in blocks that take
     //    turns with blocks of raw ping-pong (the other side paused); then the
     //    fan-out case with the publisher in a process of its own.
-    for model in ["linear", "ins", "vehicle", "vehicle-late"] {
+    for model in ["linear", "ins", "vehicle", "vehicle-late", "vehicle21"] {
         for mode in [Mode::Spin, Mode::Event] {
             let namespace = format!("fusion-bench-{pid}-{model}-{}", mode.name());
             let rig = start_rig(fusiond, &namespace, model, mode)?;
@@ -325,6 +328,7 @@ fn e2e_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
             let mut prober = match model {
                 "vehicle" => Prober::vehicle(&rig.client, mode)?,
                 "vehicle-late" => Prober::vehicle_late(&rig.client, mode)?,
+                "vehicle21" => Prober::vehicle21(&rig.client, mode)?,
                 _ => Prober::new(&rig.client, mode, imu_value(model))?,
             };
             let (mut e2e, mut raw_rtt, mut block_ratios) = (EndToEnd::new(), histogram(), Vec::new());
@@ -346,6 +350,7 @@ fn e2e_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
             pinger.finish()?;
             let name = match model {
                 "vehicle-late" => "fusiond vehicle, late GNSS/odometry".to_string(),
+                "vehicle21" => "fusiond vehicle, 21 states (+scale, baro, pose frame)".to_string(),
                 _ => format!("fusiond {model}"),
             };
             rows.push(Row {
@@ -432,14 +437,23 @@ fn alloc_rows(run: &Run) -> anyhow::Result<Vec<(&'static str, Mode, Window)>> {
     // 6. Allocations of the daemon loop per processed sample, in this process.
     let mut alloc_rows = Vec::new();
     let (warm, measured) = if quick { (500, 1000) } else { (1000, 2000) };
-    for model in ["linear", "ins", "vehicle"] {
+    for model in ["linear", "ins", "vehicle", "vehicle21"] {
         for (mode, wait) in [(Mode::Spin, WaitMode::Spin), (Mode::Event, WaitMode::Event)] {
             let namespace = format!("fusion-bench-{pid}-{model}-{}-alloc", mode.name());
-            let vehicle = model == "vehicle";
+            let (vehicle, extras) = (model.starts_with("vehicle"), model == "vehicle21");
             let accel_mps2 = if vehicle { VEHICLE_IMUS_AT_REST[0] } else { imu_value(model).0 };
             let config = config_of(model);
-            let scenario =
-                Scenario { namespace: &namespace, config, wait, accel_mps2, domain: None, warm, measured, vehicle };
+            let scenario = Scenario {
+                namespace: &namespace,
+                config,
+                wait,
+                accel_mps2,
+                domain: None,
+                warm,
+                measured,
+                vehicle,
+                extras,
+            };
             alloc_rows.push((model, mode, steady_state(&scenario)?));
         }
     }

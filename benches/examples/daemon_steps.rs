@@ -16,7 +16,10 @@
 //! Models: `linear` and `ins` (one IMU at 1 kHz), and `vehicle`: the latency
 //! bench's vehicle set ([`fusion_benches::latency::VEHICLE_CONFIG`]: two IMUs at
 //! the same 1 kHz instants, a geodetic fix every 100th instant, an odometry
-//! speed every 20th). `linear-late` and `ins-late`: one IMU at 1 kHz and, every
+//! speed every 20th), `vehicle16` (with the odometry scale factor as a state: 16
+//! error states) and `vehicle21` (the largest state,
+//! [`fusion_benches::latency::VEHICLE21_CONFIG`]: scale, barometer and a pose
+//! sensor's map frame, with their samples). `linear-late` and `ins-late`: one IMU at 1 kHz and, every
 //! 100th instant, a position fix 100 ms old arriving just before the IMU sample
 //! (the latency bench's late-data rows). Samples are inserted as the live loop
 //! does ([`Engine::insert_deferred`]); a pending rewind is settled after each
@@ -24,8 +27,8 @@
 
 use std::hint::black_box;
 
-use fusion_benches::latency::{VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST};
-use fusion_daemon::config::Config;
+use fusion_benches::latency::{VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST, VEHICLE21_CONFIG, vehicle21_extras};
+use fusion_daemon::config::{Config, WithModel, with_model};
 use fusion_daemon::engine::{Engine, EngineConfig, Insert};
 use fusion_daemon::health::HealthMonitor;
 use fusion_daemon::measurement::Steps;
@@ -56,6 +59,17 @@ fn main() {
             let config = Config::parse(VEHICLE_CONFIG).expect("valid");
             run(InsModel::from_config(&config).expect("ins"), &config, n, time, vehicle_instant);
         }
+        "vehicle16" | "vehicle21" => {
+            // 16: the vehicle set with the odometry scale state; 21: the largest
+            // state (scale, barometer bias, a pose sensor's map frame).
+            let text = if model == "vehicle21" {
+                VEHICLE21_CONFIG.to_string()
+            } else {
+                format!("{VEHICLE_CONFIG}[model.odometry_scale]\n")
+            };
+            let config = Config::parse(&text).expect("valid");
+            with_model(&config, Run { config: &config, n, time, extras: model == "vehicle21" });
+        }
         _ => {
             let config = fusion_benches::linear_config();
             let imus = |t, k| vec![Sample::Imu(ImuSample::new(t, 0, k, [0.0; 3], [0.0; 3]))];
@@ -74,6 +88,30 @@ fn late_instant(t: u64, k: u64, g: f64) -> Vec<Sample> {
     }
     out.push(Sample::Imu(ImuSample::new(t, 0, k, [0.0, 0.0, g], [0.0; 3])));
     out
+}
+
+/// [`run`] with whichever state size a config builds ([`with_model`]).
+struct Run<'a> {
+    config: &'a Config,
+    n: u64,
+    time: bool,
+    /// The 21-state set's barometer and poses too ([`vehicle21_extras`]).
+    extras: bool,
+}
+
+impl WithModel for Run<'_> {
+    type Output = ();
+    fn run<M: Steps>(self, model: M) {
+        eprintln!("{} error states", M::COV_DIM);
+        let extras = self.extras;
+        run(model, self.config, self.n, self.time, move |t, k| {
+            let mut out = vehicle_instant(t, k);
+            if let Some(s) = vehicle21_extras(t, k).filter(|_| extras) {
+                out.insert(0, s);
+            }
+            out
+        });
+    }
 }
 
 /// The samples of instant `k` at `t`, in the order the latency bench's vehicle

@@ -134,6 +134,9 @@ pub struct Scenario<'a> {
     /// geodetic fix (sensor 3) with every 10th and odometry (sensor 0) with every
     /// 20th: the sensor set of `VEHICLE_CONFIG`.
     pub vehicle: bool,
+    /// Also the largest state's barometer and poses
+    /// ([`crate::latency::vehicle21_extras`], for `VEHICLE21_CONFIG`).
+    pub extras: bool,
 }
 
 /// Runs the daemon loop on a counted thread, feeds `warm` then `measured` IMU
@@ -162,20 +165,19 @@ pub fn steady_state(s: &Scenario<'_>) -> anyhow::Result<Window> {
     let fed = feed(s);
     shutdown.store(true, Ordering::Relaxed);
     let report = daemon.join().map_err(|_| anyhow::anyhow!("the daemon loop panicked"))??;
-    let (before, after, window_snapshots, fed_samples) = fed?;
+    let (before, after, window_snapshots, fed_samples, window_samples) = fed?;
     anyhow::ensure!(report.received == fed_samples, "{} samples fed, {} received", fed_samples, report.received);
     let sizes = after
         .iter()
         .map(|&(size, n)| (size, n - before.iter().find(|b| b.0 == size).map_or(0, |b| b.1)))
         .filter(|&(_, n)| n > 0)
         .collect();
-    let per_ten = if s.vehicle { 10 + 1 + 2 + 1 } else { 10 + 2 }; // per 10 instants
-    Ok(Window { sizes, samples: s.measured * per_ten / 10, snapshots: window_snapshots })
+    Ok(Window { sizes, samples: window_samples, snapshots: window_snapshots })
 }
 
 /// The client side of [`steady_state`]: counts before and after the window,
-/// snapshots in it, samples fed in all.
-type Fed = (Vec<(u64, u64)>, Vec<(u64, u64)>, u64, u64);
+/// snapshots in it, samples fed in all, samples fed in the window.
+type Fed = (Vec<(u64, u64)>, Vec<(u64, u64)>, u64, u64, u64);
 
 fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
     let client = {
@@ -196,6 +198,10 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
     let mut imu_b = client.imu_publisher(1)?;
     let mut geo_pub = client.publisher::<fusion_shared::GeodeticSample>(3)?;
     let mut odo_pub = client.publisher::<fusion_shared::OdometrySample>(0)?;
+    let mut baro_pub = client.publisher::<fusion_shared::BarometerSample>(0)?;
+    let mut pose_pub = client.publisher::<fusion_shared::PoseSample>(0)?;
+    baro_pub.set_wake(true);
+    pose_pub.set_wake(true);
     imu_pub.set_wake(true);
     pos_pub.set_wake(true);
     vel_pub.set_wake(true);
@@ -211,10 +217,12 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
     let mut fixes = 0u64;
     let mut before = Vec::new();
     let (mut first_seq, mut last_seq) = (0, 0);
+    let mut fed_before_window = 0;
     for k in 0..(s.warm + s.measured) {
         if k == s.warm {
             before = sizes();
             first_seq = last_seq;
+            fed_before_window = k + 2 * fixes + extra;
         }
         let t = t0 + k * 1_000_000;
         while now_ns() < t {
@@ -246,6 +254,17 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
                 extra += 1;
             }
         }
+        if s.extras {
+            let published = match crate::latency::vehicle21_extras(t, k) {
+                Some(fusion_shared::Sample::Barometer(b)) => Some((baro_pub.publish_sample(b)?, b.header)),
+                Some(fusion_shared::Sample::Pose(p)) => Some((pose_pub.publish_sample(p)?, p.header)),
+                _ => None,
+            };
+            if let Some((_, h)) = published {
+                last_seq = await_snapshot(&mut reader, h.kind, h.seq)?;
+                extra += 1;
+            }
+        }
         if k % 10 == 5 {
             let late = if fixes % 50 == 49 { 100_000_000 } else { 0 };
             let fix =
@@ -264,7 +283,8 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
             std::thread::sleep(Duration::from_millis(12));
         }
     }
-    Ok((before, sizes(), last_seq - first_seq, s.warm + s.measured + 2 * fixes + extra))
+    let fed = s.warm + s.measured + 2 * fixes + extra;
+    Ok((before, sizes(), last_seq - first_seq, fed, fed - fed_before_window))
 }
 
 /// Waits for the snapshot of the sample of kind code `kind` with sequence number `seq`;

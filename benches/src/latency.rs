@@ -52,6 +52,37 @@ macro_rules! vehicle_config {
 /// The `ins` config of the vehicle rows (see `vehicle_config!`), GNSS positions only.
 pub const VEHICLE_CONFIG: &str = vehicle_config!("[\"geodetic\"]");
 
+/// The config of the largest state (21 error states): [`VEHICLE_CONFIG`] with
+/// the odometry's scale factor as a state, a barometer (its bias a state) and
+/// a localiser's poses in a map frame estimated as four states. The vehicle
+/// set's samples plus a pressure every 20th instant and a pose every 100th
+/// ([`vehicle21_extras`]).
+pub const VEHICLE21_CONFIG: &str = concat!(
+    vehicle_config!("[\"geodetic\"]"),
+    "[model.odometry_scale]\n\
+    [[sensor]]\nname = \"baro\"\nid = 0\nkinds = [\"barometer\"]\n\
+    [[sensor]]\nname = \"slam\"\nid = 0\nkinds = [\"pose\"]\nlever_arm_m = [0.5, 0.0, 1.2]\n"
+);
+
+/// The samples [`VEHICLE21_CONFIG`]'s sensors add to the vehicle set's at
+/// instant `k` (time `t`): a static pressure at sea level every 20th instant
+/// (at 15), a pose at the map origin every 100th (at 30), both of a vehicle at
+/// rest, level, heading east.
+pub fn vehicle21_extras(t: u64, k: u64) -> Option<fusion_shared::Sample> {
+    use fusion_shared::{BarometerSample, ISA_SEA_LEVEL_PA, PoseSample, Sample};
+    if k % 20 == 15 {
+        return Some(Sample::Barometer(BarometerSample::new(t, 0, k / 20, ISA_SEA_LEVEL_PA, 4.0)));
+    }
+    if k % 100 == 30 {
+        let mut cov = [0.0; 36];
+        for i in 0..6 {
+            cov[i * 7] = if i < 3 { 0.01 } else { 1e-4 };
+        }
+        return Some(Sample::Pose(PoseSample::new(t, 0, k / 100, [0.0; 3], [1.0, 0.0, 0.0, 0.0], cov, 0)));
+    }
+    None
+}
+
 /// The config of the late vehicle stream: [`VEHICLE_CONFIG`] with the GNSS
 /// receiver's Doppler velocity (same antenna) as well.
 pub const VEHICLE_LATE_CONFIG: &str = vehicle_config!("[\"geodetic\", \"velocity\"]");
@@ -226,6 +257,14 @@ struct VehiclePublishers {
     odometry: fusion_client::SamplePublisher<fusion_shared::OdometrySample>,
     /// The late stream: the GNSS velocity publisher, and the samples arrive late.
     late: Option<fusion_client::SamplePublisher<fusion_shared::VelocitySample>>,
+    /// The largest state's barometer and pose publishers ([`vehicle21_extras`]).
+    extras: Option<Extras>,
+}
+
+/// The publishers of [`vehicle21_extras`]' samples.
+struct Extras {
+    barometer: fusion_client::SamplePublisher<fusion_shared::BarometerSample>,
+    pose: fusion_client::SamplePublisher<fusion_shared::PoseSample>,
 }
 
 /// How late a late-stream sample arrives: `min_ms..=max_ms`, spread evenly
@@ -255,6 +294,7 @@ impl Prober {
             geodetic: client.publisher(3)?,
             odometry: client.publisher(0)?,
             late: None,
+            extras: None,
         };
         v.imu_b.set_wake(mode == Mode::Event);
         v.geodetic.set_wake(mode == Mode::Event);
@@ -271,6 +311,19 @@ impl Prober {
         velocity.set_wake(mode == Mode::Event);
         if let Some(v) = &mut p.vehicle {
             v.late = Some(velocity);
+        }
+        Ok(p)
+    }
+
+    /// The prober of the largest state (the daemon runs [`VEHICLE21_CONFIG`]):
+    /// the vehicle set's samples and [`vehicle21_extras`].
+    pub fn vehicle21(client: &Client, mode: Mode) -> anyhow::Result<Self> {
+        let mut p = Self::vehicle(client, mode)?;
+        let mut extras = Extras { barometer: client.publisher(0)?, pose: client.publisher(0)? };
+        extras.barometer.set_wake(mode == Mode::Event);
+        extras.pose.set_wake(mode == Mode::Event);
+        if let Some(v) = &mut p.vehicle {
+            v.extras = Some(extras);
         }
         Ok(p)
     }
@@ -312,6 +365,13 @@ impl Prober {
                     if seq % 20 == 10 {
                         let speed = fusion_shared::OdometrySample::new(odometry_t, 0, seq / 20, 0.0, 0.01);
                         v.odometry.publish_next(speed)?;
+                    }
+                    if let Some(e) = &mut v.extras {
+                        match vehicle21_extras(t, seq) {
+                            Some(fusion_shared::Sample::Barometer(b)) => e.barometer.publish_next(b)?,
+                            Some(fusion_shared::Sample::Pose(pose)) => e.pose.publish_next(pose)?,
+                            _ => 0,
+                        };
                     }
                 }
             }

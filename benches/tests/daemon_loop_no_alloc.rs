@@ -15,7 +15,7 @@ use std::sync::Once;
 mod heartbeat;
 
 use fusion_benches::alloc::{Counting, Scenario, Window, count_this_thread, sizes, steady_state};
-use fusion_benches::latency::{INS_CONFIG, LINEAR_CONFIG, VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST};
+use fusion_benches::latency::{INS_CONFIG, LINEAR_CONFIG, VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST, VEHICLE21_CONFIG};
 use fusion_daemon::ipc::WaitMode;
 use fusion_shared::service;
 
@@ -53,6 +53,7 @@ fn the_daemon_loop_allocates_nothing_per_sample() {
         warm: 2500,
         measured: 2500,
         vehicle: false,
+        extras: false,
     };
     // The counter sees a counted thread's allocation (then it is left out of the
     // windows below, which count differences).
@@ -76,9 +77,25 @@ fn the_daemon_loop_allocates_nothing_per_sample() {
     let vehicle = steady_state(&vehicle).unwrap();
     check(&vehicle, "vehicle, spin");
     assert!(vehicle.snapshots >= 2500 * 2, "{} snapshots", vehicle.snapshots);
+    // The largest state (21 error states): a barometer's bias and a pose
+    // sensor's map frame set from their first samples, then fused.
+    let largest = Scenario {
+        vehicle: true,
+        extras: true,
+        ..scenario("alloc-vehicle21", VEHICLE21_CONFIG, WaitMode::Event, VEHICLE_IMUS_AT_REST[0])
+    };
+    let largest = steady_state(&largest).unwrap();
+    check(&largest, "vehicle with 21 states, event");
     eprintln!(
         "allocations in the loop: linear spin {:?} over {} snapshots; ins event {:?} over {} snapshots; \
-         vehicle spin {:?} over {} snapshots",
-        spin.sizes, spin.snapshots, event.sizes, event.snapshots, vehicle.sizes, vehicle.snapshots
+         vehicle spin {:?} over {} snapshots; 21 states event {:?} over {} snapshots",
+        spin.sizes,
+        spin.snapshots,
+        event.sizes,
+        event.snapshots,
+        vehicle.sizes,
+        vehicle.snapshots,
+        largest.sizes,
+        largest.snapshots
     );
 }
