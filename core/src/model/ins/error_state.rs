@@ -123,53 +123,66 @@ impl Transition {
     /// so their rows and columns are copied as the biases' are.
     pub fn propagate_covariance<const D: usize>(&self, P: &mut SMatrix<f64, D, D>, Q: &ProcessNoise) {
         let (a, b, c) = (row_major(&self.A), row_major(&self.B), row_major(&self.C));
-        let p: &mut dyn std::any::Any = &mut P.data.0;
-        // One compiled dispatcher per dimension: a generic function's dispatcher
-        // would detect the CPU's features on every call (multiversion's direct
-        // dispatch), a non-generic one caches the choice.
-        if let Some(p) = p.downcast_mut::<[[f64; N]; N]>() {
-            propagate_blocks_core(p, self.dt, self.gyro_dt, &a, &b, &c);
-        } else if let Some(p) = p.downcast_mut::<[[f64; N + 1]; N + 1]>() {
-            propagate_blocks_scaled(p, self.dt, self.gyro_dt, &a, &b, &c);
-        } else {
-            propagate_blocks(
-                p.downcast_mut::<[[f64; D]; D]>().expect("the array of P"),
-                self.dt,
-                self.gyro_dt,
-                &a,
-                &b,
-                &c,
-            );
-        }
+        propagate_dispatch(&mut P.data.0, self.dt, self.gyro_dt, &a, &b, &c);
         Q.add_to(P);
     }
 }
 
-/// [`propagate_blocks`] for the core error state, compiled for AVX2 as well and
-/// chosen at run time: the same operations in the same order, so the same bits.
-#[multiversion::multiversion(targets("x86_64+avx2"))]
-fn propagate_blocks_core(
-    p: &mut [[f64; N]; N],
-    dt: f64,
-    gyro_dt: f64,
-    a: &[[f64; 3]; 3],
-    b: &[[f64; 3]; 3],
-    c: &[[f64; 3]; 3],
-) {
-    propagate_blocks(p, dt, gyro_dt, a, b, c);
+/// [`propagate_blocks`] for each state size the `ins` model has (the core's
+/// [`N`] and each number of auxiliary states up to [`MAX_AUX`]), compiled for
+/// AVX2 as well and chosen at run time: the same operations in the same order,
+/// so the same bits. One compiled dispatcher per size: a generic function's
+/// dispatcher would detect the CPU's features on every call (multiversion's
+/// direct dispatch), a non-generic one caches the choice.
+macro_rules! per_size {
+    ($($name:ident = $aux:literal;)*) => {
+        $(
+            #[multiversion::multiversion(targets("x86_64+avx2"))]
+            fn $name(
+                p: &mut [[f64; N + $aux]; N + $aux],
+                dt: f64,
+                gyro_dt: f64,
+                a: &[[f64; 3]; 3],
+                b: &[[f64; 3]; 3],
+                c: &[[f64; 3]; 3],
+            ) {
+                propagate_blocks(p, dt, gyro_dt, a, b, c);
+            }
+        )*
+
+        /// [`propagate_blocks`] through the kernel of `p`'s size.
+        fn propagate_dispatch<const D: usize>(
+            p: &mut [[f64; D]; D],
+            dt: f64,
+            gyro_dt: f64,
+            a: &[[f64; 3]; 3],
+            b: &[[f64; 3]; 3],
+            c: &[[f64; 3]; 3],
+        ) {
+            let any: &mut dyn std::any::Any = p;
+            $(
+                if let Some(p) = any.downcast_mut::<[[f64; N + $aux]; N + $aux]>() {
+                    return $name(p, dt, gyro_dt, a, b, c);
+                }
+            )*
+            propagate_blocks(any.downcast_mut::<[[f64; D]; D]>().expect("the array of P"), dt, gyro_dt, a, b, c);
+        }
+
+        const _: () = {
+            let sizes = [$($aux),*];
+            assert!(sizes.len() == MAX_AUX + 1, "a kernel for every number of auxiliary states");
+        };
+    };
 }
 
-/// [`propagate_blocks`] with the odometry scale factor, as [`propagate_blocks_core`].
-#[multiversion::multiversion(targets("x86_64+avx2"))]
-fn propagate_blocks_scaled(
-    p: &mut [[f64; N + 1]; N + 1],
-    dt: f64,
-    gyro_dt: f64,
-    a: &[[f64; 3]; 3],
-    b: &[[f64; 3]; 3],
-    c: &[[f64; 3]; 3],
-) {
-    propagate_blocks(p, dt, gyro_dt, a, b, c);
+per_size! {
+    propagate_blocks_15 = 0;
+    propagate_blocks_16 = 1;
+    propagate_blocks_17 = 2;
+    propagate_blocks_18 = 3;
+    propagate_blocks_19 = 4;
+    propagate_blocks_20 = 5;
+    propagate_blocks_21 = 6;
 }
 
 /// The body of [`Transition::propagate_covariance`] on the column-major array
@@ -295,5 +308,47 @@ fn reset_attitude_block<const D: usize>(P: &mut SMatrix<f64, D, D>, g: &[[f64; 3
             p[6 + k][6 + r] = v;
             p[6 + r][6 + k] = v;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Matrix3;
+
+    use super::*;
+
+    /// A transition of 10 ms with full blocks, and a covariance with every
+    /// entry set (correlated, positive definite).
+    fn case<const D: usize>() -> (Transition, SMatrix<f64, D, D>) {
+        let m = |s: f64| Matrix3::from_fn(|r, c| s * (1.0 + r as f64 - 0.5 * c as f64));
+        let t = Transition { dt: 0.01, gyro_dt: 0.01, A: m(0.3), B: m(-0.2), C: Matrix3::identity() + m(0.001) };
+        let L = SMatrix::<f64, D, D>::from_fn(|r, c| if c <= r { 1.0 / (1.0 + (r + c) as f64) } else { 0.0 });
+        (t, L * L.transpose())
+    }
+
+    /// Each size's kernel (AVX2 where the CPU has it) gives the generic body's
+    /// bits, and `F P Fᵀ` of the dense `F`.
+    fn every_size_gives_the_generic_bits<const D: usize>() {
+        let (t, P0) = case::<D>();
+        let (a, b, c) = (row_major(&t.A), row_major(&t.B), row_major(&t.C));
+        let mut dispatched = P0;
+        propagate_dispatch(&mut dispatched.data.0, t.dt, t.gyro_dt, &a, &b, &c);
+        let mut generic = P0;
+        propagate_blocks(&mut generic.data.0, t.dt, t.gyro_dt, &a, &b, &c);
+        assert_eq!(dispatched, generic, "{D} states");
+        let F = t.dense::<D>();
+        let dense = F * P0 * F.transpose();
+        assert!((dispatched - dense).amax() < 1e-12 * dense.amax(), "{D} states");
+    }
+
+    #[test]
+    fn every_state_size_has_its_kernel_with_the_same_bits() {
+        every_size_gives_the_generic_bits::<{ N }>();
+        every_size_gives_the_generic_bits::<{ N + 1 }>();
+        every_size_gives_the_generic_bits::<{ N + 2 }>();
+        every_size_gives_the_generic_bits::<{ N + 3 }>();
+        every_size_gives_the_generic_bits::<{ N + 4 }>();
+        every_size_gives_the_generic_bits::<{ N + 5 }>();
+        every_size_gives_the_generic_bits::<{ N + 6 }>();
     }
 }
