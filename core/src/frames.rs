@@ -325,81 +325,66 @@ impl Frames {
         }
         for (i, s) in sensors.iter().enumerate() {
             let key = |field: &str| format!("sensor[{i}] ({:?}).{field}", s.name);
-            if s.kinds.is_empty() {
-                return Err(invalid(key("kinds"), "names no kind"));
-            }
-            if !s.rotation_rpy_deg.iter().all(|a| a.is_finite() && a.abs() <= 360.0) {
-                return Err(invalid(key("rotation_rpy_deg"), "angles must be finite, within ±360°"));
-            }
-            if s.time_offset_ns.unsigned_abs() > MAX_TIME_OFFSET_NS.unsigned_abs() {
-                return Err(invalid(
-                    key("time_offset_ns"),
-                    format!("{} ns is more than 10 s either way: not a constant delay", s.time_offset_ns),
-                ));
-            }
+            let own = check_entry(s, kinds, &key)?;
             frames.offsets |= s.time_offset_ns != 0;
-            let arm = Vector3::from(s.lever_arm_m);
-            if !(arm.iter().all(|v| v.is_finite()) && arm.norm() <= MAX_LEVER_ARM_M) {
-                return Err(invalid(
-                    key("lever_arm_m"),
-                    format!("must be finite and at most {MAX_LEVER_ARM_M} m long"),
-                ));
-            }
-            let mut own = Vec::with_capacity(s.kinds.len());
-            for name in &s.kinds {
-                let kind = SampleKind::from_name(name).ok_or_else(|| {
-                    let known: Vec<&str> = SampleKind::ALL.iter().map(|k| k.name()).collect();
-                    invalid(key("kinds"), format!("unknown kind {name:?}; known: {}", known.join(", ")))
-                })?;
-                own.push(kind);
-            }
-            check_tables(s, &own, kinds, &key)?;
             for (name, &kind) in s.kinds.iter().zip(&own) {
-                if frames.sensors.iter().any(|m| m.kind == kind && m.id == s.id) {
-                    return Err(invalid(key("id"), format!("{name} sensor {} is configured twice", s.id)));
-                }
-                let rotated = s.axes != Axes::Flu || s.rotation_rpy_deg != [0.0; 3];
-                if kind == SampleKind::Imu {
-                    if arm != Vector3::zeros() {
-                        return Err(invalid(
-                            key("lever_arm_m"),
-                            "an IMU is the body origin: give the other sensors' lever arms from it",
-                        ));
-                    }
-                    if frames.imus.ids.len() == MAX_IMUS {
-                        return Err(invalid(key("id"), format!("at most {MAX_IMUS} IMUs")));
-                    }
-                    frames.imus.ids.push(s.id);
-                } else if rotated && !kinds.rotated(kind) {
-                    let of: Vec<&str> =
-                        SampleKind::ALL.iter().filter(|&&k| kinds.rotated(k)).map(|k| k.name()).collect();
-                    return Err(invalid(
-                        key("rotation_rpy_deg"),
-                        format!(
-                            "a rotation or axis convention applies to the kinds in the sensor's own axes ({}), not \
-                             to {name}",
-                            of.join(", ")
-                        ),
-                    ));
-                }
-                let table = kinds.table(kind).and_then(|t| s.tables.get(t));
-                let table_key = |f: &str| match (kinds.table(kind), f) {
-                    (Some(t), "") => key(t),
-                    (t, f) => key(&format!("{}.{f}", t.unwrap_or("settings"))),
-                };
-                let settings = kinds.settings(kind, table, &table_key)?;
-                let rpy = s.rotation_rpy_deg.map(f64::to_radians);
-                frames.sensors.push(MountedSensor {
-                    kind,
-                    id: s.id,
-                    name: s.name.clone(),
-                    mount: Mount::new(s.axes, rpy, s.lever_arm_m),
-                    time_offset_ns: s.time_offset_ns,
-                    settings,
-                });
+                frames.add_stream(s, name, kind, kinds, &key)?;
             }
         }
         Ok(frames)
+    }
+
+    /// Adds the stream of kind `kind` (named `name` in its `kinds`) of entry `s`:
+    /// once per (kind, id), an IMU at the origin and among at most [`MAX_IMUS`],
+    /// a rotation only for a rotated kind, its settings read by its kind.
+    fn add_stream(
+        &mut self,
+        s: &SensorConfig,
+        name: &str,
+        kind: SampleKind,
+        kinds: &dyn KindCatalog,
+        key: &dyn Fn(&str) -> String,
+    ) -> Result<(), ConfigError> {
+        if self.sensors.iter().any(|m| m.kind == kind && m.id == s.id) {
+            return Err(invalid(key("id"), format!("{name} sensor {} is configured twice", s.id)));
+        }
+        let rotated = s.axes != Axes::Flu || s.rotation_rpy_deg != [0.0; 3];
+        if kind == SampleKind::Imu {
+            if s.lever_arm_m != [0.0; 3] {
+                return Err(invalid(
+                    key("lever_arm_m"),
+                    "an IMU is the body origin: give the other sensors' lever arms from it",
+                ));
+            }
+            if self.imus.ids.len() == MAX_IMUS {
+                return Err(invalid(key("id"), format!("at most {MAX_IMUS} IMUs")));
+            }
+            self.imus.ids.push(s.id);
+        } else if rotated && !kinds.rotated(kind) {
+            let of: Vec<&str> = SampleKind::ALL.iter().filter(|&&k| kinds.rotated(k)).map(|k| k.name()).collect();
+            return Err(invalid(
+                key("rotation_rpy_deg"),
+                format!(
+                    "a rotation or axis convention applies to the kinds in the sensor's own axes ({}), not to {name}",
+                    of.join(", ")
+                ),
+            ));
+        }
+        let table = kinds.table(kind).and_then(|t| s.tables.get(t));
+        let table_key = |f: &str| match (kinds.table(kind), f) {
+            (Some(t), "") => key(t),
+            (t, f) => key(&format!("{}.{f}", t.unwrap_or("settings"))),
+        };
+        let settings = kinds.settings(kind, table, &table_key)?;
+        self.sensors.push(MountedSensor {
+            kind,
+            id: s.id,
+            name: s.name.clone(),
+            mount: Mount::new(s.axes, s.rotation_rpy_deg.map(f64::to_radians), s.lever_arm_m),
+            time_offset_ns: s.time_offset_ns,
+            settings,
+        });
+        Ok(())
     }
 
     /// The datum, once there is one.
@@ -445,6 +430,45 @@ impl Frames {
     pub fn imus(&self) -> &ImuSet {
         &self.imus
     }
+}
+
+/// Checks what a `[[sensor]]` entry says of the device as a whole: some kinds,
+/// all known (returned), finite angles within ±360°, a time offset within
+/// [`MAX_TIME_OFFSET_NS`], a finite lever arm of at most [`MAX_LEVER_ARM_M`],
+/// and tables of its own kinds only.
+fn check_entry(
+    s: &SensorConfig,
+    kinds: &dyn KindCatalog,
+    key: &dyn Fn(&str) -> String,
+) -> Result<Vec<SampleKind>, ConfigError> {
+    if s.kinds.is_empty() {
+        return Err(invalid(key("kinds"), "names no kind"));
+    }
+    if !s.rotation_rpy_deg.iter().all(|a| a.is_finite() && a.abs() <= 360.0) {
+        return Err(invalid(key("rotation_rpy_deg"), "angles must be finite, within ±360°"));
+    }
+    if s.time_offset_ns.unsigned_abs() > MAX_TIME_OFFSET_NS.unsigned_abs() {
+        return Err(invalid(
+            key("time_offset_ns"),
+            format!("{} ns is more than 10 s either way: not a constant delay", s.time_offset_ns),
+        ));
+    }
+    let arm = Vector3::from(s.lever_arm_m);
+    if !(arm.iter().all(|v| v.is_finite()) && arm.norm() <= MAX_LEVER_ARM_M) {
+        return Err(invalid(key("lever_arm_m"), format!("must be finite and at most {MAX_LEVER_ARM_M} m long")));
+    }
+    let own = s
+        .kinds
+        .iter()
+        .map(|name| {
+            SampleKind::from_name(name).ok_or_else(|| {
+                let known: Vec<&str> = SampleKind::ALL.iter().map(|k| k.name()).collect();
+                invalid(key("kinds"), format!("unknown kind {name:?}; known: {}", known.join(", ")))
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    check_tables(s, &own, kinds, key)?;
+    Ok(own)
 }
 
 /// Checks that each table of `s` belongs to one of its kinds (`own`): an unknown
