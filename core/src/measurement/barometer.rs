@@ -117,13 +117,13 @@ impl<const D: usize> Fuse<InsModel<D>> for BarometerSample {
         let z = pressure_altitude_m(self.pressure_pa);
         let slope = pressure_altitude_slope(self.pressure_pa);
         let R = Matrix1::new(slope * slope * self.var_pa2);
-        if !s.aux.baro_set {
+        if !s.aux.barometer.set {
             let (h, H) = altitude(s, &l, None);
             let set = augment(s, b, &Vector1::new(z - h), &(-H), &Matrix1::new(1.0), &R);
             if set.is_err() {
                 return (StepOutcome::Refused, None);
             }
-            s.aux.baro_set = true;
+            s.aux.barometer.set = true;
             return (StepOutcome::Propagated, None);
         }
         let (h, H) = altitude(s, &l, Some(b));

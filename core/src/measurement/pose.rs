@@ -59,7 +59,9 @@
 
 #![allow(non_snake_case)]
 
+pub mod progress;
 pub mod settings;
+pub use progress::{PoseProgress, PreviousPose};
 pub use settings::PoseConfig;
 
 use fusion_shared::snapshot::aux;
@@ -68,7 +70,7 @@ use nalgebra::{Matrix3, Quaternion, Rotation3, SMatrix, SVector, UnitQuaternion,
 
 use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance, finite};
 use crate::frames::Mount;
-use crate::model::ins::aux::{PreviousPose, augment};
+use crate::model::ins::aux::augment;
 use crate::model::ins::{InsModel, InsState, nonholonomic};
 use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
@@ -295,8 +297,8 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
         if config.relative {
             // Disjoint pairs: a pose that ends a pair does not start the next.
             let this = previous(self);
-            let Some((z, cov)) = s.aux.last_pose.take().and_then(|a| relative_twist(&a, &this)) else {
-                s.aux.last_pose = Some(this);
+            let Some((z, cov)) = s.aux.pose.last.take().and_then(|a| relative_twist(&a, &this)) else {
+                s.aux.pose.last = Some(this);
                 return (StepOutcome::Propagated, None);
             };
             if !nonholonomic::attitude_known(s) {
@@ -312,23 +314,17 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
             return model.update_residual_selected(s, &residual(&m, &S, self), &H, &R, &config.fuse.mask);
         }
         let Some(i) = s.aux_index(aux::POSE_FRAME_YAW) else { return (StepOutcome::Refused, None) };
-        let gated_out = config.realign_after_gated > 0 && s.aux.pose_gated >= config.realign_after_gated;
-        if s.aux.pose_counter != Some(self.reset_counter) || gated_out {
+        if s.aux.pose.due(self.reset_counter, config.realign_after_gated) {
             if !set_frame(s, mount, i, self, &R) {
                 return (StepOutcome::Refused, None);
             }
-            s.aux.pose_counter = Some(self.reset_counter);
-            s.aux.pose_gated = 0;
-            s.aux.pose_alignments += 1;
+            s.aux.pose.aligned(self.reset_counter);
             return (StepOutcome::Propagated, None);
         }
         // The estimated frame's sensor: its run of gated poses.
         let (m, S, H) = pose(s, mount, &MapFrame::estimated_at(s, i));
         let out = model.update_residual_selected(s, &residual(&m, &S, self), &H, &R, &config.fuse.mask);
-        match out.0 {
-            StepOutcome::Gated { .. } => s.aux.pose_gated += 1,
-            _ => s.aux.pose_gated = 0,
-        }
+        s.aux.pose.fused(matches!(out.0, StepOutcome::Gated { .. }));
         out
     }
 }

@@ -26,7 +26,8 @@ use nalgebra::{SMatrix, SVector};
 use super::OdometryScale;
 use super::{InsModel, InsState, MAX_AUX, N, NOMINAL};
 use crate::filter::{FilterError, KalmanFilter};
-pub use crate::measurement::barometer::settings::BarometerConfig;
+pub use crate::measurement::barometer::settings::{BarometerConfig, BarometerProgress};
+pub use crate::measurement::pose::progress::{PoseProgress, PreviousPose};
 pub use crate::measurement::pose::settings::PoseConfig;
 
 /// The barometer's bias state's parameters (`[sensor.barometer]`).
@@ -111,41 +112,15 @@ impl AuxStates {
     }
 }
 
-/// A pose kept for the next one of a relative pose sensor (its change is
-/// fused by the pose measurement): what the difference needs, compactly (it is
-/// part of every filter state the engine keeps).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PreviousPose {
-    /// Its time, ns.
-    pub t_ns: u64,
-    /// Its sensor.
-    pub sensor: u32,
-    /// Its re-initialisation counter.
-    pub reset_counter: u32,
-    /// Position, m, map frame.
-    pub position: [f64; 3],
-    /// Rotation, sensor → map, `[w, x, y, z]`.
-    pub orientation_wxyz: [f64; 4],
-    /// The upper triangles (row by row) of its position and attitude
-    /// covariance blocks.
-    pub cov_upper: [[f64; 6]; 2],
-}
-
 /// Where the auxiliary states that are set from a sample stand (part of the
-/// filter state: a rewind restores it with the rest).
+/// filter state: a rewind restores it with the rest). Each kind that sets
+/// states keeps its own bookkeeping, of a type of its own.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AuxProgress {
-    /// The barometer's bias has been set from a sample.
-    pub baro_set: bool,
-    /// The pose frame has been set, from a pose with this re-initialisation
-    /// counter.
-    pub pose_counter: Option<u32>,
-    /// Consecutive poses gated since the last fused one.
-    pub pose_gated: u32,
-    /// Times the pose frame was set (the first, and every re-initialisation).
-    pub pose_alignments: u32,
-    /// The last pose of a relative pose sensor.
-    pub last_pose: Option<PreviousPose>,
+    /// The barometer's ([`BarometerProgress`]).
+    pub barometer: BarometerProgress,
+    /// The pose sensor's ([`PoseProgress`]).
+    pub pose: PoseProgress,
     /// Times states were set from a sample (`augment`), and the error-state
     /// indices of the last ones set (first, count): the smoother's record of
     /// that step (`smoother_record`).
