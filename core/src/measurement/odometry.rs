@@ -97,9 +97,7 @@ impl Fuse<LinearModel> for OdometrySample {
 
 impl<const D: usize> Fuse<InsModel<D>> for OdometrySample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
-        if let Some(c) = model.standstill() {
-            s.still.odometry(c, self.header.t_ns, self.speed_mps);
-        }
+        model.note_speed(s, self.header.t_ns, self.speed_mps);
         // A body-frame speed needs the tilt, not the heading: a robot without
         // a heading source fuses its wheels from the start.
         if !nonholonomic::tilt_known(s) {

@@ -160,7 +160,7 @@ pub struct InsState<const D: usize = N> {
     /// The runs of gated samples of the other kinds ([`crate::model::lockout::KindRuns`]).
     pub(crate) kind_runs: KindRuns,
     /// Standstill detection ([`standstill`]).
-    pub(crate) still: standstill::Detector,
+    still: standstill::Detector,
     /// The velocity sensors' time offset estimate ([`clock`]).
     pub(crate) clock: clock::ClockEstimate,
     /// Which auxiliary states follow the core ([`fusion_shared::snapshot::aux`] bits).
@@ -439,6 +439,15 @@ impl<const D: usize> InsModel<D> {
             injected = nonholonomic::fuse(c, self, s);
         }
         injected
+    }
+
+    /// Notes a wheel speed at `t_ns` for the standstill detection, if
+    /// configured: wheels that turn end a standstill at once
+    /// ([`standstill::Detector`]).
+    pub(crate) fn note_speed(&self, s: &mut InsState<D>, t_ns: u64, speed_mps: f64) {
+        if let Some(c) = self.standstill() {
+            s.still.odometry(c, t_ns, speed_mps);
+        }
     }
 
     /// The body angular rate `ω = ω_m − b_g` of the held IMU values (zero before
