@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::measurement::Steps;
+use crate::model::held_imu::Held;
 use fusion_shared::{ImuSample, PositionSample, Sample};
 
 const G: f64 = 9.80665;
