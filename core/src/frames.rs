@@ -107,13 +107,6 @@ impl Debug for Settings {
     }
 }
 
-/// An angle wrapped into (−π, π], rad.
-pub fn wrap_angle(a: f64) -> f64 {
-    use std::f64::consts::PI;
-    let w = a.rem_euclid(2.0 * PI); // [0, 2π)
-    if w > PI { w - 2.0 * PI } else { w }
-}
-
 /// Longest lever arm accepted, m (a vehicle, not a survey baseline).
 pub const MAX_LEVER_ARM_M: f64 = 100.0;
 

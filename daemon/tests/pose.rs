@@ -161,7 +161,7 @@ fn drive<const D: usize>(model: InsModel<D>, config: &Config, scenario: &Scenari
         if D == N + 4 && e.key.t_ns >= settled_ns && out.frame.is_none() {
             let i = N;
             let err = [
-                fusion_daemon::frames::wrap_angle(x[i + 1] - AFTER.yaw_rad),
+                fusion_daemon::filter::wrap_angle(x[i + 1] - AFTER.yaw_rad),
                 x[i + 2] - AFTER.origin_m[0],
                 x[i + 3] - AFTER.origin_m[1],
                 x[i + 4] - AFTER.origin_m[2],

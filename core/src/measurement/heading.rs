@@ -29,7 +29,7 @@ use fusion_shared::HeadingSample;
 use nalgebra::{Matrix1, SMatrix, SVector, Vector1, Vector3};
 
 use super::{Fuse, Limits, Measurement, Needed, Rejection, finite};
-use crate::frames::wrap_angle as wrap;
+use crate::filter::wrap_angle as wrap;
 use crate::model::StepOutcome;
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};

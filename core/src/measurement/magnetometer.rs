@@ -42,7 +42,7 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite};
 use crate::model::{Model, StepOutcome};
 use crate::setting::{ConfigError, invalid};
-use crate::frames::wrap_angle;
+use crate::filter::wrap_angle;
 use crate::model::ins::course::{ALIGN_ABOVE_SD, heading_variance, turn_heading};
 use crate::model::ins::nonholonomic::{MAX_ATTITUDE_SD, tilt_variance};
 use crate::model::ins::{InsModel, InsState};

@@ -34,7 +34,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 
 use super::{InsModel, InsState};
-use crate::frames::wrap_angle as wrap;
+use crate::filter::wrap_angle as wrap;
 
 /// Heading uncertainty (1σ, rad) above which a velocity sample aligns the
 /// heading: 0.2 rad (11°), twice where the motion constraint starts
