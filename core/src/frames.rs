@@ -19,6 +19,10 @@
 //!
 //! A sensor without a `[[sensor]]` entry has the identity mount. Several IMUs sit
 //! at the body origin (on one board); each may be rotated ([`ImuSet`]).
+//!
+//! Each stream also carries its settings of its kind (its `[sensor.<table>]`),
+//! read and checked by its kind ([`KindCatalog`]) and held here without their
+//! type ([`Settings`]): the frames name no kind.
 
 use std::any::Any;
 use std::cell::OnceCell;
@@ -52,8 +56,9 @@ impl DatumTable {
 pub const MAX_IMUS: usize = 8;
 
 /// What reading the `[[sensor]]` entries needs to know of each kind. The kind
-/// list above the frames gives it (`measurement::Kinds`): each kind's module declares
-/// whether its samples are rotated, and the type and the reading of its table.
+/// list above the frames gives it (`measurement::Kinds`): each kind's module
+/// declares whether its samples are rotated, and the type and the reading of
+/// its table.
 pub trait KindCatalog {
     /// Whether samples of `kind` are in the sensor's own axes, so that a
     /// rotation and an axis convention apply (the others are in the world
@@ -75,8 +80,8 @@ pub trait KindCatalog {
 }
 
 /// A sensor's settings of its kind, of the type its kind's module declares
-/// (`Measurement::Settings`), or none. Held here without
-/// their type, so the frames know no kind; [`Settings::get`] gives them typed.
+/// (`Measurement::Settings`), or none. Held here without their type, so the
+/// frames know no kind; [`Settings::get`] gives them typed.
 #[derive(Clone, Default)]
 pub struct Settings(Option<Arc<dyn SettingsValue>>);
 
