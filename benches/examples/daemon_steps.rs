@@ -16,18 +16,18 @@
 //! Models: `linear` and `ins` (one IMU at 1 kHz), and `vehicle`: the latency
 //! bench's vehicle set ([`fusion_benches::latency::VEHICLE_CONFIG`]: two IMUs at
 //! the same 1 kHz instants, a geodetic fix every 100th instant, an odometry
-//! speed every 20th), `vehicle16` (with the odometry scale factor as a state: 16
-//! error states) and `vehicle21` (the largest state,
-//! [`fusion_benches::latency::VEHICLE21_CONFIG`]: scale, barometer and a pose
-//! sensor's map frame, with their samples). `linear-late` and `ins-late`: one IMU at 1 kHz and, every
-//! 100th instant, a position fix 100 ms old arriving just before the IMU sample
+//! speed every 20th: [`fusion_benches::latency::vehicle_instant`]), `vehicle16`
+//! (with the odometry scale factor as a state: 16 error states) and `vehicle21`
+//! (the largest state, [`fusion_benches::latency::VEHICLE21_CONFIG`]: scale,
+//! barometer and a pose sensor's map frame, with their samples). `linear-late`
+//! and `ins-late`: one IMU at 1 kHz and, every 100th instant, a position fix 100 ms old arriving just before the IMU sample
 //! (the latency bench's late-data rows). Samples are inserted as the live loop
 //! does ([`Engine::insert_deferred`]); a pending rewind is settled after each
 //! instant, untimed, as the loop does in its idle time.
 
 use std::hint::black_box;
 
-use fusion_benches::latency::{VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST, VEHICLE21_CONFIG, vehicle21_extras};
+use fusion_benches::latency::{VEHICLE_CONFIG, VEHICLE21_CONFIG, vehicle_instant, vehicle21_extras};
 use fusion_daemon::config::{Config, WithModel, with_model};
 use fusion_daemon::engine::{Engine, EngineConfig, Insert};
 use fusion_daemon::health::HealthMonitor;
@@ -35,7 +35,7 @@ use fusion_daemon::measurement::Steps;
 use fusion_daemon::model::ins::InsModel;
 use fusion_daemon::model::linear::LinearModel;
 use fusion_daemon::snapshot::{self, Input};
-use fusion_shared::{GeodeticSample, ImuSample, OdometrySample, PositionSample, Sample, StateSnapshot};
+use fusion_shared::{ImuSample, PositionSample, Sample, StateSnapshot};
 
 fn main() {
     let model = std::env::args().nth(1).unwrap_or_else(|| "linear".into());
@@ -112,22 +112,6 @@ impl WithModel for Run<'_> {
             out
         });
     }
-}
-
-/// The samples of instant `k` at `t`, in the order the latency bench's vehicle
-/// prober publishes them.
-fn vehicle_instant(t: u64, k: u64) -> Vec<Sample> {
-    let cov = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64];
-    let mut out = Vec::with_capacity(4);
-    if k % 100 == 50 {
-        out.push(Sample::Geodetic(GeodeticSample::new(t, 3, k / 100, 48.1316, 11.5494, 519.0, cov)));
-    }
-    if k % 20 == 10 {
-        out.push(Sample::Odometry(OdometrySample::new(t, 0, k / 20, 0.0, 0.01)));
-    }
-    out.push(Sample::Imu(ImuSample::new(t, 0, k, VEHICLE_IMUS_AT_REST[0], [0.0; 3])));
-    out.push(Sample::Imu(ImuSample::new(t, 1, k, VEHICLE_IMUS_AT_REST[1], [0.0; 3])));
-    out
 }
 
 #[inline(never)]

@@ -254,16 +254,14 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
                 extra += 1;
             }
         }
-        if s.extras {
-            let published = match crate::latency::vehicle21_extras(t, k) {
-                Some(fusion_shared::Sample::Barometer(b)) => Some((baro_pub.publish_sample(b)?, b.header)),
-                Some(fusion_shared::Sample::Pose(p)) => Some((pose_pub.publish_sample(p)?, p.header)),
-                _ => None,
+        if let Some(sample) = crate::latency::vehicle21_extras(t, k).filter(|_| s.extras) {
+            match sample {
+                fusion_shared::Sample::Barometer(b) => baro_pub.publish_sample(b)?,
+                fusion_shared::Sample::Pose(p) => pose_pub.publish_sample(p)?,
+                other => anyhow::bail!("no publisher for a {} sample", other.kind().name()),
             };
-            if let Some((_, h)) = published {
-                last_seq = await_snapshot(&mut reader, h.kind, h.seq)?;
-                extra += 1;
-            }
+            last_seq = await_snapshot(&mut reader, sample.kind() as u32, sample.header().seq)?;
+            extra += 1;
         }
         if k % 10 == 5 {
             let late = if fixes % 50 == 49 { 100_000_000 } else { 0 };

@@ -52,6 +52,25 @@ macro_rules! vehicle_config {
 /// The `ins` config of the vehicle rows (see `vehicle_config!`), GNSS positions only.
 pub const VEHICLE_CONFIG: &str = vehicle_config!("[\"geodetic\"]");
 
+/// The samples of the vehicle set ([`VEHICLE_CONFIG`]) at instant `k` (time
+/// `t`), in the order the vehicle prober publishes them: a geodetic fix every
+/// 100th instant (at 50), an odometry speed every 20th (at 10), then both IMUs,
+/// of a vehicle at rest, level.
+pub fn vehicle_instant(t: u64, k: u64) -> Vec<fusion_shared::Sample> {
+    use fusion_shared::{GeodeticSample, ImuSample, OdometrySample, Sample};
+    let cov = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64];
+    let mut out = Vec::with_capacity(4);
+    if k % 100 == 50 {
+        out.push(Sample::Geodetic(GeodeticSample::new(t, 3, k / 100, 48.1316, 11.5494, 519.0, cov)));
+    }
+    if k % 20 == 10 {
+        out.push(Sample::Odometry(OdometrySample::new(t, 0, k / 20, 0.0, 0.01)));
+    }
+    out.push(Sample::Imu(ImuSample::new(t, 0, k, VEHICLE_IMUS_AT_REST[0], [0.0; 3])));
+    out.push(Sample::Imu(ImuSample::new(t, 1, k, VEHICLE_IMUS_AT_REST[1], [0.0; 3])));
+    out
+}
+
 /// The config of the largest state (21 error states): [`VEHICLE_CONFIG`] with
 /// the odometry's scale factor as a state, a barometer (its bias a state) and
 /// a localiser's poses in a map frame estimated as four states. The vehicle
@@ -267,6 +286,19 @@ struct Extras {
     pose: fusion_client::SamplePublisher<fusion_shared::PoseSample>,
 }
 
+impl Extras {
+    /// Publishes one of [`vehicle21_extras`]' samples as its sensor's next one.
+    fn publish(&mut self, sample: fusion_shared::Sample) -> anyhow::Result<()> {
+        use fusion_shared::Sample;
+        match sample {
+            Sample::Barometer(b) => self.barometer.publish_next(b)?,
+            Sample::Pose(p) => self.pose.publish_next(p)?,
+            other => anyhow::bail!("no extra publisher for a {} sample", other.kind().name()),
+        };
+        Ok(())
+    }
+}
+
 /// How late a late-stream sample arrives: `min_ms..=max_ms`, spread evenly
 /// and deterministically over the sequence numbers.
 fn lateness_ns(seq: u64, min_ms: u64, max_ms: u64) -> u64 {
@@ -366,12 +398,10 @@ impl Prober {
                         let speed = fusion_shared::OdometrySample::new(odometry_t, 0, seq / 20, 0.0, 0.01);
                         v.odometry.publish_next(speed)?;
                     }
-                    if let Some(e) = &mut v.extras {
-                        match vehicle21_extras(t, seq) {
-                            Some(fusion_shared::Sample::Barometer(b)) => e.barometer.publish_next(b)?,
-                            Some(fusion_shared::Sample::Pose(pose)) => e.pose.publish_next(pose)?,
-                            _ => 0,
-                        };
+                    if let Some(e) = &mut v.extras
+                        && let Some(sample) = vehicle21_extras(t, seq)
+                    {
+                        e.publish(sample)?;
                     }
                 }
             }

@@ -2,11 +2,11 @@
 //! vehicle21`) measure what they say: its config builds 21 error states, and
 //! the barometer's and the pose sensor's samples are fused, not refused.
 
-use fusion_benches::latency::{VEHICLE_IMUS_AT_REST, VEHICLE21_CONFIG, vehicle21_extras};
+use fusion_benches::latency::{VEHICLE21_CONFIG, vehicle_instant, vehicle21_extras};
 use fusion_daemon::config::{Config, WithModel, with_model};
 use fusion_daemon::engine::{Engine, EngineConfig};
 use fusion_daemon::measurement::Steps;
-use fusion_shared::{GeodeticSample, ImuSample, OdometrySample, Sample, SampleKind};
+use fusion_shared::{Sample, SampleKind};
 
 struct Drive<'a>(&'a Config);
 
@@ -14,19 +14,10 @@ impl WithModel for Drive<'_> {
     type Output = (usize, Vec<(SampleKind, u64, u64)>);
     fn run<M: Steps>(self, model: M) -> Self::Output {
         let mut engine = Engine::new(model, EngineConfig::from_config(self.0));
-        let cov = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64];
         for k in 0..3000u64 {
             let t = 1_000_000_000 + k * 1_000_000;
-            let mut instant = Vec::new();
-            instant.extend(vehicle21_extras(t, k));
-            if k % 100 == 50 {
-                instant.push(Sample::Geodetic(GeodeticSample::new(t, 3, k / 100, 48.1316, 11.5494, 519.0, cov)));
-            }
-            if k % 20 == 10 {
-                instant.push(Sample::Odometry(OdometrySample::new(t, 0, k / 20, 0.0, 0.01)));
-            }
-            instant.push(Sample::Imu(ImuSample::new(t, 0, k, VEHICLE_IMUS_AT_REST[0], [0.0; 3])));
-            instant.push(Sample::Imu(ImuSample::new(t, 1, k, VEHICLE_IMUS_AT_REST[1], [0.0; 3])));
+            let mut instant: Vec<Sample> = vehicle21_extras(t, k).into_iter().collect();
+            instant.extend(vehicle_instant(t, k));
             for s in &instant {
                 engine.insert(s, None, &mut |_| {});
             }

@@ -79,7 +79,7 @@ impl Measurement for AttitudeSample {
 
     /// All three angles without the table.
     fn settings(table: Option<&toml::Value>, key: &dyn Fn(&str) -> String) -> Result<Option<AttitudeConfig>, ConfigError> {
-        Ok(Some(table.map(|t| super::read_table(t, key)).transpose()?.unwrap_or_default()))
+        super::read_table_or_default(table, key).map(Some)
     }
 
     fn fused_dim(settings: &AttitudeConfig) -> usize {

@@ -60,8 +60,7 @@ impl Measurement for BarometerSample {
 
     /// The defaults without the table.
     fn settings(table: Option<&toml::Value>, key: &dyn Fn(&str) -> String) -> Result<Option<BarometerConfig>, ConfigError> {
-        let table: BarometerConfig = table.map(|t| super::read_table(t, key)).transpose()?.unwrap_or_default();
-        table.check(key).map(Some)
+        super::read_table_or_default::<BarometerConfig>(table, key)?.check(key).map(Some)
     }
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {

@@ -129,6 +129,15 @@ pub fn read_table<T: serde::de::DeserializeOwned>(
     table.clone().try_into().map_err(|e: toml::de::Error| crate::setting::invalid(key(""), e.message()))
 }
 
+/// A kind's settings table as written, or its type's defaults without one
+/// ([`read_table`]).
+pub fn read_table_or_default<T: serde::de::DeserializeOwned + Default>(
+    table: Option<&toml::Value>,
+    key: &dyn Fn(&str) -> String,
+) -> Result<T, ConfigError> {
+    table.map_or_else(|| Ok(T::default()), |t| read_table(t, key))
+}
+
 /// Checks that every value is finite.
 pub fn finite(values: &[f64]) -> Result<(), Rejection> {
     if values.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(Rejection::NonFinite) }

@@ -102,8 +102,7 @@ impl Measurement for PoseSample {
 
     /// The defaults (an estimated frame) without the table.
     fn settings(table: Option<&toml::Value>, key: &dyn Fn(&str) -> String) -> Result<Option<PoseConfig>, ConfigError> {
-        let table: PoseConfig = table.map(|t| super::read_table(t, key)).transpose()?.unwrap_or_default();
-        table.check(key).map(Some)
+        super::read_table_or_default::<PoseConfig>(table, key)?.check(key).map(Some)
     }
 
     fn fused_dim(settings: &PoseConfig) -> usize {

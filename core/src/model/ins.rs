@@ -451,6 +451,7 @@ impl<const D: usize> Model for InsModel<D> {
         out
     }
 
+    #[inline]
     fn diagnostics(s: &InsState<D>) -> crate::model::Diagnostics {
         crate::model::Diagnostics {
             reinitialisations: s.lockout.count() + s.kind_runs.resets(),

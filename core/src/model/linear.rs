@@ -257,6 +257,7 @@ impl Model for LinearModel {
         log.finish(&s.kf)
     }
 
+    #[inline]
     fn diagnostics(s: &LinearState) -> Diagnostics {
         Diagnostics { reinitialisations: s.lockout.count(), ..Diagnostics::default() }
     }

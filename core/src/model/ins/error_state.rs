@@ -169,8 +169,12 @@ macro_rules! per_size {
         }
 
         const _: () = {
-            let sizes = [$($aux),*];
-            assert!(sizes.len() == MAX_AUX + 1, "a kernel for every number of auxiliary states");
+            let sizes: [usize; MAX_AUX + 1] = [$($aux),*];
+            let mut i = 0;
+            while i < sizes.len() {
+                assert!(sizes[i] == i, "a kernel for every number of auxiliary states, in order");
+                i += 1;
+            }
         };
     };
 }
