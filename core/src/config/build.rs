@@ -32,6 +32,10 @@ pub trait Build {
     fn run<F: WithModel>(built: Self::Built, f: F) -> F::Output;
 }
 
+// The kinds each model fuses (every other is refused: `measurement::Fusion`).
+crate::fuses!(LinearModel: Imu, Position, Velocity, Geodetic);
+impl<const D: usize> crate::measurement::EveryKind for InsModel<D> {}
+
 impl Build for LinearModel {
     type Built = LinearModel;
     fn build(config: &Tables) -> Result<Self, ConfigError> {
@@ -249,7 +253,7 @@ impl LinearModel {
         let (x0, p0) = initial_values::<{ linear::N }, { linear::N }>(config)?;
         let frames = Frames::from_config(config.datum, &config.sensors, config.imu, &crate::measurement::Kinds)?;
         for MountedSensor { kind, name, mount, .. } in frames.sensors() {
-            if !crate::measurement::accepts::<LinearModel>(*kind) {
+            if !<LinearModel as Steps>::accepts(*kind) {
                 return Err(invalid(
                     "sensor",
                     format!("{name:?}: the linear model cannot fuse {}; use kind = \"ins\"", kind.name()),
@@ -356,7 +360,7 @@ impl InsModel {
             _ => None,
         };
         let frames = Frames::from_config(config.datum, &config.sensors, config.imu, &crate::measurement::Kinds)?;
-        if let Some(m) = frames.sensors().iter().find(|m| !crate::measurement::accepts::<InsModel>(m.kind)) {
+        if let Some(m) = frames.sensors().iter().find(|m| !<InsModel as Steps>::accepts(m.kind)) {
             return Err(invalid("sensor", format!("{:?}: the ins model cannot fuse {}", m.name, m.kind.name())));
         }
         Self::new(noise, gravity, x0, p0, config.gating.clone(), alignment)

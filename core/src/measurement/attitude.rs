@@ -56,11 +56,10 @@ pub use settings::AttitudeConfig;
 use fusion_shared::{AttitudeSample, SampleKind};
 use nalgebra::{Matrix3, Quaternion, Rotation3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite};
+use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance3, finite};
 use crate::model::ins::course::{ALIGN_ABOVE_SD, heading_variance};
 use crate::model::ins::nonholonomic::{MAX_ATTITUDE_SD, tilt_variance};
 use crate::model::ins::{InsModel, InsState};
-use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
 use crate::setting::ConfigError;
 
@@ -189,16 +188,6 @@ fn align<const D: usize>(
     change
 }
 
-impl Fuse<LinearModel> for AttitudeSample {
-    /// The linear model has no attitude: a configured sensor of this kind is an
-    /// error at start-up, and a sample of an unconfigured one is refused.
-    const ACCEPTS: bool = false;
-
-    fn fuse(&self, _: &LinearModel, _: &mut LinearState) -> (StepOutcome, ()) {
-        (StepOutcome::Refused, ())
-    }
-}
-
 impl<const D: usize> Fuse<InsModel<D>> for AttitudeSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         let frames = model.frames();
@@ -209,10 +198,8 @@ impl<const D: usize> Fuse<InsModel<D>> for AttitudeSample {
         if unknown(s, yaw) {
             return (StepOutcome::Propagated, Some(align(s, &C, &Z, &Sigma, yaw)));
         }
-        if yaw {
-            let (S, H) = full(s, &C);
-            let y = super::pose::log(&(S.transpose() * Z));
-            return model.update_residual(s, &y, &H, &Sigma);
+        if let Some(o) = self.observe(model, s) {
+            return model.update_residual(s, &o.y, &o.H, &o.R);
         }
         let (u, P, H) = tilt(s, &C);
         let u_z = Z.transpose() * Vector3::z();
@@ -220,6 +207,25 @@ impl<const D: usize> Fuse<InsModel<D>> for AttitudeSample {
         let ux = u.cross_matrix();
         let R = P * ux * Sigma * ux.transpose() * P.transpose();
         model.update_residual(s, &y, &H, &R)
+    }
+}
+
+/// The full attitude: `y = Log(Ŝᵀ Z)` with `Ŝ = R C`, `H` of [`full`], `R = Σ`.
+/// `None` for a sensor of roll and pitch only (`[sensor.attitude] yaw =
+/// false`: two components, [`tilt`]) and while the attitude is unknown (the
+/// sample sets it).
+impl<const D: usize> Observe<3, D> for AttitudeSample {
+    fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<3, D>> {
+        let frames = model.frames();
+        let yaw = super::settings::<AttitudeSample>(frames, self.header.sensor).is_none_or(|c| c.yaw);
+        if !yaw || unknown(s, yaw) {
+            return None;
+        }
+        let C = frames.mount(SampleKind::Attitude, self.header.sensor).rotation;
+        let Z = rotation_of(&self.orientation_wxyz);
+        let (S, H) = full(s, &C);
+        let y = super::pose::log(&(S.transpose() * Z));
+        Some(Observation { y, H, R: Matrix3::from_row_slice(&self.cov_rad2) })
     }
 }
 

@@ -42,9 +42,8 @@ use fusion_shared::snapshot::aux;
 use fusion_shared::{BarometerSample, MAX_PRESSURE_PA, SampleKind, pressure_altitude_m, pressure_altitude_slope};
 use nalgebra::{Matrix1, SMatrix, SVector, Vector1, Vector3};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, finite};
+use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, finite};
 use crate::model::ins::{InsModel, InsState, aux::augment};
-use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
 use crate::setting::ConfigError;
 
@@ -94,39 +93,56 @@ pub fn altitude<const D: usize>(s: &InsState<D>, l: &Vector3<f64>, bias: Option<
     (h, H)
 }
 
-impl Fuse<LinearModel> for BarometerSample {
-    /// The linear model has no bias state: a configured barometer is an error
-    /// at start-up, and a sample of an unconfigured one is refused.
-    const ACCEPTS: bool = false;
-
-    fn fuse(&self, _: &LinearModel, _: &mut LinearState) -> (StepOutcome, ()) {
-        (StepOutcome::Refused, ())
+impl<const D: usize> Fuse<InsModel<D>> for BarometerSample {
+    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
+        if !s.aux.barometer.set {
+            return (set_bias(self, model, s), None);
+        }
+        match self.observe(model, s) {
+            Some(o) => model.update_residual(s, &o.y, &o.H, &o.R),
+            None => (StepOutcome::Refused, None),
+        }
     }
 }
 
-impl<const D: usize> Fuse<InsModel<D>> for BarometerSample {
-    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
-        // A barometer that is not configured has no bias state (the state is
-        // the configured one's).
-        let Some(b) = s.aux_index(aux::BARO_BIAS).filter(|_| super::settings::<BarometerSample>(model.frames(), self.header.sensor).is_some())
-        else {
-            return (StepOutcome::Refused, None);
-        };
-        let l = model.frames().mount(SampleKind::Barometer, self.header.sensor).lever_arm;
-        let z = pressure_altitude_m(self.pressure_pa);
-        let slope = pressure_altitude_slope(self.pressure_pa);
-        let R = Matrix1::new(slope * slope * self.var_pa2);
+/// The bias state's index of a configured barometer (`None`: a barometer
+    /// that is not configured has no bias state; the state is the configured
+    /// one's), its port's lever arm, the pressure altitude and its variance.
+fn altitude_of<const D: usize>(
+    sample: &BarometerSample,
+    model: &InsModel<D>,
+    s: &InsState<D>,
+) -> Option<(usize, Vector3<f64>, f64, Matrix1<f64>)> {
+    let sensor = sample.header.sensor;
+    let b = s.aux_index(aux::BARO_BIAS).filter(|_| super::settings::<BarometerSample>(model.frames(), sensor).is_some())?;
+    let l = model.frames().mount(SampleKind::Barometer, sensor).lever_arm;
+    let slope = pressure_altitude_slope(sample.pressure_pa);
+    Some((b, l, pressure_altitude_m(sample.pressure_pa), Matrix1::new(slope * slope * sample.var_pa2)))
+}
+
+/// Sets the bias from the first sample, by state augmentation (see the module
+/// doc): `Propagated` (nothing fused), or `Refused`.
+fn set_bias<const D: usize>(sample: &BarometerSample, model: &InsModel<D>, s: &mut InsState<D>) -> StepOutcome {
+    let Some((b, l, z, R)) = altitude_of(sample, model, s) else { return StepOutcome::Refused };
+    let (h, H) = altitude(s, &l, None);
+    if augment(s, b, &Vector1::new(z - h), &(-H), &Matrix1::new(1.0), &R).is_err() {
+        return StepOutcome::Refused;
+    }
+    s.aux.barometer.set = true;
+    StepOutcome::Propagated
+}
+
+/// `y = z − (p_z + (R l)_z + b)` of [`altitude`], `z` the pressure altitude;
+/// `None` before the first sample sets the bias, and for a barometer without
+/// the bias state.
+impl<const D: usize> Observe<1, D> for BarometerSample {
+    fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<1, D>> {
         if !s.aux.barometer.set {
-            let (h, H) = altitude(s, &l, None);
-            let set = augment(s, b, &Vector1::new(z - h), &(-H), &Matrix1::new(1.0), &R);
-            if set.is_err() {
-                return (StepOutcome::Refused, None);
-            }
-            s.aux.barometer.set = true;
-            return (StepOutcome::Propagated, None);
+            return None;
         }
+        let (b, l, z, R) = altitude_of(self, model, s)?;
         let (h, H) = altitude(s, &l, Some(b));
-        model.update_residual(s, &Vector1::new(z - h), &H, &R)
+        Some(Observation { y: Vector1::new(z - h), H, R })
     }
 }
 

@@ -31,13 +31,12 @@ use quality::GnssQuality;
 
 use fusion_shared::geodesy::{self, Datum, InvalidGeodetic};
 use fusion_shared::{GeodeticSample, PositionSample, SampleKind, fix};
-use nalgebra::{Matrix3, SVector, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, lever_arm};
+use super::{Fuse, Kinematic, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance3, lever_arm};
+use crate::model::ins::{InsModel, InsState};
 use crate::setting::ConfigError;
 use crate::frames::Frames;
-use crate::model::ins::{InsModel, InsState};
-use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
 
 impl Measurement for GeodeticSample {
@@ -106,30 +105,32 @@ fn as_position(f: &GeodeticSample, frames: &Frames) -> Option<PositionSample> {
     Some(PositionSample::new(h.t_ns, h.sensor, h.seq, enu, cov))
 }
 
-/// Fused as the position fix ([`super::position`]).
-impl Fuse<LinearModel> for GeodeticSample {
-    fn fuse(&self, model: &LinearModel, s: &mut LinearState) -> (StepOutcome, ()) {
-        match as_position(self, model.frames()) {
-            Some(p) => p.fuse(model, s),
-            None => (StepOutcome::Refused, ()),
-        }
+/// Fused as the position fix ([`super::position`]), of the sensor's mount
+/// (the INS: the point at its lever arm, [`super::lever_arm`]).
+impl<M: Kinematic> Fuse<M> for GeodeticSample {
+    fn fuse(&self, model: &M, s: &mut M::State) -> (StepOutcome, M::Correction) {
+        let Some(p) = as_position(self, model.frames()) else { return (StepOutcome::Refused, M::Correction::default()) };
+        let R = Matrix3::from_row_slice(&p.cov_m2);
+        model.fuse_position(s, SampleKind::Geodetic, self.header.sensor, &Vector3::from(p.pos_m), &R)
     }
 }
 
-/// Fused as the position fix ([`super::position`]), of the point at the
-/// sensor's lever arm ([`super::lever_arm`]).
-impl<const D: usize> Fuse<InsModel<D>> for GeodeticSample {
-    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
-        let Some(p) = as_position(self, model.frames()) else { return (StepOutcome::Refused, None) };
+/// The position fix's ([`super::position`]) at the fix's ENU coordinates.
+impl<const D: usize> Observe<3, D> for GeodeticSample {
+    fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<3, D>> {
+        let p = as_position(self, model.frames())?;
         let mount = model.frames().mount(SampleKind::Geodetic, self.header.sensor);
-        let R = Matrix3::from_row_slice(&p.cov_m2);
-        lever_arm::fuse_position(model, s, mount, &Vector3::from(p.pos_m), &R)
+        let (h, H) = lever_arm::position(s, &mount.lever_arm);
+        Some(Observation { y: Vector3::from(p.pos_m) - h, H, R: Matrix3::from_row_slice(&p.cov_m2) })
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::Model;
+    use crate::model::ins::InsModel;
+    use crate::model::linear::LinearModel;
 
     const COV: [f64; 9] = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64];
 

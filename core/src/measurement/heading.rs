@@ -28,11 +28,10 @@ use std::f64::consts::PI;
 use fusion_shared::HeadingSample;
 use nalgebra::{Matrix1, SMatrix, SVector, Vector1, Vector3};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, finite};
+use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, finite};
 use crate::filter::wrap_angle as wrap;
 use crate::model::StepOutcome;
 use crate::model::ins::{InsModel, InsState};
-use crate::model::linear::{LinearModel, LinearState};
 
 /// Largest |yaw| accepted, rad: a wrapped angle or a few turns of an unwrapped one.
 pub const MAX_YAW_RAD: f64 = 1000.0;
@@ -75,21 +74,20 @@ pub fn yaw<const D: usize>(s: &InsState<D>) -> Option<(f64, SMatrix<f64, 1, D>)>
     Some((d.atan2(c), H))
 }
 
-impl Fuse<LinearModel> for HeadingSample {
-    /// The linear model has no attitude: a configured sensor of this kind is an
-    /// error at start-up, and a sample of an unconfigured one is refused.
-    const ACCEPTS: bool = false;
-
-    fn fuse(&self, _: &LinearModel, _: &mut LinearState) -> (StepOutcome, ()) {
-        (StepOutcome::Refused, ())
+impl<const D: usize> Fuse<InsModel<D>> for HeadingSample {
+    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
+        match self.observe(model, s) {
+            Some(o) => model.update_residual(s, &o.y, &o.H, &o.R),
+            None => (StepOutcome::Refused, None),
+        }
     }
 }
 
-impl<const D: usize> Fuse<InsModel<D>> for HeadingSample {
-    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
-        let Some((h, H)) = yaw(s) else { return (StepOutcome::Refused, None) };
-        let y = Vector1::new(wrap(self.yaw_rad - h));
-        model.update_residual(s, &y, &H, &Matrix1::new(self.var_rad2))
+/// `y = wrap(z − ψ)` of [`yaw`]; `None` with the forward axis near vertical.
+impl<const D: usize> Observe<1, D> for HeadingSample {
+    fn observe(&self, _: &InsModel<D>, s: &InsState<D>) -> Option<Observation<1, D>> {
+        let (h, H) = yaw(s)?;
+        Some(Observation { y: Vector1::new(wrap(self.yaw_rad - h)), H, R: Matrix1::new(self.var_rad2) })
     }
 }
 
@@ -98,7 +96,6 @@ mod tests {
     use nalgebra::UnitQuaternion;
 
     use super::*;
-    use crate::model::Model;
     use crate::model::ins::tests_support::{model, moving_state, numeric_jacobian};
 
     #[test]
@@ -148,8 +145,5 @@ mod tests {
         assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
         let after = yaw(&s).unwrap().0;
         assert!(wrap(after - (-179f64).to_radians()).abs() < 0.01, "{}", after.to_degrees());
-        let linear = LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap();
-        let mut ls = linear.initial_state();
-        assert_eq!(z.fuse(&linear, &mut ls).0, StepOutcome::Refused);
     }
 }

@@ -11,7 +11,7 @@
 use fusion_shared::{ImuSample, SampleKind};
 use nalgebra::Vector3;
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, finite};
+use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, finite};
 use crate::model::held_imu::Held;
 use crate::model::ins::{InsModel, InsState};
 use crate::model::linear::{LinearModel, LinearState};
@@ -67,6 +67,13 @@ impl<const D: usize> Fuse<InsModel<D>> for ImuSample {
             Held::Unknown => return (StepOutcome::Refused, None),
         }
         (StepOutcome::Propagated, model.pseudo_measurements(s, self.header.t_ns, f, w))
+    }
+}
+
+/// The IMU drives the propagation: it observes nothing.
+impl<const D: usize> Observe<0, D> for ImuSample {
+    fn observe(&self, _: &InsModel<D>, _: &InsState<D>) -> Option<Observation<0, D>> {
+        None
     }
 }
 

@@ -25,9 +25,11 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
+use fusion_shared::SampleKind;
+
 use crate::frames::Mount;
-use crate::model::StepOutcome;
 use crate::model::ins::{InsModel, InsState};
+use crate::model::{Kinematic, Model, StepOutcome};
 
 /// `h` and `H` of a 3-vector measured at a lever arm ([`position`], [`velocity`]).
 type AtArm<const D: usize> = fn(&InsState<D>, &Vector3<f64>) -> (Vector3<f64>, SMatrix<f64, 3, D>);
@@ -53,6 +55,44 @@ pub fn velocity<const D: usize>(s: &InsState<D>, l: &Vector3<f64>) -> (Vector3<f
         H.fixed_view_mut::<3, 3>(0, 12).copy_from(&(R * l.cross_matrix()));
     }
     (s.v() + R * wl, H)
+}
+
+/// The INS fuses a position or a velocity of the point at the sensor's lever
+/// arm; a velocity also feeds the time-offset estimate (`ins::clock`) and, with
+/// an unknown heading, the alignment to the course over ground (`ins::course`).
+impl<const D: usize> Kinematic for InsModel<D> {
+    fn fuse_position(
+        &self,
+        s: &mut InsState<D>,
+        kind: SampleKind,
+        sensor: u32,
+        z: &Vector3<f64>,
+        R: &Matrix3<f64>,
+    ) -> (StepOutcome, Option<SVector<f64, D>>) {
+        fuse_position(self, s, self.frames().mount(kind, sensor), z, R)
+    }
+
+    fn fuse_velocity(
+        &self,
+        s: &mut InsState<D>,
+        sensor: u32,
+        t_ns: u64,
+        z: &Vector3<f64>,
+        R: &Matrix3<f64>,
+    ) -> (StepOutcome, Option<SVector<f64, D>>) {
+        let mount = self.frames().mount(SampleKind::Velocity, sensor);
+        let rotational = velocity(s, &mount.lever_arm).0 - s.v();
+        let at_origin = z - rotational;
+        self.observe_velocity(s, t_ns, &at_origin, R);
+        let turned = self.align_course(s, &at_origin, R);
+        let (outcome, injected) = fuse_velocity(self, s, mount, z, R);
+        // The smoother's record holds the whole change of the nominal state.
+        let injected = match (turned, injected) {
+            (Some(t), Some(dx)) => Some(t + dx),
+            (t, dx) => t.or(dx),
+        };
+        (outcome, injected)
+    }
 }
 
 /// Fuses a position `z` (covariance `R`) of the point of `mount`; at the origin,

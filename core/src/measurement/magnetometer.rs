@@ -39,14 +39,13 @@ use field::EarthField;
 use fusion_shared::{MagnetometerSample, SampleKind};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite};
+use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance3, finite};
 use crate::model::{Model, StepOutcome};
 use crate::setting::{ConfigError, invalid};
 use crate::filter::wrap_angle;
 use crate::model::ins::course::{ALIGN_ABOVE_SD, heading_variance, turn_heading};
 use crate::model::ins::nonholonomic::{MAX_ATTITUDE_SD, tilt_variance};
 use crate::model::ins::{InsModel, InsState};
-use crate::model::linear::{LinearModel, LinearState};
 
 /// Largest field strength accepted, µT (the Earth's is 25–65 µT; a sensor next
 /// to a motor saturates well below this).
@@ -96,16 +95,6 @@ pub fn field<const D: usize>(s: &InsState<D>, world: &Vector3<f64>) -> (Vector3<
     (h, H)
 }
 
-impl Fuse<LinearModel> for MagnetometerSample {
-    /// The linear model has no attitude: a configured sensor of this kind is an
-    /// error at start-up, and a sample of an unconfigured one is refused.
-    const ACCEPTS: bool = false;
-
-    fn fuse(&self, _: &LinearModel, _: &mut LinearState) -> (StepOutcome, ()) {
-        (StepOutcome::Refused, ())
-    }
-}
-
 impl<const D: usize> Fuse<InsModel<D>> for MagnetometerSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         let frames = model.frames();
@@ -119,14 +108,28 @@ impl<const D: usize> Fuse<InsModel<D>> for MagnetometerSample {
         }
         let R = C * Matrix3::from_row_slice(&self.cov_ut2) * C.transpose();
         let turned = align_heading(s, tilt_var, &z, &R, &earth.world_ut);
-        let (h, H) = field(s, &earth.world_ut);
-        let (outcome, injected) = model.update_residual(s, &(z - h), &H, &R);
+        let Some(o) = self.observe(model, s) else { return (StepOutcome::Refused, turned) };
+        let (outcome, injected) = model.update_residual(s, &o.y, &o.H, &o.R);
         // The smoother's record holds the whole change of the nominal state.
         let injected = match (turned, injected) {
             (Some(t), Some(dx)) => Some(t + dx),
             (t, dx) => t.or(dx),
         };
         (outcome, injected)
+    }
+}
+
+/// `y = C z − Rᵀ m` of [`field`], `R = C Σ Cᵀ` (the sample in the body
+/// axes); `None` for a sensor without its `[sensor.magnetic]` field.
+impl<const D: usize> Observe<3, D> for MagnetometerSample {
+    fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<3, D>> {
+        let frames = model.frames();
+        let earth = super::settings::<MagnetometerSample>(frames, self.header.sensor)?;
+        let C = frames.mount(SampleKind::Magnetometer, self.header.sensor).rotation;
+        let z = C * Vector3::from(self.field_ut);
+        let R = C * Matrix3::from_row_slice(&self.cov_ut2) * C.transpose();
+        let (h, H) = field(s, &earth.world_ut);
+        Some(Observation { y: z - h, H, R })
     }
 }
 
@@ -316,8 +319,5 @@ mod tests {
         }
         let (out, _) = MagnetometerSample::new(1, 2, 0, good, COV).fuse(&m, &mut s);
         assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
-        let linear = LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap();
-        let mut ls = linear.initial_state();
-        assert_eq!(MagnetometerSample::new(1, 2, 0, good, COV).fuse(&linear, &mut ls).0, StepOutcome::Refused);
     }
 }

@@ -22,11 +22,14 @@
 
 pub mod components;
 pub mod lever_arm;
+#[cfg(test)]
+mod observations;
 
 use fusion_shared::{Sample, SampleKind, WireSample};
-use nalgebra::SMatrix;
+use nalgebra::{SMatrix, SVector};
 
 use crate::frames::{Frames, KindCatalog, MountedSensor, Settings, SettingsValue};
+use crate::model::ins::{InsModel, InsState};
 use crate::model::{Model, StepOutcome};
 use crate::setting::ConfigError;
 pub use crate::validate::{Limits, Rejection};
@@ -93,22 +96,88 @@ pub trait Measurement: WireSample {
 /// How model `M` fuses a sample of this kind. The state has already been
 /// propagated to the sample's time; `M::Correction` is what a model needs to know
 /// of the update afterwards (the `ins` model: the error injected, for its smoother).
+///
+/// A kind implements it for what a model can do: the position fix, the
+/// geodetic fix and the velocity for every [`Kinematic`] model (a position and
+/// a velocity in the world frame), the IMU for a model that holds it, the kinds
+/// that need an attitude, a body frame or an auxiliary state for the INS error
+/// state (`InsModel<D>`). A model fuses the kinds it lists with
+/// [`fuses!`](crate::fuses) and refuses every other ([`Fusion`]), or fuses every
+/// kind ([`EveryKind`]).
 pub trait Fuse<M: Model> {
-    /// Whether the model can use this kind at all. A configured sensor of a kind
-    /// the model does not accept fails the start-up (the model's `from_config`);
-    /// its `fuse` refuses every sample ([`StepOutcome::Refused`]).
-    const ACCEPTS: bool = true;
-
     /// Fuses the sample into `state`.
     fn fuse(&self, model: &M, state: &mut M::State) -> (StepOutcome, M::Correction);
 }
 
+/// A measurement's observation of the INS error state at a state: the
+/// residual `y = z ⊖ h(x)` (`⊖` a difference, or the rotation between two
+/// attitudes, or an angle wrapped), `H = ∂h/∂δx` (so `∂y/∂δx = −H` to first
+/// order) and the noise covariance `R`, `M` components.
+#[allow(non_snake_case)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Observation<const M: usize, const D: usize> {
+    /// The residual.
+    pub y: SVector<f64, M>,
+    /// Its Jacobian, with the sign of `h`'s.
+    pub H: SMatrix<f64, M, D>,
+    /// The noise covariance.
+    pub R: SMatrix<f64, M, M>,
+}
+
+/// What a sample of a kind observes of the INS error state (`M` its
+/// [`WireSample::INNOVATION_DIM`]): the observation its fusion updates with,
+/// from the same functions. A kind whose sample the fusion does not update
+/// with in a state gives `None` there: the IMU always (it drives the
+/// propagation), a sample that sets a state from its value (a barometer's first
+/// sample, a pose that sets its map frame), an attitude sample for roll and
+/// pitch only (two components: `attitude::tilt`). One test over the kind list
+/// checks every kind's `H` against central differences of its `y`.
+pub trait Observe<const M: usize, const D: usize> {
+    /// The observation of this sample at state `s` of `model`.
+    fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<M, D>>;
+}
+
+/// Implements [`Fusion`] for a model: the kinds listed (their
+/// [`fusion_shared::SampleKind`] variants) are fused by their [`Fuse`] impl for
+/// the model, every other kind is refused (the default). A configured sensor
+/// of a kind the model refuses fails the start-up (its `from_config`), and a
+/// sample of an unconfigured one is refused ([`StepOutcome::Refused`]).
+///
+/// ```text
+/// fuses!(LinearModel: Imu, Position, Velocity, Geodetic);
+/// ```
+///
+/// A model that fuses every kind implements [`EveryKind`] instead.
+#[macro_export]
+macro_rules! fuses {
+    ($([$($generics:tt)*])? $model:ty: $($variant:ident),+ $(,)?) => {
+        #[allow(non_snake_case)]
+        impl$(<$($generics)*>)? $crate::measurement::Fusion for $model {
+            fn accepts(kind: fusion_shared::SampleKind) -> bool {
+                matches!(kind, $(fusion_shared::SampleKind::$variant)|+)
+            }
+            $(
+                #[inline]
+                fn $variant(
+                    &self,
+                    state: &mut <Self as $crate::model::Model>::State,
+                    sample: &$crate::measurement::wire::$variant,
+                ) -> ($crate::model::StepOutcome, <Self as $crate::model::Model>::Correction) {
+                    $crate::measurement::Fuse::<Self>::fuse(sample, self, state)
+                }
+            )+
+        }
+    };
+}
+
+pub use crate::model::Kinematic;
+
 /// A model with the fusion of every sample kind: what the engine runs. One step
 /// propagates the state to the sample's time ([`Model::propagate_to`]) and fuses
-/// the sample through its kind's module ([`fuse`]). Every model whose state every
-/// kind can fuse into (`Fuse<M>` for each kind) has it.
+/// the sample through its kind's module ([`fuse`]). Every model with a
+/// [`Fusion`] has it.
 pub trait Steps: Model {
-    /// Whether this model can use `kind` at all ([`Fuse::ACCEPTS`]).
+    /// Whether this model can use `kind` at all ([`Fusion::accepts`]).
     fn accepts(kind: SampleKind) -> bool;
 
     /// Processes one sample.
@@ -266,12 +335,59 @@ macro_rules! registry {
             }
         }
 
-        impl<M: Model> Steps for M
+        /// Each kind's wire type under its [`SampleKind`] variant's name (what
+        /// [`fuses!`] names).
+        pub mod wire {
+            $(#[doc = concat!("The ", $name, " sample.")] pub type $variant = fusion_shared::$ty;)*
+        }
+
+        /// How a model fuses each sample kind: one method per kind (named by its
+        /// [`SampleKind`] variant), each refusing by default. A model lists the
+        /// kinds it fuses with [`fuses!`], which gives each its kind's [`Fuse`]
+        /// impl; a kind needs no line for a model that refuses it.
+        #[allow(non_snake_case)]
+        pub trait Fusion: Model {
+            /// Whether the model can use `kind` at all (none by default).
+            fn accepts(_kind: SampleKind) -> bool {
+                false
+            }
+            $(
+                #[doc = concat!("Fuses a ", $name, " sample (refused by default).")]
+                #[inline]
+                fn $variant(&self, _state: &mut Self::State, _sample: &fusion_shared::$ty) -> (StepOutcome, Self::Correction) {
+                    (StepOutcome::Refused, Self::Correction::default())
+                }
+            )*
+        }
+
+        /// A model that fuses every kind, each by its [`Fuse`] impl for the
+        /// model: its [`Fusion`] follows from the kind list, so a new kind
+        /// needs no line for it (only its `Fuse` impl, which this requires).
+        pub trait EveryKind: Model + Sized
+        where
+            $(fusion_shared::$ty: Fuse<Self>,)*
+        {
+        }
+
+        #[allow(non_snake_case)]
+        impl<M: EveryKind> Fusion for M
         where
             $(fusion_shared::$ty: Fuse<M>,)*
         {
+            fn accepts(_kind: SampleKind) -> bool {
+                true
+            }
+            $(
+                #[inline]
+                fn $variant(&self, state: &mut M::State, sample: &fusion_shared::$ty) -> (StepOutcome, M::Correction) {
+                    sample.fuse(self, state)
+                }
+            )*
+        }
+
+        impl<M: Fusion> Steps for M {
             fn accepts(kind: SampleKind) -> bool {
-                accepts::<M>(kind)
+                <M as Fusion>::accepts(kind)
             }
 
             fn step(&self, state: &mut M::State, sample: &Sample) -> StepOutcome {
@@ -287,23 +403,17 @@ macro_rules! registry {
             }
         }
 
-        /// Whether model `M` can use `kind` at all ([`Fuse::ACCEPTS`]).
-        pub const fn accepts<M: Model>(kind: SampleKind) -> bool
-        where
-            $(fusion_shared::$ty: Fuse<M>,)*
-        {
-            match kind {
-                $(SampleKind::$variant => <fusion_shared::$ty as Fuse<M>>::ACCEPTS,)*
-            }
+        /// Checks each kind's observation ([`Observe`], the kind's
+        /// [`WireSample::INNOVATION_DIM`] components), in kind order.
+        #[cfg(test)]
+        fn each_observation(check: &mut observations::Checker) {
+            $(check.kind::<fusion_shared::$ty, { <fusion_shared::$ty as WireSample>::INNOVATION_DIM }>($name);)*
         }
 
         /// Fuses a sample into a state of model `M` (propagated to its time already).
-        pub fn fuse<M: Model>(sample: &Sample, model: &M, state: &mut M::State) -> (StepOutcome, M::Correction)
-        where
-            $(fusion_shared::$ty: Fuse<M>,)*
-        {
+        pub fn fuse<M: Fusion>(sample: &Sample, model: &M, state: &mut M::State) -> (StepOutcome, M::Correction) {
             model.fuse_kind(state, sample.kind(), sample.t_ns(), |model, state| match sample {
-                $(Sample::$variant(s) => s.fuse(model, state),)*
+                $(Sample::$variant(s) => model.$variant(state, s),)*
             })
         }
     };

@@ -43,10 +43,9 @@
 use fusion_shared::{OdometrySample, SampleKind};
 use nalgebra::{Matrix1, SMatrix, SVector, Vector1, Vector3};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, finite};
+use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, finite};
 use crate::model::ins::nonholonomic;
 use crate::model::ins::{InsModel, InsState, N};
-use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
 
 /// The fastest speed accepted, m/s (540 km/h).
@@ -85,27 +84,27 @@ pub fn forward_speed<const D: usize>(s: &InsState<D>, l: &Vector3<f64>) -> (f64,
     }
 }
 
-impl Fuse<LinearModel> for OdometrySample {
-    /// The linear model has no attitude: a configured sensor of this kind is an
-    /// error at start-up, and a sample of an unconfigured one is refused.
-    const ACCEPTS: bool = false;
-
-    fn fuse(&self, _: &LinearModel, _: &mut LinearState) -> (StepOutcome, ()) {
-        (StepOutcome::Refused, ())
-    }
-}
-
 impl<const D: usize> Fuse<InsModel<D>> for OdometrySample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         model.note_speed(s, self.header.t_ns, self.speed_mps);
-        // A body-frame speed needs the tilt, not the heading: a robot without
-        // a heading source fuses its wheels from the start.
+        match self.observe(model, s) {
+            Some(o) => model.update_residual(s, &o.y, &o.H, &o.R),
+            None => (StepOutcome::Refused, None),
+        }
+    }
+}
+
+/// `y = z − k u` of [`forward_speed`]; `None` while the tilt is unknown (a
+/// body-frame speed needs the tilt, not the heading: a robot without a heading
+/// source fuses its wheels from the start).
+impl<const D: usize> Observe<1, D> for OdometrySample {
+    fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<1, D>> {
         if !nonholonomic::tilt_known(s) {
-            return (StepOutcome::Refused, None);
+            return None;
         }
         let mount = model.frames().mount(SampleKind::Odometry, self.header.sensor);
         let (h, H) = forward_speed(s, &mount.lever_arm);
-        model.update_residual(s, &Vector1::new(self.speed_mps - h), &H, &Matrix1::new(self.var_m2ps2))
+        Some(Observation { y: Vector1::new(self.speed_mps - h), H, R: Matrix1::new(self.var_m2ps2) })
     }
 }
 
@@ -233,14 +232,5 @@ mod tests {
         P[(6, 6)] = 1.0;
         s.kf.set_state(SVector::zeros(), P).unwrap();
         assert_eq!(OdometrySample::new(0, 0, 0, h, 0.01).fuse(&m, &mut s).0, StepOutcome::Refused);
-    }
-
-    #[test]
-    fn the_linear_model_refuses_it() {
-        let linear = LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap();
-        let mut s = linear.initial_state();
-        let before = *s.filter();
-        assert_eq!(OdometrySample::new(0, 0, 0, 1.0, 1.0).fuse(&linear, &mut s).0, StepOutcome::Refused);
-        assert_eq!(*s.filter(), before);
     }
 }

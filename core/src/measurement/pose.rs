@@ -68,11 +68,10 @@ use fusion_shared::snapshot::aux;
 use fusion_shared::{PoseSample, SampleKind};
 use nalgebra::{Matrix3, Quaternion, Rotation3, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance, finite};
+use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance, finite};
 use crate::frames::Mount;
 use crate::model::ins::aux::augment;
 use crate::model::ins::{InsModel, InsState, nonholonomic};
-use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
 use crate::setting::ConfigError;
 
@@ -276,23 +275,12 @@ pub fn relative_twist(a: &PreviousPose, b: &PreviousPose) -> Option<(Vector6<f64
     Some((z, cov / (dt * dt)))
 }
 
-impl Fuse<LinearModel> for PoseSample {
-    /// The linear model has no attitude: a configured sensor of this kind is an
-    /// error at start-up, and a sample of an unconfigured one is refused.
-    const ACCEPTS: bool = false;
-
-    fn fuse(&self, _: &LinearModel, _: &mut LinearState) -> (StepOutcome, ()) {
-        (StepOutcome::Refused, ())
-    }
-}
-
 impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         let frames = model.frames();
         // A pose sensor that is not configured has no frame.
         let Some(config) = super::settings::<PoseSample>(frames, self.header.sensor) else { return (StepOutcome::Refused, None) };
         let mount = frames.mount(SampleKind::Pose, self.header.sensor);
-        let R = SMatrix::<f64, 6, 6>::from_row_slice(&self.cov);
         if config.relative {
             // Disjoint pairs: a pose that ends a pair does not start the next.
             let this = previous(self);
@@ -307,24 +295,50 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
             let R = cov + super::twist::gyro_noise(model, s, mount);
             return model.update_residual_selected(s, &(z - h), &H, &R, &config.fuse.mask);
         }
-        if let Some((yaw, origin)) = config.configured_frame() {
-            let frame = MapFrame { yaw, origin: Vector3::from(origin), states: None };
-            let (m, S, H) = pose(s, mount, &frame);
-            return model.update_residual_selected(s, &residual(&m, &S, self), &H, &R, &config.fuse.mask);
-        }
-        let Some(i) = s.aux_index(aux::POSE_FRAME_YAW) else { return (StepOutcome::Refused, None) };
-        if s.aux.pose.due(self.reset_counter, config.realign_after_gated) {
-            if !set_frame(s, mount, i, self, &R) {
-                return (StepOutcome::Refused, None);
+        let estimated = config.configured_frame().is_none();
+        if estimated {
+            let Some(i) = s.aux_index(aux::POSE_FRAME_YAW) else { return (StepOutcome::Refused, None) };
+            if s.aux.pose.due(self.reset_counter, config.realign_after_gated) {
+                let R = SMatrix::<f64, 6, 6>::from_row_slice(&self.cov);
+                if !set_frame(s, mount, i, self, &R) {
+                    return (StepOutcome::Refused, None);
+                }
+                s.aux.pose.aligned(self.reset_counter);
+                return (StepOutcome::Propagated, None);
             }
-            s.aux.pose.aligned(self.reset_counter);
-            return (StepOutcome::Propagated, None);
         }
-        // The estimated frame's sensor: its run of gated poses.
-        let (m, S, H) = pose(s, mount, &MapFrame::estimated_at(s, i));
-        let out = model.update_residual_selected(s, &residual(&m, &S, self), &H, &R, &config.fuse.mask);
-        s.aux.pose.fused(matches!(out.0, StepOutcome::Gated { .. }));
+        let Some(o) = self.observe(model, s) else { return (StepOutcome::Refused, None) };
+        let out = model.update_residual_selected(s, &o.y, &o.H, &o.R, &config.fuse.mask);
+        if estimated {
+            // The estimated frame's sensor: its run of gated poses.
+            s.aux.pose.fused(matches!(out.0, StepOutcome::Gated { .. }));
+        }
         out
+    }
+}
+
+/// A pose in a map frame, configured or estimated: `y = [z_p − m̂; Log(Ŝᵀ Z)]`,
+/// `H` of [`pose`], `R` the sample's; all six components (a sensor's
+/// `[sensor.pose] fuse` selects among them when fused). `None` for a relative
+/// sensor (the change between two poses is fused, as a twist), a sensor
+/// without its table, and while the estimated frame is due to be set from
+/// this sample.
+impl<const D: usize> Observe<6, D> for PoseSample {
+    fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<6, D>> {
+        let frames = model.frames();
+        let config = super::settings::<PoseSample>(frames, self.header.sensor).filter(|c| !c.relative)?;
+        let frame = match config.configured_frame() {
+            Some((yaw, origin)) => MapFrame { yaw, origin: Vector3::from(origin), states: None },
+            None => {
+                let i = s.aux_index(aux::POSE_FRAME_YAW)?;
+                if s.aux.pose.due(self.reset_counter, config.realign_after_gated) {
+                    return None;
+                }
+                MapFrame::estimated_at(s, i)
+            }
+        };
+        let (m, S, H) = pose(s, frames.mount(SampleKind::Pose, self.header.sensor), &frame);
+        Some(Observation { y: residual(&m, &S, self), H, R: SMatrix::<f64, 6, 6>::from_row_slice(&self.cov) })
     }
 }
 

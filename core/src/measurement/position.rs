@@ -14,12 +14,11 @@
 #![allow(non_snake_case)]
 
 use fusion_shared::{PositionSample, SampleKind};
-use nalgebra::{Matrix3, SVector, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite, lever_arm};
-use crate::model::{Model, StepOutcome};
+use super::{Fuse, Kinematic, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance3, finite, lever_arm};
 use crate::model::ins::{InsModel, InsState};
-use crate::model::linear::{LinearModel, LinearState};
+use crate::model::{Model, StepOutcome};
 
 impl Measurement for PositionSample {
     const RANK: u8 = 1;
@@ -33,20 +32,20 @@ impl Measurement for PositionSample {
     }
 }
 
-impl Fuse<LinearModel> for PositionSample {
-    fn fuse(&self, model: &LinearModel, s: &mut LinearState) -> (StepOutcome, ()) {
+impl<M: Kinematic> Fuse<M> for PositionSample {
+    fn fuse(&self, model: &M, s: &mut M::State) -> (StepOutcome, M::Correction) {
         let z = Vector3::from(self.pos_m);
         let R = Matrix3::from_row_slice(&self.cov_m2);
-        (model.fuse_fix(s, &z, &R), ())
+        model.fuse_position(s, SampleKind::Position, self.header.sensor, &z, &R)
     }
 }
 
-impl<const D: usize> Fuse<InsModel<D>> for PositionSample {
-    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
-        let z = Vector3::from(self.pos_m);
-        let R = Matrix3::from_row_slice(&self.cov_m2);
+/// `y = z − (p + R l)`, `H` of [`lever_arm::position`].
+impl<const D: usize> Observe<3, D> for PositionSample {
+    fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<3, D>> {
         let mount = model.frames().mount(SampleKind::Position, self.header.sensor);
-        lever_arm::fuse_position(model, s, mount, &z, &R)
+        let (h, H) = lever_arm::position(s, &mount.lever_arm);
+        Some(Observation { y: Vector3::from(self.pos_m) - h, H, R: Matrix3::from_row_slice(&self.cov_m2) })
     }
 }
 

@@ -43,11 +43,10 @@ use fusion_shared::{SampleKind, TwistSample};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector6};
 
 use super::odometry::MAX_SPEED_MPS;
-use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance, finite};
+use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance, finite};
 use crate::frames::Mount;
 use crate::model::ins::nonholonomic;
 use crate::model::ins::{InsModel, InsState};
-use crate::model::linear::{LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
 use crate::setting::ConfigError;
 
@@ -118,21 +117,22 @@ pub(super) fn gyro_noise<const D: usize>(model: &InsModel<D>, s: &InsState<D>, m
     G * (Matrix3::identity() * q) * G.transpose()
 }
 
-impl Fuse<LinearModel> for TwistSample {
-    /// The linear model has no attitude: a configured sensor of this kind is an
-    /// error at start-up, and a sample of an unconfigured one is refused.
-    const ACCEPTS: bool = false;
-
-    fn fuse(&self, _: &LinearModel, _: &mut LinearState) -> (StepOutcome, ()) {
-        (StepOutcome::Refused, ())
+impl<const D: usize> Fuse<InsModel<D>> for TwistSample {
+    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
+        let Some(o) = self.observe(model, s) else { return (StepOutcome::Refused, None) };
+        let keep = super::settings::<TwistSample>(model.frames(), self.header.sensor).map_or([true; 6], |c| c.fuse.mask);
+        model.update_residual_selected(s, &o.y, &o.H, &o.R, &keep)
     }
 }
 
-impl<const D: usize> Fuse<InsModel<D>> for TwistSample {
-    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
-        // Body-frame velocities need the tilt, not the heading.
+/// `y = z − h` of [`twist`], `R` the sample's plus the gyro's noise carried by
+/// the lever arm ([`gyro_noise`]); all six components (a sensor's
+/// `[sensor.twist] fuse` selects among them when fused). `None` while the tilt
+/// is unknown: body-frame velocities need the tilt, not the heading.
+impl<const D: usize> Observe<6, D> for TwistSample {
+    fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<6, D>> {
         if !nonholonomic::tilt_known(s) {
-            return (StepOutcome::Refused, None);
+            return None;
         }
         let mount = model.frames().mount(SampleKind::Twist, self.header.sensor);
         let mut z = Vector6::zeros();
@@ -140,8 +140,7 @@ impl<const D: usize> Fuse<InsModel<D>> for TwistSample {
         z.fixed_rows_mut::<3>(3).copy_from(&Vector3::from(self.angular_radps));
         let (h, H) = twist(s, mount);
         let R = SMatrix::<f64, 6, 6>::from_row_slice(&self.cov) + gyro_noise(model, s, mount);
-        let keep = super::settings::<TwistSample>(model.frames(), self.header.sensor).map_or([true; 6], |c| c.fuse.mask);
-        model.update_residual_selected(s, &(z - h), &H, &R, &keep)
+        Some(Observation { y: z - h, H, R })
     }
 }
 
@@ -227,9 +226,6 @@ mod tests {
         let (out, _) = sample(faster).fuse(&m, &mut s);
         assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
         assert!(s.v().norm() > speed + 0.5, "{} -> {}", speed, s.v().norm());
-        let linear = LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap();
-        let mut ls = linear.initial_state();
-        assert_eq!(sample(faster).fuse(&linear, &mut ls).0, StepOutcome::Refused);
     }
 
     /// `[sensor.twist] fuse = ["vx", "vyaw"]`: a sample whose sideways speed

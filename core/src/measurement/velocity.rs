@@ -17,12 +17,11 @@
 #![allow(non_snake_case)]
 
 use fusion_shared::{SampleKind, VelocitySample};
-use nalgebra::{Matrix3, SVector, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
-use super::{Fuse, Limits, Measurement, Needed, Rejection, covariance3, finite, lever_arm};
-use crate::model::{Model, StepOutcome};
+use super::{Fuse, Kinematic, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance3, finite, lever_arm};
 use crate::model::ins::{InsModel, InsState};
-use crate::model::linear::{LinearModel, LinearState};
+use crate::model::{Model, StepOutcome};
 
 impl Measurement for VelocitySample {
     const RANK: u8 = 2;
@@ -36,30 +35,20 @@ impl Measurement for VelocitySample {
     }
 }
 
-impl Fuse<LinearModel> for VelocitySample {
-    fn fuse(&self, model: &LinearModel, s: &mut LinearState) -> (StepOutcome, ()) {
+impl<M: Kinematic> Fuse<M> for VelocitySample {
+    fn fuse(&self, model: &M, s: &mut M::State) -> (StepOutcome, M::Correction) {
         let z = Vector3::from(self.vel_mps);
         let R = Matrix3::from_row_slice(&self.cov_m2ps2);
-        (model.update_block(s, &z, 3, &R), ())
+        model.fuse_velocity(s, self.header.sensor, self.header.t_ns, &z, &R)
     }
 }
 
-impl<const D: usize> Fuse<InsModel<D>> for VelocitySample {
-    fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
-        let z = Vector3::from(self.vel_mps);
-        let R = Matrix3::from_row_slice(&self.cov_m2ps2);
+/// `y = z − (v + R (ω × l))`, `H` of [`lever_arm::velocity`].
+impl<const D: usize> Observe<3, D> for VelocitySample {
+    fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<3, D>> {
         let mount = model.frames().mount(SampleKind::Velocity, self.header.sensor);
-        let rotational = lever_arm::velocity(s, &mount.lever_arm).0 - s.v();
-        let at_origin = z - rotational;
-        model.observe_velocity(s, self.header.t_ns, &at_origin, &R);
-        let turned = model.align_course(s, &at_origin, &R);
-        let (outcome, injected) = lever_arm::fuse_velocity(model, s, mount, &z, &R);
-        // The smoother's record holds the whole change of the nominal state.
-        let injected = match (turned, injected) {
-            (Some(t), Some(dx)) => Some(t + dx),
-            (t, dx) => t.or(dx),
-        };
-        (outcome, injected)
+        let (h, H) = lever_arm::velocity(s, &mount.lever_arm);
+        Some(Observation { y: Vector3::from(self.vel_mps) - h, H, R: Matrix3::from_row_slice(&self.cov_m2ps2) })
     }
 }
 
@@ -67,6 +56,7 @@ impl<const D: usize> Fuse<InsModel<D>> for VelocitySample {
 mod tests {
     use super::*;
     use crate::model::Model;
+    use crate::model::linear::LinearModel;
 
     const COV: [f64; 9] = [0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.04];
 

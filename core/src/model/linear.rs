@@ -27,7 +27,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use super::{Diagnostics, Model, StepOutcome, advance_time};
+use super::{Diagnostics, Kinematic, Model, StepOutcome, advance_time};
 use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, StepLog, UpdateDecision, rts_smooth};
 use crate::frames::Frames;
 use crate::model::held_imu::HeldImu;
@@ -35,6 +35,32 @@ use crate::model::lockout::{Lockout, LockoutConfig};
 
 /// State dimension.
 pub const N: usize = 6;
+
+/// `H = [I 0]` for a position, `[0 I]` for a velocity: the blocks selected
+/// (no mounts: the linear model refuses a rotated or offset sensor).
+impl Kinematic for LinearModel {
+    fn fuse_position(
+        &self,
+        s: &mut LinearState,
+        _kind: fusion_shared::SampleKind,
+        _sensor: u32,
+        z: &Vector3<f64>,
+        R: &Matrix3<f64>,
+    ) -> (StepOutcome, ()) {
+        (self.fuse_fix(s, z, R), ())
+    }
+
+    fn fuse_velocity(
+        &self,
+        s: &mut LinearState,
+        _sensor: u32,
+        _t_ns: u64,
+        z: &Vector3<f64>,
+        R: &Matrix3<f64>,
+    ) -> (StepOutcome, ()) {
+        (self.update_block(s, z, 3, R), ())
+    }
+}
 
 /// The `linear` model's parameters (`[model]` with `kind = "linear"`).
 #[derive(Debug, Clone, PartialEq, serde::Deserialize)]

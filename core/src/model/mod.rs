@@ -104,7 +104,7 @@ pub trait Model {
     type Record: Copy;
     /// What a measurement update leaves the model to know (the `ins` model: the
     /// error injected, for its smoother).
-    type Correction: Copy;
+    type Correction: Copy + Default;
     /// The smoother's record of a step while the step runs.
     type Log;
 
@@ -198,4 +198,34 @@ pub trait Model {
 
     /// `(x, P)` of a record (after smoothing: the smoothed estimate).
     fn record_output(record: &Self::Record) -> (&[f64], &[f64]);
+}
+
+/// A model with a position and a velocity in the world frame (ENU about the
+/// datum): the position fix, the geodetic fix and the velocity measurement
+/// are implemented for it (`measurement::{position, geodetic, velocity}`), each
+/// fused as the model says (`linear`: the state blocks selected; `ins`: of the
+/// point at the sensor's lever arm).
+#[allow(non_snake_case)]
+pub trait Kinematic: Model {
+    /// Fuses `z = p + n`, `n ~ N(0, R)`: the position of the sensor `sensor` of
+    /// `kind` (m, world frame).
+    fn fuse_position(
+        &self,
+        state: &mut Self::State,
+        kind: fusion_shared::SampleKind,
+        sensor: u32,
+        z: &nalgebra::Vector3<f64>,
+        R: &nalgebra::Matrix3<f64>,
+    ) -> (StepOutcome, Self::Correction);
+
+    /// Fuses `z = v + n`, `n ~ N(0, R)`: the velocity of velocity sensor
+    /// `sensor` (m/s, world frame) at `t_ns`.
+    fn fuse_velocity(
+        &self,
+        state: &mut Self::State,
+        sensor: u32,
+        t_ns: u64,
+        z: &nalgebra::Vector3<f64>,
+        R: &nalgebra::Matrix3<f64>,
+    ) -> (StepOutcome, Self::Correction);
 }

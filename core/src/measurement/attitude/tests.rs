@@ -145,11 +145,3 @@ fn an_unknown_attitude_is_aligned_from_the_sample() {
     assert!((heading_variance(&s) - heading_var).abs() < 1e-12);
     assert!(tilt_variance(&s) < 5e-4, "{}", tilt_variance(&s));
 }
-
-#[test]
-fn the_linear_model_refuses_it() {
-    let linear = LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap();
-    let mut ls = linear.initial_state();
-    let sample = AttitudeSample::new(1, 3, 0, [1.0, 0.0, 0.0, 0.0], COV);
-    assert_eq!(sample.fuse(&linear, &mut ls).0, StepOutcome::Refused);
-}

@@ -207,13 +207,3 @@ fn relative_poses_are_fused_as_their_change() {
     assert!(relative_twist(&previous(&c), &previous(&d)).is_none(), "a reset is not differenced");
     assert_eq!(d.fuse(&m, &mut s).0, StepOutcome::Propagated);
 }
-
-#[test]
-fn the_linear_model_refuses_it() {
-    let linear = LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap();
-    let mut s = linear.initial_state();
-    let before = *s.filter();
-    let sample = PoseSample::new(0, 0, 0, [0.0; 3], [1.0, 0.0, 0.0, 0.0], cov(), 0);
-    assert_eq!(sample.fuse(&linear, &mut s).0, StepOutcome::Refused);
-    assert_eq!(*s.filter(), before);
-}

@@ -49,6 +49,11 @@ pub fn set_scale(s: &mut InsState<SCALED>, k: f64) {
     s.nominal[super::NOMINAL] = k;
 }
 
+/// Sets the nominal odometry scale factor of `s`, error state `i`.
+pub fn set_scale_at<const D: usize>(s: &mut InsState<D>, i: usize, k: f64) {
+    s.nominal[i + 1] = k;
+}
+
 /// Sets the nominal value of auxiliary error state `i` of `s`.
 pub fn set_aux_value<const D: usize>(s: &mut InsState<D>, i: usize, v: f64) {
     s.nominal[i + 1] = v;
