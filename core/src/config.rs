@@ -278,7 +278,7 @@ fn grouped(n: u64) -> String {
 /// Which process model the filter runs, with its own parameters (`[model]`,
 /// selected by `kind`), generated from [`fusion_shared::for_each_model!`].
 macro_rules! model_config {
-    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident, $params:ident;)*) => {
+    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident, $params:ident, $cov:literal, [$($layout:expr),* $(,)?];)*) => {
         /// The `[model]` table: the model named by `kind`, with its own parameters.
         #[derive(Debug, Clone, PartialEq, Deserialize)]
         #[serde(tag = "kind")]

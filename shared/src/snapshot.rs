@@ -33,22 +33,33 @@ pub const INPUT_NONE: u32 = 0;
 
 /// The list of filter models: the only place a model is registered.
 ///
-/// Each line is `Variant = code, "name", module, ModelType, ParamsType;`: the
-/// [`Model`] variant, its code in snapshots ([`StateSnapshot::model`], from 1,
-/// never reused), its name (`[model] kind` in the config), and, for the daemon,
-/// its module (`core/src/model/<module>.rs`), its model type and the type of its
-/// `[model]` parameters. `for_each_model!(callback)` expands to `callback! { <the
-/// list> }`: this crate generates [`Model`] from it, the daemon its `[model]`
-/// table and the mapping from a config to a model type.
+/// Each line is `Variant = code, "name", module, ModelType, ParamsType, cov_dim,
+/// [layout];`: the [`Model`] variant, its code in snapshots
+/// ([`StateSnapshot::model`], from 1, never reused), its name (`[model] kind`
+/// in the config); for the daemon, its module (`core/src/model/<module>.rs`),
+/// its model type and the type of its `[model]` parameters; and what a reader
+/// needs of its snapshots: the side of its covariance and its state vector's
+/// layout ([`Model::state_layout`]). `for_each_model!(callback)` expands to
+/// `callback! { <the list> }`: this crate generates [`Model`] from it, the
+/// daemon its `[model]` table and the mapping from a config to a model type.
 #[macro_export]
 macro_rules! for_each_model {
     ($callback:ident) => {
         $callback! {
             /// Constant velocity: state `[p, v]`, covariance 6×6 over the same.
-            Linear = 1, "linear", linear, LinearModel, LinearParams;
+            Linear = 1, "linear", linear, LinearModel, LinearParams, 6, [
+                ("p_x m", Some(0)), ("p_y m", Some(1)), ("p_z m", Some(2)),
+                ("v_x m/s", Some(3)), ("v_y m/s", Some(4)), ("v_z m/s", Some(5)),
+            ];
             /// Error-state INS: state `[p, v, q_wxyz, b_a, b_g]` (16), covariance 15×15
             /// over `[δp, δv, δθ, δb_a, δb_g]`.
-            Ins = 2, "ins", ins, InsModel, InsParams;
+            Ins = 2, "ins", ins, InsModel, InsParams, 15, [
+                ("p_x m", Some(0)), ("p_y m", Some(1)), ("p_z m", Some(2)),
+                ("v_x m/s", Some(3)), ("v_y m/s", Some(4)), ("v_z m/s", Some(5)),
+                ("q_w", None), ("q_x", None), ("q_y", None), ("q_z", None),
+                ("b_ax m/s2", Some(9)), ("b_ay m/s2", Some(10)), ("b_az m/s2", Some(11)),
+                ("b_gx rad/s", Some(12)), ("b_gy rad/s", Some(13)), ("b_gz rad/s", Some(14)),
+            ];
         }
     };
 }

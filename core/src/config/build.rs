@@ -179,7 +179,7 @@ impl Build for InsModel {
 /// Generates [`BuiltModel`] from [`fusion_shared::for_each_model!`], and checks
 /// that each model type's snapshot code is its line's.
 macro_rules! dispatch {
-    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident, $params:ident;)*) => {
+    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident, $params:ident, $cov:literal, [$($layout:expr),* $(,)?];)*) => {
         /// The configured model, built: one variant per model type.
         #[derive(Debug, Clone)]
         #[allow(clippy::large_enum_variant, reason = "one value per config, built once at start-up")]

@@ -8,7 +8,7 @@ use crate::SampleKind;
 
 /// Generates [`Model`] from [`for_each_model!`](crate::for_each_model).
 macro_rules! models {
-    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident, $params:ident;)*) => {
+    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident, $params:ident, $cov:literal, [$($layout:expr),* $(,)?];)*) => {
         /// The filter model that produced a snapshot ([`StateSnapshot::model`] code).
         #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
         pub enum Model {
@@ -40,6 +40,22 @@ macro_rules! models {
                     $(Self::$variant => $name,)*
                 }
             }
+
+            /// Every entry of its state vector: name (with unit) and the index of its
+            /// standard deviation in the covariance (`None` for the quaternion, whose
+            /// uncertainty is the 3 attitude errors).
+            pub const fn state_layout(self) -> &'static [(&'static str, Option<usize>)] {
+                match self {
+                    $(Self::$variant => &[$($layout),*],)*
+                }
+            }
+
+            /// Side of its covariance.
+            pub const fn cov_dim(self) -> usize {
+                match self {
+                    $(Self::$variant => $cov,)*
+                }
+            }
         }
     };
 }
@@ -47,51 +63,9 @@ macro_rules! models {
 crate::for_each_model!(models);
 
 impl Model {
-    /// Every entry of its state vector: name (with unit) and the index of its
-    /// standard deviation in the covariance (`None` for the quaternion, whose
-    /// uncertainty is the 3 attitude errors).
-    pub const fn state_layout(self) -> &'static [(&'static str, Option<usize>)] {
-        match self {
-            Self::Linear => &[
-                ("p_x m", Some(0)),
-                ("p_y m", Some(1)),
-                ("p_z m", Some(2)),
-                ("v_x m/s", Some(3)),
-                ("v_y m/s", Some(4)),
-                ("v_z m/s", Some(5)),
-            ],
-            Self::Ins => &[
-                ("p_x m", Some(0)),
-                ("p_y m", Some(1)),
-                ("p_z m", Some(2)),
-                ("v_x m/s", Some(3)),
-                ("v_y m/s", Some(4)),
-                ("v_z m/s", Some(5)),
-                ("q_w", None),
-                ("q_x", None),
-                ("q_y", None),
-                ("q_z", None),
-                ("b_ax m/s2", Some(9)),
-                ("b_ay m/s2", Some(10)),
-                ("b_az m/s2", Some(11)),
-                ("b_gx rad/s", Some(12)),
-                ("b_gy rad/s", Some(13)),
-                ("b_gz rad/s", Some(14)),
-            ],
-        }
-    }
-
     /// Entries of its state vector.
     pub const fn state_len(self) -> usize {
         self.state_layout().len()
-    }
-
-    /// Side of its covariance.
-    pub const fn cov_dim(self) -> usize {
-        match self {
-            Self::Linear => 6,
-            Self::Ins => 15,
-        }
     }
 }
 
