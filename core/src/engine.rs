@@ -269,7 +269,7 @@ impl<M: Steps> Engine<M> {
         // A sensor whose timestamps are late by a configured offset: its samples
         // are valid that much earlier ([`crate::frames::SensorConfig::time_offset_ns`]).
         let shifted;
-        let offset = self.model.frames().time_offset_ns(sample.kind(), sample.header().sensor);
+        let offset = self.model.time_offset_ns(sample);
         let sample = if offset == 0 {
             sample
         } else {
@@ -305,7 +305,7 @@ impl<M: Steps> Engine<M> {
             self.sensors.row_mut(slot).stats.too_late += 1;
             return Insert::TooLate;
         };
-        crate::measurement::admit(sample, self.model.frames());
+        self.model.admit(sample);
         self.sensors.accept(slot, &key);
         let result = if index == self.history.len() {
             self.step_in_order(sample, &key, slot)

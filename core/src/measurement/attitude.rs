@@ -164,8 +164,6 @@ fn align<const D: usize>(
     };
     let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(R));
     let heading_var = heading_variance(s);
-    let (p, v, b_a, b_g) = (s.p(), s.v(), s.b_a(), s.b_g());
-    s.set(p, v, q, b_a, b_g);
     let body = C * Sigma * C.transpose();
     let block = if yaw {
         body
@@ -174,15 +172,7 @@ fn align<const D: usize>(
         let T = Matrix3::identity() - u * u.transpose();
         T * body * T.transpose() + u * u.transpose() * heading_var
     };
-    s.kf.reset_error(|P| {
-        for i in 6..9 {
-            for j in 0..D {
-                P[(i, j)] = 0.0;
-                P[(j, i)] = 0.0;
-            }
-        }
-        P.fixed_view_mut::<3, 3>(6, 6).copy_from(&block);
-    });
+    s.reset_attitude(q, &block);
     let mut change = SVector::<f64, D>::zeros();
     change.fixed_rows_mut::<3>(6).copy_from(&(old.inverse() * q).scaled_axis());
     change

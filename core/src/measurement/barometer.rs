@@ -95,7 +95,7 @@ pub fn altitude<const D: usize>(s: &InsState<D>, l: &Vector3<f64>, bias: Option<
 
 impl<const D: usize> Fuse<InsModel<D>> for BarometerSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
-        if !s.aux.barometer.set {
+        if !s.progress().barometer.set {
             return (set_bias(self, model, s), None);
         }
         match self.observe(model, s) {
@@ -128,7 +128,7 @@ fn set_bias<const D: usize>(sample: &BarometerSample, model: &InsModel<D>, s: &m
     if augment(s, b, &Vector1::new(z - h), &(-H), &Matrix1::new(1.0), &R).is_err() {
         return StepOutcome::Refused;
     }
-    s.aux.barometer.set = true;
+    s.progress_mut().barometer.set = true;
     StepOutcome::Propagated
 }
 
@@ -137,7 +137,7 @@ fn set_bias<const D: usize>(sample: &BarometerSample, model: &InsModel<D>, s: &m
 /// the bias state.
 impl<const D: usize> Observe<1, D> for BarometerSample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<1, D>> {
-        if !s.aux.barometer.set {
+        if !s.progress().barometer.set {
             return None;
         }
         let (b, l, z, R) = altitude_of(self, model, s)?;
@@ -215,7 +215,7 @@ mod tests {
         // Time passes: the height is uncertain again (2 m), the bias is not.
         let mut P = s.filter().P();
         P[(2, 2)] += 4.0;
-        s.kf.set_state(SVector::zeros(), P).unwrap();
+        s.filter_mut().set_state(SVector::zeros(), P).unwrap();
         // 12 Pa less: about 1 m higher.
         let climbed = BarometerSample::new(0, 0, 1, 95_000.0 - 12.0, 4.0);
         assert!(matches!(climbed.fuse(&m, &mut s).0, StepOutcome::Fused { .. }));

@@ -151,7 +151,7 @@ fn align_heading<const D: usize>(
     R: &Matrix3<f64>,
     earth: &Vector3<f64>,
 ) -> Option<SVector<f64, D>> {
-    if !s.ready || tilt_var > MAX_ATTITUDE_SD * MAX_ATTITUDE_SD || heading_variance(s) <= ALIGN_ABOVE_SD * ALIGN_ABOVE_SD
+    if !s.ready() || tilt_var > MAX_ATTITUDE_SD * MAX_ATTITUDE_SD || heading_variance(s) <= ALIGN_ABOVE_SD * ALIGN_ABOVE_SD
     {
         return None;
     }
@@ -240,7 +240,7 @@ mod tests {
     fn the_mounted_sensor_corrects_the_heading() {
         let m = mounted();
         let mut s = m.initial_state();
-        s.kf.reset_error(|P| {
+        s.filter_mut().reset_error(|P| {
             P[(6, 6)] = 1e-4;
             P[(7, 7)] = 1e-4;
         });
@@ -268,8 +268,8 @@ mod tests {
     fn an_unknown_heading_is_aligned_from_the_field() {
         let m = mounted();
         let mut s = m.initial_state();
-        s.ready = true;
-        s.kf.reset_error(|P| {
+        crate::model::ins::tests_support::set_ready(&mut s);
+        s.filter_mut().reset_error(|P| {
             P[(6, 6)] = 1e-4;
             P[(7, 7)] = 1e-4;
         });
@@ -300,7 +300,7 @@ mod tests {
         let m = mounted();
         let mut s = m.initial_state();
         // Tilt known (0.05 rad), heading not.
-        s.kf.reset_error(|P| {
+        s.filter_mut().reset_error(|P| {
             P[(6, 6)] = 0.0025;
             P[(7, 7)] = 0.0025;
         });

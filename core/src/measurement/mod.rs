@@ -9,7 +9,11 @@
 //!   its samples are in the sensor's own axes; a sensor's settings of it (the
 //!   type of its `[sensor.<table>]` table, its reading and its checks, held in
 //!   a leaf module of the kind's), which [`settings`] looks up;
-//! - [`Fuse`]: how each model fuses it (h(x), H, R, or a model-specific step).
+//! - [`Fuse`]: how a model that can fuses it, written for what the model can do
+//!   (a [`Kinematic`] model: a world position and velocity; the INS error state),
+//!   with [`Observe`], its observation of the INS state (residual, H, R), which
+//!   the fusion updates with. A model lists the kinds it fuses ([`fuses!`](crate::fuses),
+//!   or [`EveryKind`]); every other it refuses ([`Fusion`]).
 //!
 //! The daemon keeps no list of kinds of its own: the registry at the end of this
 //! file is generated from `fusion_shared::for_each_sample_kind!`, declaring each
@@ -179,6 +183,14 @@ pub use crate::model::Kinematic;
 pub trait Steps: Model {
     /// Whether this model can use `kind` at all ([`Fusion::accepts`]).
     fn accepts(kind: SampleKind) -> bool;
+
+    /// How late `sample`'s stamp is by its sensor's configuration (`[[sensor]]
+    /// time_offset_ns`), ns: the sample is valid that much earlier.
+    fn time_offset_ns(&self, sample: &Sample) -> i64;
+
+    /// Lets a valid sample about to be processed set what the model's frames
+    /// still lack (a geodetic fix: the datum; [`Measurement::admit`]).
+    fn admit(&self, sample: &Sample);
 
     /// Processes one sample.
     fn step(&self, state: &mut Self::State, sample: &Sample) -> StepOutcome;
@@ -388,6 +400,16 @@ macro_rules! registry {
         impl<M: Fusion> Steps for M {
             fn accepts(kind: SampleKind) -> bool {
                 <M as Fusion>::accepts(kind)
+            }
+
+            #[inline]
+            fn time_offset_ns(&self, sample: &Sample) -> i64 {
+                self.frames().time_offset_ns(sample.kind(), sample.header().sensor)
+            }
+
+            #[inline]
+            fn admit(&self, sample: &Sample) {
+                admit(sample, self.frames())
             }
 
             fn step(&self, state: &mut M::State, sample: &Sample) -> StepOutcome {

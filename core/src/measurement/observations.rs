@@ -133,14 +133,14 @@ impl Checker {
         for i in 6..9 {
             P[(i, i)] = 1e-4;
         }
-        state.kf.set_state(nalgebra::SVector::zeros(), P).unwrap();
+        state.filter_mut().set_state(nalgebra::SVector::zeros(), P).unwrap();
         set_scale_at(&mut state, N, 1.03);
         set_aux_value(&mut state, N + 1, 2.5);
-        state.aux.barometer.set = true;
+        state.progress_mut().barometer.set = true;
         for (k, v) in [0.3, 10.0, -5.0, 1.0].into_iter().enumerate() {
             set_aux_value(&mut state, N + 2 + k, v);
         }
-        state.aux.pose.aligned(0);
+        state.progress_mut().pose.aligned(0);
         Self { model, state, checked: Vec::new(), samples: Vec::new() }
     }
 

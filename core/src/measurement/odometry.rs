@@ -165,7 +165,7 @@ mod tests {
             P[(i, i)] = 1e-8;
         }
         P[(N, N)] = 0.02 * 0.02;
-        s.kf.set_state(SVector::zeros(), P).unwrap();
+        s.filter_mut().set_state(SVector::zeros(), P).unwrap();
         let (u, _) = forward_speed(&s, &Vector3::zeros());
         let v = s.v();
         for _ in 0..20 {
@@ -196,7 +196,7 @@ mod tests {
         for i in 6..9 {
             P[(i, i)] = 1e-4;
         }
-        s.kf.set_state(SVector::zeros(), P).unwrap();
+        s.filter_mut().set_state(SVector::zeros(), P).unwrap();
         let (out, _) = odo.fuse(&m, &mut s);
         assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
         let dv = s.v() - v;
@@ -222,7 +222,7 @@ mod tests {
         let R = s.q().to_rotation_matrix().into_inner();
         let world = nalgebra::Matrix3::from_diagonal(&Vector3::new(1e-4, 1e-4, 1.0));
         P.fixed_view_mut::<3, 3>(6, 6).copy_from(&(R.transpose() * world * R));
-        s.kf.set_state(SVector::zeros(), P).unwrap();
+        s.filter_mut().set_state(SVector::zeros(), P).unwrap();
         assert!(!nonholonomic::attitude_known(&s) && nonholonomic::tilt_known(&s));
         let (h, _) = forward_speed(&s, &Vector3::zeros());
         let (out, _) = OdometrySample::new(0, 0, 0, h + 0.2, 0.01).fuse(&m, &mut s);
@@ -230,7 +230,7 @@ mod tests {
         // An unknown tilt still holds it back.
         let mut P = s.filter().P();
         P[(6, 6)] = 1.0;
-        s.kf.set_state(SVector::zeros(), P).unwrap();
+        s.filter_mut().set_state(SVector::zeros(), P).unwrap();
         assert_eq!(OdometrySample::new(0, 0, 0, h, 0.01).fuse(&m, &mut s).0, StepOutcome::Refused);
     }
 }

@@ -105,7 +105,7 @@ pub fn twist<const D: usize>(s: &InsState<D>, mount: &Mount) -> (Vector6<f64>, S
 /// The gyro's white noise in `h` (see the module doc), 6×6; zero while standing
 /// and before the IMU's interval is known.
 pub(super) fn gyro_noise<const D: usize>(model: &InsModel<D>, s: &InsState<D>, mount: &Mount) -> SMatrix<f64, 6, 6> {
-    let (Some(dt), Some((_, _, n))) = (s.imu.interval_s(), s.imu.mean()) else { return SMatrix::zeros() };
+    let (Some(dt), Some((_, _, n))) = (s.held_imu().interval_s(), s.held_imu().mean()) else { return SMatrix::zeros() };
     if s.standing() {
         return SMatrix::zeros();
     }
@@ -197,8 +197,7 @@ mod tests {
         let mut s = moving_state();
         let mount = Mount::new(Axes::Flu, [0.0; 3], [0.0, 0.0, 1.0]);
         assert_eq!(gyro_noise(&m, &s, &mount), SMatrix::<f64, 6, 6>::zeros(), "interval unknown");
-        let frames = crate::frames::Frames::default();
-        s.imu.hold(frames.imus(), 0, 5_000_000, Vector3::new(0.3, 4.8, 9.8), Vector3::new(0.01, -0.02, 0.4));
+        crate::model::ins::tests_support::hold_imu(&mut s, 5_000_000, Vector3::new(0.3, 4.8, 9.8), Vector3::new(0.01, -0.02, 0.4));
         let q = gyro_noise(&m, &s, &mount);
         let expected = 0.001f64.powi(2) / 0.005;
         assert!((q[(5, 5)] - expected).abs() < 1e-15 && (q[(3, 3)] - expected).abs() < 1e-15);
@@ -220,7 +219,7 @@ mod tests {
         let before = s;
         assert_eq!(sample(h.fixed_rows::<3>(0).into()).fuse(&m, &mut s), (StepOutcome::Refused, None));
         assert_eq!(s, before);
-        s.kf.reset_error(|P| (6..9).for_each(|i| P[(i, i)] = 1e-4));
+        s.filter_mut().reset_error(|P| (6..9).for_each(|i| P[(i, i)] = 1e-4));
         let faster = h.fixed_rows::<3>(0) + Vector3::new(1.0, 0.0, 0.0);
         let speed = s.v().norm();
         let (out, _) = sample(faster).fuse(&m, &mut s);
@@ -244,7 +243,7 @@ mod tests {
             .unwrap()
             .with_frames(frames);
         let mut s = moving(&m);
-        s.kf.reset_error(|P| (0..15).for_each(|i| P[(i, i)] = 1e-4));
+        s.filter_mut().reset_error(|P| (0..15).for_each(|i| P[(i, i)] = 1e-4));
         let (h, _) = twist(&s, &Mount::IDENTITY);
         let mut z = h;
         z[0] += 0.01;

@@ -68,7 +68,7 @@
 
 #![allow(non_snake_case)]
 
-use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 pub mod aux;
 pub mod clock;
@@ -144,31 +144,31 @@ pub struct InsState<const D: usize = N> {
     /// first `D + 1` entries are used).
     nominal: [f64; NOMINAL_MAX],
     /// Error-state filter (its mean is zero between updates).
-    pub(crate) kf: KalmanFilter<f64, D>,
+    kf: KalmanFilter<f64, D>,
     t_ns: Option<u64>,
     /// Held IMU values (specific force, rate; body frame), combined over the IMUs.
-    pub(crate) imu: HeldImu,
+    imu: HeldImu,
     /// Static alignment: samples summed so far and their sums.
     aligned: u32,
     sum_f: Vector3<f64>,
     sum_w: Vector3<f64>,
     /// IMU values are held and the alignment (if any) is done.
-    pub(crate) ready: bool,
+    ready: bool,
     /// Time of the last motion-constraint update.
     constrained_ns: Option<u64>,
     /// The run of gated fixes ([`crate::model::lockout`]).
     lockout: Lockout,
     /// The runs of gated samples of the other kinds ([`crate::model::lockout::KindRuns`]).
-    pub(crate) kind_runs: KindRuns,
+    kind_runs: KindRuns,
     /// Standstill detection ([`standstill`]).
     still: standstill::Detector,
     /// The velocity sensors' time offset estimate ([`clock`]).
-    pub(crate) clock: clock::ClockEstimate,
+    clock: clock::ClockEstimate,
     /// Which auxiliary states follow the core ([`fusion_shared::snapshot::aux`] bits).
     aux_bits: u32,
     /// Where the auxiliary states that are set from a first measurement stand
     /// ([`aux::AuxProgress`]).
-    pub(crate) aux: aux::AuxProgress,
+    aux: aux::AuxProgress,
 }
 
 impl<const D: usize> InsState<D> {
@@ -242,6 +242,55 @@ impl<const D: usize> InsState<D> {
     /// The error-state filter.
     pub fn filter(&self) -> &KalmanFilter<f64, D> {
         &self.kf
+    }
+
+    /// The error-state filter, to set up a test's state.
+    #[cfg(test)]
+    pub(crate) fn filter_mut(&mut self) -> &mut KalmanFilter<f64, D> {
+        &mut self.kf
+    }
+
+    /// Whether IMU values are held and the static alignment (if any) is done.
+    #[inline]
+    pub fn ready(&self) -> bool {
+        self.ready
+    }
+
+    /// The IMU values held (specific force, rate; body frame), combined over
+    /// the IMUs.
+    #[inline]
+    pub fn held_imu(&self) -> &HeldImu {
+        &self.imu
+    }
+
+    /// The bookkeeping of the kinds that set states from a sample (a
+    /// barometer's bias, a pose sensor's map frame), carried for them by the
+    /// state: a rewind restores it with the rest.
+    #[inline]
+    pub fn progress(&self) -> &aux::AuxProgress {
+        &self.aux
+    }
+
+    /// See [`progress`](Self::progress).
+    #[inline]
+    pub(crate) fn progress_mut(&mut self) -> &mut aux::AuxProgress {
+        &mut self.aux
+    }
+
+    /// Resets the attitude to `q`, its error covariance to `block`, uncorrelated
+    /// with the other states (an attitude set from a measurement of it).
+    pub(crate) fn reset_attitude(&mut self, q: UnitQuaternion<f64>, block: &Matrix3<f64>) {
+        let (p, v, b_a, b_g) = (self.p(), self.v(), self.b_a(), self.b_g());
+        self.set(p, v, q, b_a, b_g);
+        self.kf.reset_error(|P| {
+            for i in 6..9 {
+                for j in 0..D {
+                    P[(i, j)] = 0.0;
+                    P[(j, i)] = 0.0;
+                }
+            }
+            P.fixed_view_mut::<3, 3>(6, 6).copy_from(block);
+        });
     }
 
     pub(crate) fn set(

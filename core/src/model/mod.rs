@@ -6,9 +6,10 @@
 //! A model owns its filter state type; the engine only stores, copies and replays
 //! it, so a model may keep anything it needs for time handling (the filter time,
 //! held IMU values) inside that state. A model knows no sample kinds: it
-//! propagates to a time ([`Model::propagate_to`]); each kind's module above it
-//! fuses its samples into the model's state, and `measurement::Steps` composes the
-//! two into one step.
+//! propagates to a time ([`Model::propagate_to`]) and says what it can do for
+//! them ([`Kinematic`]: fuse a world position or velocity); each kind's module
+//! above it fuses its samples into the model's state, and `measurement::Steps`
+//! composes the two into one step.
 
 pub mod held_imu;
 pub mod ins;

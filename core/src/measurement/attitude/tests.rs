@@ -32,9 +32,9 @@ fn reading(m: &InsModel, q: &UnitQuaternion<f64>) -> [f64; 4] {
 /// A state whose attitude is known to `sd` rad about each axis.
 fn known(m: &InsModel, q: UnitQuaternion<f64>, sd: f64) -> InsState {
     let mut s = m.initial_state();
-    s.ready = true;
+    crate::model::ins::tests_support::set_ready(&mut s);
     s.set(s.p(), s.v(), q, s.b_a(), s.b_g());
-    s.kf.reset_error(|P| {
+    s.filter_mut().reset_error(|P| {
         for i in 6..9 {
             P[(i, i)] = sd * sd;
         }
@@ -101,7 +101,7 @@ fn roll_and_pitch_only_leave_the_yaw_alone() {
     // Tilt known to 0.05 rad, yaw to 0.55 rad, about the world's axes.
     let R = s.q().to_rotation_matrix().into_inner();
     let world = Matrix3::from_diagonal(&Vector3::new(0.0025, 0.0025, 0.3));
-    s.kf.reset_error(|P| P.fixed_view_mut::<3, 3>(6, 6).copy_from(&(R.transpose() * world * R)));
+    s.filter_mut().reset_error(|P| P.fixed_view_mut::<3, 3>(6, 6).copy_from(&(R.transpose() * world * R)));
     let yaw_var = heading_variance(&s);
     let off = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 40f64.to_radians()) * truth;
     let sample = AttitudeSample::new(1, 3, 0, reading(&m, &off), [1e-6, 0.0, 0.0, 0.0, 1e-6, 0.0, 0.0, 0.0, 1e-6]);

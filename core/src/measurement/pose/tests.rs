@@ -99,7 +99,7 @@ fn the_first_pose_and_a_reset_set_the_frame_without_a_jump() {
     assert_eq!(&InsModel::x_of(&s)[..16], &InsModel::x_of(&before)[..16], "the estimate does not move");
     let frame = MapFrame::estimated(&s).unwrap();
     assert!((frame.yaw - 0.9).abs() < 1e-9 && (frame.origin - truth.origin).norm() < 1e-9, "{frame:?}");
-    assert_eq!((s.aux.pose.counter, s.aux.pose.alignments), (Some(0), 1));
+    assert_eq!((s.progress().pose.counter, s.progress().pose.alignments), (Some(0), 1));
     // The frame's variance: at least the yaw's uncertainty (1 rad in this state).
     let P = s.filter().P();
     assert!(P[(N, N)] > 0.5, "{}", P[(N, N)]);
@@ -116,7 +116,7 @@ fn the_first_pose_and_a_reset_set_the_frame_without_a_jump() {
     assert_eq!(&InsModel::x_of(&s)[..16], &InsModel::x_of(&x)[..16]);
     let frame = MapFrame::estimated(&s).unwrap();
     assert!((frame.yaw + 2.0).abs() < 1e-9 && (frame.origin - moved.origin).norm() < 1e-9, "{frame:?}");
-    assert_eq!((s.aux.pose.counter, s.aux.pose.alignments), (Some(1), 2));
+    assert_eq!((s.progress().pose.counter, s.progress().pose.alignments), (Some(1), 2));
 }
 
 /// A jump the localiser does not announce: poses are gated, and after
@@ -160,7 +160,7 @@ fn a_configured_frame_is_fused_as_it_is() {
     for i in 6..9 {
         P[(i, i)] = 1e-6;
     }
-    s.kf.set_state(SVector::zeros(), P).unwrap();
+    s.filter_mut().set_state(SVector::zeros(), P).unwrap();
     let frame = MapFrame { yaw: 30f64.to_radians(), origin: Vector3::new(100.0, -50.0, 2.0), states: None };
     let mut sample = reading(&m, &s, &frame, 7);
     // 1 m east in the world is (cos 30°, −sin 30°) in the map.
@@ -183,7 +183,7 @@ fn relative_poses_are_fused_as_their_change() {
     for i in 6..9 {
         P[(i, i)] = 1e-4;
     }
-    s.kf.set_state(SVector::zeros(), P).unwrap();
+    s.filter_mut().set_state(SVector::zeros(), P).unwrap();
     let frame = MapFrame { yaw: 0.4, origin: Vector3::zeros(), states: None };
     let a = reading(&m, &s, &frame, 0);
     assert_eq!(a.fuse(&m, &mut s).0, StepOutcome::Propagated, "kept");

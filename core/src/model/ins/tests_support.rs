@@ -54,6 +54,16 @@ pub fn set_scale_at<const D: usize>(s: &mut InsState<D>, i: usize, k: f64) {
     s.nominal[i + 1] = k;
 }
 
+/// Marks `s` ready: IMU values held, the alignment done.
+pub fn set_ready<const D: usize>(s: &mut InsState<D>) {
+    s.ready = true;
+}
+
+/// Holds IMU 0's values `f`, `w` at `t_ns` in `s`.
+pub fn hold_imu<const D: usize>(s: &mut InsState<D>, t_ns: u64, f: Vector3<f64>, w: Vector3<f64>) {
+    s.imu.hold(Frames::default().imus(), 0, t_ns, f, w);
+}
+
 /// Sets the nominal value of auxiliary error state `i` of `s`.
 pub fn set_aux_value<const D: usize>(s: &mut InsState<D>, i: usize, v: f64) {
     s.nominal[i + 1] = v;
