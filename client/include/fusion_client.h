@@ -90,6 +90,11 @@
 // `FusionStateSnapshot.aux_states` bit: the barometer's bias, m.
 #define FUSION_AUX_BARO_BIAS 2
 
+// `FusionStateSnapshot.aux_states` bits: every barometer's bias, m (the first's
+// is `FUSION_AUX_BARO_BIAS`, the others' bits 64, 128, 256, 512, 1024 follow
+// the pose frame, in the order of the barometers in the configuration).
+#define FUSION_AUX_BARO_BIAS_ANY 1986
+
 // `FusionStateSnapshot.aux_states` bits: a pose sensor's map frame in the
 // world frame (yaw rad, then its origin east, north, up in m; four entries,
 // the four bits 4, 8, 16, 32 together).

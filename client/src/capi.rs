@@ -109,6 +109,10 @@ pub const FUSION_MODEL_INS: u32 = 2;
 pub const FUSION_AUX_ODOMETRY_SCALE: u32 = 1;
 /// `FusionStateSnapshot.aux_states` bit: the barometer's bias, m.
 pub const FUSION_AUX_BARO_BIAS: u32 = 2;
+/// `FusionStateSnapshot.aux_states` bits: every barometer's bias, m (the first's
+/// is `FUSION_AUX_BARO_BIAS`, the others' bits 64, 128, 256, 512, 1024 follow
+/// the pose frame, in the order of the barometers in the configuration).
+pub const FUSION_AUX_BARO_BIAS_ANY: u32 = 1986;
 /// `FusionStateSnapshot.aux_states` bits: a pose sensor's map frame in the
 /// world frame (yaw rad, then its origin east, north, up in m; four entries,
 /// the four bits 4, 8, 16, 32 together).
@@ -181,6 +185,7 @@ const _: () = {
     assert!(FUSION_MODEL_INS == model::INS);
     assert!(FUSION_AUX_ODOMETRY_SCALE == fusion_shared::snapshot::aux::ODOMETRY_SCALE);
     assert!(FUSION_AUX_BARO_BIAS == fusion_shared::snapshot::aux::BARO_BIAS);
+    assert!(FUSION_AUX_BARO_BIAS_ANY == fusion_shared::snapshot::aux::BARO_BIAS_ANY);
     assert!(FUSION_AUX_POSE_FRAME == fusion_shared::snapshot::aux::POSE_FRAME);
     {
         use fusion_shared::snapshot::rejection as r;

@@ -164,17 +164,24 @@ fn the_linear_model_refuses_odometry_heading_and_mounts_at_start_up() {
     Config::parse(&format!("{linear}[[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\n")).unwrap();
 }
 
-/// What an `ins` config cannot have: two barometers (one bias state), two
-/// pose sensors with estimated frames (one frame), a half-configured frame,
-/// a `[sensor.pose]` on another kind.
+/// What an `ins` config cannot have: more auxiliary states than a snapshot
+/// carries (six: two estimated map frames, or three barometers beside one),
+/// a half-configured frame, a `[sensor.pose]` on another kind. Several
+/// barometers each have their bias.
 #[test]
 fn the_ins_model_refuses_what_its_states_cannot_hold_at_start_up() {
     let ins = INS.split("[[sensor]]").next().unwrap();
     let err = |sensors: &str| Config::parse(&format!("{ins}{sensors}")).unwrap_err().to_string();
     let baro = |id| format!("[[sensor]]\nname = \"baro{id}\"\nid = {id}\nkinds = [\"barometer\"]\n");
     let pose = |id, table: &str| format!("[[sensor]]\nname = \"slam{id}\"\nid = {id}\nkinds = [\"pose\"]\n{table}");
-    assert!(err(&(baro(0) + &baro(1))).contains("one barometer per fusiond"));
-    assert!(err(&(pose(0, "") + &pose(1, ""))).contains("one pose sensor with an estimated map frame"));
+    let two = Config::parse(&format!("{ins}{}{}", baro(0), baro(1))).unwrap();
+    let InsBuilt::Aux2(model) = InsBuilt::from_config(&two).unwrap() else { panic!("a bias per barometer") };
+    assert_eq!((model.aux().barometer(0), model.aux().barometer(1)), (Some(0), Some(1)));
+    let budget = "a snapshot carries at most 6";
+    assert!(err(&(pose(0, "") + &pose(1, ""))).contains(budget), "{}", err(&(pose(0, "") + &pose(1, ""))));
+    let crowded = pose(0, "") + &baro(1) + &baro(2) + &baro(3);
+    assert!(err(&crowded).contains("brings 7 auxiliary states"), "{}", err(&crowded));
+    Config::parse(&format!("{ins}{}{}{}", pose(0, ""), baro(1), baro(2))).unwrap();
     let half = "[sensor.pose]\nframe_yaw_deg = 30\n";
     assert!(err(&pose(0, half)).contains("frame_origin_m"), "{}", err(&pose(0, half)));
     let on_gnss = "[[sensor]]\nname = \"gnss\"\nid = 3\nkinds = [\"geodetic\"]\n[sensor.pose]\nrelative = true\n";

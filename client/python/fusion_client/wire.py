@@ -33,7 +33,8 @@ MODEL_DIMS = {1: [6, 6], 2: [16, 15]}
 AUX_ODOMETRY_SCALE, AUX_BARO_BIAS, AUX_POSE_FRAME = 1, 2, 60
 AUX_NAMES = {
     1: "odometry_scale", 2: "baro_bias_m", 4: "pose_frame_yaw_rad", 8: "pose_frame_east_m",
-    16: "pose_frame_north_m", 32: "pose_frame_up_m",
+    16: "pose_frame_north_m", 32: "pose_frame_up_m", 64: "baro_bias_2_m", 128: "baro_bias_3_m",
+    256: "baro_bias_4_m", 512: "baro_bias_5_m", 1024: "baro_bias_6_m",
 }
 #: Why a sample was refused in validation: the index of ``StateSnapshot.rejections``
 #: and ``SensorCounters.last_rejection`` (entry 0 unused).

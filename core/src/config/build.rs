@@ -46,25 +46,45 @@ impl Build for LinearModel {
     }
 }
 
-/// The `ins` model as configured: the core 15 error states and the auxiliary
-/// states the config brings ([`ins::aux`]: the odometry scale factor, a
-/// barometer's bias, a pose sensor's map frame), one variant per dimension.
-#[derive(Debug, Clone)]
-#[allow(clippy::large_enum_variant, reason = "one value per config, built once at start-up")]
-pub enum InsBuilt {
-    /// Without auxiliary states.
-    Core(InsModel),
-    /// With one (the odometry scale factor or a barometer's bias).
-    Aux1(InsModel<{ ins::N + 1 }>),
-    /// With both of those.
-    Aux2(InsModel<{ ins::N + 2 }>),
-    /// With a pose sensor's map frame.
-    Aux4(InsModel<{ ins::N + 4 }>),
-    /// With a pose sensor's map frame and one more.
-    Aux5(InsModel<{ ins::N + 5 }>),
-    /// With every auxiliary state.
-    Aux6(InsModel<{ ins::N + 6 }>),
+/// Generates [`InsBuilt`], a variant per number of auxiliary states (none to
+/// [`ins::MAX_AUX`]), its building and its dispatch.
+macro_rules! ins_forms {
+    ($($variant:ident = $aux:literal),* $(,)?) => {
+        /// The `ins` model as configured: the core 15 error states and the
+        /// auxiliary states the config brings ([`ins::aux`]), one variant per
+        /// dimension.
+        #[derive(Debug, Clone)]
+        #[allow(clippy::large_enum_variant, reason = "one value per config, built once at start-up")]
+        pub enum InsBuilt {
+            /// Without auxiliary states.
+            Core(InsModel),
+            $(#[doc = concat!("With ", stringify!($aux), " auxiliary error states.")] $variant(InsModel<{ ins::N + $aux }>),)*
+        }
+
+        impl InsBuilt {
+            /// `core` with `aux` in form `f`, as the variant of its dimension.
+            fn of(core: InsModel, aux: ins::AuxStates, f: crate::filter::Form) -> Result<Self, crate::filter::FilterError> {
+                Ok(match aux.len() {
+                    0 => Self::Core(core.with_form(f)?),
+                    $($aux => Self::$variant(core.with_aux(aux)?.with_form(f)?),)*
+                    n => return Err(crate::filter::FilterError::StateDimension { got: ins::N + n, expected: ins::MAX_N }),
+                })
+            }
+
+            /// Hands the model, as its own type, to `f`.
+            fn run_with<F: WithModel>(self, f: F) -> F::Output {
+                match self {
+                    Self::Core(m) => f.run(m),
+                    $(Self::$variant(m) => f.run(m),)*
+                }
+            }
+        }
+
+        const _: () = assert!([$($aux),*].len() == ins::MAX_AUX, "a variant per number of auxiliary states");
+    };
 }
+
+ins_forms!(Aux1 = 1, Aux2 = 2, Aux3 = 3, Aux4 = 4, Aux5 = 5, Aux6 = 6);
 
 impl InsBuilt {
     /// The model of a config with `kind = "ins"`.
@@ -74,19 +94,7 @@ impl InsBuilt {
         };
         let core = InsModel::core_from_config(config)?;
         let aux = aux_states(p.odometry_scale, core.frames())?;
-        let form = |e: crate::filter::FilterError| invalid("filter.initial_state", e.to_string());
-        let f = config.filter.form;
-        Ok(match aux.len() {
-            0 => Self::Core(core.with_form(f).map_err(form)?),
-            1 => Self::Aux1(core.with_aux(aux).and_then(|m| m.with_form(f)).map_err(form)?),
-            2 => Self::Aux2(core.with_aux(aux).and_then(|m| m.with_form(f)).map_err(form)?),
-            4 => Self::Aux4(core.with_aux(aux).and_then(|m| m.with_form(f)).map_err(form)?),
-            5 => Self::Aux5(core.with_aux(aux).and_then(|m| m.with_form(f)).map_err(form)?),
-            n => {
-                debug_assert_eq!(n, 6, "the auxiliary states number 0, 1, 2, 4, 5 or 6");
-                Self::Aux6(core.with_aux(aux).and_then(|m| m.with_form(f)).map_err(form)?)
-            }
-        })
+        Self::of(core, aux, config.filter.form).map_err(|e| invalid("filter.initial_state", e.to_string()))
     }
 
     /// The model with the odometry scale factor as its one auxiliary state, if
@@ -99,32 +107,36 @@ impl InsBuilt {
     }
 }
 
-/// The auxiliary states of a config: `[model.odometry_scale]`, a barometer's
-/// bias (at most one barometer), a pose sensor's map frame when it is
-/// estimated (at most one such sensor).
+/// The auxiliary states of a config ([`ins::aux::KINDS`]):
+/// `[model.odometry_scale]`, each barometer's bias, a pose sensor's map frame
+/// when it is estimated. A snapshot carries at most [`ins::MAX_AUX`] of them: a
+/// config that brings more is refused with the count (two estimated map frames,
+/// eight states, never fit).
 fn aux_states(scale: Option<OdometryScale>, frames: &Frames) -> Result<ins::AuxStates, ConfigError> {
     if let Some(k) = &scale {
         check_odometry_scale(k)?;
     }
     let of = |kind: SampleKind| frames.sensors().iter().filter(move |m| m.kind == kind);
-    let mut baros = of(SampleKind::Barometer);
-    let barometer = baros.next().map(|m| m.settings.get::<BarometerConfig>().copied().unwrap_or_default());
-    if let Some(second) = baros.next() {
-        return Err(invalid(
-            "sensor",
-            format!("{:?}: one barometer per fusiond (its bias is one state); fuse the best one", second.name),
-        ));
-    }
-    let mut estimated =
-        of(SampleKind::Pose).filter(|m| m.settings.get::<PoseConfig>().copied().unwrap_or_default().estimated());
-    let pose = estimated.next().map(|m| m.settings.get::<PoseConfig>().copied().unwrap_or_default());
-    if let Some(second) = estimated.next() {
+    let barometers: Vec<_> = of(SampleKind::Barometer).collect();
+    let estimated: Vec<_> = of(SampleKind::Pose)
+        .filter(|m| m.settings.get::<PoseConfig>().copied().unwrap_or_default().estimated())
+        .collect();
+    let wanted = usize::from(scale.is_some()) * ins::aux::SCALE.len
+        + barometers.len() * ins::aux::BARO.len
+        + estimated.len() * ins::aux::FRAME.len;
+    if wanted > ins::MAX_AUX {
+        let last = estimated.last().or(barometers.last()).map_or("model.odometry_scale", |m| m.name.as_str());
         return Err(invalid(
             "sensor",
             format!(
-                "{:?}: one pose sensor with an estimated map frame per fusiond (the frame is four states); give \
-                 the others' frames ([sensor.pose] frame_yaw_deg, frame_origin_m) or fuse them relative",
-                second.name
+                "{last:?}: the configuration brings {wanted} auxiliary states ({} odometry scale, {} barometer \
+                 biases, {} estimated pose map frames of 4), and a snapshot carries at most {}; give a pose \
+                 sensor's frame ([sensor.pose] frame_yaw_deg, frame_origin_m) or fuse it relative, or leave out a \
+                 barometer",
+                usize::from(scale.is_some()),
+                barometers.len(),
+                estimated.len(),
+                ins::MAX_AUX
             ),
         ));
     }
@@ -135,7 +147,11 @@ fn aux_states(scale: Option<OdometryScale>, frames: &Frames) -> Result<ins::AuxS
             format!("{:?}: one relative pose sensor per fusiond (its last pose is kept in the state)", second.name),
         ));
     }
-    Ok(ins::AuxStates { odometry_scale: scale, barometer, pose })
+    let pose = estimated.first().map(|m| m.settings.get::<PoseConfig>().copied().unwrap_or_default());
+    let aux = ins::AuxStates { odometry_scale: scale, pose, ..ins::AuxStates::default() };
+    Ok(barometers
+        .iter()
+        .fold(aux, |aux, m| aux.with_barometer(m.id, m.settings.get::<BarometerConfig>().copied().unwrap_or_default())))
 }
 
 /// `[model.odometry_scale]`'s values: `initial` in (0.5, 2), `initial_std` in
@@ -165,14 +181,7 @@ impl Build for InsModel {
         InsBuilt::from_config(config)
     }
     fn run<F: WithModel>(built: InsBuilt, f: F) -> F::Output {
-        match built {
-            InsBuilt::Core(m) => f.run(m),
-            InsBuilt::Aux1(m) => f.run(m),
-            InsBuilt::Aux2(m) => f.run(m),
-            InsBuilt::Aux4(m) => f.run(m),
-            InsBuilt::Aux5(m) => f.run(m),
-            InsBuilt::Aux6(m) => f.run(m),
-        }
+        built.run_with(f)
     }
 }
 

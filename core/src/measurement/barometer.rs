@@ -95,7 +95,7 @@ pub fn altitude<const D: usize>(s: &InsState<D>, l: &Vector3<f64>, bias: Option<
 
 impl<const D: usize> Fuse<InsModel<D>> for BarometerSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
-        if !s.progress().barometer.set {
+        if !bias_set(self, model, s) {
             return (set_bias(self, model, s), None);
         }
         match self.observe(model, s) {
@@ -105,44 +105,63 @@ impl<const D: usize> Fuse<InsModel<D>> for BarometerSample {
     }
 }
 
-/// The bias state's index of a configured barometer (`None`: a barometer
-    /// that is not configured has no bias state; the state is the configured
-    /// one's), its port's lever arm, the pressure altitude and its variance.
-fn altitude_of<const D: usize>(
-    sample: &BarometerSample,
-    model: &InsModel<D>,
-    s: &InsState<D>,
-) -> Option<(usize, Vector3<f64>, f64, Matrix1<f64>)> {
+/// Whether the sample's barometer has its bias state, set from its first
+/// sample.
+fn bias_set<const D: usize>(sample: &BarometerSample, model: &InsModel<D>, s: &InsState<D>) -> bool {
+    model.aux().barometer(sample.header.sensor).is_some_and(|i| s.aux_progress().barometers[i].set)
+}
+
+/// What a sample of a configured barometer is fused with.
+struct Reading {
+    /// Which of the barometers it is ([`AuxStates::barometer`]).
+    ///
+    /// [`AuxStates::barometer`]: crate::model::ins::AuxStates::barometer
+    instance: usize,
+    /// Its bias's error-state index.
+    bias: usize,
+    /// Its port's lever arm.
+    arm: Vector3<f64>,
+    /// The pressure altitude, m.
+    z: f64,
+    /// Its variance.
+    R: Matrix1<f64>,
+}
+
+/// The sample's [`Reading`]; `None` for a barometer that is not configured
+/// (it has no bias state).
+fn reading<const D: usize>(sample: &BarometerSample, model: &InsModel<D>, s: &InsState<D>) -> Option<Reading> {
     let sensor = sample.header.sensor;
-    let b = s.aux_index(aux::BARO_BIAS).filter(|_| super::settings::<BarometerSample>(model.frames(), sensor).is_some())?;
-    let l = model.frames().mount(SampleKind::Barometer, sensor).lever_arm;
+    let instance = model.aux().barometer(sensor)?;
+    let bias = s.aux_index(aux::BARO_BIASES[instance])?;
+    let arm = model.frames().mount(SampleKind::Barometer, sensor).lever_arm;
     let slope = pressure_altitude_slope(sample.pressure_pa);
-    Some((b, l, pressure_altitude_m(sample.pressure_pa), Matrix1::new(slope * slope * sample.var_pa2)))
+    let R = Matrix1::new(slope * slope * sample.var_pa2);
+    Some(Reading { instance, bias, arm, z: pressure_altitude_m(sample.pressure_pa), R })
 }
 
 /// Sets the bias from the first sample, by state augmentation (see the module
 /// doc): `Propagated` (nothing fused), or `Refused`.
 fn set_bias<const D: usize>(sample: &BarometerSample, model: &InsModel<D>, s: &mut InsState<D>) -> StepOutcome {
-    let Some((b, l, z, R)) = altitude_of(sample, model, s) else { return StepOutcome::Refused };
-    let (h, H) = altitude(s, &l, None);
-    if augment(s, b, &Vector1::new(z - h), &(-H), &Matrix1::new(1.0), &R).is_err() {
+    let Some(r) = reading(sample, model, s) else { return StepOutcome::Refused };
+    let (h, H) = altitude(s, &r.arm, None);
+    if augment(s, r.bias, &Vector1::new(r.z - h), &(-H), &Matrix1::new(1.0), &r.R).is_err() {
         return StepOutcome::Refused;
     }
-    s.progress_mut().barometer.set = true;
+    s.aux_progress_mut().barometers[r.instance].set = true;
     StepOutcome::Propagated
 }
 
-/// `y = z − (p_z + (R l)_z + b)` of [`altitude`], `z` the pressure altitude;
-/// `None` before the first sample sets the bias, and for a barometer without
-/// the bias state.
+/// `y = z − (p_z + (R l)_z + b)` of [`altitude`], `z` the pressure altitude
+/// and `b` the sample's barometer's bias; `None` before its first sample sets
+/// the bias, and for a barometer without the bias state.
 impl<const D: usize> Observe<1, D> for BarometerSample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<1, D>> {
-        if !s.progress().barometer.set {
+        if !bias_set(self, model, s) {
             return None;
         }
-        let (b, l, z, R) = altitude_of(self, model, s)?;
-        let (h, H) = altitude(s, &l, Some(b));
-        Some(Observation { y: Vector1::new(z - h), H, R })
+        let r = reading(self, model, s)?;
+        let (h, H) = altitude(s, &r.arm, Some(r.bias));
+        Some(Observation { y: Vector1::new(r.z - h), H, R: r.R })
     }
 }
 
@@ -160,7 +179,7 @@ mod tests {
     fn baro_model() -> InsModel<{ N + 1 }> {
         let sensor = toml::from_str("name = \"baro\"\nid = 0\nkinds = [\"barometer\"]\n").unwrap();
         let frames = crate::frames::Frames::from_config(None, &[sensor], Default::default(), &crate::measurement::Kinds).unwrap();
-        let aux = AuxStates { barometer: Some(BaroBias::default()), ..AuxStates::default() };
+        let aux = AuxStates::default().with_barometer(0, BaroBias::default());
         model().with_frames(frames).with_aux(aux).unwrap()
     }
 
@@ -236,5 +255,31 @@ mod tests {
         let before = s;
         assert_eq!(BarometerSample::new(0, 7, 0, 95_000.0, 4.0).fuse(&m, &mut s).0, StepOutcome::Refused);
         assert_eq!(s, before);
+    }
+
+    /// Two barometers: each has its bias (the second's bit follows the
+    /// first's), set from its own first sample, and each fuses against its own.
+    #[test]
+    fn each_barometer_has_its_bias() {
+        let sensors: Vec<crate::frames::SensorConfig> = (0..2)
+            .map(|id| toml::from_str(&format!("name = \"baro{id}\"\nid = {id}\nkinds = [\"barometer\"]\n")).unwrap())
+            .collect();
+        let frames = crate::frames::Frames::from_config(None, &sensors, Default::default(), &crate::measurement::Kinds).unwrap();
+        let aux = AuxStates::default().with_barometer(0, BaroBias::default()).with_barometer(1, BaroBias::default());
+        let m = model().with_frames(frames).with_aux::<{ N + 2 }>(aux).unwrap();
+        let mut s = m.initial_state();
+        assert_eq!((s.aux_index(aux::BARO_BIAS), s.aux_index(aux::BARO_BIASES[1])), (Some(N), Some(N + 1)));
+        let (low, high) = (95_000.0, 95_000.0 - 60.0);
+        assert_eq!(BarometerSample::new(0, 0, 0, low, 4.0).fuse(&m, &mut s).0, StepOutcome::Propagated);
+        assert!(s.aux_progress().barometers[0].set && !s.aux_progress().barometers[1].set);
+        assert_eq!(BarometerSample::new(0, 1, 0, high, 4.0).fuse(&m, &mut s).0, StepOutcome::Propagated);
+        let (b0, b1) = (s.aux_value(N), s.aux_value(N + 1));
+        assert!((b1 - b0 - (pressure_altitude_m(high) - pressure_altitude_m(low))).abs() < 1e-9, "{b0} {b1}");
+        // Each reads what it read: no innovation, against its own bias.
+        for (sensor, p) in [(0, low), (1, high)] {
+            let out = BarometerSample::new(0, sensor, 1, p, 4.0).fuse(&m, &mut s).0;
+            assert!(matches!(out, StepOutcome::Fused { nis } if nis < 1e-12), "{sensor}: {out:?}");
+        }
+        assert_eq!(BarometerSample::new(0, 2, 0, low, 4.0).fuse(&m, &mut s).0, StepOutcome::Refused, "unconfigured");
     }
 }

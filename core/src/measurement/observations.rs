@@ -124,9 +124,10 @@ impl Checker {
         let frames = Frames::from_config(Some(datum()), &sensors.sensor, Default::default(), &super::Kinds).unwrap();
         let every = AuxStates {
             odometry_scale: Some(OdometryScale::default()),
-            barometer: Some(BaroBias::default()),
             pose: Some(PoseFrame::default()),
-        };
+            ..AuxStates::default()
+        }
+        .with_barometer(9, BaroBias::default());
         let model = model().with_frames(frames).with_aux::<E>(every).unwrap();
         let mut state = moving(&model);
         let mut P = state.filter().P();
@@ -136,11 +137,11 @@ impl Checker {
         state.filter_mut().set_state(nalgebra::SVector::zeros(), P).unwrap();
         set_scale_at(&mut state, N, 1.03);
         set_aux_value(&mut state, N + 1, 2.5);
-        state.progress_mut().barometer.set = true;
+        state.aux_progress_mut().barometers[0].set = true;
         for (k, v) in [0.3, 10.0, -5.0, 1.0].into_iter().enumerate() {
             set_aux_value(&mut state, N + 2 + k, v);
         }
-        state.progress_mut().pose.aligned(0);
+        state.aux_progress_mut().pose.aligned(0);
         Self { model, state, checked: Vec::new(), samples: Vec::new() }
     }
 

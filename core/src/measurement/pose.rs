@@ -284,8 +284,8 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
         if config.relative {
             // Disjoint pairs: a pose that ends a pair does not start the next.
             let this = previous(self);
-            let Some((z, cov)) = s.progress_mut().pose.last.take().and_then(|a| relative_twist(&a, &this)) else {
-                s.progress_mut().pose.last = Some(this);
+            let Some((z, cov)) = s.aux_progress_mut().pose.last.take().and_then(|a| relative_twist(&a, &this)) else {
+                s.aux_progress_mut().pose.last = Some(this);
                 return (StepOutcome::Propagated, None);
             };
             if !nonholonomic::attitude_known(s) {
@@ -298,12 +298,12 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
         let estimated = config.configured_frame().is_none();
         if estimated {
             let Some(i) = s.aux_index(aux::POSE_FRAME_YAW) else { return (StepOutcome::Refused, None) };
-            if s.progress().pose.due(self.reset_counter, config.realign_after_gated) {
+            if s.aux_progress().pose.due(self.reset_counter, config.realign_after_gated) {
                 let R = SMatrix::<f64, 6, 6>::from_row_slice(&self.cov);
                 if !set_frame(s, mount, i, self, &R) {
                     return (StepOutcome::Refused, None);
                 }
-                s.progress_mut().pose.aligned(self.reset_counter);
+                s.aux_progress_mut().pose.aligned(self.reset_counter);
                 return (StepOutcome::Propagated, None);
             }
         }
@@ -311,7 +311,7 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
         let out = model.update_residual_selected(s, &o.y, &o.H, &o.R, &config.fuse.mask);
         if estimated {
             // The estimated frame's sensor: its run of gated poses.
-            s.progress_mut().pose.fused(matches!(out.0, StepOutcome::Gated { .. }));
+            s.aux_progress_mut().pose.fused(matches!(out.0, StepOutcome::Gated { .. }));
         }
         out
     }
@@ -331,7 +331,7 @@ impl<const D: usize> Observe<6, D> for PoseSample {
             Some((yaw, origin)) => MapFrame { yaw, origin: Vector3::from(origin), states: None },
             None => {
                 let i = s.aux_index(aux::POSE_FRAME_YAW)?;
-                if s.progress().pose.due(self.reset_counter, config.realign_after_gated) {
+                if s.aux_progress().pose.due(self.reset_counter, config.realign_after_gated) {
                     return None;
                 }
                 MapFrame::estimated_at(s, i)

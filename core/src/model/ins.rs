@@ -105,9 +105,10 @@ pub use standstill::Standstill;
 pub const N: usize = 15;
 /// Nominal state length of the core model.
 pub const NOMINAL: usize = 16;
-/// The most auxiliary error states: the odometry scale factor (1), the
-/// barometer's bias (1), a pose sensor's map frame (4).
-pub const MAX_AUX: usize = 6;
+/// The most auxiliary error states: what a snapshot carries
+/// ([`fusion_shared::snapshot::aux::MAX`]); which states a configuration
+/// brings is in the table of [`aux::KINDS`].
+pub const MAX_AUX: usize = fusion_shared::snapshot::aux::MAX;
 /// The largest error-state dimension (the core and every auxiliary state).
 pub const MAX_N: usize = N + MAX_AUX;
 /// Room for the nominal state of any dimension.
@@ -263,17 +264,10 @@ impl<const D: usize> InsState<D> {
         &self.imu
     }
 
-    /// The bookkeeping of the kinds that set states from a sample (a
-    /// barometer's bias, a pose sensor's map frame), carried for them by the
-    /// state: a rewind restores it with the rest.
+    /// [`aux_progress`](Self::aux_progress), for the kinds whose bookkeeping
+    /// it is (the state carries it for them: a rewind restores it with the rest).
     #[inline]
-    pub fn progress(&self) -> &aux::AuxProgress {
-        &self.aux
-    }
-
-    /// See [`progress`](Self::progress).
-    #[inline]
-    pub(crate) fn progress_mut(&mut self) -> &mut aux::AuxProgress {
+    pub(crate) fn aux_progress_mut(&mut self) -> &mut aux::AuxProgress {
         &mut self.aux
     }
 

@@ -1,13 +1,17 @@
 //! The auxiliary states of the `ins` model: states beyond the core 15 that a
 //! configuration brings, each a random walk (constant in `F`, its density's
 //! variance added to `Q`), after the core in the order of their
-//! [`fusion_shared::snapshot::aux`] bits:
+//! [`fusion_shared::snapshot::aux`] bits. [`KINDS`] is the one table of them:
 //!
-//! | bit | states | unit | brought by |
-//! |---|---|---|---|
-//! | `ODOMETRY_SCALE` | `k` | – | `[model.odometry_scale]` ([`OdometryScale`]) |
-//! | `BARO_BIAS` | `b` | m | a barometer (`[sensor.barometer]`, [`BarometerConfig`]) |
-//! | `POSE_FRAME_*` | `ψ, t_e, t_n, t_u` | rad, m | a pose sensor with an estimated frame (`[sensor.pose]`, [`PoseConfig`]) |
+//! | kind | states per instance | unit | instances (bits) | brought by |
+//! |---|---|---|---|---|
+//! | odometry scale | `k` | – | one (`ODOMETRY_SCALE`) | `[model.odometry_scale]` ([`OdometryScale`]) |
+//! | barometer bias | `b` | m | one per barometer (`BARO_BIASES`) | each barometer (`[sensor.barometer]`, [`BarometerConfig`]) |
+//! | pose map frame | `ψ, t_e, t_n, t_u` | rad, m | one (`POSE_FRAME_*`) | a pose sensor with an estimated frame (`[sensor.pose]`, [`PoseConfig`]) |
+//!
+//! A snapshot carries at most [`MAX_AUX`] of them (its room is 22 states and a
+//! 21×21 covariance): a configuration that brings more is refused with the
+//! count. Two estimated map frames (eight states) never fit.
 //!
 //! The barometer's bias and the pose frame are set from their sensor's first
 //! sample (and the frame again at each re-initialisation of the localiser) by
@@ -50,29 +54,85 @@ pub const fn index(present: u32, bit: u32) -> Option<usize> {
     if present & bit == 0 { None } else { Some(N + (present & (bit - 1)).count_ones() as usize) }
 }
 
-/// Which auxiliary states the model has, with their parameters.
+/// One kind of auxiliary state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AuxKind {
+    /// What the states are.
+    pub name: &'static str,
+    /// The snapshot bit of each instance's first state (its other states take
+    /// the next bits).
+    pub instances: &'static [u32],
+    /// States per instance.
+    pub len: usize,
+}
+
+/// The odometry scale factor (`[model.odometry_scale]`).
+pub const SCALE: AuxKind = AuxKind { name: "odometry scale", instances: &[bits::ODOMETRY_SCALE], len: 1 };
+/// A barometer's bias, one per barometer.
+pub const BARO: AuxKind = AuxKind { name: "barometer bias", instances: &bits::BARO_BIASES, len: 1 };
+/// A pose sensor's map frame, when it is estimated.
+pub const FRAME: AuxKind = AuxKind { name: "pose map frame", instances: &[bits::POSE_FRAME_YAW], len: 4 };
+/// Every kind of auxiliary state.
+pub const KINDS: [AuxKind; 3] = [SCALE, BARO, FRAME];
+
+/// Which auxiliary states the model has, with their parameters: the
+/// instances of each of [`KINDS`].
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AuxStates {
     /// The odometry scale factor.
     pub odometry_scale: Option<OdometryScale>,
-    /// The barometer's bias.
-    pub barometer: Option<BaroBias>,
+    /// Each barometer's bias: its sensor id and parameters, in the
+    /// configuration's order (the first is `BARO_BIAS`).
+    pub barometers: [Option<(u32, BaroBias)>; MAX_AUX],
     /// A pose sensor's map frame (yaw, origin).
     pub pose: Option<PoseFrame>,
 }
 
 impl AuxStates {
+    /// The states of a config without barometers or an estimated frame, with
+    /// barometer `sensor`'s bias added.
+    pub fn with_barometer(mut self, sensor: u32, bias: BaroBias) -> Self {
+        if let Some(slot) = self.barometers.iter_mut().find(|b| b.is_none()) {
+            *slot = Some((sensor, bias));
+        }
+        self
+    }
+
+    /// The instances of each of [`KINDS`] present, in its order.
+    const fn counts(&self) -> [usize; KINDS.len()] {
+        let mut barometers = 0;
+        while barometers < MAX_AUX && self.barometers[barometers].is_some() {
+            barometers += 1;
+        }
+        [self.odometry_scale.is_some() as usize, barometers, self.pose.is_some() as usize]
+    }
+
+    /// How many states the instances number, whether they fit a snapshot
+    /// ([`MAX_AUX`]) or not.
+    pub const fn wanted(&self) -> usize {
+        let (counts, mut total, mut k) = (self.counts(), 0, 0);
+        while k < KINDS.len() {
+            total += counts[k] * KINDS[k].len;
+            k += 1;
+        }
+        total
+    }
+
     /// The [`fusion_shared::snapshot::aux`] bits of the states present.
     pub const fn bits(&self) -> u32 {
-        let mut b = 0;
-        if self.odometry_scale.is_some() {
-            b |= bits::ODOMETRY_SCALE;
-        }
-        if self.barometer.is_some() {
-            b |= bits::BARO_BIAS;
-        }
-        if self.pose.is_some() {
-            b |= bits::POSE_FRAME;
+        let (counts, mut b, mut k) = (self.counts(), 0, 0);
+        while k < KINDS.len() {
+            let kind = &KINDS[k];
+            let mut i = 0;
+            while i < counts[k] && i < kind.instances.len() {
+                let mut j = 0;
+                while j < kind.len {
+                    b |= kind.instances[i] << j;
+                    j += 1;
+                }
+                i += 1;
+            }
+            k += 1;
         }
         b
     }
@@ -87,26 +147,43 @@ impl AuxStates {
         self.bits() == 0
     }
 
+    /// Which of the barometers sensor `sensor` is (its bias's bit is
+    /// `BARO_BIASES[i]`), if it has a bias state.
+    #[inline]
+    pub fn barometer(&self, sensor: u32) -> Option<usize> {
+        self.barometers.iter().position(|b| matches!(b, Some((id, _)) if *id == sensor))
+    }
+
     /// Initial value, standard deviation and random-walk variance per second
-    /// of each auxiliary error state, in state order.
+    /// of each auxiliary error state, in state order (of their bits).
     fn entries(&self) -> ([f64; MAX_AUX], [f64; MAX_AUX], [f64; MAX_AUX]) {
-        let (mut x, mut sd, mut q) = ([0.0; MAX_AUX], [1.0; MAX_AUX], [0.0; MAX_AUX]);
-        let mut i = 0;
-        let mut push = |v: f64, s: f64, rw: f64| {
-            (x[i], sd[i], q[i]) = (v, s, rw * rw);
-            i += 1;
+        // (bit, value, σ, random walk) of each state, then in bit order.
+        let mut states = [(u32::MAX, 0.0, 1.0, 0.0); MAX_AUX];
+        let mut n = 0;
+        let mut push = |bit: u32, v: f64, s: f64, rw: f64| {
+            if n < MAX_AUX {
+                states[n] = (bit, v, s, rw * rw);
+                n += 1;
+            }
         };
         if let Some(k) = self.odometry_scale {
-            push(k.initial, k.initial_std, k.random_walk);
+            push(bits::ODOMETRY_SCALE, k.initial, k.initial_std, k.random_walk);
         }
-        if let Some(b) = self.barometer {
-            push(0.0, UNSET_BIAS_STD_M, b.bias_random_walk_m);
+        for (b, bit) in self.barometers.iter().zip(bits::BARO_BIASES) {
+            if let Some((_, b)) = b {
+                push(bit, 0.0, UNSET_BIAS_STD_M, b.bias_random_walk_m);
+            }
         }
         if let Some(p) = self.pose {
-            push(0.0, std::f64::consts::PI, p.frame_yaw_random_walk_deg.to_radians());
-            for _ in 0..3 {
-                push(0.0, UNSET_ORIGIN_STD_M, p.frame_origin_random_walk_m);
+            push(bits::POSE_FRAME_YAW, 0.0, std::f64::consts::PI, p.frame_yaw_random_walk_deg.to_radians());
+            for bit in [bits::POSE_FRAME_EAST, bits::POSE_FRAME_NORTH, bits::POSE_FRAME_UP] {
+                push(bit, 0.0, UNSET_ORIGIN_STD_M, p.frame_origin_random_walk_m);
             }
+        }
+        states[..n].sort_by_key(|s| s.0);
+        let (mut x, mut sd, mut q) = ([0.0; MAX_AUX], [1.0; MAX_AUX], [0.0; MAX_AUX]);
+        for (i, (_, v, s, rw)) in states[..n].iter().enumerate() {
+            (x[i], sd[i], q[i]) = (*v, *s, *rw);
         }
         (x, sd, q)
     }
@@ -117,8 +194,9 @@ impl AuxStates {
 /// states keeps its own bookkeeping, of a type of its own.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AuxProgress {
-    /// The barometer's ([`BarometerProgress`]).
-    pub barometer: BarometerProgress,
+    /// Each barometer's ([`BarometerProgress`]), in the order of
+    /// [`AuxStates::barometers`].
+    pub barometers: [BarometerProgress; MAX_AUX],
     /// The pose sensor's ([`PoseProgress`]).
     pub pose: PoseProgress,
     /// Times states were set from a sample (`augment`), and the error-state
@@ -134,8 +212,8 @@ impl InsModel {
     /// plus their number): their initial values and variances appended to
     /// `x₀` and `P₀` (uncorrelated).
     pub fn with_aux<const E: usize>(self, aux: AuxStates) -> Result<InsModel<E>, FilterError> {
-        if E != N + aux.len() {
-            return Err(FilterError::StateDimension { got: E, expected: N + aux.len() });
+        if E != N + aux.len() || aux.len() != aux.wanted() {
+            return Err(FilterError::StateDimension { got: E, expected: N + aux.wanted() });
         }
         let (x, sd, q) = aux.entries();
         let mut P = SMatrix::<f64, E, E>::zeros();
@@ -247,17 +325,25 @@ mod tests {
     fn the_states_follow_the_core_in_bit_order() {
         let every = AuxStates {
             odometry_scale: Some(OdometryScale::default()),
-            barometer: Some(BaroBias::default()),
             pose: Some(PoseFrame::default()),
-        };
+            ..AuxStates::default()
+        }
+        .with_barometer(9, BaroBias::default());
         assert_eq!(every.len(), 6);
         assert_eq!(index(every.bits(), bits::ODOMETRY_SCALE), Some(N));
         assert_eq!(index(every.bits(), bits::BARO_BIAS), Some(N + 1));
         assert_eq!(index(every.bits(), bits::POSE_FRAME_YAW), Some(N + 2));
         assert_eq!(index(every.bits(), bits::POSE_FRAME_UP), Some(N + 5));
-        let baro = AuxStates { barometer: Some(BaroBias::default()), ..AuxStates::default() };
+        let baro = AuxStates::default().with_barometer(9, BaroBias::default());
         assert_eq!(index(baro.bits(), bits::BARO_BIAS), Some(N));
         assert_eq!(index(baro.bits(), bits::ODOMETRY_SCALE), None);
+        // A second barometer's bias follows the map frame (its bit is higher).
+        let two = every.with_barometer(12, BaroBias::default());
+        assert_eq!((two.wanted(), two.barometer(12), two.barometer(3)), (7, Some(1), None));
+        let two = AuxStates { odometry_scale: None, ..two };
+        assert_eq!((two.len(), two.wanted()), (6, 6));
+        assert_eq!(index(two.bits(), bits::BARO_BIASES[1]), Some(N + 5));
+        assert_eq!(index(two.bits(), bits::POSE_FRAME_YAW), Some(N + 1));
         let m = model().with_aux::<{ N + 6 }>(every).unwrap();
         let s = m.initial_state();
         assert_eq!(InsModel::x_of(&s).len(), N + 7);
@@ -270,8 +356,7 @@ mod tests {
     /// nothing else changes.
     #[test]
     fn augmenting_correlates_the_new_state_with_what_it_came_from() {
-        let m =
-            model().with_aux::<{ N + 1 }>(AuxStates { barometer: Some(BaroBias::default()), ..AuxStates::default() });
+        let m = model().with_aux::<{ N + 1 }>(AuxStates::default().with_barometer(9, BaroBias::default()));
         let m = m.unwrap();
         let mut s = m.initial_state();
         let before = s.kf.P();
