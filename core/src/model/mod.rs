@@ -5,11 +5,13 @@
 //!
 //! A model owns its filter state type; the engine only stores, copies and replays
 //! it, so a model may keep anything it needs for time handling (the filter time,
-//! held IMU values) inside that state. A model knows no sample kinds: it
+//! held IMU values) inside that state. A model fuses no sample kind: it
 //! propagates to a time ([`Model::propagate_to`]) and says what it can do for
-//! them ([`Kinematic`]: fuse a world position or velocity); each kind's module
-//! above it fuses its samples into the model's state, and `measurement::Steps`
-//! composes the two into one step.
+//! the kinds ([`Kinematic`]: fuse a world position or velocity); each kind's
+//! module above it fuses its samples into the model's state, and
+//! `measurement::Steps` composes the two into one step. (The `ins` model's
+//! auxiliary states know the settings and bookkeeping types of the kinds that
+//! bring them, leaf modules of those kinds: [`ins::aux`].)
 
 pub mod held_imu;
 pub mod ins;
