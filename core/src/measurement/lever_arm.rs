@@ -86,12 +86,7 @@ impl<const D: usize> Kinematic for InsModel<D> {
         self.observe_velocity(s, t_ns, &at_origin, R);
         let turned = self.align_course(s, &at_origin, R);
         let (outcome, injected) = fuse_velocity(self, s, mount, z, R);
-        // The smoother's record holds the whole change of the nominal state.
-        let injected = match (turned, injected) {
-            (Some(t), Some(dx)) => Some(t + dx),
-            (t, dx) => t.or(dx),
-        };
-        (outcome, injected)
+        (outcome, crate::model::ins::record::both(turned, injected))
     }
 }
 

@@ -110,16 +110,11 @@ impl<const D: usize> Fuse<InsModel<D>> for MagnetometerSample {
         let turned = align_heading(s, tilt_var, &z, &R, &earth.world_ut);
         let Some(o) = self.observe(model, s) else { return (StepOutcome::Refused, turned) };
         let (outcome, injected) = model.update_residual(s, &o.y, &o.H, &o.R);
-        // The smoother's record holds the whole change of the nominal state.
-        let injected = match (turned, injected) {
-            (Some(t), Some(dx)) => Some(t + dx),
-            (t, dx) => t.or(dx),
-        };
-        (outcome, injected)
+        (outcome, crate::model::ins::record::both(turned, injected))
     }
 }
 
-/// `y = C z − Rᵀ m` of [`field`], `R = C Σ Cᵀ` (the sample in the body
+/// `y = C z − Rᵀ m` of [`field()`], `R = C Σ Cᵀ` (the sample in the body
 /// axes); `None` for a sensor without its `[sensor.magnetic]` field.
 impl<const D: usize> Observe<3, D> for MagnetometerSample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<3, D>> {

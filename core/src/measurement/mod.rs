@@ -176,9 +176,9 @@ macro_rules! fuses {
 
 pub use crate::model::Kinematic;
 
-/// A model with the fusion of every sample kind: what the engine runs. One step
-/// propagates the state to the sample's time ([`Model::propagate_to`]) and fuses
-/// the sample through its kind's module ([`fuse`]). Every model with a
+/// A model that fuses or refuses every sample kind: what the engine runs. One
+/// step propagates the state to the sample's time ([`Model::propagate_to`]) and
+/// fuses the sample through its kind's module ([`fuse`]). Every model with a
 /// [`Fusion`] has it.
 pub trait Steps: Model {
     /// Whether this model can use `kind` at all ([`Fusion::accepts`]).

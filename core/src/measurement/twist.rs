@@ -126,7 +126,7 @@ impl<const D: usize> Fuse<InsModel<D>> for TwistSample {
 }
 
 /// `y = z − h` of [`twist`], `R` the sample's plus the gyro's noise carried by
-/// the lever arm ([`gyro_noise`]); all six components (a sensor's
+/// the lever arm (`gyro_noise`); all six components (a sensor's
 /// `[sensor.twist] fuse` selects among them when fused). `None` while the tilt
 /// is unknown: body-frame velocities need the tilt, not the heading.
 impl<const D: usize> Observe<6, D> for TwistSample {

@@ -80,7 +80,7 @@ pub mod nonholonomic;
 pub mod observability;
 mod odometry_scale;
 mod params;
-mod record;
+pub mod record;
 mod reinit;
 pub mod standstill;
 mod update;

@@ -1,6 +1,8 @@
 //! The smoother's record of an `ins` step and its log while the step runs
 //! (see `Model::begin_record`, `Model::finish_record`).
 
+use nalgebra::SVector;
+
 use super::{N, NOMINAL_MAX};
 use crate::filter::{RtsStep, StepLog};
 #[cfg(doc)]
@@ -22,4 +24,13 @@ pub struct InsRecord<const D: usize = N> {
 pub struct InsLog<const D: usize = N> {
     pub(super) step: StepLog<f64, D>,
     pub(super) sets: u32,
+}
+
+/// The whole change of the nominal state by two corrections of one step (a
+/// heading turned, then an update injected): what the smoother's record holds.
+pub fn both<const D: usize>(first: Option<SVector<f64, D>>, then: Option<SVector<f64, D>>) -> Option<SVector<f64, D>> {
+    match (first, then) {
+        (Some(a), Some(b)) => Some(a + b),
+        (a, b) => a.or(b),
+    }
 }
