@@ -95,20 +95,13 @@ pub fn altitude<const D: usize>(s: &InsState<D>, l: &Vector3<f64>, bias: Option<
 
 impl<const D: usize> Fuse<InsModel<D>> for BarometerSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
-        if !bias_set(self, model, s) {
-            return (set_bias(self, model, s), None);
+        let Some(r) = reading(self, model, s) else { return (StepOutcome::Refused, None) };
+        if !s.aux_progress().barometers[r.instance].set {
+            return (set_bias(s, &r), None);
         }
-        match self.observe(model, s) {
-            Some(o) => model.update_residual(s, &o.y, &o.H, &o.R),
-            None => (StepOutcome::Refused, None),
-        }
+        let o = observation(s, &r);
+        model.update_residual(s, &o.y, &o.H, &o.R)
     }
-}
-
-/// Whether the sample's barometer has its bias state, set from its first
-/// sample.
-fn bias_set<const D: usize>(sample: &BarometerSample, model: &InsModel<D>, s: &InsState<D>) -> bool {
-    model.aux().barometer(sample.header.sensor).is_some_and(|i| s.aux_progress().barometers[i].set)
 }
 
 /// What a sample of a configured barometer is fused with.
@@ -139,10 +132,10 @@ fn reading<const D: usize>(sample: &BarometerSample, model: &InsModel<D>, s: &In
     Some(Reading { instance, bias, arm, z: pressure_altitude_m(sample.pressure_pa), R })
 }
 
-/// Sets the bias from the first sample, by state augmentation (see the module
-/// doc): `Propagated` (nothing fused), or `Refused`.
-fn set_bias<const D: usize>(sample: &BarometerSample, model: &InsModel<D>, s: &mut InsState<D>) -> StepOutcome {
-    let Some(r) = reading(sample, model, s) else { return StepOutcome::Refused };
+/// Sets the bias of the reading's barometer from its first sample, by state
+/// augmentation (see the module doc): `Propagated` (nothing fused), or
+/// `Refused`.
+fn set_bias<const D: usize>(s: &mut InsState<D>, r: &Reading) -> StepOutcome {
     let (h, H) = altitude(s, &r.arm, None);
     if augment(s, r.bias, &Vector1::new(r.z - h), &(-H), &Matrix1::new(1.0), &r.R).is_err() {
         return StepOutcome::Refused;
@@ -152,16 +145,18 @@ fn set_bias<const D: usize>(sample: &BarometerSample, model: &InsModel<D>, s: &m
 }
 
 /// `y = z − (p_z + (R l)_z + b)` of [`altitude`], `z` the pressure altitude
-/// and `b` the sample's barometer's bias; `None` before its first sample sets
-/// the bias, and for a barometer without the bias state.
+/// and `b` the reading's barometer's bias.
+fn observation<const D: usize>(s: &InsState<D>, r: &Reading) -> Observation<1, D> {
+    let (h, H) = altitude(s, &r.arm, Some(r.bias));
+    Observation { y: Vector1::new(r.z - h), H, R: r.R }
+}
+
+/// `observation` once the first sample of its barometer set the bias;
+/// `None` before, and for a barometer without the bias state.
 impl<const D: usize> Observe<1, D> for BarometerSample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<1, D>> {
-        if !bias_set(self, model, s) {
-            return None;
-        }
         let r = reading(self, model, s)?;
-        let (h, H) = altitude(s, &r.arm, Some(r.bias));
-        Some(Observation { y: Vector1::new(r.z - h), H, R: r.R })
+        s.aux_progress().barometers[r.instance].set.then(|| observation(s, &r))
     }
 }
 

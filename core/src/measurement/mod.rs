@@ -154,9 +154,9 @@ pub trait Observe<const M: usize, const D: usize> {
 /// A model that fuses every kind implements [`EveryKind`] instead.
 #[macro_export]
 macro_rules! fuses {
-    ($([$($generics:tt)*])? $model:ty: $($variant:ident),+ $(,)?) => {
+    ($model:ty: $($variant:ident),+ $(,)?) => {
         #[allow(non_snake_case)]
-        impl$(<$($generics)*>)? $crate::measurement::Fusion for $model {
+        impl $crate::measurement::Fusion for $model {
             fn accepts(kind: fusion_shared::SampleKind) -> bool {
                 matches!(kind, $(fusion_shared::SampleKind::$variant)|+)
             }

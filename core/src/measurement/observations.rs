@@ -12,7 +12,7 @@
 use fusion_shared::geodesy::Datum;
 use fusion_shared::{
     AttitudeSample, BarometerSample, GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample,
-    PoseSample, PositionSample, SampleKind, TwistSample, VelocitySample, pressure_altitude_m,
+    PoseSample, PositionSample, SampleKind, TwistSample, VelocitySample,
 };
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
@@ -20,7 +20,7 @@ use super::{Observe, attitude, pose};
 use crate::frames::{Frames, SensorConfig};
 use crate::model::Model;
 use crate::model::StepOutcome;
-use crate::model::ins::tests_support::{model, moving, numeric_jacobian, set_aux_value, set_scale_at};
+use crate::model::ins::tests_support::{model, moving, numeric_jacobian, set_aux_value};
 use crate::model::ins::{AuxStates, BaroBias, InsModel, InsState, N, OdometryScale, PoseFrame};
 
 /// Every auxiliary state.
@@ -135,7 +135,7 @@ impl Checker {
             P[(i, i)] = 1e-4;
         }
         state.filter_mut().set_state(nalgebra::SVector::zeros(), P).unwrap();
-        set_scale_at(&mut state, N, 1.03);
+        set_aux_value(&mut state, N, 1.03);
         set_aux_value(&mut state, N + 1, 2.5);
         state.aux_progress_mut().barometers[0].set = true;
         for (k, v) in [0.3, 10.0, -5.0, 1.0].into_iter().enumerate() {
@@ -231,12 +231,10 @@ impl Example for TwistSample {
 
 impl Example for BarometerSample {
     fn example(_: &InsModel<E>, s: &InsState<E>) -> Self {
-        // About the pressure at the state's altitude plus its bias.
-        let target = s.p().z + 2.5 + 0.7;
-        let mut pa = 101_325.0;
-        for _ in 0..50 {
-            pa -= (target - pressure_altitude_m(pa)) * 12.0;
-        }
+        // The pressure 0.7 m above the state's altitude plus its bias (the
+        // inverse of the International Standard Atmosphere's pressure altitude).
+        let h = s.p().z + 2.5 + 0.7;
+        let pa = 101_325.0 * (1.0 - h / 44_330.77).powf(1.0 / 0.190263);
         BarometerSample::new(0, 9, 0, pa, 100.0)
     }
 }

@@ -89,8 +89,8 @@ pub struct AuxStates {
 }
 
 impl AuxStates {
-    /// The states of a config without barometers or an estimated frame, with
-    /// barometer `sensor`'s bias added.
+    /// These states with barometer `sensor`'s bias after the barometers'
+    /// already there (none beyond [`MAX_AUX`] of them).
     pub fn with_barometer(mut self, sensor: u32, bias: BaroBias) -> Self {
         if let Some(slot) = self.barometers.iter_mut().find(|b| b.is_none()) {
             *slot = Some((sensor, bias));

@@ -49,11 +49,6 @@ pub fn set_scale(s: &mut InsState<SCALED>, k: f64) {
     s.nominal[super::NOMINAL] = k;
 }
 
-/// Sets the nominal odometry scale factor of `s`, error state `i`.
-pub fn set_scale_at<const D: usize>(s: &mut InsState<D>, i: usize, k: f64) {
-    s.nominal[i + 1] = k;
-}
-
 /// Marks `s` ready: IMU values held, the alignment done.
 pub fn set_ready<const D: usize>(s: &mut InsState<D>) {
     s.ready = true;
