@@ -17,6 +17,7 @@ use fusion_daemon::engine::{Engine, EngineConfig, Insert};
 use fusion_daemon::model::Model;
 use fusion_daemon::model::ins::{InsModel, N};
 use fusion_daemon::validate::Rejection;
+use fusion_shared::snapshot::aux;
 use fusion_shared::{
     BarometerSample, GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample, PoseSample, Sample,
     SampleKind, TwistSample, fix,
@@ -176,11 +177,13 @@ fn the_ins_model_refuses_what_its_states_cannot_hold_at_start_up() {
     let pose = |id, table: &str| format!("[[sensor]]\nname = \"slam{id}\"\nid = {id}\nkinds = [\"pose\"]\n{table}");
     let two = Config::parse(&format!("{ins}{}{}", baro(0), baro(1))).unwrap();
     let InsBuilt::Aux2(model) = InsBuilt::from_config(&two).unwrap() else { panic!("a bias per barometer") };
-    assert_eq!((model.aux().barometer(0), model.aux().barometer(1)), (Some(0), Some(1)));
+    let bit = |id| model.aux().first_bit(fusion_shared::SampleKind::Barometer, id);
+    assert_eq!((bit(0), bit(1)), (Some(aux::BARO_BIAS), Some(aux::BARO_BIASES[1])));
     let budget = "a snapshot carries at most 6";
     assert!(err(&(pose(0, "") + &pose(1, ""))).contains(budget), "{}", err(&(pose(0, "") + &pose(1, ""))));
     let crowded = pose(0, "") + &baro(1) + &baro(2) + &baro(3);
-    assert!(err(&crowded).contains("brings 7 auxiliary states"), "{}", err(&crowded));
+    assert!(err(&crowded).contains("brings 7 auxiliary states (3 barometer bias"), "{}", err(&crowded));
+    assert!(err(&crowded).contains("\"baro3\": the configuration brings"), "the first beyond: {}", err(&crowded));
     Config::parse(&format!("{ins}{}{}{}", pose(0, ""), baro(1), baro(2))).unwrap();
     let half = "[sensor.pose]\nframe_yaw_deg = 30\n";
     assert!(err(&pose(0, half)).contains("frame_origin_m"), "{}", err(&pose(0, half)));

@@ -52,6 +52,10 @@ pub trait WireSample: Copy + Default + PartialEq + std::fmt::Debug + ZeroCopySen
     /// of its NIS (0: a kind that drives the propagation, the IMU). Each kind's
     /// file states it.
     const INNOVATION_DIM: usize;
+    /// The auxiliary states a sensor of this kind brings to a model that
+    /// estimates them (the `ins` model): their snapshot bits and names. Each
+    /// kind's file states it ([`AuxKind::NONE`] for most).
+    const AUX: AuxKind;
     /// The header.
     fn header(&self) -> &SampleHeader;
     /// The header, to stamp.
@@ -60,6 +64,65 @@ pub trait WireSample: Copy + Default + PartialEq + std::fmt::Debug + ZeroCopySen
     fn into_sample(self) -> Sample;
     /// The payload of `sample` if it is of this kind.
     fn from_sample(sample: &Sample) -> Option<Self>;
+}
+
+/// The auxiliary states of one kind (a sensor kind's, or a model's own): the
+/// snapshot bit and name of each state (the snapshot's `aux` module). A kind
+/// brings one instance of `len` states per sensor (per model), in `[[sensor]]`
+/// order, up to as many instances as it declares; an instance's states have
+/// consecutive bits from its first. Bits are part of the wire format: never
+/// reused, never moved.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AuxKind {
+    /// What the states are, in a message ("barometer bias").
+    pub what: &'static str,
+    /// States per instance.
+    pub len: usize,
+    /// The bit and name (with unit) of each state, instance after instance.
+    pub states: &'static [(u32, &'static str)],
+}
+
+impl AuxKind {
+    /// A kind that brings none.
+    pub const NONE: AuxKind = AuxKind { what: "", len: 1, states: &[] };
+
+    /// How many instances it declares (how many sensors of the kind may bring
+    /// their states).
+    pub const fn instances(&self) -> usize {
+        self.states.len() / self.len
+    }
+
+    /// The bit of instance `i`'s first state (`i` < [`instances`](Self::instances)).
+    pub const fn first_bit(&self, i: usize) -> u32 {
+        self.states[i * self.len].0
+    }
+
+    /// Every bit of its states.
+    pub const fn bits(&self) -> u32 {
+        let (mut b, mut i) = (0, 0);
+        while i < self.states.len() {
+            b |= self.states[i].0;
+            i += 1;
+        }
+        b
+    }
+
+    /// Whether the declaration is well formed: whole instances, each of
+    /// consecutive single bits (checked at compile time for every kind).
+    pub const fn is_well_formed(&self) -> bool {
+        if self.len == 0 || !self.states.len().is_multiple_of(self.len) {
+            return false;
+        }
+        let mut i = 0;
+        while i < self.states.len() {
+            let (bit, first) = (self.states[i].0, self.first_bit(i / self.len));
+            if bit.count_ones() != 1 || bit != first << (i % self.len) {
+                return false;
+            }
+            i += 1;
+        }
+        true
+    }
 }
 
 /// Something done once per wire type, in registry order (see [`SampleKind::visit_all`]).
@@ -153,7 +216,7 @@ macro_rules! sample_kinds {
         )*
 
         /// The kind of a sample: its code on the wire ([`SampleHeader::kind`]) and in
-        /// snapshots. Codes start at 1; 0 is [`crate::snapshot::INPUT_NONE`].
+        /// snapshots. Codes start at 1; 0 is the snapshot's `INPUT_NONE`.
         #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
         #[repr(u8)]
         pub enum SampleKind {
@@ -264,6 +327,7 @@ macro_rules! sample_kinds {
             impl WireSample for $ty {
                 const KIND: SampleKind = SampleKind::$variant;
                 const INNOVATION_DIM: usize = $ty::INNOVATION_DIM;
+                const AUX: AuxKind = $ty::AUX;
                 fn header(&self) -> &SampleHeader {
                     &self.header
                 }

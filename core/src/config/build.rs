@@ -6,7 +6,6 @@ use super::{Config, ConfigError, ModelConfig, Tables, invalid, positive};
 use crate::engine::EngineConfig;
 use crate::frames::{Frames, MountedSensor};
 use crate::measurement::Steps;
-use crate::measurement::barometer::BarometerConfig;
 use crate::measurement::pose::PoseConfig;
 use crate::model::Model;
 use crate::model::ins::{self, AlignmentParams, CourseAlignment, ImuNoise, InsModel, OdometryScale};
@@ -101,57 +100,45 @@ impl InsBuilt {
     /// the config has it so.
     pub fn scaled(self) -> Option<InsModel<{ ins::N + 1 }>> {
         match self {
-            Self::Aux1(m) if m.odometry_scale().is_some() => Some(m),
+            Self::Aux1(m) if m.estimates_odometry_scale() => Some(m),
             _ => None,
         }
     }
 }
 
-/// The auxiliary states of a config ([`ins::aux::KINDS`]):
-/// `[model.odometry_scale]`, each barometer's bias, a pose sensor's map frame
-/// when it is estimated. A snapshot carries at most [`ins::MAX_AUX`] of them: a
-/// config that brings more is refused with the count (two estimated map frames,
-/// eight states, never fit).
+/// The auxiliary states of a config: `[model.odometry_scale]`'s, and those
+/// its sensors bring (each kind declares its own: [`ins::aux`]). A snapshot
+/// carries at most [`ins::MAX_AUX`] of them, and a kind as many instances as
+/// it declares: a config that brings more is refused with the count (two
+/// estimated map frames, eight states, never fit).
 fn aux_states(scale: Option<OdometryScale>, frames: &Frames) -> Result<ins::AuxStates, ConfigError> {
-    if let Some(k) = &scale {
-        check_odometry_scale(k)?;
+    let mut own = ins::AuxStates::default();
+    if let Some(k) = scale {
+        check_odometry_scale(&k)?;
+        own = own.with_odometry_scale(k);
     }
-    let of = |kind: SampleKind| frames.sensors().iter().filter(move |m| m.kind == kind);
-    let barometers: Vec<_> = of(SampleKind::Barometer).collect();
-    let estimated: Vec<_> = of(SampleKind::Pose)
-        .filter(|m| m.settings.get::<PoseConfig>().copied().unwrap_or_default().estimated())
-        .collect();
-    let wanted = usize::from(scale.is_some()) * ins::aux::SCALE.len
-        + barometers.len() * ins::aux::BARO.len
-        + estimated.len() * ins::aux::FRAME.len;
-    if wanted > ins::MAX_AUX {
-        let last = estimated.last().or(barometers.last()).map_or("model.odometry_scale", |m| m.name.as_str());
+    let (aux, beyond) = crate::measurement::aux_states(own, frames);
+    if !aux.fits() {
+        let culprit = beyond.map_or("model.odometry_scale", |m| m.name.as_str());
         return Err(invalid(
             "sensor",
             format!(
-                "{last:?}: the configuration brings {wanted} auxiliary states ({} odometry scale, {} barometer \
-                 biases, {} estimated pose map frames of 4), and a snapshot carries at most {}; give a pose \
-                 sensor's frame ([sensor.pose] frame_yaw_deg, frame_origin_m) or fuse it relative, or leave out a \
-                 barometer",
-                usize::from(scale.is_some()),
-                barometers.len(),
-                estimated.len(),
+                "{culprit:?}: the configuration brings {} auxiliary states ({}), and a snapshot carries at most {}; \
+                 configure fewer (a pose sensor's frame may be given: [sensor.pose] frame_yaw_deg, frame_origin_m)",
+                aux.wanted(),
+                aux.describe(),
                 ins::MAX_AUX
             ),
         ));
     }
-    let relative = of(SampleKind::Pose).filter(|m| m.settings.get::<PoseConfig>().is_some_and(|p| p.relative)).nth(1);
-    if let Some(second) = relative {
+    let relative = frames.sensors().iter().filter(|m| m.kind == SampleKind::Pose);
+    if let Some(second) = relative.filter(|m| m.settings.get::<PoseConfig>().is_some_and(|p| p.relative)).nth(1) {
         return Err(invalid(
             "sensor",
             format!("{:?}: one relative pose sensor per fusiond (its last pose is kept in the state)", second.name),
         ));
     }
-    let pose = estimated.first().map(|m| m.settings.get::<PoseConfig>().copied().unwrap_or_default());
-    let aux = ins::AuxStates { odometry_scale: scale, pose, ..ins::AuxStates::default() };
-    Ok(barometers
-        .iter()
-        .fold(aux, |aux, m| aux.with_barometer(m.id, m.settings.get::<BarometerConfig>().copied().unwrap_or_default())))
+    Ok(aux)
 }
 
 /// `[model.odometry_scale]`'s values: `initial` in (0.5, 2), `initial_std` in

@@ -38,14 +38,18 @@
 pub mod settings;
 pub use settings::BarometerConfig;
 
-use fusion_shared::snapshot::aux;
 use fusion_shared::{BarometerSample, MAX_PRESSURE_PA, SampleKind, pressure_altitude_m, pressure_altitude_slope};
 use nalgebra::{Matrix1, SMatrix, SVector, Vector1, Vector3};
 
 use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, finite};
-use crate::model::ins::{InsModel, InsState, aux::augment};
+use crate::model::ins::aux::{AuxPrior, augment};
+use crate::model::ins::{InsModel, InsState};
 use crate::model::{Model, StepOutcome};
 use crate::setting::ConfigError;
+
+/// Standard deviation given the bias before its barometer's first sample sets
+/// it, m (nothing observes it before).
+const UNSET_BIAS_STD_M: f64 = 100.0;
 
 impl Measurement for BarometerSample {
     const RANK: u8 = 2;
@@ -60,6 +64,12 @@ impl Measurement for BarometerSample {
     /// The defaults without the table.
     fn settings(table: Option<&toml::Value>, key: &dyn Fn(&str) -> String) -> Result<Option<BarometerConfig>, ConfigError> {
         super::read_table_or_default::<BarometerConfig>(table, key)?.check(key).map(Some)
+    }
+
+    /// The bias: zero and uninformed until the first sample sets it, then a
+    /// random walk.
+    fn aux_priors(settings: &BarometerConfig) -> Vec<AuxPrior> {
+        vec![AuxPrior { initial: 0.0, std: UNSET_BIAS_STD_M, random_walk: settings.bias_random_walk_m }]
     }
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
@@ -96,7 +106,7 @@ pub fn altitude<const D: usize>(s: &InsState<D>, l: &Vector3<f64>, bias: Option<
 impl<const D: usize> Fuse<InsModel<D>> for BarometerSample {
     fn fuse(&self, model: &InsModel<D>, s: &mut InsState<D>) -> (StepOutcome, Option<SVector<f64, D>>) {
         let Some(r) = reading(self, model, s) else { return (StepOutcome::Refused, None) };
-        if !s.aux_progress().barometers[r.instance].set {
+        if !s.aux_progress().is_set(r.bit) {
             return (set_bias(s, &r), None);
         }
         let o = observation(s, &r);
@@ -106,10 +116,8 @@ impl<const D: usize> Fuse<InsModel<D>> for BarometerSample {
 
 /// What a sample of a configured barometer is fused with.
 struct Reading {
-    /// Which of the barometers it is ([`AuxStates::barometer`]).
-    ///
-    /// [`AuxStates::barometer`]: crate::model::ins::AuxStates::barometer
-    instance: usize,
+    /// Its bias's bit ([`fusion_shared::snapshot::aux::BARO_BIASES`]).
+    bit: u32,
     /// Its bias's error-state index.
     bias: usize,
     /// Its port's lever arm.
@@ -124,12 +132,12 @@ struct Reading {
 /// (it has no bias state).
 fn reading<const D: usize>(sample: &BarometerSample, model: &InsModel<D>, s: &InsState<D>) -> Option<Reading> {
     let sensor = sample.header.sensor;
-    let instance = model.aux().barometer(sensor)?;
-    let bias = s.aux_index(aux::BARO_BIASES[instance])?;
+    let bit = model.aux().first_bit(SampleKind::Barometer, sensor)?;
+    let bias = s.aux_index(bit)?;
     let arm = model.frames().mount(SampleKind::Barometer, sensor).lever_arm;
     let slope = pressure_altitude_slope(sample.pressure_pa);
     let R = Matrix1::new(slope * slope * sample.var_pa2);
-    Some(Reading { instance, bias, arm, z: pressure_altitude_m(sample.pressure_pa), R })
+    Some(Reading { bit, bias, arm, z: pressure_altitude_m(sample.pressure_pa), R })
 }
 
 /// Sets the bias of the reading's barometer from its first sample, by state
@@ -140,7 +148,6 @@ fn set_bias<const D: usize>(s: &mut InsState<D>, r: &Reading) -> StepOutcome {
     if augment(s, r.bias, &Vector1::new(r.z - h), &(-H), &Matrix1::new(1.0), &r.R).is_err() {
         return StepOutcome::Refused;
     }
-    s.aux_progress_mut().barometers[r.instance].set = true;
     StepOutcome::Propagated
 }
 
@@ -156,7 +163,7 @@ fn observation<const D: usize>(s: &InsState<D>, r: &Reading) -> Observation<1, D
 impl<const D: usize> Observe<1, D> for BarometerSample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<1, D>> {
         let r = reading(self, model, s)?;
-        s.aux_progress().barometers[r.instance].set.then(|| observation(s, &r))
+        s.aux_progress().is_set(r.bit).then(|| observation(s, &r))
     }
 }
 
@@ -168,13 +175,15 @@ mod tests {
     /// The bias' error-state index when it is the only auxiliary state.
     const ONLY_BIAS: usize = N;
     use crate::model::ins::tests_support::{model, moving_state, numeric_jacobian, set_aux_value};
-    use crate::model::ins::{AuxStates, BaroBias};
+    use crate::model::ins::AuxStates;
+    use fusion_shared::snapshot::aux;
+    use crate::model::ins::tests_support::barometer;
 
     /// An `ins` model with barometer 0 and its bias state.
     fn baro_model() -> InsModel<{ N + 1 }> {
         let sensor = toml::from_str("name = \"baro\"\nid = 0\nkinds = [\"barometer\"]\n").unwrap();
         let frames = crate::frames::Frames::from_config(None, &[sensor], Default::default(), &crate::measurement::Kinds).unwrap();
-        let aux = AuxStates::default().with_barometer(0, BaroBias::default());
+        let aux = barometer(AuxStates::default(), 0);
         model().with_frames(frames).with_aux(aux).unwrap()
     }
 
@@ -260,13 +269,14 @@ mod tests {
             .map(|id| toml::from_str(&format!("name = \"baro{id}\"\nid = {id}\nkinds = [\"barometer\"]\n")).unwrap())
             .collect();
         let frames = crate::frames::Frames::from_config(None, &sensors, Default::default(), &crate::measurement::Kinds).unwrap();
-        let aux = AuxStates::default().with_barometer(0, BaroBias::default()).with_barometer(1, BaroBias::default());
+        let (aux, _) = crate::measurement::aux_states(AuxStates::default(), &frames);
+        assert_eq!(aux, barometer(barometer(AuxStates::default(), 0), 1), "the barometer's own priors");
         let m = model().with_frames(frames).with_aux::<{ N + 2 }>(aux).unwrap();
         let mut s = m.initial_state();
         assert_eq!((s.aux_index(aux::BARO_BIAS), s.aux_index(aux::BARO_BIASES[1])), (Some(N), Some(N + 1)));
         let (low, high) = (95_000.0, 95_000.0 - 60.0);
         assert_eq!(BarometerSample::new(0, 0, 0, low, 4.0).fuse(&m, &mut s).0, StepOutcome::Propagated);
-        assert!(s.aux_progress().barometers[0].set && !s.aux_progress().barometers[1].set);
+        assert!(s.aux_progress().is_set(aux::BARO_BIAS) && !s.aux_progress().is_set(aux::BARO_BIASES[1]));
         assert_eq!(BarometerSample::new(0, 1, 0, high, 4.0).fuse(&m, &mut s).0, StepOutcome::Propagated);
         let (b0, b1) = (s.aux_value(N), s.aux_value(N + 1));
         assert!((b1 - b0 - (pressure_altitude_m(high) - pressure_altitude_m(low))).abs() < 1e-9, "{b0} {b1}");

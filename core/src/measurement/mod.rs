@@ -33,6 +33,7 @@ use fusion_shared::{Sample, SampleKind, WireSample};
 use nalgebra::{SMatrix, SVector};
 
 use crate::frames::{Frames, KindCatalog, MountedSensor, Settings, SettingsValue};
+use crate::model::ins::aux::{AuxPrior, AuxStates};
 use crate::model::ins::{InsModel, InsState};
 use crate::model::{Model, StepOutcome};
 use crate::setting::ConfigError;
@@ -87,6 +88,14 @@ pub trait Measurement: WireSample {
     /// by default).
     fn fused_dim(_settings: &Self::Settings) -> usize {
         Self::INNOVATION_DIM
+    }
+
+    /// The priors of the auxiliary states a sensor with `settings` brings to
+    /// the `ins` model: one per state of its wire type's instance
+    /// ([`WireSample::AUX`], which gives their bits and names), or none (a
+    /// sensor that brings none; every sensor by default).
+    fn aux_priors(_settings: &Self::Settings) -> Vec<AuxPrior> {
+        Vec::new()
     }
 
     /// Checks the payload; the header is the engine's business.
@@ -253,6 +262,21 @@ pub fn settings<T: Measurement>(frames: &Frames, sensor: u32) -> Option<&T::Sett
     frames.settings(T::KIND, sensor)
 }
 
+/// The auxiliary states the configured sensors bring to the `ins` model, in
+/// `[[sensor]]` order, after `model`'s own ([`aux_priors`]); with each the
+/// sensor that brought it. Whether they fit is [`AuxStates::fits`].
+pub fn aux_states(model: AuxStates, frames: &Frames) -> (AuxStates, Option<&MountedSensor>) {
+    let mut first_beyond = None;
+    let aux = frames.sensors().iter().fold(model, |aux, m| {
+        let aux = aux.with_sensor(m.kind, m.id, &aux_priors(m));
+        if !aux.fits() && first_beyond.is_none() {
+            first_beyond = Some(m);
+        }
+        aux
+    });
+    (aux, first_beyond)
+}
+
 /// The kind list as the `[[sensor]]` reading needs it ([`KindCatalog`]).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Kinds;
@@ -304,6 +328,17 @@ macro_rules! registry {
                     .settings
                     .get::<<fusion_shared::$ty as Measurement>::Settings>()
                     .map_or(m.kind.innovation_dim(), <fusion_shared::$ty as Measurement>::fused_dim),)*
+            }
+        }
+
+        /// The priors of the auxiliary states sensor `m` brings
+        /// ([`Measurement::aux_priors`]; none without settings).
+        pub fn aux_priors(m: &MountedSensor) -> Vec<AuxPrior> {
+            match m.kind {
+                $(SampleKind::$variant => m
+                    .settings
+                    .get::<<fusion_shared::$ty as Measurement>::Settings>()
+                    .map_or_else(Vec::new, <fusion_shared::$ty as Measurement>::aux_priors),)*
             }
         }
 

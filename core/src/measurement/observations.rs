@@ -21,7 +21,7 @@ use crate::frames::{Frames, SensorConfig};
 use crate::model::Model;
 use crate::model::StepOutcome;
 use crate::model::ins::tests_support::{model, moving, numeric_jacobian, set_aux_value};
-use crate::model::ins::{AuxStates, BaroBias, InsModel, InsState, N, OdometryScale, PoseFrame};
+use crate::model::ins::{AuxStates, InsModel, InsState, N, OdometryScale};
 
 /// Every auxiliary state.
 const E: usize = N + 6;
@@ -122,12 +122,7 @@ impl Checker {
         }
         let sensors: Sensors = toml::from_str(SENSORS).unwrap();
         let frames = Frames::from_config(Some(datum()), &sensors.sensor, Default::default(), &super::Kinds).unwrap();
-        let every = AuxStates {
-            odometry_scale: Some(OdometryScale::default()),
-            pose: Some(PoseFrame::default()),
-            ..AuxStates::default()
-        }
-        .with_barometer(9, BaroBias::default());
+        let (every, _) = super::aux_states(AuxStates::default().with_odometry_scale(OdometryScale::default()), &frames);
         let model = model().with_frames(frames).with_aux::<E>(every).unwrap();
         let mut state = moving(&model);
         let mut P = state.filter().P();
@@ -137,7 +132,7 @@ impl Checker {
         state.filter_mut().set_state(nalgebra::SVector::zeros(), P).unwrap();
         set_aux_value(&mut state, N, 1.03);
         set_aux_value(&mut state, N + 1, 2.5);
-        state.aux_progress_mut().barometers[0].set = true;
+        state.aux_progress_mut().mark_set(fusion_shared::snapshot::aux::BARO_BIAS);
         for (k, v) in [0.3, 10.0, -5.0, 1.0].into_iter().enumerate() {
             set_aux_value(&mut state, N + 2 + k, v);
         }

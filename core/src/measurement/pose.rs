@@ -70,7 +70,11 @@ use nalgebra::{Matrix3, Quaternion, Rotation3, SMatrix, SVector, UnitQuaternion,
 
 use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance, finite};
 use crate::frames::Mount;
-use crate::model::ins::aux::augment;
+use crate::model::ins::aux::{AuxPrior, augment};
+
+/// Standard deviation given the map frame's origin before the first pose
+/// sets it, m.
+const UNSET_ORIGIN_STD_M: f64 = 1000.0;
 use crate::model::ins::{InsModel, InsState, nonholonomic};
 use crate::model::{Model, StepOutcome};
 use crate::setting::ConfigError;
@@ -106,6 +110,18 @@ impl Measurement for PoseSample {
 
     fn fused_dim(settings: &PoseConfig) -> usize {
         settings.fuse.count()
+    }
+
+    /// An estimated map frame (neither given nor relative): yaw and origin
+    /// uninformed (σ π and 1 km) until the first pose
+    /// aligns them, then random walks.
+    fn aux_priors(settings: &PoseConfig) -> Vec<AuxPrior> {
+        if !settings.estimated() {
+            return Vec::new();
+        }
+        let yaw_rw = settings.frame_yaw_random_walk_deg.to_radians();
+        let origin = AuxPrior { initial: 0.0, std: UNSET_ORIGIN_STD_M, random_walk: settings.frame_origin_random_walk_m };
+        vec![AuxPrior { initial: 0.0, std: std::f64::consts::PI, random_walk: yaw_rw }, origin, origin, origin]
     }
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {

@@ -17,8 +17,8 @@
 //!
 //! Error state `δx` (15, the covariance): `[δp, δv, δθ, δb_a, δb_g]`, then the
 //! auxiliary states' errors (each a random walk, constant in `F`): the
-//! odometry scale factor ([`OdometryScale`]), the barometer's bias
-//! ([`BaroBias`]), a pose sensor's map frame ([`PoseFrame`]: yaw and origin),
+//! odometry scale factor ([`OdometryScale`]), each barometer's bias, a pose
+//! sensor's map frame (yaw and origin), declared by their kinds ([`aux`]);
 //! with the **local** attitude error `q_true = q ⊗ Exp(δθ)` (δθ in the body
 //! frame; Solà §5.3.3). The model is generic over this dimension (`InsModel<15>`
 //! to `InsModel<21>`); which auxiliary states it has is a set of
@@ -93,7 +93,7 @@ use crate::filter::{ChiSquareGate, FilterError, KalmanFilter, RtsStep, StepLog, 
 use crate::frames::Frames;
 use crate::model::held_imu::HeldImu;
 use crate::model::lockout::{KindRuns, Lockout, LockoutConfig};
-pub use aux::{AuxStates, BaroBias, PoseFrame};
+pub use aux::{AuxPrior, AuxStates};
 pub use course::CourseAlignment;
 pub use nonholonomic::Nonholonomic;
 pub use odometry_scale::OdometryScale;
@@ -107,7 +107,7 @@ pub const N: usize = 15;
 pub const NOMINAL: usize = 16;
 /// The most auxiliary error states: what a snapshot carries
 /// ([`fusion_shared::snapshot::aux::MAX`]); which states a configuration
-/// brings is in the table of [`aux::KINDS`].
+/// brings, their kinds declare ([`aux`]).
 pub const MAX_AUX: usize = fusion_shared::snapshot::aux::MAX;
 /// The largest error-state dimension (the core and every auxiliary state).
 pub const MAX_N: usize = N + MAX_AUX;

@@ -33,6 +33,9 @@ impl AttitudeSample {
     /// its NIS (2 for a sensor whose yaw is not fused).
     pub const INNOVATION_DIM: usize = 3;
 
+    /// The auxiliary states a sensor of this kind brings: none.
+    pub const AUX: crate::sample::AuxKind = crate::sample::AuxKind::NONE;
+
     /// An orientation (`[w, x, y, z]`, sensor axes into ENU) of sensor `sensor`
     /// with sequence number `seq` at `t_ns`.
     pub const fn new(t_ns: u64, sensor: u32, seq: u64, orientation_wxyz: [f64; 4], cov_rad2: [f64; 9]) -> Self {

@@ -49,6 +49,21 @@ impl BarometerSample {
     /// its NIS.
     pub const INNOVATION_DIM: usize = 1;
 
+    /// A barometer's bias `b`, m (pressure altitude = height + `b`), one per
+    /// barometer: the first's bit is 2, the others' follow the pose frame's.
+    pub const AUX: crate::sample::AuxKind = crate::sample::AuxKind {
+        what: "barometer bias",
+        len: 1,
+        states: &[
+            (2, "baro_bias_m"),
+            (64, "baro_bias_2_m"),
+            (128, "baro_bias_3_m"),
+            (256, "baro_bias_4_m"),
+            (512, "baro_bias_5_m"),
+            (1024, "baro_bias_6_m"),
+        ],
+    };
+
     /// A pressure (Pa, variance Pa²) of sensor `sensor` with sequence number `seq` at `t_ns`.
     pub const fn new(t_ns: u64, sensor: u32, seq: u64, pressure_pa: f64, var_pa2: f64) -> Self {
         Self { header: SampleHeader::new(SampleKind::Barometer, t_ns, sensor, seq), pressure_pa, var_pa2 }

@@ -85,6 +85,9 @@ impl GeodeticSample {
     /// its NIS.
     pub const INNOVATION_DIM: usize = 3;
 
+    /// The auxiliary states a sensor of this kind brings: none.
+    pub const AUX: crate::sample::AuxKind = crate::sample::AuxKind::NONE;
+
     /// A fix of sensor `sensor` with sequence number `seq` at `t_ns`: latitude and
     /// longitude (degrees), height above the ellipsoid (m), ENU covariance (m²);
     /// no quality reported (see [`with_quality`](Self::with_quality)).

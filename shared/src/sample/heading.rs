@@ -30,6 +30,9 @@ impl HeadingSample {
     /// its NIS.
     pub const INNOVATION_DIM: usize = 1;
 
+    /// The auxiliary states a sensor of this kind brings: none.
+    pub const AUX: crate::sample::AuxKind = crate::sample::AuxKind::NONE;
+
     /// A yaw (rad, ENU) of sensor `sensor` with sequence number `seq` at `t_ns`.
     pub const fn new(t_ns: u64, sensor: u32, seq: u64, yaw_rad: f64, var_rad2: f64) -> Self {
         Self { header: SampleHeader::new(SampleKind::Heading, t_ns, sensor, seq), yaw_rad, var_rad2 }

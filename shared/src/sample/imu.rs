@@ -29,6 +29,9 @@ impl ImuSample {
     /// no NIS).
     pub const INNOVATION_DIM: usize = 0;
 
+    /// The auxiliary states a sensor of this kind brings: none.
+    pub const AUX: crate::sample::AuxKind = crate::sample::AuxKind::NONE;
+
     /// A sample of sensor `sensor` with sequence number `seq` at `t_ns`.
     pub const fn new(t_ns: u64, sensor: u32, seq: u64, accel_mps2: [f64; 3], gyro_radps: [f64; 3]) -> Self {
         Self { header: SampleHeader::new(SampleKind::Imu, t_ns, sensor, seq), accel_mps2, gyro_radps }

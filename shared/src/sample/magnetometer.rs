@@ -28,6 +28,9 @@ impl MagnetometerSample {
     /// heading, one): the χ² degrees of freedom of its NIS.
     pub const INNOVATION_DIM: usize = 3;
 
+    /// The auxiliary states a sensor of this kind brings: none.
+    pub const AUX: crate::sample::AuxKind = crate::sample::AuxKind::NONE;
+
     /// A field (µT, sensor axes) of sensor `sensor` with sequence number `seq` at `t_ns`.
     pub const fn new(t_ns: u64, sensor: u32, seq: u64, field_ut: [f64; 3], cov_ut2: [f64; 9]) -> Self {
         Self { header: SampleHeader::new(SampleKind::Magnetometer, t_ns, sensor, seq), field_ut, cov_ut2 }

@@ -29,6 +29,9 @@ impl OdometrySample {
     /// its NIS.
     pub const INNOVATION_DIM: usize = 1;
 
+    /// The auxiliary states a sensor of this kind brings: none.
+    pub const AUX: crate::sample::AuxKind = crate::sample::AuxKind::NONE;
+
     /// A speed of sensor `sensor` with sequence number `seq` at `t_ns`.
     pub const fn new(t_ns: u64, sensor: u32, seq: u64, speed_mps: f64, var_m2ps2: f64) -> Self {
         Self { header: SampleHeader::new(SampleKind::Odometry, t_ns, sensor, seq), speed_mps, var_m2ps2 }

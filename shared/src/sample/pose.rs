@@ -41,6 +41,20 @@ impl PoseSample {
     /// its NIS.
     pub const INNOVATION_DIM: usize = 6;
 
+    /// The map frame of a pose sensor whose frame is estimated (one such
+    /// sensor): its yaw `ψ` in the world frame, rad, and its origin's east,
+    /// north and up components, m.
+    pub const AUX: crate::sample::AuxKind = crate::sample::AuxKind {
+        what: "pose map frame",
+        len: 4,
+        states: &[
+            (4, "pose_frame_yaw_rad"),
+            (8, "pose_frame_east_m"),
+            (16, "pose_frame_north_m"),
+            (32, "pose_frame_up_m"),
+        ],
+    };
+
     /// A pose of sensor `sensor` with sequence number `seq` at `t_ns`.
     pub const fn new(
         t_ns: u64,

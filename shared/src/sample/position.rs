@@ -24,6 +24,9 @@ impl PositionSample {
     /// its NIS.
     pub const INNOVATION_DIM: usize = 3;
 
+    /// The auxiliary states a sensor of this kind brings: none.
+    pub const AUX: crate::sample::AuxKind = crate::sample::AuxKind::NONE;
+
     /// A fix of sensor `sensor` with sequence number `seq` at `t_ns`.
     pub const fn new(t_ns: u64, sensor: u32, seq: u64, pos_m: [f64; 3], cov_m2: [f64; 9]) -> Self {
         Self { header: SampleHeader::new(SampleKind::Position, t_ns, sensor, seq), pos_m, cov_m2 }

@@ -31,6 +31,9 @@ impl TwistSample {
     /// its NIS.
     pub const INNOVATION_DIM: usize = 6;
 
+    /// The auxiliary states a sensor of this kind brings: none.
+    pub const AUX: crate::sample::AuxKind = crate::sample::AuxKind::NONE;
+
     /// A twist of sensor `sensor` with sequence number `seq` at `t_ns`.
     pub const fn new(
         t_ns: u64,

@@ -26,6 +26,9 @@ impl VelocitySample {
     /// its NIS.
     pub const INNOVATION_DIM: usize = 3;
 
+    /// The auxiliary states a sensor of this kind brings: none.
+    pub const AUX: crate::sample::AuxKind = crate::sample::AuxKind::NONE;
+
     /// A measurement of sensor `sensor` with sequence number `seq` at `t_ns`.
     pub const fn new(t_ns: u64, sensor: u32, seq: u64, vel_mps: [f64; 3], cov_m2ps2: [f64; 9]) -> Self {
         Self { header: SampleHeader::new(SampleKind::Velocity, t_ns, sensor, seq), vel_mps, cov_m2ps2 }

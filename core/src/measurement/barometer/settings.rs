@@ -1,6 +1,6 @@
-//! `[sensor.barometer]`: the settings of a barometer's bias state, and where
-//! the state stands (the state is the `ins` model's auxiliary state, the
-//! measurement the barometer's module).
+//! `[sensor.barometer]`: the settings of a barometer's bias state (the state
+//! is the `ins` model's auxiliary state, the measurement the barometer's
+//! module).
 
 use serde::Deserialize;
 
@@ -40,14 +40,6 @@ impl Default for BarometerConfig {
     fn default() -> Self {
         Self { bias_random_walk_m: Self::default_random_walk() }
     }
-}
-
-/// Where a barometer's bias state stands (in the filter state: a rewind
-/// restores it with the rest).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct BarometerProgress {
-    /// The bias has been set from a sample.
-    pub set: bool,
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 use super::*;
 use crate::frames::{Frames, SensorConfig};
-use crate::model::ins::tests_support::{model, moving, numeric_jacobian, set_aux_value};
-use crate::model::ins::{AuxStates, N, PoseFrame};
+use crate::model::ins::tests_support::{estimated_frame, model, moving, numeric_jacobian, set_aux_value};
+use crate::model::ins::{AuxStates, N};
 
 /// Pose sensor 4: a camera looking forward and down (FRD axes, pitched 10°),
 /// 0.8 m ahead and 1.2 m up, with `pose_table` as its `[sensor.pose]`.
@@ -16,7 +16,8 @@ fn sensor(pose_table: &str) -> SensorConfig {
 /// An `ins` model with the map frame of [`sensor`] as four states.
 fn estimated() -> InsModel<{ N + 4 }> {
     let frames = Frames::from_config(None, &[sensor("")], Default::default(), &crate::measurement::Kinds).unwrap();
-    let aux = AuxStates { pose: Some(PoseFrame::default()), ..AuxStates::default() };
+    let (aux, _) = crate::measurement::aux_states(AuxStates::default(), &frames);
+    assert_eq!(aux, estimated_frame(AuxStates::default(), 4), "the pose sensor's own priors");
     model().with_frames(frames).with_aux(aux).unwrap()
 }
 
@@ -125,7 +126,7 @@ fn the_first_pose_and_a_reset_set_the_frame_without_a_jump() {
 fn gated_poses_in_a_row_set_the_frame_again() {
     let gate = crate::filter::ChiSquareGate::new(0.999).ok();
     let frames = Frames::from_config(None, &[sensor("")], Default::default(), &crate::measurement::Kinds).unwrap();
-    let aux = AuxStates { pose: Some(PoseFrame::default()), ..AuxStates::default() };
+    let aux = estimated_frame(AuxStates::default(), 4);
     let core = InsModel::new(crate::model::ins::tests_support::NOISE, 9.80665, x0(), [1e-4; N], gate, 0).unwrap();
     let m = core.with_frames(frames).with_aux::<{ N + 4 }>(aux).unwrap();
     let mut s = moving(&m);

@@ -1,50 +1,42 @@
 //! The auxiliary states of the `ins` model: states beyond the core 15 that a
 //! configuration brings, each a random walk (constant in `F`, its density's
 //! variance added to `Q`), after the core in the order of their
-//! [`fusion_shared::snapshot::aux`] bits. [`KINDS`] is the one table of them:
+//! [`fusion_shared::snapshot::aux`] bits. Which there are is declared by their
+//! kinds, not here: a sensor kind's wire type gives the bits and names of the
+//! states each of its sensors brings (`WireSample::AUX`), and its
+//! `Measurement::aux_priors` their priors and random walks from the sensor's
+//! settings; the model's own (the odometry scale, `[model.odometry_scale]`)
+//! are [`fusion_shared::snapshot::aux::MODEL`]. Today:
 //!
 //! | kind | states per instance | unit | instances (bits) | brought by |
 //! |---|---|---|---|---|
 //! | odometry scale | `k` | – | one (`ODOMETRY_SCALE`) | `[model.odometry_scale]` ([`OdometryScale`]) |
-//! | barometer bias | `b` | m | one per barometer (`BARO_BIASES`) | each barometer (`[sensor.barometer]`, [`BarometerConfig`]) |
-//! | pose map frame | `ψ, t_e, t_n, t_u` | rad, m | one (`POSE_FRAME_*`) | a pose sensor with an estimated frame (`[sensor.pose]`, [`PoseConfig`]) |
+//! | barometer bias | `b` | m | one per barometer (`BARO_BIASES`) | each barometer (`[sensor.barometer]`) |
+//! | pose map frame | `ψ, t_e, t_n, t_u` | rad, m | one (`POSE_FRAME_*`) | a pose sensor with an estimated frame (`[sensor.pose]`) |
 //!
 //! A snapshot carries at most [`MAX_AUX`] of them (its room is 22 states and a
 //! 21×21 covariance): a configuration that brings more is refused with the
 //! count. Two estimated map frames (eight states) never fit.
 //!
-//! The barometer's bias and the pose frame are set from their sensor's first
-//! sample (and the frame again at each re-initialisation of the localiser) by
-//! `augment`: the new states are a function of the state and the sample,
+//! A kind's states may be set from its sensor's first sample (the barometer's
+//! bias, and the pose frame again at each re-initialisation of the localiser)
+//! by `augment`: the new states are a function of the state and the sample,
 //! `a = g(x, z)`, and enter the covariance with their correlation to the rest,
 //! `P_aa = G_x P G_xᵀ + G_z R G_zᵀ`, `P_ax = G_x P` (the linearised state
 //! augmentation of SLAM; Bailey and Durrant-Whyte, "Simultaneous localisation
 //! and mapping (SLAM): Part II", 2006): that sample moves no other state, and
-//! the estimate does not jump.
+//! the estimate does not jump. [`AuxProgress`] records which have been set.
 
 #![allow(non_snake_case)]
 
-use fusion_shared::snapshot::aux as bits;
+use fusion_shared::SampleKind;
+use fusion_shared::snapshot::aux::KINDS;
 use nalgebra::{SMatrix, SVector};
 
 use super::OdometryScale;
 use super::{InsModel, InsState, MAX_AUX, N, NOMINAL};
 use crate::filter::{FilterError, KalmanFilter};
-pub use crate::measurement::barometer::settings::{BarometerConfig, BarometerProgress};
 pub use crate::measurement::pose::progress::{PoseProgress, PreviousPose};
-pub use crate::measurement::pose::settings::PoseConfig;
-
-/// The barometer's bias state's parameters (`[sensor.barometer]`).
-pub type BaroBias = BarometerConfig;
-/// A pose sensor's map frame state's parameters (`[sensor.pose]`).
-pub type PoseFrame = PoseConfig;
-
-/// Standard deviation given the barometer's bias before its first sample sets
-/// it, m (nothing observes it before).
-const UNSET_BIAS_STD_M: f64 = 100.0;
-/// Standard deviation given the pose frame's origin before the first pose sets
-/// it, m.
-const UNSET_ORIGIN_STD_M: f64 = 1000.0;
 
 /// The error-state index of auxiliary state `bit` among the states `present`
 /// (bits of [`fusion_shared::snapshot::aux`]): [`N`] plus the number of lower
@@ -54,149 +46,152 @@ pub const fn index(present: u32, bit: u32) -> Option<usize> {
     if present & bit == 0 { None } else { Some(N + (present & (bit - 1)).count_ones() as usize) }
 }
 
-/// One kind of auxiliary state.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct AuxKind {
-    /// What the states are.
-    pub name: &'static str,
-    /// The snapshot bit of each instance's first state (its other states take
-    /// the next bits).
-    pub instances: &'static [u32],
-    /// States per instance.
-    pub len: usize,
+/// One auxiliary state's prior and process noise.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AuxPrior {
+    /// Its initial value (before a sample sets it, if one does).
+    pub initial: f64,
+    /// Its initial standard deviation.
+    pub std: f64,
+    /// Its random-walk density, per √s.
+    pub random_walk: f64,
 }
 
-/// The odometry scale factor (`[model.odometry_scale]`).
-pub const SCALE: AuxKind = AuxKind { name: "odometry scale", instances: &[bits::ODOMETRY_SCALE], len: 1 };
-/// A barometer's bias, one per barometer.
-pub const BARO: AuxKind = AuxKind { name: "barometer bias", instances: &bits::BARO_BIASES, len: 1 };
-/// A pose sensor's map frame, when it is estimated.
-pub const FRAME: AuxKind = AuxKind { name: "pose map frame", instances: &[bits::POSE_FRAME_YAW], len: 4 };
-/// Every kind of auxiliary state.
-pub const KINDS: [AuxKind; 3] = [SCALE, BARO, FRAME];
+/// One auxiliary state the model has.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct AuxState {
+    /// Its snapshot bit.
+    bit: u32,
+    /// The sensor that brings it (kind, id); `None`: the model's own.
+    owner: Option<(SampleKind, u32)>,
+    /// Its prior.
+    prior: AuxPrior,
+}
 
-/// Which auxiliary states the model has, with their parameters: the
-/// instances of each of [`KINDS`].
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+/// Which auxiliary states the model has, with their priors: the instances of
+/// each kind of [`KINDS`] that the configuration brings, in bit order.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AuxStates {
-    /// The odometry scale factor.
-    pub odometry_scale: Option<OdometryScale>,
-    /// Each barometer's bias: its sensor id and parameters, in the
-    /// configuration's order (the first is `BARO_BIAS`).
-    pub barometers: [Option<(u32, BaroBias)>; MAX_AUX],
-    /// A pose sensor's map frame (yaw, origin).
-    pub pose: Option<PoseFrame>,
+    /// The states, in bit order (the first `len`).
+    states: [Option<AuxState>; MAX_AUX],
+    /// How many states are held.
+    len: usize,
+    /// Instances brought, per kind of [`KINDS`], whether they fit or not.
+    counts: [usize; KINDS.len()],
+}
+
+impl Default for AuxStates {
+    fn default() -> Self {
+        Self { states: [None; MAX_AUX], len: 0, counts: [0; KINDS.len()] }
+    }
 }
 
 impl AuxStates {
-    /// These states with barometer `sensor`'s bias after the barometers'
-    /// already there (none beyond [`MAX_AUX`] of them).
-    pub fn with_barometer(mut self, sensor: u32, bias: BaroBias) -> Self {
-        if let Some(slot) = self.barometers.iter_mut().find(|b| b.is_none()) {
-            *slot = Some((sensor, bias));
+    /// These states with the model's own (the odometry scale factor `scale`).
+    pub fn with_odometry_scale(self, scale: OdometryScale) -> Self {
+        let prior = AuxPrior { initial: scale.initial, std: scale.initial_std, random_walk: scale.random_walk };
+        self.with_instance(0, None, &[prior])
+    }
+
+    /// These states with those sensor `sensor` of kind `kind` brings (one
+    /// prior per state of its kind's instance, [`fusion_shared::sample::AuxKind`];
+    /// none: it brings none), after those of its kind already there.
+    pub fn with_sensor(self, kind: SampleKind, sensor: u32, priors: &[AuxPrior]) -> Self {
+        if priors.is_empty() { self } else { self.with_instance(1 + kind.index(), Some((kind, sensor)), priors) }
+    }
+
+    /// Adds the next instance of `KINDS[k]`, if its kind declares one more and
+    /// it fits; it is counted either way ([`fits`](Self::fits)).
+    fn with_instance(mut self, k: usize, owner: Option<(SampleKind, u32)>, priors: &[AuxPrior]) -> Self {
+        let (kind, instance) = (&KINDS[k], self.counts[k]);
+        self.counts[k] += 1;
+        if instance >= kind.instances() || priors.len() != kind.len || self.len + kind.len > MAX_AUX {
+            return self;
+        }
+        for (j, prior) in priors.iter().enumerate() {
+            let bit = kind.first_bit(instance) << j;
+            // Insertion by bit.
+            let mut i = self.len;
+            while i > 0 && self.states[i - 1].is_some_and(|s| s.bit > bit) {
+                self.states[i] = self.states[i - 1];
+                i -= 1;
+            }
+            self.states[i] = Some(AuxState { bit, owner, prior: *prior });
+            self.len += 1;
         }
         self
     }
 
-    /// The instances of each of [`KINDS`] present, in its order.
-    const fn counts(&self) -> [usize; KINDS.len()] {
-        let mut barometers = 0;
-        while barometers < MAX_AUX && self.barometers[barometers].is_some() {
-            barometers += 1;
-        }
-        [self.odometry_scale.is_some() as usize, barometers, self.pose.is_some() as usize]
-    }
-
-    /// How many states the instances number, whether they fit a snapshot
+    /// How many states the configuration brings, whether they fit a snapshot
     /// ([`MAX_AUX`]) or not.
-    pub const fn wanted(&self) -> usize {
-        let (counts, mut total, mut k) = (self.counts(), 0, 0);
-        while k < KINDS.len() {
-            total += counts[k] * KINDS[k].len;
-            k += 1;
-        }
-        total
+    pub fn wanted(&self) -> usize {
+        KINDS.iter().zip(self.counts).map(|(k, n)| k.len * n).sum()
     }
 
-    /// The [`fusion_shared::snapshot::aux`] bits of the states present.
-    pub const fn bits(&self) -> u32 {
-        let (counts, mut b, mut k) = (self.counts(), 0, 0);
-        while k < KINDS.len() {
-            let kind = &KINDS[k];
-            let mut i = 0;
-            while i < counts[k] && i < kind.instances.len() {
-                let mut j = 0;
-                while j < kind.len {
-                    b |= kind.instances[i] << j;
-                    j += 1;
-                }
-                i += 1;
-            }
-            k += 1;
-        }
-        b
+    /// Whether every state brought is held: none beyond a snapshot's room,
+    /// no kind with more instances than it declares.
+    pub fn fits(&self) -> bool {
+        self.len == self.wanted()
+    }
+
+    /// What the configuration brings, kind by kind, for a message: "2
+    /// barometer bias (1 state each, at most 6)".
+    pub fn describe(&self) -> String {
+        let each = KINDS.iter().zip(self.counts).filter(|(_, n)| *n > 0);
+        let each = each.map(|(k, n)| {
+            let states = if k.len == 1 { "state" } else { "states" };
+            format!("{n} {} ({} {states} each, at most {})", k.what, k.len, k.instances())
+        });
+        each.collect::<Vec<_>>().join(", ")
+    }
+
+    /// The [`fusion_shared::snapshot::aux`] bits of the states held.
+    pub fn bits(&self) -> u32 {
+        self.held().fold(0, |b, s| b | s.bit)
     }
 
     /// Number of auxiliary error states.
-    pub const fn len(&self) -> usize {
-        self.bits().count_ones() as usize
+    pub fn len(&self) -> usize {
+        self.len
     }
 
     /// Whether there are none.
-    pub const fn is_empty(&self) -> bool {
-        self.bits() == 0
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
     }
 
-    /// Which of the barometers sensor `sensor` is (its bias's bit is
-    /// `BARO_BIASES[i]`), if it has a bias state.
+    /// The bit of the first of the states sensor `sensor` of kind `kind`
+    /// brings, if it has states.
     #[inline]
-    pub fn barometer(&self, sensor: u32) -> Option<usize> {
-        self.barometers.iter().position(|b| matches!(b, Some((id, _)) if *id == sensor))
+    pub fn first_bit(&self, kind: SampleKind, sensor: u32) -> Option<u32> {
+        self.held().find(|s| s.owner == Some((kind, sensor))).map(|s| s.bit)
+    }
+
+    /// The states held, in bit order.
+    fn held(&self) -> impl Iterator<Item = &AuxState> {
+        self.states[..self.len].iter().flatten()
     }
 
     /// Initial value, standard deviation and random-walk variance per second
     /// of each auxiliary error state, in state order (of their bits).
     fn entries(&self) -> ([f64; MAX_AUX], [f64; MAX_AUX], [f64; MAX_AUX]) {
-        // (bit, value, σ, random walk) of each state, then in bit order.
-        let mut states = [(u32::MAX, 0.0, 1.0, 0.0); MAX_AUX];
-        let mut n = 0;
-        let mut push = |bit: u32, v: f64, s: f64, rw: f64| {
-            if n < MAX_AUX {
-                states[n] = (bit, v, s, rw * rw);
-                n += 1;
-            }
-        };
-        if let Some(k) = self.odometry_scale {
-            push(bits::ODOMETRY_SCALE, k.initial, k.initial_std, k.random_walk);
-        }
-        for (b, bit) in self.barometers.iter().zip(bits::BARO_BIASES) {
-            if let Some((_, b)) = b {
-                push(bit, 0.0, UNSET_BIAS_STD_M, b.bias_random_walk_m);
-            }
-        }
-        if let Some(p) = self.pose {
-            push(bits::POSE_FRAME_YAW, 0.0, std::f64::consts::PI, p.frame_yaw_random_walk_deg.to_radians());
-            for bit in [bits::POSE_FRAME_EAST, bits::POSE_FRAME_NORTH, bits::POSE_FRAME_UP] {
-                push(bit, 0.0, UNSET_ORIGIN_STD_M, p.frame_origin_random_walk_m);
-            }
-        }
-        states[..n].sort_by_key(|s| s.0);
         let (mut x, mut sd, mut q) = ([0.0; MAX_AUX], [1.0; MAX_AUX], [0.0; MAX_AUX]);
-        for (i, (_, v, s, rw)) in states[..n].iter().enumerate() {
-            (x[i], sd[i], q[i]) = (*v, *s, *rw);
+        for (i, s) in self.held().enumerate() {
+            (x[i], sd[i], q[i]) = (s.prior.initial, s.prior.std, s.prior.random_walk * s.prior.random_walk);
         }
         (x, sd, q)
     }
 }
 
 /// Where the auxiliary states that are set from a sample stand (part of the
-/// filter state: a rewind restores it with the rest). Each kind that sets
-/// states keeps its own bookkeeping, of a type of its own.
+/// filter state: a rewind restores it with the rest): which have been set
+/// (`augment` records it for every kind), and the pose sensor's own
+/// bookkeeping.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AuxProgress {
-    /// Each barometer's ([`BarometerProgress`]), in the order of
-    /// [`AuxStates::barometers`].
-    pub barometers: [BarometerProgress; MAX_AUX],
+    /// The [`fusion_shared::snapshot::aux`] bits of the states set from a
+    /// sample.
+    set: u32,
     /// The pose sensor's ([`PoseProgress`]).
     pub pose: PoseProgress,
     /// Times states were set from a sample (`augment`), and the error-state
@@ -207,12 +202,26 @@ pub struct AuxProgress {
     pub last_set: (u8, u8),
 }
 
+impl AuxProgress {
+    /// Whether auxiliary state `bit` has been set from a sample.
+    #[inline]
+    pub fn is_set(&self, bit: u32) -> bool {
+        self.set & bit != 0
+    }
+
+    /// Records that state `bit` has been set (a test's state).
+    #[cfg(test)]
+    pub(crate) fn mark_set(&mut self, bit: u32) {
+        self.set |= bit;
+    }
+}
+
 impl InsModel {
     /// The same model with auxiliary states `aux` after the core (`E` is [`N`]
     /// plus their number): their initial values and variances appended to
     /// `x₀` and `P₀` (uncorrelated).
     pub fn with_aux<const E: usize>(self, aux: AuxStates) -> Result<InsModel<E>, FilterError> {
-        if E != N + aux.len() || aux.len() != aux.wanted() {
+        if E != N + aux.len() || !aux.fits() {
             return Err(FilterError::StateDimension { got: E, expected: N + aux.wanted() });
         }
         let (x, sd, q) = aux.entries();
@@ -244,7 +253,7 @@ impl InsModel {
 
     /// The same model with the odometry scale factor as its one auxiliary state.
     pub fn with_odometry_scale(self, scale: OdometryScale) -> Result<InsModel<{ N + 1 }>, FilterError> {
-        self.with_aux(AuxStates { odometry_scale: Some(scale), ..AuxStates::default() })
+        self.with_aux(AuxStates::default().with_odometry_scale(scale))
     }
 }
 
@@ -288,9 +297,20 @@ pub(crate) fn augment<const D: usize, const K: usize, const M: usize>(
     for (r, i) in (first..first + K).enumerate() {
         s.nominal[i + 1] = a[r];
     }
+    s.aux.set |= (first..first + K).fold(0, |b, i| b | aux_bit(s.aux_bits, i));
     s.aux.sets = s.aux.sets.wrapping_add(1);
     s.aux.last_set = (first as u8, K as u8);
     Ok(())
+}
+
+/// The bit of error state `i` among the auxiliary states `present` (0 for a
+/// core state): the inverse of [`index`].
+fn aux_bit(present: u32, i: usize) -> u32 {
+    let mut rest = present;
+    for _ in N..i {
+        rest &= rest.wrapping_sub(1);
+    }
+    if i < N { 0 } else { rest & rest.wrapping_neg() }
 }
 
 /// Prior variance the smoother's record gives a state set from a sample: no
@@ -319,48 +339,54 @@ pub(super) fn smoother_record<const D: usize>(step: &mut crate::filter::RtsStep<
 mod tests {
     use super::*;
     use crate::model::Model;
-    use crate::model::ins::tests_support::model;
+    use crate::model::ins::tests_support::{barometer, estimated_frame, model};
+    use fusion_shared::snapshot::aux as bits;
 
     #[test]
     fn the_states_follow_the_core_in_bit_order() {
-        let every = AuxStates {
-            odometry_scale: Some(OdometryScale::default()),
-            pose: Some(PoseFrame::default()),
-            ..AuxStates::default()
-        }
-        .with_barometer(9, BaroBias::default());
-        assert_eq!(every.len(), 6);
+        let every = AuxStates::default().with_odometry_scale(OdometryScale::default());
+        let every = estimated_frame(barometer(every, 9), 3);
+        assert_eq!((every.len(), every.fits()), (6, true));
         assert_eq!(index(every.bits(), bits::ODOMETRY_SCALE), Some(N));
         assert_eq!(index(every.bits(), bits::BARO_BIAS), Some(N + 1));
         assert_eq!(index(every.bits(), bits::POSE_FRAME_YAW), Some(N + 2));
         assert_eq!(index(every.bits(), bits::POSE_FRAME_UP), Some(N + 5));
-        let baro = AuxStates::default().with_barometer(9, BaroBias::default());
+        assert_eq!(every.first_bit(SampleKind::Pose, 3), Some(bits::POSE_FRAME_YAW));
+        let baro = barometer(AuxStates::default(), 9);
         assert_eq!(index(baro.bits(), bits::BARO_BIAS), Some(N));
         assert_eq!(index(baro.bits(), bits::ODOMETRY_SCALE), None);
         // A second barometer's bias follows the map frame (its bit is higher).
-        let two = every.with_barometer(12, BaroBias::default());
-        assert_eq!((two.wanted(), two.barometer(12), two.barometer(3)), (7, Some(1), None));
-        let two = AuxStates { odometry_scale: None, ..two };
-        assert_eq!((two.len(), two.wanted()), (6, 6));
+        let two = barometer(every, 12);
+        assert_eq!((two.wanted(), two.fits(), two.first_bit(SampleKind::Barometer, 12)), (7, false, None));
+        let two = barometer(estimated_frame(barometer(AuxStates::default(), 9), 3), 12);
+        assert_eq!(
+            (two.len(), two.wanted(), two.first_bit(SampleKind::Barometer, 12)),
+            (6, 6, Some(bits::BARO_BIASES[1]))
+        );
         assert_eq!(index(two.bits(), bits::BARO_BIASES[1]), Some(N + 5));
         assert_eq!(index(two.bits(), bits::POSE_FRAME_YAW), Some(N + 1));
+        // A second estimated frame: more instances than the pose kind declares.
+        let frames = estimated_frame(estimated_frame(AuxStates::default(), 1), 2);
+        assert_eq!((frames.len(), frames.wanted(), frames.fits()), (4, 8, false));
+        assert_eq!(frames.describe(), "2 pose map frame (4 states each, at most 1)");
         let m = model().with_aux::<{ N + 6 }>(every).unwrap();
         let s = m.initial_state();
         assert_eq!(InsModel::x_of(&s).len(), N + 7);
         assert_eq!(s.odometry_scale(), Some(1.0));
         assert!(model().with_aux::<{ N + 2 }>(every).is_err(), "the dimension must be the states'");
+        assert!(model().with_aux::<{ N + 4 }>(frames).is_err(), "states that do not fit are refused");
     }
 
     /// A state set from a sample, `a = z − x₀` (as the barometer's bias is set):
     /// its variance is `P₀₀ + R`, its covariance with `x₀` is `−P₀₀`, and
-    /// nothing else changes.
+    /// nothing else changes. It is recorded as set, by its bit.
     #[test]
     fn augmenting_correlates_the_new_state_with_what_it_came_from() {
-        let m = model().with_aux::<{ N + 1 }>(AuxStates::default().with_barometer(9, BaroBias::default()));
-        let m = m.unwrap();
+        let aux = barometer(estimated_frame(AuxStates::default(), 1), 9);
+        let m = model().with_aux::<{ N + 5 }>(aux).unwrap();
         let mut s = m.initial_state();
         let before = s.kf.P();
-        let mut Gx = SMatrix::<f64, 1, { N + 1 }>::zeros();
+        let mut Gx = SMatrix::<f64, 1, { N + 5 }>::zeros();
         Gx[(0, 2)] = -1.0;
         let R = SMatrix::<f64, 1, 1>::new(4.0);
         augment(&mut s, N, &SVector::<f64, 1>::new(7.0), &Gx, &SMatrix::<f64, 1, 1>::new(1.0), &R).unwrap();
@@ -369,5 +395,12 @@ mod tests {
         assert!((P[(N, N)] - (before[(2, 2)] + 4.0)).abs() < 1e-12);
         assert!((P[(N, 2)] + before[(2, 2)]).abs() < 1e-12 && P[(2, N)] == P[(N, 2)]);
         assert_eq!(P.fixed_view::<N, N>(0, 0), before.fixed_view::<N, N>(0, 0));
+        assert!(s.aux.is_set(bits::BARO_BIAS) && !s.aux.is_set(bits::POSE_FRAME_YAW));
+        let (a, Gx, I) =
+            (SVector::<f64, 2>::zeros(), SMatrix::<f64, 2, { N + 5 }>::zeros(), SMatrix::<f64, 2, 2>::identity());
+        augment(&mut s, N + 3, &a, &Gx, &I, &I).unwrap();
+        assert!(s.aux.is_set(bits::POSE_FRAME_NORTH) && s.aux.is_set(bits::POSE_FRAME_UP));
+        assert!(!s.aux.is_set(bits::POSE_FRAME_EAST));
+        assert_eq!((aux_bit(aux.bits(), 3), aux_bit(aux.bits(), N + 4)), (0, bits::POSE_FRAME_UP));
     }
 }

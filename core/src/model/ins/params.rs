@@ -119,9 +119,9 @@ impl<const D: usize> InsModel<D> {
         self.standstill.as_ref()
     }
 
-    /// The odometry scale state's parameters, if it is estimated.
-    pub fn odometry_scale(&self) -> Option<&OdometryScale> {
-        self.aux.odometry_scale.as_ref()
+    /// Whether the odometry scale factor is a state.
+    pub fn estimates_odometry_scale(&self) -> bool {
+        self.aux.bits() & fusion_shared::snapshot::aux::ODOMETRY_SCALE != 0
     }
 
     /// The auxiliary states and their parameters.

@@ -12,6 +12,21 @@ pub const SCALED: usize = N + 1;
 use crate::frames::Frames;
 use crate::model::Model;
 
+/// `aux` with barometer `sensor`'s bias (σ 100 m, 0.05 m/√s: the
+/// barometer's defaults).
+pub fn barometer(aux: super::AuxStates, sensor: u32) -> super::AuxStates {
+    let prior = super::AuxPrior { initial: 0.0, std: 100.0, random_walk: 0.05 };
+    aux.with_sensor(fusion_shared::SampleKind::Barometer, sensor, &[prior])
+}
+
+/// `aux` with pose sensor `sensor`'s estimated map frame (σ π, 1 km; the
+/// pose sensor's default random walks).
+pub fn estimated_frame(aux: super::AuxStates, sensor: u32) -> super::AuxStates {
+    let origin = super::AuxPrior { initial: 0.0, std: 1000.0, random_walk: 0.01 };
+    let yaw = super::AuxPrior { initial: 0.0, std: std::f64::consts::PI, random_walk: 0.01_f64.to_radians() };
+    aux.with_sensor(fusion_shared::SampleKind::Pose, sensor, &[yaw, origin, origin, origin])
+}
+
 /// Usual MEMS IMU noise.
 pub const NOISE: ImuNoise = ImuNoise {
     accelerometer_noise_density: 0.02,
