@@ -263,8 +263,8 @@ pub fn settings<T: Measurement>(frames: &Frames, sensor: u32) -> Option<&T::Sett
 }
 
 /// The auxiliary states the configured sensors bring to the `ins` model, in
-/// `[[sensor]]` order, after `model`'s own ([`aux_priors`]); with each the
-/// sensor that brought it. Whether they fit is [`AuxStates::fits`].
+/// `[[sensor]]` order, after `model`'s own ([`aux_priors`]), and the first
+/// sensor whose states do not fit, if one does not ([`AuxStates::fits`]).
 pub fn aux_states(model: AuxStates, frames: &Frames) -> (AuxStates, Option<&MountedSensor>) {
     let mut first_beyond = None;
     let aux = frames.sensors().iter().fold(model, |aux, m| {

@@ -104,6 +104,7 @@ impl AuxStates {
     /// it fits; it is counted either way ([`fits`](Self::fits)).
     fn with_instance(mut self, k: usize, owner: Option<(SampleKind, u32)>, priors: &[AuxPrior]) -> Self {
         let (kind, instance) = (&KINDS[k], self.counts[k]);
+        debug_assert_eq!(priors.len(), kind.len, "a prior per state of a {} instance", kind.what);
         self.counts[k] += 1;
         if instance >= kind.instances() || priors.len() != kind.len || self.len + kind.len > MAX_AUX {
             return self;
