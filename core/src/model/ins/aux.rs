@@ -73,7 +73,7 @@ struct AuxState {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AuxStates {
     /// The states, in bit order (the first `len`).
-    states: [Option<AuxState>; MAX_AUX],
+    states: [AuxState; MAX_AUX],
     /// How many states are held.
     len: usize,
     /// Instances brought, per kind of [`KINDS`], whether they fit or not.
@@ -82,7 +82,8 @@ pub struct AuxStates {
 
 impl Default for AuxStates {
     fn default() -> Self {
-        Self { states: [None; MAX_AUX], len: 0, counts: [0; KINDS.len()] }
+        let none = AuxState { bit: 0, owner: None, prior: AuxPrior { initial: 0.0, std: 1.0, random_walk: 0.0 } };
+        Self { states: [none; MAX_AUX], len: 0, counts: [0; KINDS.len()] }
     }
 }
 
@@ -113,11 +114,11 @@ impl AuxStates {
             let bit = kind.first_bit(instance) << j;
             // Insertion by bit.
             let mut i = self.len;
-            while i > 0 && self.states[i - 1].is_some_and(|s| s.bit > bit) {
+            while i > 0 && self.states[i - 1].bit > bit {
                 self.states[i] = self.states[i - 1];
                 i -= 1;
             }
-            self.states[i] = Some(AuxState { bit, owner, prior: *prior });
+            self.states[i] = AuxState { bit, owner, prior: *prior };
             self.len += 1;
         }
         self
@@ -148,7 +149,7 @@ impl AuxStates {
 
     /// The [`fusion_shared::snapshot::aux`] bits of the states held.
     pub fn bits(&self) -> u32 {
-        self.held().fold(0, |b, s| b | s.bit)
+        self.held().iter().fold(0, |b, s| b | s.bit)
     }
 
     /// Number of auxiliary error states.
@@ -165,19 +166,19 @@ impl AuxStates {
     /// brings, if it has states.
     #[inline]
     pub fn first_bit(&self, kind: SampleKind, sensor: u32) -> Option<u32> {
-        self.held().find(|s| s.owner == Some((kind, sensor))).map(|s| s.bit)
+        self.held().iter().find(|s| s.owner == Some((kind, sensor))).map(|s| s.bit)
     }
 
     /// The states held, in bit order.
-    fn held(&self) -> impl Iterator<Item = &AuxState> {
-        self.states[..self.len].iter().flatten()
+    fn held(&self) -> &[AuxState] {
+        &self.states[..self.len]
     }
 
     /// Initial value, standard deviation and random-walk variance per second
     /// of each auxiliary error state, in state order (of their bits).
     fn entries(&self) -> ([f64; MAX_AUX], [f64; MAX_AUX], [f64; MAX_AUX]) {
         let (mut x, mut sd, mut q) = ([0.0; MAX_AUX], [1.0; MAX_AUX], [0.0; MAX_AUX]);
-        for (i, s) in self.held().enumerate() {
+        for (i, s) in self.held().iter().enumerate() {
             (x[i], sd[i], q[i]) = (s.prior.initial, s.prior.std, s.prior.random_walk * s.prior.random_walk);
         }
         (x, sd, q)
