@@ -113,8 +113,8 @@ impl Measurement for PoseSample {
     }
 
     /// An estimated map frame (neither given nor relative): yaw and origin
-    /// uninformed (σ π and 1 km) until the first pose
-    /// aligns them, then random walks.
+    /// uninformed (σ π and 1 km) until the first pose aligns them, then
+    /// random walks.
     fn aux_priors(settings: &PoseConfig) -> Vec<AuxPrior> {
         if !settings.estimated() {
             return Vec::new();
