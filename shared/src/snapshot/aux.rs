@@ -130,7 +130,7 @@ mod tests {
         );
         assert_eq!((BARO_BIASES, BARO_BIAS_ANY, POSE_FRAME), ([2, 64, 128, 256, 512, 1024], 1986, 60));
         assert_eq!(
-            ALL[6..],
+            ALL[6..11],
             [
                 (64, "baro_bias_2_m"),
                 (128, "baro_bias_3_m"),
