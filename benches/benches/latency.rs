@@ -264,7 +264,16 @@ fn raw_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
         let pong = spawn_pong(&base, mode, false)?;
         if mode == Mode::Event {
             let h = ping(&base, mode, count, imu_hz)?;
-            rows.push(Row { name, mode, one_way: true, h, legs: None, raw_rtt: None, block_ratios: Vec::new() });
+            rows.push(Row {
+                name,
+                mode,
+                one_way: true,
+                h,
+                legs: None,
+                raw_rtt: None,
+                raw_pair_rtt: None,
+                block_ratios: Vec::new(),
+            });
             continue;
         }
         let big_base = format!("{base}-snapshot");
@@ -295,6 +304,7 @@ fn raw_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
             h: small_rtt.clone(),
             legs: None,
             raw_rtt: None,
+            raw_pair_rtt: None,
             block_ratios: Vec::new(),
         });
         rows.push(Row {
@@ -304,6 +314,7 @@ fn raw_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
             h: big_rtt,
             legs: None,
             raw_rtt: Some(small_rtt),
+            raw_pair_rtt: None,
             block_ratios,
         });
     }
@@ -325,6 +336,9 @@ fn e2e_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
             let base = format!("{namespace}-raw");
             let pong = spawn_pong(&base, mode, false)?;
             let mut pinger = Pinger::<ImuSample>::connect(&base, mode)?;
+            // The vehicle rows are per instant of two IMU samples: beside the raw
+            // round trip, one that carries the same two-sample traffic.
+            let per_instant = if model.starts_with("vehicle") { 2 } else { 1 };
             let mut prober = match model {
                 "vehicle" => Prober::vehicle(&rig.client, mode)?,
                 "vehicle-late" => Prober::vehicle_late(&rig.client, mode)?,
@@ -332,11 +346,15 @@ fn e2e_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
                 _ => Prober::new(&rig.client, mode, imu_value(model))?,
             };
             let (mut e2e, mut raw_rtt, mut block_ratios) = (EndToEnd::new(), histogram(), Vec::new());
+            let mut pair_rtt = (per_instant > 1).then(histogram);
             for _ in 0..blocks {
                 rig.daemon.pause()?;
                 pong.resume()?;
                 let mut raw_block = histogram();
                 pinger.run(per_block + warm, warm, imu_hz, &mut raw_block)?;
+                if let Some(pair) = &mut pair_rtt {
+                    pinger.run_instants(per_block + warm, warm, imu_hz, per_instant, pair)?;
+                }
                 pong.pause()?;
                 rig.daemon.resume()?;
                 let mut block = EndToEnd::new();
@@ -360,6 +378,7 @@ fn e2e_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
                 h: e2e.latency.clone(),
                 legs: Some(e2e),
                 raw_rtt: Some(raw_rtt),
+                raw_pair_rtt: pair_rtt,
                 block_ratios,
             });
             if model.starts_with("vehicle") {
@@ -376,6 +395,7 @@ fn e2e_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
                 h,
                 legs: None,
                 raw_rtt: None,
+                raw_pair_rtt: None,
                 block_ratios: Vec::new(),
             });
         }

@@ -229,8 +229,9 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
             std::thread::sleep(Duration::from_micros(200));
         }
         imu_pub.publish_sample(ImuSample::new(t, 0, k, s.accel_mps2, [0.0; 3]))?;
-        last_seq = await_snapshot(&mut reader, SampleKind::Imu as u32, k)?;
         if s.vehicle {
+            // Both IMUs of the instant, then its snapshot (after the sample
+            // that completes it, whichever fusiond took last).
             imu_b.publish_sample(ImuSample::new(t, 1, k, [0.0, 0.0, 9.80665], [0.0; 3]))?;
             last_seq = await_snapshot(&mut reader, SampleKind::Imu as u32, k)?;
             extra += 1;
@@ -253,6 +254,8 @@ fn feed(s: &Scenario<'_>) -> anyhow::Result<Fed> {
                 last_seq = await_snapshot(&mut reader, SampleKind::Odometry as u32, k / 20)?;
                 extra += 1;
             }
+        } else {
+            last_seq = await_snapshot(&mut reader, SampleKind::Imu as u32, k)?;
         }
         if let Some(sample) = crate::latency::vehicle21_extras(t, k).filter(|_| s.extras) {
             match sample {

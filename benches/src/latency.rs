@@ -254,7 +254,8 @@ impl Default for EndToEnd {
 /// blocks, its sequence numbers going on from one to the next. With
 /// [`Prober::vehicle`], the sensor set of [`VEHICLE_CONFIG`] instead: two IMUs at
 /// the same instants, a geodetic fix every 100th instant (10 Hz at 1 kHz) and an
-/// odometry speed every 20th (50 Hz); both IMU samples of an instant are timed.
+/// odometry speed every 20th (50 Hz); each instant is timed from the send of its
+/// last IMU sample to the first snapshot with both samples in.
 /// With [`Prober::vehicle_late`], a real vehicle's stream ([`VEHICLE_LATE_CONFIG`]):
 /// the GNSS fix and Doppler velocity arrive 80–120 ms after their time of
 /// validity and the odometry 10–30 ms after, each published just before the IMU
@@ -406,38 +407,52 @@ impl Prober {
                 }
             }
             self.imu.publish(t, self.imu_value.0, self.imu_value.1)?;
-            // The last IMU sample of the instant; each one's snapshot is timed.
-            let last_sensor = match &mut self.vehicle {
+            // The vehicle's second IMU sample: the instant's last one sent,
+            // from which the instant is timed.
+            let last_sent = match &mut self.vehicle {
                 Some(v) => {
+                    let sent = now_ns();
                     v.imu_b.publish(t, VEHICLE_IMUS_AT_REST[1], [0.0; 3])?;
-                    1
+                    Some(sent)
                 }
-                None => 0,
+                None => None,
             };
             let deadline = Instant::now() + Duration::from_secs(2);
             loop {
                 let snap = next_snapshot(&mut self.state, self.mode, deadline, seq)?;
-                if let Some(s) = snap
-                    && s.input_kind == SampleKind::Imu as u32
-                    && s.input_seq == seq
-                {
-                    let last = s.input_sensor == last_sensor;
-                    let received = now_ns();
-                    if k >= warmup {
-                        out.latency.record(received.saturating_sub(s.input_sent_ns))?;
-                        out.to_daemon.record(s.input_received_ns.saturating_sub(s.input_sent_ns))?;
-                        out.daemon.record(s.publish_ns.saturating_sub(s.input_received_ns))?;
-                        out.from_daemon.record(received.saturating_sub(s.publish_ns))?;
-                        out.provisional += u64::from(!s.settled());
-                    }
-                    if last {
-                        break;
-                    }
+                let Some(s) = snap.filter(|s| s.input_kind == SampleKind::Imu as u32 && s.input_seq == seq) else {
+                    continue;
+                };
+                let received = now_ns();
+                // One IMU: its sample's snapshot. Two: the first snapshot with
+                // both samples of the instant in (fusiond publishes one per
+                // instant, named after whichever sample completed it; a build
+                // that publishes one per sample is timed by its second).
+                let (done, sent) = match last_sent {
+                    None => (true, s.input_sent_ns),
+                    Some(sent) => (imus_received(s) >= 2 * (seq + 1), sent),
+                };
+                if !done {
+                    continue;
                 }
+                if k >= warmup {
+                    out.latency.record(received.saturating_sub(sent))?;
+                    out.to_daemon.record(s.input_received_ns.saturating_sub(s.input_sent_ns))?;
+                    out.daemon.record(s.publish_ns.saturating_sub(s.input_received_ns))?;
+                    out.from_daemon.record(received.saturating_sub(s.publish_ns))?;
+                    out.provisional += u64::from(!s.settled());
+                }
+                break;
             }
         }
         Ok(())
     }
+}
+
+/// The IMU samples a snapshot's sensor counters say fusiond took in, all IMUs.
+fn imus_received(s: &fusion_client::StateSnapshot) -> u64 {
+    let imus = s.sensor_counters().iter().filter(|c| c.sample_kind() == Some(SampleKind::Imu));
+    imus.map(|c| c.counts.received).sum()
 }
 
 /// Starts `fusiond run` from `bin` in `namespace` with `config` written to `dir`.

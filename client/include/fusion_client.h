@@ -269,7 +269,8 @@ typedef struct FusionSensorCounters {
 // §5.3.3). Because the quaternion's 4 entries share 3 error states,
 // covariance row `i` lines up with state entry `i` only for `i < 6`.
 typedef struct FusionStateSnapshot {
-  // Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
+  // Sequence number of this snapshot (one per processed sample or IMU instant,
+  // from 0 per daemon run).
   uint64_t seq;
   // When the daemon published it, ns of CLOCK_MONOTONIC.
   uint64_t publish_ns;
@@ -289,6 +290,8 @@ typedef struct FusionStateSnapshot {
   double nis;
   // The input sample that triggered this snapshot: its timestamp, ns. Equals
   // `t_ns` when it arrived in order; older when it was fused late by rewind.
+  // With several IMUs averaged, an IMU instant's snapshot names the
+  // instant's last sample; its earlier ones have no snapshot of their own.
   uint64_t input_t_ns;
   // When the input's publisher sent it, ns (0 if unknown).
   uint64_t input_sent_ns;

@@ -166,6 +166,10 @@ gyro_range_radps = 35.0      # 2000 deg/s
 [imu]
 combine = "average"
 failover_after_ns = 20_000_000
+# Average, live: one snapshot per IMU instant, after the sample that completes it;
+# when an IMU is missing at an instant, this long after the last one came, ns
+# (0: a snapshot after every sample).
+instant_wait_ns = 250_000
 
 # State readers at once (fusionctl, applications); one more is refused with an
 # error that names this key.

@@ -193,13 +193,22 @@ pub struct ImuConfig {
     /// Failover: the IMU in use is dead after this long without a sample
     /// (timestamps, so replay decides as live did), ns.
     pub failover_after_ns: u64,
+    /// Average, live: the snapshot of an IMU instant goes out after the sample
+    /// that completes it (every IMU of the instant before has sent one); when
+    /// one is missing, at the latest this long after the instant's last sample
+    /// arrived, ns. 0: a snapshot after every sample. Estimates do not depend on it.
+    pub instant_wait_ns: u64,
 }
 
 impl Default for ImuConfig {
     fn default() -> Self {
-        Self { combine: Combine::Average, failover_after_ns: 20_000_000 }
+        Self { combine: Combine::Average, failover_after_ns: 20_000_000, instant_wait_ns: DEFAULT_INSTANT_WAIT_NS }
     }
 }
+
+/// The default of [`ImuConfig::instant_wait_ns`]: a quarter of a 1 kHz IMU's
+/// interval, ns.
+pub const DEFAULT_INSTANT_WAIT_NS: u64 = 250_000;
 
 /// Where a sensor sits and how its axes point (see the module doc).
 #[derive(Debug, Clone, Copy, PartialEq)]

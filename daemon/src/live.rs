@@ -8,7 +8,13 @@
 //!
 //! [`run`] is the loop of `fusiond run`: each turn takes the waiting samples (at
 //! most [`BATCH`]), feeds each to the engine with the daemon's clock and publishes
-//! one [`StateSnapshot`] per processed sample, then flushes the sink once. Every
+//! one [`StateSnapshot`] per processed sample, then flushes the sink once. Several
+//! IMUs averaged make one snapshot per IMU instant: a sample that leaves its
+//! instant open (an IMU of the instant before has yet to send) publishes
+//! nothing; the sample that completes it, or any other sample, publishes the
+//! instant's snapshot, and an IMU that misses the instant delays it by at most
+//! [`ImuConfig::instant_wait_ns`](crate::frames::ImuConfig::instant_wait_ns).
+//! No rewind slice runs while an instant is open. Every
 //! [`HOUSEKEEPING_NS`] it re-evaluates the health (a stream that stopped is
 //! marked stale even though nothing arrives, and a health-only snapshot says so),
 //! refreshes the sink's connections, tells the [`LoopObserver`] that the loop
@@ -153,6 +159,23 @@ pub struct LiveCore<M: Steps> {
     /// The sensors and reasons whose refusals were logged.
     refusal_warnings: RefusalWarnings,
     model_refusals: ModelRefusalWarnings,
+    /// [`ImuConfig::instant_wait_ns`](crate::frames::ImuConfig::instant_wait_ns)
+    /// (0: a snapshot after every sample).
+    instant_wait_ns: u64,
+    /// The snapshot of an open IMU instant, held back until its last sample.
+    held: Option<HeldInstant>,
+}
+
+/// An IMU instant whose snapshot waits for the instant's last sample
+/// ([`Model::instant_open`](crate::model::Model::instant_open)).
+#[derive(Clone, Copy)]
+struct HeldInstant {
+    /// Its newest sample, which the snapshot names if it goes out at `due_ns`.
+    sample: Sample,
+    received_ns: u64,
+    /// When the snapshot goes out whatever comes: the bounded wait from the
+    /// first sample held.
+    due_ns: u64,
 }
 
 impl<M: Steps> LiveCore<M> {
@@ -161,6 +184,7 @@ impl<M: Steps> LiveCore<M> {
         let initialising = HealthNow::INITIALISING;
         let monitor = HealthMonitor::new(health);
         let monitor = if M::NEEDS_POSITION { monitor } else { monitor.without_position() };
+        let instant_wait_ns = engine.model().frames().imus().config.instant_wait_ns;
         Self {
             health: monitor.with_frames(engine.model().frames()),
             engine,
@@ -179,6 +203,8 @@ impl<M: Steps> LiveCore<M> {
             refusal_published_ns: 0,
             refusal_warnings: RefusalWarnings::default(),
             model_refusals: ModelRefusalWarnings::default(),
+            instant_wait_ns,
+            held: None,
         }
     }
 
@@ -230,7 +256,10 @@ impl<M: Steps> LiveCore<M> {
         self.health_now = self.health.evaluate(self.engine.sensors(), now, initialised, reinitialisations);
     }
 
-    /// Feeds one sample to the engine and publishes the resulting snapshot.
+    /// Feeds one sample to the engine and publishes the resulting snapshot,
+    /// unless the sample leaves its IMU instant open: then the snapshot waits
+    /// for the sample that completes the instant, for another sample, or for
+    /// the instant's due time ([`publish_due`](Self::publish_due)).
     pub fn handle(&mut self, sample: Sample, sink: &mut impl SnapshotSink) {
         self.report.received += 1;
         let received_ns = now_ns();
@@ -257,14 +286,62 @@ impl<M: Steps> LiveCore<M> {
         };
         // Late samples the insert had to process at once (leaving the history).
         self.record_first_outcomes();
-        self.evaluate_health(received_ns);
-        let input = Input { sample: &sample, received_ns, replayed };
+        if replayed == 0 && self.opens_instant(&sample) {
+            // The wait is bounded from the instant's first sample held.
+            let due_ns = self.held.map_or(received_ns.saturating_add(self.instant_wait_ns), |h| h.due_ns);
+            self.held = Some(HeldInstant { sample, received_ns, due_ns });
+            return;
+        }
+        // This snapshot carries an instant held before it, if any.
+        self.held = None;
+        self.publish_sample(sink, &sample, received_ns, replayed, received_ns);
+    }
+
+    /// Whether `sample`, just processed in order, is an IMU sample that leaves
+    /// its instant open (another IMU of the instant before has yet to send).
+    #[inline]
+    fn opens_instant(&self, sample: &Sample) -> bool {
+        self.instant_wait_ns > 0
+            && sample.kind() == SampleKind::Imu
+            && self.engine.latest().is_some_and(|e| M::instant_open(&e.state))
+    }
+
+    /// Publishes the snapshot of `sample` (processed, `replayed` later samples
+    /// re-processed) with the health evaluated at `now`, and records its latency.
+    fn publish_sample(
+        &mut self,
+        sink: &mut impl SnapshotSink,
+        sample: &Sample,
+        received_ns: u64,
+        replayed: usize,
+        now: u64,
+    ) {
+        self.evaluate_health(now);
+        let input = Input { sample, received_ns, replayed };
         if let Some(published_ns) = self.publish(sink, Some(input))
             && replayed == 0
             && sample.sent_ns() > 0
         {
             // Out-of-range values (clock skew between processes) are not recorded.
             let _ = self.latency.record(published_ns.saturating_sub(sample.sent_ns()));
+        }
+    }
+
+    /// When the snapshot of an open IMU instant goes out at the latest, ns.
+    pub fn instant_due(&self) -> Option<u64> {
+        self.held.map(|h| h.due_ns)
+    }
+
+    /// Publishes the snapshot of an open IMU instant whose due time has come
+    /// by `now` (an IMU missed the instant). Returns whether it did.
+    pub fn publish_due(&mut self, now: u64, sink: &mut impl SnapshotSink) -> bool {
+        match self.held {
+            Some(h) if now >= h.due_ns => {
+                self.held = None;
+                self.publish_sample(sink, &h.sample, h.received_ns, 0, now.min(now_ns()));
+                true
+            }
+            _ => false,
         }
     }
 
@@ -303,6 +380,9 @@ impl<M: Steps> LiveCore<M> {
             let Some(sample) = source.next(newest) else { break };
             self.handle(sample, sink);
             taken += 1;
+        }
+        if self.held.is_some() {
+            self.publish_due(now_ns(), sink);
         }
         if self.report.snapshots > snapshots_before {
             self.published_health = self.health_now;
@@ -404,9 +484,12 @@ impl<M: Steps> LiveCore<M> {
         more
     }
 
-    /// Settles a pending correction whole and publishes the settled estimate
-    /// (at shutdown).
+    /// Publishes an open instant's snapshot, then settles a pending correction
+    /// whole and publishes the settled estimate (at shutdown).
     pub fn settle_all(&mut self, sink: &mut impl SnapshotSink) {
+        if self.publish_due(u64::MAX, sink) {
+            sink.flush();
+        }
         if self.correction_pending() {
             while self.engine.settle_step() {
                 self.record_first_outcomes();
@@ -469,7 +552,10 @@ pub fn run<M: Steps>(
         if taken == 0 {
             slice_due = now + SLICE_GAP_NS;
         }
-        if (taken == 0 || now >= slice_due) && core.correction_pending() {
+        // While an IMU instant is open, its last sample is due within
+        // microseconds: no slice delays it (and a recording's replay finds the
+        // idle steps where the live loop did them, `replay::recording`).
+        if (taken == 0 || now >= slice_due) && core.correction_pending() && core.instant_due().is_none() {
             // Nothing waits (or a backlog has gone on for SLICE_GAP_NS): a
             // slice of the rewind, then look for samples again.
             core.settle_slice(sink);
@@ -491,8 +577,9 @@ pub fn run<M: Steps>(
                 std::hint::spin_loop();
             }
             WaitMode::Event => {
-                let timeout = Duration::from_nanos(core.next_housekeeping().saturating_sub(now_ns()).max(1));
-                source.wait(timeout);
+                let until =
+                    core.instant_due().map_or(core.next_housekeeping(), |due| due.min(core.next_housekeeping()));
+                source.wait(Duration::from_nanos(until.saturating_sub(now_ns()).max(1)));
             }
         }
     }

@@ -186,3 +186,34 @@ fn fusiond_fuses_the_robot_kinds_c_publishes() {
     common::assert_robot_samples_fused(&domain);
     assert!(daemon.terminate().success());
 }
+
+/// Two IMUs averaged, read from C: one snapshot per instant, named after the
+/// sample that completed it; an instant one IMU misses still gets its snapshot,
+/// after fusiond's bounded wait.
+#[test]
+fn c_reads_one_snapshot_per_imu_instant() {
+    let build = tempfile::tempdir().unwrap();
+    let instants = compile(
+        "cc",
+        &["-std=c11", "-D_POSIX_C_SOURCE=199309L"],
+        &client_dir().join("tests/c/instants.c"),
+        build.path(),
+    );
+    let domain = TestDomain::new("c-instants");
+    let config = common::linear_config(None)
+        + "[[sensor]]\nname = \"imu-a\"\nid = 0\nkinds = [\"imu\"]\n\
+           [[sensor]]\nname = \"imu-b\"\nid = 1\nkinds = [\"imu\"]\n[imu]\ncombine = \"average\"\n";
+    let mut daemon = Daemon::start(&domain, &config, "event");
+    let (ok, stdout, stderr) = run(&instants, &domain, &domain.namespace);
+    assert!(ok, "{stdout}{stderr}");
+    // The first instant has nothing to wait for: both of its samples publish.
+    assert!(stdout.contains("100 instants: snapshots of the first 2, of each later one 1 to 1"), "{stdout}");
+    let waited_us: f64 = stdout
+        .split("its snapshot after ")
+        .nth(1)
+        .and_then(|r| r.split(" us").next())
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(waited_us >= 250.0, "the default wait is 0.25 ms: {stdout}");
+    assert!(daemon.terminate().success());
+}

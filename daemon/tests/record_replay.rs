@@ -38,7 +38,12 @@ fn drive() -> Vec<Sample> {
 
 /// Records a live run of `samples` and returns the recording's path.
 fn record_live_run(domain: &TestDomain, dir: &Path, samples: &[Sample]) -> std::path::PathBuf {
-    let mut daemon = Daemon::start(domain, &config(0.3), "event");
+    record_live_run_with(domain, dir, samples, &config(0.3))
+}
+
+/// [`record_live_run`] of a fusiond run with `config`.
+fn record_live_run_with(domain: &TestDomain, dir: &Path, samples: &[Sample], config: &str) -> std::path::PathBuf {
+    let mut daemon = Daemon::start(domain, config, "event");
     let mcap = dir.join("run.mcap");
     let mut recorder = Running(
         Command::new(workspace_bin("fusionctl"))
@@ -269,6 +274,42 @@ fn a_recorded_live_run_replays_bit_for_bit_and_a_changed_one_says_where() {
     assert!(misplaced <= 1, "crosses off the gated fixes: {drawn:?}, gated {expected:?}");
     assert!(points["latency.samples"].as_u64().unwrap() > 0, "{points}");
     assert!(report.join("latency.png").exists());
+}
+
+/// Two IMUs averaged, with late fixes: live, an IMU sample that leaves its
+/// instant open publishes nothing, and the replay still equals every live
+/// snapshot bit for bit, counting the samples that had none of their own.
+/// (`fusion-sim run --input` publishes an instant's IMU samples together and
+/// waits for the instant's snapshot.)
+#[test]
+fn a_live_run_with_averaged_imus_replays_bit_for_bit() {
+    let domain = TestDomain::new("record-instants");
+    let dir = tempfile::tempdir().unwrap();
+    let mut c = ScenarioConfig { seed: 5, duration_s: 3.0, ..Default::default() };
+    c.imu.rate_hz = 200.0;
+    c.extra_imus.push(fusion_client::sim::ImuConfig { sensor: 7, ..c.imu.clone() });
+    c.position.delay_min_ns = 20_000_000;
+    c.position.delay_max_ns = 120_000_000;
+    let samples: Vec<Sample> = Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect();
+    let imus = samples.iter().filter(|s| s.kind() == SampleKind::Imu).count();
+    let config = format!(
+        "{}\n[[sensor]]\nname = \"imu-a\"\nid = 0\nkinds = [\"imu\"]\n[[sensor]]\nname = \"imu-b\"\nid = 7\n\
+         kinds = [\"imu\"]\n[imu]\ncombine = \"average\"\n",
+        config(0.3)
+    );
+    let mcap = record_live_run_with(&domain, dir.path(), &samples, &config);
+    assert!(domain.files().is_empty(), "left in /dev/shm: {:?}", domain.files());
+    let (ok, stderr) = replay(dir.path(), &config, &mcap, &["--compare", "--output", "/dev/null"]);
+    assert!(ok, "{stderr}");
+    // About one IMU sample an instant had no snapshot of its own.
+    let held: usize = stderr
+        .split("compared, all equal bit for bit (x, P, NIS, counters); ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{stderr}"));
+    assert!(held > imus / 2 - 20 && held <= imus / 2, "{held} of {imus} IMU samples: {stderr}");
+    assert!(stderr.contains(&format!("{} compared", samples.len() - held)), "{stderr}");
 }
 
 /// 16 bytes of 0xff over a chunk's header (its sizes and compression name, or

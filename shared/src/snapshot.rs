@@ -1,4 +1,5 @@
-//! `StateSnapshot`: what fusiond publishes after every processed sample.
+//! `StateSnapshot`: what fusiond publishes after every processed sample (several
+//! IMUs averaged: after each IMU instant's last sample, see `[imu] instant_wait_ns`).
 //!
 //! A fixed-capacity, self-describing record: the estimate (up to 22 states and a
 //! 21×21 covariance, enough for the INS model with every auxiliary state), the sample it is the estimate at,
@@ -261,7 +262,8 @@ impl SensorCounters {
 #[type_name("fusion.StateSnapshot.v12")]
 #[repr(C)]
 pub struct StateSnapshot {
-    /// Sequence number of this snapshot (one per processed sample, from 0 per daemon run).
+    /// Sequence number of this snapshot (one per processed sample or IMU instant,
+    /// from 0 per daemon run).
     pub seq: u64,
     /// When the daemon published it, ns of CLOCK_MONOTONIC.
     pub publish_ns: u64,
@@ -283,6 +285,8 @@ pub struct StateSnapshot {
 
     /// The input sample that triggered this snapshot: its timestamp, ns. Equals
     /// `t_ns` when it arrived in order; older when it was fused late by rewind.
+    /// With several IMUs averaged, an IMU instant's snapshot names the
+    /// instant's last sample; its earlier ones have no snapshot of their own.
     pub input_t_ns: u64,
     /// When the input's publisher sent it, ns (0 if unknown).
     pub input_sent_ns: u64,

@@ -20,6 +20,9 @@ pub struct Row {
     pub legs: Option<EndToEnd>,
     /// Raw ping-pong round trips measured in blocks taking turns with this row's.
     pub raw_rtt: Option<Histogram<u64>>,
+    /// A per-instant row (two IMU samples an instant): raw round trips with the
+    /// same two-sample traffic, timed from the last ping, in the same blocks.
+    pub raw_pair_rtt: Option<Histogram<u64>>,
     /// Per pair of blocks: end-to-end p50 / raw round-trip p50.
     pub block_ratios: Vec<f64>,
 }
@@ -58,6 +61,7 @@ pub fn print_report(
     let mut json = Vec::new();
     latency_table(rows, &mut json);
     legs_table(rows);
+    instant_table(rows);
     late_table(late_rows, &mut json);
     late_legs_table(late_rows);
     throughput_table(throughput_rows, &mut json);
@@ -110,6 +114,9 @@ fn latency_table(rows: &[Row], json: &mut Vec<Value>) {
             "daemon_p50": daemon_p50, "daemon_p99": leg(|e| &e.daemon, 0.99),
             "to_daemon_p50": leg(|e| &e.to_daemon, 0.5), "from_daemon_p50": leg(|e| &e.from_daemon, 0.5),
             "raw_one_way_p50_interleaved": interleaved_one_way,
+            "raw_two_sample_round_trip_p50": r.raw_pair_rtt.as_ref().map(|h| h.value_at_quantile(0.5)),
+            "ratio_p50_to_raw_two_sample_round_trip": r.raw_pair_rtt.as_ref()
+                .map(|h| r.h.value_at_quantile(0.5) as f64 / h.value_at_quantile(0.5) as f64),
             "block_ratios_min_median_max": (!blocks.is_empty())
                 .then(|| [blocks[0], blocks[blocks.len() / 2], blocks[blocks.len() - 1]]),
         }));
@@ -130,6 +137,29 @@ fn legs_table(rows: &[Row]) {
                 p50(&e.daemon),
                 p50(&e.from_daemon),
                 us(raw.value_at_quantile(0.5) / 2)
+            );
+        }
+    }
+}
+
+/// The per-instant rows (two IMU samples an instant, timed from the last)
+/// against both raw baselines measured in their blocks: one sample a round
+/// trip, and the same two-sample traffic.
+fn instant_table(rows: &[Row]) {
+    println!("\nper-instant rows (from the instant's last IMU sample) against raw, p50");
+    println!("{:<42} {:>10} {:>12} {:>8} {:>16} {:>8}", "", "fusiond", "raw RTT", "ratio", "raw 2-sample RTT", "ratio");
+    for r in rows {
+        if let (Some(raw), Some(pair)) = (&r.raw_rtt, &r.raw_pair_rtt) {
+            let p50 = r.h.value_at_quantile(0.5);
+            let (raw, pair) = (raw.value_at_quantile(0.5), pair.value_at_quantile(0.5));
+            println!(
+                "{:<42} {:>10} {:>12} {:>7.2}x {:>16} {:>7.2}x",
+                r.name,
+                us(p50),
+                us(raw),
+                p50 as f64 / raw as f64,
+                us(pair),
+                p50 as f64 / pair as f64
             );
         }
     }

@@ -15,10 +15,19 @@ use iceoryx2::prelude::*;
 
 use super::{Mode, Pacer, histogram};
 
+/// A ping from this sensor id opens an instant of several samples and is
+/// not answered: the pong side answers the instant's last one (the two-sample
+/// baseline of the per-instant vehicle rows, [`Pinger::run_instants`]).
+pub const OPENS_INSTANT: u32 = 100;
+
 /// A payload of the raw ping-pong: it carries the sequence number it answers.
 pub trait Payload: ZeroCopySend + Copy + std::fmt::Debug + Default + 'static {
     /// The sequence number.
     fn seq(&self) -> u64;
+    /// Whether the pong side answers it (not a ping that opens an instant).
+    fn answered(&self) -> bool {
+        true
+    }
     /// Its time stamp, ns.
     fn stamp(&self) -> u64;
     /// A payload with `seq`, stamped `t_ns`.
@@ -31,6 +40,9 @@ impl Payload for ImuSample {
     }
     fn stamp(&self) -> u64 {
         self.header.t_ns
+    }
+    fn answered(&self) -> bool {
+        self.header.sensor != OPENS_INSTANT
     }
     fn with_seq(seq: u64, t_ns: u64) -> Self {
         ImuSample::new(t_ns, 0, seq, [0.0; 3], [0.0; 3])
@@ -98,14 +110,15 @@ impl<S: Payload, R: Payload> PingPongEnd<S, R> {
         Ok(())
     }
 
-    /// Waits for the next sample (up to 1 s): its sequence number and time stamp,
+    /// Waits for the next sample (up to 1 s): its sequence number, time stamp
+    /// and whether it is answered,
     /// read in shared memory as fusiond's readers read a snapshot (not copied out:
     /// copying a 4.2 KB answer would charge the floor for work a reader never does).
-    fn receive(&self, mode: Mode) -> anyhow::Result<Option<(u64, u64)>> {
+    fn receive(&self, mode: Mode) -> anyhow::Result<Option<(u64, u64, bool)>> {
         let deadline = Instant::now() + Duration::from_secs(1);
         loop {
             if let Some(s) = self.subscriber.receive()? {
-                return Ok(Some((s.seq(), s.stamp())));
+                return Ok(Some((s.seq(), s.stamp(), s.answered())));
             }
             if Instant::now() > deadline {
                 return Ok(None);
@@ -129,10 +142,12 @@ pub fn pong<R: Payload>(base: &str, mode: Mode) -> anyhow::Result<()> {
     let mut last_ping = Instant::now();
     loop {
         match end.receive(mode)? {
-            Some((seq, _)) if seq == u64::MAX => return Ok(()),
-            Some((seq, t_ns)) => {
+            Some((seq, _, _)) if seq == u64::MAX => return Ok(()),
+            Some((seq, t_ns, answered)) => {
                 last_ping = Instant::now();
-                end.send(R::with_seq(seq, t_ns), mode)?;
+                if answered {
+                    end.send(R::with_seq(seq, t_ns), mode)?;
+                }
             }
             None if last_ping.elapsed() > Duration::from_secs(30) => anyhow::bail!("pong: no ping for 30 s"),
             None => {}
@@ -166,16 +181,34 @@ impl<R: Payload> Pinger<R> {
     /// One ping per tick at `rate_hz`, `count` of them: the round-trip times of
     /// all but the first `warmup` go to `rtt`, ns.
     pub fn run(&mut self, count: u64, warmup: u64, rate_hz: f64, rtt: &mut Histogram<u64>) -> anyhow::Result<()> {
+        self.run_instants(count, warmup, rate_hz, 1, rtt)
+    }
+
+    /// [`run`](Self::run) with `per_instant` pings a tick, as the samples of
+    /// the IMUs of one instant: the first `per_instant − 1` are not answered
+    /// ([`OPENS_INSTANT`]); the round trip is timed from the send of the last,
+    /// as a per-instant fusiond row is timed from the instant's last sample.
+    pub fn run_instants(
+        &mut self,
+        count: u64,
+        warmup: u64,
+        rate_hz: f64,
+        per_instant: u32,
+        rtt: &mut Histogram<u64>,
+    ) -> anyhow::Result<()> {
         let mut pacer = Pacer::new(rate_hz);
         for k in 0..count {
             pacer.wait();
             let seq = self.seq;
             self.seq += 1;
+            for _ in 1..per_instant {
+                self.end.send(ImuSample::new(now_ns(), OPENS_INSTANT, seq, [0.0; 3], [0.0; 3]), self.mode)?;
+            }
             let t0 = now_ns();
             self.end.send(ImuSample::new(t0, 0, seq, [0.0; 3], [0.0; 3]), self.mode)?;
             loop {
                 match self.end.receive(self.mode)? {
-                    Some((answered, _)) if answered == seq => break,
+                    Some((answered, _, _)) if answered == seq => break,
                     Some(_) => {}
                     None => anyhow::bail!("ping {seq}: no answer"),
                 }

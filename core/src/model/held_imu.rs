@@ -85,6 +85,16 @@ impl HeldImu {
         (self.interval_ns > 0).then_some(self.interval_ns as f64 * 1e-9)
     }
 
+    /// Average: whether the instant held still lacks a sample of an IMU that
+    /// was in the mean of the instant before (`false` in failover, for one IMU,
+    /// and before the second instant). The live loop holds back the snapshot
+    /// of such an instant until the sample comes, another sample does, or a
+    /// bounded wait ([`crate::frames::ImuConfig::instant_wait_ns`]) passes.
+    #[inline]
+    pub fn awaiting(&self) -> bool {
+        self.count > 0 && self.prev_mask & !self.mask != 0
+    }
+
     /// The configured index of the IMU in use (failover).
     pub fn active(&self) -> usize {
         usize::from(self.active)
@@ -163,7 +173,7 @@ mod tests {
             topic: None,
             tables: toml::Table::new(),
         };
-        let config = crate::frames::ImuConfig { combine, failover_after_ns: 20 };
+        let config = crate::frames::ImuConfig { combine, failover_after_ns: 20, ..Default::default() };
         crate::frames::Frames::from_config(None, &[imu("a", 4), imu("b", 9)], config, &crate::measurement::Kinds)
             .unwrap()
     }
@@ -179,12 +189,16 @@ mod tests {
         let v = |x: f64| Vector3::new(x, 0.0, 0.0);
         assert_eq!(h.hold(imus, 4, 100, v(1.0), v(10.0)), Held::Held);
         assert_eq!(h.mean(), Some((v(1.0), v(10.0), 1)));
+        assert!(!h.awaiting(), "the first instant: nothing known to await");
         assert_eq!(h.hold(imus, 9, 100, v(2.0), v(20.0)), Held::Held);
         assert_eq!(h.mean(), Some((v(1.5), v(15.0), 2)));
+        assert!(!h.awaiting());
         assert_eq!(h.hold(imus, 9, 110, v(3.0), v(30.0)), Held::Held);
         assert_eq!(h.mean(), Some((v(3.0), v(30.0), 1)), "IMU 4 missing at 110");
+        assert!(h.awaiting(), "IMU 4 was in the instant before");
         // Seen at the start of the next instant: 110 had another set than 100.
         assert_eq!(h.hold(imus, 9, 120, v(3.0), v(30.0)), Held::Switched);
+        assert!(!h.awaiting(), "110 had IMU 9 alone");
         assert_eq!(h.hold(imus, 9, 130, v(3.0), v(30.0)), Held::Held);
         assert_eq!(h.hold(imus, 5, 130, v(9.0), v(9.0)), Held::Unknown);
         assert_eq!(h.mean(), Some((v(3.0), v(30.0), 1)));
@@ -207,6 +221,7 @@ mod tests {
         assert_eq!((h.mean().unwrap().0, h.active()), (v(3.0), 1));
         assert_eq!(h.hold(imus, 4, 125, v(1.0), v(1.0)), Held::Standby, "no fail-back while the other is alive");
         assert_eq!(h.hold(imus, 9, 130, v(4.0), v(4.0)), Held::Held);
+        assert!(!h.awaiting(), "failover awaits no other IMU");
 
         // At the start, the first-listed IMU wins an instant both sample at,
         // whichever arrives first.

@@ -474,6 +474,11 @@ impl<const D: usize> Model for InsModel<D> {
         s.t_ns
     }
 
+    #[inline]
+    fn instant_open(s: &InsState<D>) -> bool {
+        s.imu.awaiting()
+    }
+
     fn initialised(s: &InsState<D>) -> bool {
         s.ready
     }

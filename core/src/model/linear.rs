@@ -292,6 +292,11 @@ impl Model for LinearModel {
         s.t_ns
     }
 
+    #[inline]
+    fn instant_open(s: &LinearState) -> bool {
+        s.imu.awaiting()
+    }
+
     fn x(s: &LinearState) -> &[f64] {
         s.kf.x().as_slice()
     }

@@ -162,6 +162,15 @@ pub trait Model {
     /// Filter time, ns, or `None` before the first sample.
     fn time_ns(state: &Self::State) -> Option<u64>;
 
+    /// Whether the IMU instant `state` holds is still open: several IMUs are
+    /// averaged ([`crate::frames::Combine::Average`]) and one that was in the
+    /// instant before has not yet sent its sample of this one
+    /// ([`held_imu::HeldImu::awaiting`]). The live loop publishes one snapshot
+    /// per IMU instant, after the sample that completes it.
+    fn instant_open(_state: &Self::State) -> bool {
+        false
+    }
+
     /// Whether the model has a usable estimate in this state (e.g. an INS has
     /// finished its alignment). The health says "initialising" until it has.
     fn initialised(_state: &Self::State) -> bool {

@@ -234,3 +234,157 @@ fn refused_samples_are_published_by_reason_while_nothing_else_is() {
         crate::summary::format(&summary).contains("invalid 52 (non-finite value 1, timestamp too far in the past 51)")
     );
 }
+
+/// The default config with two IMUs (ids 0 and 1) averaged, waiting `wait_ns`
+/// for an instant's last sample.
+fn two_imu_config(wait_ns: u64) -> Config {
+    let text = crate::config::default_config_text()
+        .replace("instant_wait_ns = 250_000", &format!("instant_wait_ns = {wait_ns}"))
+        + "[[sensor]]\nname = \"imu-a\"\nid = 0\nkinds = [\"imu\"]\n\
+           [[sensor]]\nname = \"imu-b\"\nid = 1\nkinds = [\"imu\"]\n";
+    let config = Config::parse(&text).unwrap();
+    assert_eq!(config.imu.instant_wait_ns, wait_ns);
+    config
+}
+
+/// A core whose config has two IMUs (ids 0 and 1) averaged, waiting `wait_ns`
+/// for an instant's last sample.
+fn two_imu_core(wait_ns: u64) -> LiveCore<LinearModel> {
+    let config = two_imu_config(wait_ns);
+    let engine = Engine::new(LinearModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
+    LiveCore::new(engine, config.health, Duration::from_secs(3600), now_ns())
+}
+
+/// Two IMUs averaged: one snapshot per instant, after its last sample, with
+/// the engine's estimate after it. An IMU that misses an instant delays its
+/// snapshot to the due time (once: the next instant expects the IMUs of this
+/// one), another sample publishes an open instant at once, and a wait of 0
+/// gives a snapshot per sample again.
+#[test]
+fn averaged_imus_publish_one_snapshot_per_instant() {
+    let mut core = two_imu_core(1_000_000);
+    let mut sink = VecSink::default();
+    let t0 = now_ns() - 500_000_000;
+    let imu = |k: u64, sensor: u32| -> Sample {
+        ImuSample::new(t0 + k * 1_000_000, sensor, k, [0.1, 0.0, 0.0], [0.0; 3]).into()
+    };
+    let config = two_imu_config(1_000_000);
+    let mut engine = Engine::new(LinearModel::from_config(&config).unwrap(), EngineConfig::from_config(&config));
+    let mut step = |s: &Sample| engine.insert(s, None, &mut |_| {});
+    let expect = |core: &LiveCore<LinearModel>, sink: &VecSink, n: usize, named: (u32, u64)| {
+        assert_eq!(sink.sent.len(), n);
+        let snap = sink.sent.last().unwrap();
+        assert_eq!((snap.input_sensor, snap.input_seq), named);
+        assert_eq!(snap.state(), LinearModel::x(&core.engine().latest().unwrap().state));
+        assert_eq!(core.instant_due(), None);
+    };
+    // The first instant: nothing known to wait for.
+    for s in [imu(0, 0), imu(0, 1)] {
+        core.handle(s, &mut sink);
+        step(&s);
+    }
+    expect(&core, &sink, 2, (1, 0));
+    for k in 1..50 {
+        core.handle(imu(k, 0), &mut sink);
+        step(&imu(k, 0));
+        assert!(core.instant_due().is_some(), "instant {k} open");
+        core.handle(imu(k, 1), &mut sink);
+        step(&imu(k, 1));
+        expect(&core, &sink, 2 + k as usize, (1, k));
+    }
+    // The replay engine, with a snapshot per instant, computed the same.
+    let last = sink.sent.last().unwrap();
+    assert_eq!(last.state(), LinearModel::x(&engine.latest().unwrap().state));
+    assert_eq!(last.covariance(), LinearModel::covariance(&engine.latest().unwrap().state));
+
+    // IMU 1 misses instant 50: nothing goes out before the due time, then the
+    // snapshot names IMU 0's sample.
+    core.handle(imu(50, 0), &mut sink);
+    let due = core.instant_due().expect("instant 50 open");
+    assert!(!core.publish_due(due - 1, &mut sink));
+    assert_eq!(sink.sent.len(), 51);
+    assert!(core.publish_due(due, &mut sink));
+    expect(&core, &sink, 52, (0, 50));
+    // Instant 51 expects IMU 0 alone: its sample publishes at once; IMU 1
+    // coming back publishes again.
+    core.handle(imu(51, 0), &mut sink);
+    expect(&core, &sink, 53, (0, 51));
+    core.handle(imu(51, 1), &mut sink);
+    expect(&core, &sink, 54, (1, 51));
+    // A fix while an instant is open carries it.
+    core.handle(imu(52, 0), &mut sink);
+    let fix = PositionSample::new(t0 + 52_000_000 + 1, 1, 0, [0.0; 3], COV);
+    core.handle(fix.into(), &mut sink);
+    assert_eq!(sink.sent.last().unwrap().input_kind, SampleKind::Position as u32);
+    expect(&core, &sink, 55, (1, 0));
+    // Instant 52 had IMU 0 alone: both samples of 53 publish. At the stop,
+    // an open instant is published.
+    core.handle(imu(53, 0), &mut sink);
+    expect(&core, &sink, 56, (0, 53));
+    core.handle(imu(53, 1), &mut sink);
+    core.handle(imu(54, 0), &mut sink);
+    assert_eq!(sink.sent.len(), 57);
+    core.settle_all(&mut sink);
+    expect(&core, &sink, 58, (0, 54));
+
+    // A wait of 0: a snapshot per sample.
+    let mut core = two_imu_core(0);
+    let mut sink = VecSink::default();
+    for k in 0..10 {
+        core.handle(imu(k, 0), &mut sink);
+        core.handle(imu(k, 1), &mut sink);
+    }
+    assert_eq!(sink.sent.len(), 20);
+}
+
+/// In the loop in event mode, an instant one IMU misses goes out at its due
+/// time though nothing else arrives: the wait ends then, not at the next
+/// housekeeping.
+#[test]
+fn the_loop_publishes_an_open_instant_when_it_is_due() {
+    let t0 = now_ns() - 500_000_000;
+    let imu = |k: u64, sensor: u32| -> Sample {
+        ImuSample::new(t0 + k * 1_000_000, sensor, k, [0.1, 0.0, 0.0], [0.0; 3]).into()
+    };
+    let mut core = two_imu_core(2_000_000);
+    let mut sink = VecSink::default();
+    for s in [imu(0, 0), imu(0, 1), imu(1, 0), imu(1, 1), imu(2, 0)] {
+        core.handle(s, &mut sink);
+    }
+    assert_eq!((sink.sent.len(), core.instant_due().is_some()), (3, true));
+    let (_, held_received) = (core.instant_due(), now_ns());
+    /// Nothing arrives; sleeps as asked and stops the loop after 20 ms of it.
+    struct Quiet<'a> {
+        stop: &'a AtomicBool,
+        waits: Vec<Duration>,
+    }
+    impl SampleSource for Quiet<'_> {
+        fn next(&mut self, _: Option<(u64, u8)>) -> Option<Sample> {
+            None
+        }
+        fn wait(&mut self, timeout: Duration) {
+            std::thread::sleep(timeout);
+            self.waits.push(timeout);
+            if self.waits.iter().sum::<Duration>() > Duration::from_millis(20) {
+                self.stop.store(true, Ordering::Relaxed);
+            }
+        }
+    }
+    struct Nothing;
+    impl LoopObserver for Nothing {
+        fn summary(&mut self, _: Summary) {}
+    }
+    let stop = AtomicBool::new(false);
+    let mut source = Quiet { stop: &stop, waits: Vec::new() };
+    run(&mut core, &mut source, &mut sink, WaitMode::Event, &stop, &mut Nothing);
+    // The first wait ended at the due time (2 ms), well before the next
+    // housekeeping (10 ms); the instant went out then, named after IMU 0's sample.
+    assert!(source.waits[0] <= Duration::from_millis(2), "{:?}", source.waits);
+    let held: Vec<&StateSnapshot> = sink.sent.iter().filter(|s| s.input_kind == SampleKind::Imu as u32).collect();
+    assert_eq!(held.len(), 4);
+    let snap = held[3];
+    assert_eq!((snap.input_sensor, snap.input_seq), (0, 2));
+    assert!(snap.publish_ns >= snap.input_received_ns + 2_000_000);
+    assert!(snap.publish_ns < held_received + 9_000_000, "published before the housekeeping was due");
+    assert_eq!(core.instant_due(), None);
+}

@@ -30,7 +30,7 @@ use scenario_args::SimArgs;
 
 use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
 use fusion_client::sim::{Arrival, ImuSim, Scenario, without_outages};
-use fusion_client::{Client, SampleKind, SensorPublishers, now_ns};
+use fusion_client::{Client, Sample, SampleKind, SensorPublishers, now_ns};
 use fusion_shared::jsonl::{format_sample, parse_sample};
 
 #[derive(Parser)]
@@ -313,7 +313,12 @@ fn publish_file(
     // fusiond's refusal counters, as its latest snapshot gave them.
     let mut rejections = [0u64; fusion_shared::snapshot::rejection::MAX];
     let mut pace: Option<(u64, u64)> = None; // (first timestamp, wall time of it)
-    for (i, line) in file.lines().enumerate() {
+    // The IMU samples of one instant published so far: fusiond publishes one
+    // snapshot for the instant, after whichever of them completes it, so the
+    // lockstep waits once, after the instant's last one.
+    let mut instant: Vec<Sample> = Vec::new();
+    let mut lines = file.lines().enumerate().peekable();
+    while let Some((i, line)) = lines.next() {
         if stop.load(Ordering::Relaxed) {
             break;
         }
@@ -345,15 +350,29 @@ fn publish_file(
         delivered += u64::from(publishers.publish(sample)?.is_some_and(|readers| readers > 0));
         published += 1;
         if let Some(state) = state.as_mut().filter(|_| !realtime) {
+            instant.push(sample);
+            let same_instant = |next: &Sample| {
+                sample.kind() == SampleKind::Imu && next.kind() == SampleKind::Imu && next.t_ns() == sample.t_ns()
+            };
+            if lines
+                .peek()
+                .and_then(|(_, l)| l.as_deref().ok())
+                .and_then(|l| parse_sample(l).ok())
+                .is_some_and(|n| same_instant(&n))
+            {
+                continue;
+            }
             let deadline = std::time::Instant::now() + ACK_TIMEOUT;
             let acknowledged = loop {
                 let left = deadline.saturating_duration_since(std::time::Instant::now());
                 match state.wait_next(left)? {
                     Some(s)
-                        if s.input_kind == sample.kind() as u32
-                            && s.input_sensor == sample.sensor()
-                            && s.input_seq == sample.seq()
-                            && s.input_t_ns == sample.t_ns() =>
+                        if instant.iter().any(|sample| {
+                            s.input_kind == sample.kind() as u32
+                                && s.input_sensor == sample.sensor()
+                                && s.input_seq == sample.seq()
+                                && s.input_t_ns == sample.t_ns()
+                        }) =>
                     {
                         break true;
                     }
@@ -361,6 +380,7 @@ fn publish_file(
                     None => break false,
                 }
             };
+            instant.clear();
             unacknowledged += u64::from(!acknowledged);
             if acknowledged {
                 (last_answer, unanswered) = (std::time::Instant::now(), 0);

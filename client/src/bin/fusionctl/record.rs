@@ -57,6 +57,9 @@ struct Input {
     received_ns: u64,
     seen_ns: u64,
     sample: Option<Sample>,
+    /// An IMU sample placed before the sample its instant's snapshot names
+    /// (it had none of its own), until a snapshot of its own says otherwise.
+    inferred: bool,
 }
 
 /// A received sample no snapshot has reported yet.
@@ -72,7 +75,7 @@ pub struct Counts {
     pub samples: u64,
     /// Snapshots written.
     pub snapshots: u64,
-    /// Samples written that no snapshot reported.
+    /// Samples written that no snapshot reported (nor their IMU instant's).
     pub unreported: u64,
     /// Samples fusiond processed that the recorder never received.
     pub missed: u64,
@@ -236,8 +239,19 @@ impl<W: Write + std::io::Seek> Recorder<W> {
         let highest = self.highest_seq.entry(stream).or_insert(seq);
         *highest = (*highest).max(seq);
         let key = key_of(&sample);
-        match self.inputs.iter_mut().find(|i| i.sample.is_none() && i.key == key) {
-            Some(input) => input.sample = Some(sample),
+        if let Some(input) = self.inputs.iter_mut().find(|i| i.sample.is_none() && i.key == key) {
+            input.sample = Some(sample);
+            return;
+        }
+        // An IMU sample of an instant whose snapshot came first, named after
+        // another of its samples: it was processed just before that one.
+        let instant = |i: &Input| i.key.0 == key.0 && i.key.3 == key.3 && i.key != key;
+        match self.inputs.iter().position(instant).filter(|_| sample.kind() == SampleKind::Imu) {
+            Some(at) => {
+                let received_ns = self.inputs[at].received_ns;
+                let input = Input { key, received_ns, seen_ns: now, sample: Some(sample), inferred: true };
+                self.inputs.insert(at, input);
+            }
             None => self.unreported.push_back(Unreported { sample, received_ns: now }),
         }
     }
@@ -266,14 +280,29 @@ impl<W: Write + std::io::Seek> Recorder<W> {
             self.write(self.channels.location, s.publish_ns, s.t_ns)?;
         }
         let key = (s.input_kind, s.input_sensor, s.input_seq, s.input_t_ns);
-        let sample =
-            self.unreported.iter().position(|u| key_of(&u.sample) == key).and_then(|i| self.unreported.remove(i));
-        self.inputs.push_back(Input {
-            key,
-            received_ns: s.input_received_ns,
-            seen_ns: now,
-            sample: sample.map(|u| u.sample),
+        if s.input_kind == SampleKind::Imu as u32 {
+            // Several IMUs averaged: the instant's snapshot names the sample that
+            // completed it; the instant's other samples, processed before it,
+            // have no snapshot of their own.
+            while let Some(i) = self.unreported.iter().position(|u| {
+                let k = key_of(&u.sample);
+                k.0 == key.0 && k.3 == key.3 && k != key
+            }) {
+                let u = self.unreported.remove(i).expect("found");
+                let key = key_of(&u.sample);
+                let (received_ns, sample) = (u.received_ns, Some(u.sample));
+                self.inputs.push_back(Input { key, received_ns, seen_ns: now, sample, inferred: true });
+            }
+        }
+        // A sample taken for an instant's earlier one that has a snapshot of
+        // its own after all (the first instant, or one published at its due
+        // time): it goes here.
+        let inferred = self.inputs.iter().position(|i| i.inferred && i.key == key).and_then(|i| self.inputs.remove(i));
+        let sample = inferred.and_then(|i| i.sample).or_else(|| {
+            let at = self.unreported.iter().position(|u| key_of(&u.sample) == key)?;
+            self.unreported.remove(at).map(|u| u.sample)
         });
+        self.inputs.push_back(Input { key, received_ns: s.input_received_ns, seen_ns: now, sample, inferred: false });
         Ok(())
     }
 

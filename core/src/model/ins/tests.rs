@@ -305,7 +305,7 @@ fn when_the_imus_in_use_change_the_bias_variances_grow_back() {
     };
     let f = Vector3::new(0.0, 0.0, G);
     for combine in [Combine::Failover, Combine::Average] {
-        let config = ImuConfig { combine, failover_after_ns: 20 };
+        let config = ImuConfig { combine, failover_after_ns: 20, ..Default::default() };
         let frames =
             crate::frames::Frames::from_config(None, &[imu(0), imu(1)], config, &crate::measurement::Kinds).unwrap();
         let m = InsModel::new(noise(), G, x0(), p0(), None, 0).unwrap().with_frames(frames);
