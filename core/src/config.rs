@@ -168,7 +168,7 @@ combine = "average"
 failover_after_ns = 20_000_000
 # Average, live: one snapshot per IMU instant, after the sample that completes it;
 # when an IMU is missing at an instant, this long after the last one came, ns
-# (0: a snapshot after every sample).
+# (--wait event: as soon as fusiond would sleep; 0: a snapshot after every sample).
 instant_wait_ns = 250_000
 
 # State readers at once (fusionctl, applications); one more is refused with an

@@ -196,7 +196,8 @@ pub struct ImuConfig {
     /// Average, live: the snapshot of an IMU instant goes out after the sample
     /// that completes it (every IMU of the instant before has sent one); when
     /// one is missing, at the latest this long after the instant's last sample
-    /// arrived, ns. 0: a snapshot after every sample. Estimates do not depend on it.
+    /// arrived, ns (with `--wait event`, as soon as the loop would sleep). 0: a
+    /// snapshot after every sample. Estimates do not depend on it.
     pub instant_wait_ns: u64,
 }
 

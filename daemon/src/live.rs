@@ -14,8 +14,9 @@
 //! nothing; the sample that completes it, or any other sample, publishes the
 //! instant's snapshot, and an IMU that misses the instant delays it by at most
 //! [`ImuConfig::instant_wait_ns`](crate::frames::ImuConfig::instant_wait_ns).
-//! No rewind slice runs while an instant is open, and in event mode the loop
-//! looks for its last sample for [`OPEN_INSTANT_SPIN_NS`] before it sleeps. Every
+//! In event mode the instant's snapshot also goes out when the loop has
+//! nothing else to do and would sleep. No rewind slice runs while an instant
+//! is open. Every
 //! [`HOUSEKEEPING_NS`] it re-evaluates the health (a stream that stopped is
 //! marked stale even though nothing arrives, and a health-only snapshot says so),
 //! refreshes the sink's connections, tells the [`LoopObserver`] that the loop
@@ -74,11 +75,6 @@ pub const SLICE_NS: u64 = 2_000;
 /// Under a backlog that leaves no idle turn, a slice of a pending rewind still
 /// runs this often, ns, so that a correction lands within a few milliseconds.
 pub const SLICE_GAP_NS: u64 = 1_000_000;
-
-/// Event mode: after a turn that left an IMU instant open, the loop looks for
-/// the instant's last sample this long without sleeping (it comes within
-/// microseconds; a wake-up costs several), ns.
-pub const OPEN_INSTANT_SPIN_NS: u64 = 20_000;
 
 /// How the daemon waits for samples.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -490,12 +486,19 @@ impl<M: Steps> LiveCore<M> {
         more
     }
 
+    /// Publishes an open IMU instant's snapshot now, and wakes the readers
+    /// (event mode, before the loop sleeps).
+    pub fn publish_open(&mut self, sink: &mut impl SnapshotSink) {
+        if self.publish_due(u64::MAX, sink) {
+            self.published_health = self.health_now;
+            sink.flush();
+        }
+    }
+
     /// Publishes an open instant's snapshot, then settles a pending correction
     /// whole and publishes the settled estimate (at shutdown).
     pub fn settle_all(&mut self, sink: &mut impl SnapshotSink) {
-        if self.publish_due(u64::MAX, sink) {
-            sink.flush();
-        }
+        self.publish_open(sink);
         if self.correction_pending() {
             while self.engine.settle_step() {
                 self.record_first_outcomes();
@@ -546,9 +549,6 @@ pub fn run<M: Steps>(
     let mut next_warm = now_ns();
     // When a slice of a pending rewind is due even if samples keep coming.
     let mut slice_due = next_warm + SLICE_GAP_NS;
-    // Event mode: until when the loop looks for an open instant's last sample
-    // without sleeping.
-    let mut open_spin_until = 0;
     while !shutdown.load(Ordering::Relaxed) {
         let taken = core.turn(source, sink);
         let now = now_ns();
@@ -574,7 +574,6 @@ pub fn run<M: Steps>(
         }
         if taken > 0 {
             next_warm = now + WARM_NS;
-            open_spin_until = now + OPEN_INSTANT_SPIN_NS;
             continue;
         }
         match wait {
@@ -586,14 +585,14 @@ pub fn run<M: Steps>(
                 }
                 std::hint::spin_loop();
             }
-            // An open IMU instant's last sample is due within microseconds:
-            // look for it without sleeping for up to OPEN_INSTANT_SPIN_NS (a
-            // wake-up costs more), then sleep until the instant is due.
-            WaitMode::Event if core.instant_due().is_some() && now < open_spin_until => std::hint::spin_loop(),
+            // Nothing waits and the loop would sleep: an open instant's
+            // snapshot goes out first. Its last sample would wait for a
+            // wake-up (several µs) anyway, and on a loaded machine the
+            // sender of that sample may be the one the sleep lets run.
+            WaitMode::Event if core.instant_due().is_some() => core.publish_open(sink),
             WaitMode::Event => {
-                let until =
-                    core.instant_due().map_or(core.next_housekeeping(), |due| due.min(core.next_housekeeping()));
-                source.wait(Duration::from_nanos(until.saturating_sub(now_ns()).max(1)));
+                let timeout = Duration::from_nanos(core.next_housekeeping().saturating_sub(now_ns()).max(1));
+                source.wait(timeout);
             }
         }
     }

@@ -203,7 +203,9 @@ fn c_reads_one_snapshot_per_imu_instant() {
     let config = common::linear_config(None)
         + "[[sensor]]\nname = \"imu-a\"\nid = 0\nkinds = [\"imu\"]\n\
            [[sensor]]\nname = \"imu-b\"\nid = 1\nkinds = [\"imu\"]\n[imu]\ncombine = \"average\"\n";
-    let mut daemon = Daemon::start(&domain, &config, "event");
+    // Spin: the daemon never sleeps between an instant's samples (in event
+    // mode an instant's snapshot also goes out when it would).
+    let mut daemon = Daemon::start(&domain, &config, "spin");
     let (ok, stdout, stderr) = run(&instants, &domain, &domain.namespace);
     assert!(ok, "{stdout}{stderr}");
     // The first instant has nothing to wait for: both of its samples publish.

@@ -388,7 +388,9 @@ fn python_reads_one_snapshot_per_imu_instant() {
     let config = common::linear_config(None)
         + "[[sensor]]\nname = \"imu-a\"\nid = 0\nkinds = [\"imu\"]\n\
            [[sensor]]\nname = \"imu-b\"\nid = 1\nkinds = [\"imu\"]\n[imu]\ncombine = \"average\"\n";
-    let mut daemon = Daemon::start(&domain, &config, "event");
+    // Spin: the daemon never sleeps between an instant's samples (in event
+    // mode an instant's snapshot also goes out when it would).
+    let mut daemon = Daemon::start(&domain, &config, "spin");
     let out = common::python_command(&domain.domain, "tests/instants.py", &[&domain.namespace]).output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");

@@ -38,12 +38,18 @@ fn drive() -> Vec<Sample> {
 
 /// Records a live run of `samples` and returns the recording's path.
 fn record_live_run(domain: &TestDomain, dir: &Path, samples: &[Sample]) -> std::path::PathBuf {
-    record_live_run_with(domain, dir, samples, &config(0.3))
+    record_live_run_with(domain, dir, samples, &config(0.3), "event")
 }
 
-/// [`record_live_run`] of a fusiond run with `config`.
-fn record_live_run_with(domain: &TestDomain, dir: &Path, samples: &[Sample], config: &str) -> std::path::PathBuf {
-    let mut daemon = Daemon::start(domain, config, "event");
+/// [`record_live_run`] of a fusiond run with `config`, waiting as `wait` says.
+fn record_live_run_with(
+    domain: &TestDomain,
+    dir: &Path,
+    samples: &[Sample],
+    config: &str,
+    wait: &str,
+) -> std::path::PathBuf {
+    let mut daemon = Daemon::start(domain, config, wait);
     let mcap = dir.join("run.mcap");
     let mut recorder = Running(
         Command::new(workspace_bin("fusionctl"))
@@ -297,7 +303,9 @@ fn a_live_run_with_averaged_imus_replays_bit_for_bit() {
          kinds = [\"imu\"]\n[imu]\ncombine = \"average\"\n",
         config(0.3)
     );
-    let mcap = record_live_run_with(&domain, dir.path(), &samples, &config);
+    // Spin: the daemon never sleeps between an instant's samples (in event
+    // mode an instant's snapshot also goes out when it would).
+    let mcap = record_live_run_with(&domain, dir.path(), &samples, &config, "spin");
     assert!(domain.files().is_empty(), "left in /dev/shm: {:?}", domain.files());
     let (ok, stderr) = replay(dir.path(), &config, &mcap, &["--compare", "--output", "/dev/null"]);
     assert!(ok, "{stderr}");
