@@ -1,6 +1,7 @@
 //! Runs what `fusiond run` does per sample, without iceoryx2: engine insert,
 //! health, and the snapshot filled in place (in a chunk that holds the previous
-//! one, as a loaned chunk would). For an instruction-count profile under
+//! one, as a loaned chunk would); several IMUs averaged fill one snapshot per
+//! IMU instant, after its last sample, as the live loop does. For an instruction-count profile under
 //! callgrind of the daemon's own time:
 //!
 //! ```sh
@@ -205,6 +206,12 @@ fn handle<M: Steps>(
         _ => return,
     };
     engine.take_first_outcomes(|slot, outcome, exact| health.record(slot, outcome, exact));
+    // As the live loop: an IMU sample that leaves its instant open (several
+    // IMUs averaged) publishes nothing; the instant's last one does.
+    if replayed == 0 && matches!(sample, Sample::Imu(_)) && engine.latest().is_some_and(|e| M::instant_open(&e.state))
+    {
+        return;
+    }
     let initialised = engine.latest().is_some_and(|e| M::initialised(&e.state));
     let reinitialisations = engine.latest().map_or(0, |e| M::diagnostics(&e.state).reinitialisations);
     let now = health.evaluate(engine.sensors(), received_ns, initialised, reinitialisations);
