@@ -51,11 +51,6 @@ pub(super) struct KindPort<T: WireSample> {
     /// turn of the spin loop delays the sample that arrives meanwhile: the
     /// subscriber of a kind that no process publishes is not polled.
     active: bool,
-    /// Polled empty this turn: not polled again until the turn ends. A sample
-    /// of another kind taken in the same turn (the second IMU sample of an
-    /// instant) does not wait for this port's empty polls; one that arrives
-    /// here meanwhile is taken in the next turn.
-    empty: bool,
 }
 
 /// A [`KindPort`] of any wire type.
@@ -86,7 +81,6 @@ impl<T: WireSample> KindPort<T> {
             turn_oldest: None,
             blocked: false,
             active: true,
-            empty: false,
         };
         port.refresh();
         port
@@ -125,9 +119,8 @@ impl<T: WireSample> KindPort<T> {
 
 impl<T: WireSample> Port for KindPort<T> {
     fn poll(&mut self, errors: &mut u64, newest: Option<Key>) -> Heads {
-        if self.pending.is_none() && self.active && !self.empty {
+        if self.pending.is_none() && self.active {
             self.receive(errors, newest);
-            self.empty = self.pending.is_none() && !self.blocked;
         }
         // A late head steps aside into the late slot, and the sample behind it
         // is received: it is merged in time order, not held back until late.
@@ -161,6 +154,6 @@ impl<T: WireSample> Port for KindPort<T> {
 
     fn release(&mut self) {
         self.held.clear();
-        (self.turn_oldest, self.blocked, self.empty) = (None, false, false);
+        (self.turn_oldest, self.blocked) = (None, false);
     }
 }
