@@ -208,8 +208,7 @@ fn handle<M: Steps>(
     engine.take_first_outcomes(|slot, outcome, exact| health.record(slot, outcome, exact));
     // As the live loop: an IMU sample that leaves its instant open (several
     // IMUs averaged) publishes nothing; the instant's last one does.
-    if replayed == 0 && matches!(sample, Sample::Imu(_)) && engine.latest().is_some_and(|e| M::instant_open(&e.state))
-    {
+    if replayed == 0 && matches!(sample, Sample::Imu(_)) && engine.latest().is_some_and(|e| M::instant_open(&e.state)) {
         return;
     }
     let initialised = engine.latest().is_some_and(|e| M::initialised(&e.state));
