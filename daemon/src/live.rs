@@ -54,7 +54,10 @@ use crate::snapshot::{self, Input};
 use crate::summary::{Rejections, Summary};
 use refusals::{ModelRefusalWarnings, RefusalWarnings};
 
+mod instant;
 mod refusals;
+
+use instant::HeldInstant;
 
 /// Health and housekeeping period.
 pub const HOUSEKEEPING_NS: u64 = 10_000_000;
@@ -166,18 +169,6 @@ pub struct LiveCore<M: Steps> {
     instant_wait_ns: u64,
     /// The snapshot of an open IMU instant, held back until its last sample.
     held: Option<HeldInstant>,
-}
-
-/// An IMU instant whose snapshot waits for the instant's last sample
-/// ([`Model::instant_open`](crate::model::Model::instant_open)).
-#[derive(Clone, Copy)]
-struct HeldInstant {
-    /// Its newest sample, which the snapshot names if it goes out at `due_ns`.
-    sample: Sample,
-    received_ns: u64,
-    /// When the snapshot goes out whatever comes: the bounded wait from the
-    /// first sample held.
-    due_ns: u64,
 }
 
 impl<M: Steps> LiveCore<M> {
@@ -299,15 +290,6 @@ impl<M: Steps> LiveCore<M> {
         self.publish_sample(sink, &sample, received_ns, replayed, received_ns);
     }
 
-    /// Whether `sample`, just processed in order, is an IMU sample that leaves
-    /// its instant open (another IMU of the instant before has yet to send).
-    #[inline]
-    fn opens_instant(&self, sample: &Sample) -> bool {
-        self.instant_wait_ns > 0
-            && sample.kind() == SampleKind::Imu
-            && self.engine.latest().is_some_and(|e| M::instant_open(&e.state))
-    }
-
     /// Publishes the snapshot of `sample` (processed, `replayed` later samples
     /// re-processed) with the health evaluated at `now`, and records its latency.
     fn publish_sample(
@@ -326,24 +308,6 @@ impl<M: Steps> LiveCore<M> {
         {
             // Out-of-range values (clock skew between processes) are not recorded.
             let _ = self.latency.record(published_ns.saturating_sub(sample.sent_ns()));
-        }
-    }
-
-    /// When the snapshot of an open IMU instant goes out at the latest, ns.
-    pub fn instant_due(&self) -> Option<u64> {
-        self.held.map(|h| h.due_ns)
-    }
-
-    /// Publishes the snapshot of an open IMU instant whose due time has come
-    /// by `now` (an IMU missed the instant). Returns whether it did.
-    pub fn publish_due(&mut self, now: u64, sink: &mut impl SnapshotSink) -> bool {
-        match self.held {
-            Some(h) if now >= h.due_ns => {
-                self.held = None;
-                self.publish_sample(sink, &h.sample, h.received_ns, 0, now.min(now_ns()));
-                true
-            }
-            _ => false,
         }
     }
 
@@ -484,15 +448,6 @@ impl<M: Steps> LiveCore<M> {
             self.landed(sink);
         }
         more
-    }
-
-    /// Publishes an open IMU instant's snapshot now, and wakes the readers
-    /// (event mode, before the loop sleeps).
-    pub fn publish_open(&mut self, sink: &mut impl SnapshotSink) {
-        if self.publish_due(u64::MAX, sink) {
-            self.published_health = self.health_now;
-            sink.flush();
-        }
     }
 
     /// Publishes an open instant's snapshot, then settles a pending correction

@@ -49,6 +49,29 @@ pub fn linear_config(gating: Option<f64>) -> String {
     c
 }
 
+/// The `linear` config with two IMUs (ids 0 and 1) averaged, for the clients'
+/// tests of one snapshot per IMU instant.
+pub fn two_averaged_imus_config() -> String {
+    linear_config(None)
+        + "[[sensor]]\nname = \"imu-a\"\nid = 0\nkinds = [\"imu\"]\n\
+           [[sensor]]\nname = \"imu-b\"\nid = 1\nkinds = [\"imu\"]\n[imu]\ncombine = \"average\"\n"
+}
+
+/// What a client's `instants` program printed (`client/tests/c/instants.c`,
+/// `client/python/tests/instants.py`): the first instant has nothing to wait
+/// for (both of its samples publish), every later one has one snapshot, and an
+/// instant one IMU missed got its snapshot after the default wait (0.25 ms).
+pub fn assert_one_snapshot_per_instant(said: &str) {
+    assert!(said.contains("100 instants: snapshots of the first 2, of each later one 1 to 1"), "{said}");
+    let waited_us: f64 = said
+        .split("its snapshot after ")
+        .nth(1)
+        .and_then(|r| r.split(" us").next())
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or_else(|| panic!("{said}"));
+    assert!(waited_us >= 250.0, "the default wait is 0.25 ms: {said}");
+}
+
 /// Writes a scenario's samples as replay input, in arrival order.
 pub fn write_input(path: &Path, scenario: &Scenario) {
     let mut f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
