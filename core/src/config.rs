@@ -167,7 +167,7 @@ gyro_range_radps = 35.0      # 2000 deg/s
 combine = "average"
 failover_after_ns = 20_000_000
 # Average, live: one snapshot per IMU instant, after the sample that completes it;
-# when an IMU is missing at an instant, this long after the last one came, ns
+# when an IMU is missing at an instant, this long after its first sample came, ns
 # (--wait event: as soon as fusiond would sleep; 0: a snapshot after every sample).
 instant_wait_ns = 250_000
 

@@ -195,7 +195,7 @@ pub struct ImuConfig {
     pub failover_after_ns: u64,
     /// Average, live: the snapshot of an IMU instant goes out after the sample
     /// that completes it (every IMU of the instant before has sent one); when
-    /// one is missing, at the latest this long after the instant's last sample
+    /// one is missing, at the latest this long after the instant's first sample
     /// arrived, ns (with `--wait event`, as soon as the loop would sleep). 0: a
     /// snapshot after every sample. Estimates do not depend on it.
     pub instant_wait_ns: u64,
