@@ -317,13 +317,18 @@ fn publish_file(
     // snapshot for the instant, after whichever of them completes it, so the
     // lockstep waits once, after the instant's last one.
     let mut instant: Vec<Sample> = Vec::new();
-    let mut lines = file.lines().enumerate().peekable();
+    // Each line parsed once (`None`: blank), so that the next one can be looked at.
+    let mut lines = file
+        .lines()
+        .enumerate()
+        .map(|(i, line)| (i, line.map(|l| (!l.trim().is_empty()).then(|| parse_sample(&l)))))
+        .peekable();
     while let Some((i, line)) = lines.next() {
         if stop.load(Ordering::Relaxed) {
             break;
         }
-        let line = match line {
-            Ok(line) => line,
+        let parsed = match line {
+            Ok(parsed) => parsed,
             Err(e) if e.kind() == std::io::ErrorKind::InvalidData => anyhow::bail!(
                 "{}: line {} is not text: the file is not JSON lines (`fusion-sim record` writes them; an MCAP \
                  recording is replayed with `fusiond replay --input`)",
@@ -332,10 +337,8 @@ fn publish_file(
             ),
             Err(e) => return Err(anyhow::Error::new(e).context(format!("cannot read {}", path.display()))),
         };
-        if line.trim().is_empty() {
-            continue;
-        }
-        let sample = match parse_sample(&line) {
+        let Some(parsed) = parsed else { continue };
+        let sample = match parsed {
             Ok(s) => s,
             Err(e) => {
                 eprintln!("fusion-sim: line {}: {e}", i + 1);
@@ -356,9 +359,9 @@ fn publish_file(
             };
             if lines
                 .peek()
-                .and_then(|(_, l)| l.as_deref().ok())
-                .and_then(|l| parse_sample(l).ok())
-                .is_some_and(|n| same_instant(&n))
+                .and_then(|(_, l)| l.as_ref().ok())
+                .and_then(|p| p.as_ref()?.as_ref().ok())
+                .is_some_and(same_instant)
             {
                 continue;
             }

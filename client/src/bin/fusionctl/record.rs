@@ -51,6 +51,12 @@ fn key_of(s: &Sample) -> Key {
     (s.kind() as u32, s.sensor(), s.seq(), s.t_ns())
 }
 
+/// Whether `a` is another IMU sample of the instant of IMU sample `b` (several
+/// IMUs averaged: fusiond publishes one snapshot per instant).
+fn same_instant(a: Key, b: Key) -> bool {
+    a.0 == SampleKind::Imu as u32 && b.0 == a.0 && a.3 == b.3 && a != b
+}
+
 /// A processed input, in fusiond's order, and its sample once received.
 struct Input {
     key: Key,
@@ -245,8 +251,7 @@ impl<W: Write + std::io::Seek> Recorder<W> {
         }
         // An IMU sample of an instant whose snapshot came first, named after
         // another of its samples: it was processed just before that one.
-        let instant = |i: &Input| i.key.0 == key.0 && i.key.3 == key.3 && i.key != key;
-        match self.inputs.iter().position(instant).filter(|_| sample.kind() == SampleKind::Imu) {
+        match self.inputs.iter().position(|i| same_instant(i.key, key)) {
             Some(at) => {
                 let received_ns = self.inputs[at].received_ns;
                 let input = Input { key, received_ns, seen_ns: now, sample: Some(sample), inferred: true };
@@ -280,19 +285,13 @@ impl<W: Write + std::io::Seek> Recorder<W> {
             self.write(self.channels.location, s.publish_ns, s.t_ns)?;
         }
         let key = (s.input_kind, s.input_sensor, s.input_seq, s.input_t_ns);
-        if s.input_kind == SampleKind::Imu as u32 {
-            // Several IMUs averaged: the instant's snapshot names the sample that
-            // completed it; the instant's other samples, processed before it,
-            // have no snapshot of their own.
-            while let Some(i) = self.unreported.iter().position(|u| {
-                let k = key_of(&u.sample);
-                k.0 == key.0 && k.3 == key.3 && k != key
-            }) {
-                let u = self.unreported.remove(i).expect("found");
-                let key = key_of(&u.sample);
-                let (received_ns, sample) = (u.received_ns, Some(u.sample));
-                self.inputs.push_back(Input { key, received_ns, seen_ns: now, sample, inferred: true });
-            }
+        // Several IMUs averaged: the instant's snapshot names the sample that
+        // completed it; the instant's other samples, processed before it, have
+        // no snapshot of their own.
+        while let Some(i) = self.unreported.iter().position(|u| same_instant(key_of(&u.sample), key)) {
+            let u = self.unreported.remove(i).expect("found");
+            let (received_ns, sample) = (u.received_ns, Some(u.sample));
+            self.inputs.push_back(Input { key: key_of(&u.sample), received_ns, seen_ns: now, sample, inferred: true });
         }
         // A sample taken for an instant's earlier one that has a snapshot of
         // its own after all (the first instant, or one published at its due
