@@ -44,11 +44,13 @@ fn imu_value(model: &str) -> ([f64; 3], [f64; 3]) {
 /// geodetic GNSS with a lever arm and odometry) or `vehicle-late` (the same with
 /// GNSS velocity, the GNSS samples 80–120 ms late and the odometry 10–30 ms),
 /// `vehicle21` (the largest state: the vehicle set with the odometry scale, a
-/// barometer and a pose sensor's estimated map frame, 21 error states).
+/// barometer and a pose sensor's estimated map frame, 21 error states);
+/// `vehicle-receipt` is `vehicle` with the IMU samples stamped on receipt
+/// ([`Prober::stamped_on_receipt`]).
 fn config_of(model: &str) -> &'static str {
     match model {
         "ins" => INS_CONFIG,
-        "vehicle" => VEHICLE_CONFIG,
+        "vehicle" | "vehicle-receipt" => VEHICLE_CONFIG,
         "vehicle-late" => VEHICLE_LATE_CONFIG,
         "vehicle21" => VEHICLE21_CONFIG,
         _ => LINEAR_CONFIG,
@@ -329,7 +331,7 @@ fn e2e_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
     // 2. End to end, publisher and reader in one process, in blocks that take
     //    turns with blocks of raw ping-pong (the other side paused); then the
     //    fan-out case with the publisher in a process of its own.
-    for model in ["linear", "ins", "vehicle", "vehicle-late", "vehicle21"] {
+    for model in ["linear", "ins", "vehicle", "vehicle-receipt", "vehicle-late", "vehicle21"] {
         for mode in [Mode::Spin, Mode::Event] {
             let namespace = format!("fusion-bench-{pid}-{model}-{}", mode.name());
             let rig = start_rig(fusiond, &namespace, model, mode)?;
@@ -341,6 +343,7 @@ fn e2e_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
             let per_instant = if model.starts_with("vehicle") { 2 } else { 1 };
             let mut prober = match model {
                 "vehicle" => Prober::vehicle(&rig.client, mode)?,
+                "vehicle-receipt" => Prober::vehicle(&rig.client, mode)?.stamped_on_receipt(),
                 "vehicle-late" => Prober::vehicle_late(&rig.client, mode)?,
                 "vehicle21" => Prober::vehicle21(&rig.client, mode)?,
                 _ => Prober::new(&rig.client, mode, imu_value(model))?,
@@ -367,6 +370,7 @@ fn e2e_rows(run: &Run) -> anyhow::Result<Vec<Row>> {
             pong.resume()?;
             pinger.finish()?;
             let name = match model {
+                "vehicle-receipt" => "fusiond vehicle, IMU stamped on receipt".to_string(),
                 "vehicle-late" => "fusiond vehicle, late GNSS/odometry".to_string(),
                 "vehicle21" => "fusiond vehicle, 21 states (+scale, baro, pose frame)".to_string(),
                 _ => format!("fusiond {model}"),

@@ -10,6 +10,10 @@
 //! callgrind_annotate --inclusive=yes /tmp/cg.out
 //! ```
 //!
+//! With `--toggle-collect='daemon_steps::handle*'` callgrind counts the
+//! latency path alone: the samples' handling, without the idle time's work
+//! (settling rewinds, stepping ahead to the next instant).
+//!
 //! With a third argument `time`, each sample's handling is timed and the p50 and
 //! p99 per sample kind are printed (the first and the second IMU sample of an
 //! instant apart).
@@ -23,8 +27,10 @@
 //! barometer and a pose sensor's map frame, with their samples). `linear-late`
 //! and `ins-late`: one IMU at 1 kHz and, every 100th instant, a position fix 100 ms old arriving just before the IMU sample
 //! (the latency bench's late-data rows). Samples are inserted as the live loop
-//! does ([`Engine::insert_deferred`]); a pending rewind is settled after each
-//! instant, untimed, as the loop does in its idle time.
+//! does ([`Engine::insert_deferred`]); after each instant, untimed, as the loop
+//! does in its idle time, a pending rewind is settled and the estimate stepped
+//! ahead to the next instant ([`Engine::step_ahead`]). The samples are stamped
+//! on the IMU's 1 kHz grid.
 
 use std::hint::black_box;
 
@@ -147,6 +153,7 @@ fn run<M: Steps>(model: M, config: &Config, n: u64, time: bool, instant: impl Fn
         if prev_was_imu && !(imu && last_imu_t == Some(t)) {
             while engine.settle_step() {}
             engine.take_first_outcomes(|slot, outcome, exact| health.record(slot, outcome, exact));
+            engine.step_ahead();
         }
         let start = std::time::Instant::now();
         handle(&mut engine, &mut health, black_box(&mut chunk), sample, t + 500);
@@ -167,6 +174,8 @@ fn run<M: Steps>(model: M, config: &Config, n: u64, time: bool, instant: impl Fn
     if time {
         report(times);
     }
+    let stats = engine.stats();
+    eprintln!("stepped ahead {}, of which used {}", stats.stepped_ahead, stats.stepped_from_ahead);
 }
 
 /// Prints the p50 and p99 of each sample name, and of every IMU sample.

@@ -260,6 +260,11 @@ impl Default for EndToEnd {
 /// the GNSS fix and Doppler velocity arrive 80–120 ms after their time of
 /// validity and the odometry 10–30 ms after, each published just before the IMU
 /// samples of the instant it arrives at.
+///
+/// The IMU samples are stamped on the IMU's own clock: the pacer's tick, on a
+/// grid a period apart, as a sensor with hardware timestamps stamps them
+/// ([`Prober::stamped_on_receipt`]: with the host's clock when sent instead,
+/// a driver that stamps on receipt). Either way the latency is timed from the send.
 pub struct Prober {
     imu: fusion_client::ImuPublisher,
     pos: fusion_client::PositionPublisher,
@@ -268,6 +273,8 @@ pub struct Prober {
     mode: Mode,
     imu_value: ([f64; 3], [f64; 3]),
     seq: u64,
+    /// IMU samples stamped with the host's clock at their send, not the tick.
+    on_receipt: bool,
 }
 
 /// The further publishers of the vehicle rows.
@@ -316,7 +323,7 @@ impl Prober {
         imu.set_wake(mode == Mode::Event);
         pos.set_wake(mode == Mode::Event);
         let state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER)?;
-        Ok(Self { imu, pos, vehicle: None, state, mode, imu_value, seq: 0 })
+        Ok(Self { imu, pos, vehicle: None, state, mode, imu_value, seq: 0, on_receipt: false })
     }
 
     /// The vehicle prober (see the type's docs; the daemon runs [`VEHICLE_CONFIG`]).
@@ -361,6 +368,13 @@ impl Prober {
         Ok(p)
     }
 
+    /// The prober with its IMU samples stamped with the host's clock when sent
+    /// (a few µs off the tick, different at each), not on the IMU's clock.
+    pub fn stamped_on_receipt(mut self) -> Self {
+        self.on_receipt = true;
+        self
+    }
+
     /// `count` IMU samples at `rate_hz`; all but the first `warmup` are recorded.
     pub fn run(&mut self, count: u64, warmup: u64, rate_hz: f64, out: &mut EndToEnd) -> anyhow::Result<()> {
         self.run_paced(count, warmup, Pacer::new(rate_hz), out)
@@ -371,8 +385,8 @@ impl Prober {
         for k in 0..count {
             let seq = self.seq;
             self.seq += 1;
-            pacer.wait();
-            let t = now_ns();
+            let tick = pacer.wait();
+            let t = if self.on_receipt { now_ns() } else { tick };
             let cov = [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64];
             match &mut self.vehicle {
                 None if seq % 100 == 50 => {

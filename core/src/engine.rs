@@ -25,6 +25,15 @@
 //! function of the state before it and the sample. A stale entry is never handed
 //! out as final: one about to leave the history is re-stepped first.
 //! [`Engine::insert`] is `insert_deferred` followed by settling everything.
+//!
+//! The propagation can come early. [`Engine::step_ahead`] propagates the newest
+//! state, in the caller's idle time, to where the model expects its next input
+//! (the next IMU instant, [`Model::next_input_ns`](crate::model::Model::next_input_ns)). When the next in-order
+//! sample comes at that time and nothing else has changed the history since,
+//! its step starts from that state and only fuses: the same bits as stepping
+//! from the entry before it, since `propagate_to` is a pure function of the
+//! state and the time, and an equal time propagates nothing
+//! ([`crate::model::advance_time`]). Any other sample discards it.
 
 use fusion_shared::SampleKind;
 
@@ -143,6 +152,13 @@ pub struct Engine<M: Steps> {
     /// the history was last settled.
     pending_since_t: Option<u64>,
     newest_t: Option<u64>,
+    /// Changes of the history's states so far: a state stepped ahead is of
+    /// the newest state while this has not moved.
+    changes: u64,
+    /// The newest state propagated to `ahead.0` by [`step_ahead`](Self::step_ahead)
+    /// at `ahead.1` changes (time 0: the model expected nothing then).
+    ahead: Option<(u64, u64)>,
+    ahead_state: M::State,
     /// Samples refused in a row as a time jump (see [`JUMP_CONFIRMATION`]).
     jumps_in_a_row: u32,
     sensors: SensorTable,
@@ -180,6 +196,9 @@ impl<M: Steps> Engine<M> {
             first_len: 0,
             pending_since_t: None,
             newest_t: None,
+            changes: 0,
+            ahead: None,
+            ahead_state: initial,
             jumps_in_a_row: 0,
             sensors: SensorTable::new(TableLimits {
                 max_sensors: config.max_sensors,
@@ -376,13 +395,18 @@ impl<M: Steps> Engine<M> {
     /// Steps an in-order sample in its own slot at the end of the history from
     /// the entry before it (or the initial state): one copy of the state, no
     /// moves. Exact unless that entry is stale.
+    /// A state stepped ahead to the sample's time ([`step_ahead`](Self::step_ahead))
+    /// stands in for the one before it.
     fn step_in_order(&mut self, sample: &Sample, key: &SampleKey, slot: usize) -> Insert {
+        let ahead = self.ahead_at(key.t_ns).then_some(&self.ahead_state);
+        self.stats.stepped_from_ahead += u64::from(ahead.is_some());
         let (model, initial, index) = (&self.model, &self.initial, self.history.len());
         let mut outcome = StepOutcome::Propagated;
         let inserted = self.history.insert_with(index, *key, |before, entry| {
-            entry.state = match before {
-                Some(b) => b.state,
-                None => *initial,
+            entry.state = match (ahead, before) {
+                (Some(a), _) => *a,
+                (None, Some(b)) => b.state,
+                (None, None) => *initial,
             };
             outcome = model.step(&mut entry.state, sample);
             (entry.key, entry.sample, entry.outcome, entry.slot) = (*key, *sample, outcome, slot as u16);
@@ -391,6 +415,7 @@ impl<M: Steps> Engine<M> {
         // Room was made by `make_place`; the history moves slot indices, not
         // entries, and never allocates.
         debug_assert!(inserted, "the history had room");
+        self.changes += 1;
         let row = self.sensors.row_mut(slot);
         count_outcome(&mut row.stats, &outcome, 1);
         row.last_nis = outcome.nis().or(row.last_nis);
@@ -407,6 +432,7 @@ impl<M: Steps> Engine<M> {
             entry.fresh = true;
         });
         debug_assert!(inserted, "the history had room");
+        self.changes += 1;
         self.sensors.row_mut(slot).stats.late += 1;
         self.stats.rewinds += 1;
         self.stats.replayed += replayed as u64;
@@ -438,6 +464,32 @@ impl<M: Steps> Engine<M> {
             std::hint::black_box(self.initial);
         }
         self.sensors.warm();
+    }
+
+    /// Propagates the newest state to where the model expects its next input
+    /// ([`Model::next_input_ns`](crate::model::Model::next_input_ns)), for the next in-order sample at that time to
+    /// start from (see the module's doc). For the caller's idle time; does
+    /// nothing while a correction is pending (its re-steps would change the
+    /// newest state), when done already for the newest state, or when the
+    /// model expects nothing after it. Returns whether it propagated.
+    pub fn step_ahead(&mut self) -> bool {
+        if self.stale_from.is_some() || self.ahead.is_some_and(|(_, at)| at == self.changes) {
+            return false;
+        }
+        // The state the next append steps from (`History::insert_with`).
+        let before = self.history.back().or(self.history.base()).map_or(&self.initial, |e| &e.state);
+        let next = M::next_input_ns(before).filter(|&t| M::time_ns(before).is_some_and(|now| t > now));
+        self.ahead = Some((next.unwrap_or(0), self.changes));
+        let Some(t) = next else { return false };
+        self.ahead_state = *before;
+        self.model.propagate_to(&mut self.ahead_state, t, None);
+        self.stats.stepped_ahead += 1;
+        true
+    }
+
+    /// Whether a state stepped ahead is of the newest state and at `t_ns`.
+    fn ahead_at(&self, t_ns: u64) -> bool {
+        self.ahead.is_some_and(|(t, at)| at == self.changes && t == t_ns && t != 0)
     }
 
     /// Re-steps the oldest stale entry from the (exact) entry before it, in the
@@ -474,6 +526,7 @@ impl<M: Steps> Engine<M> {
             return;
         };
         entry.state = before.map_or(*initial, |b| b.state);
+        self.changes += 1;
         let old = entry.outcome;
         let outcome = self.model.step(&mut entry.state, &entry.sample);
         entry.outcome = outcome;

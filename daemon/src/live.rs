@@ -36,6 +36,11 @@
 //! snapshot is published at once. At shutdown a pending correction is settled
 //! and published before the loop returns.
 //!
+//! The propagation to the next IMU instant runs in idle time too: once nothing
+//! waits, the loop steps the estimate ahead to the instant the IMU's interval
+//! says comes next ([`Engine::step_ahead`]), and the sample at that time only
+//! fuses. The estimates are the same bits either way.
+//!
 //! A test drives it in-process with a vector source and a recording sink
 //! (`tests` below); `ipc.rs` plugs in iceoryx2.
 
@@ -484,6 +489,15 @@ impl<M: Steps> LiveCore<M> {
         self.next_housekeeping
     }
 
+    /// While idle: propagates the estimate to the next IMU instant ahead of
+    /// its sample ([`Engine::step_ahead`]), so that the sample's step on the
+    /// latency path is its fusion alone. Not while an instant is open: its last
+    /// sample is due any moment and would discard the state. Returns whether it
+    /// propagated.
+    pub fn step_ahead(&mut self) -> bool {
+        self.held.is_none() && self.engine.step_ahead()
+    }
+
     /// Spin mode, while idle: brings what the next in-order sample touches into
     /// the cache ([`Engine::warm`]).
     pub fn warm(&self) {
@@ -529,6 +543,10 @@ pub fn run<M: Steps>(
         }
         if taken > 0 {
             next_warm = now + WARM_NS;
+            continue;
+        }
+        // Idle: the next IMU instant's propagation, before its sample comes.
+        if core.step_ahead() {
             continue;
         }
         match wait {

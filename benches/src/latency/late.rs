@@ -68,8 +68,8 @@ pub fn late_data(
     let warmup = (late_ns as f64 * 1e-9 * rate_hz) as u64 + 100;
     let mut late_seq = 0;
     for seq in 0..(count + warmup) {
-        pacer.wait();
-        let t = now_ns();
+        // Stamped on the IMU's clock, the tick (see `Prober`).
+        let t = pacer.wait();
         let with_late = seq >= warmup && seq % 100 == 0;
         if with_late {
             pos.publish(t - late_ns, [0.0; 3], [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.64])?;

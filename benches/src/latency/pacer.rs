@@ -16,24 +16,27 @@ pub struct Pacer {
 impl Pacer {
     /// Ticks at `rate_hz`, the first 10 ms from now.
     pub fn new(rate_hz: f64) -> Self {
-        Self { period_ns: (1e9 / rate_hz) as u64, next: now_ns() + 10_000_000 }
+        Self { period_ns: ((1e9 / rate_hz) as u64).max(1), next: now_ns() + 10_000_000 }
     }
 
     /// Ticks at `rate_hz`, `behind` late already: what a sender that was
     /// descheduled that long finds when it runs again.
     pub fn behind(rate_hz: f64, behind: Duration) -> Self {
         let behind_ns = u64::try_from(behind.as_nanos()).unwrap_or(u64::MAX);
-        Self { period_ns: (1e9 / rate_hz) as u64, next: now_ns().saturating_sub(behind_ns) }
+        Self { period_ns: ((1e9 / rate_hz) as u64).max(1), next: now_ns().saturating_sub(behind_ns) }
     }
 
-    /// Waits for the next tick.
+    /// Waits for the next tick and returns its time: what an IMU on its own
+    /// clock stamps the sample of that tick with (the ticks are a period apart,
+    /// on one grid).
     ///
     /// A sender that fell behind (descheduled under CPU load) skips the ticks
     /// it missed instead of sending them back to back: samples stamped `now`
     /// a few µs apart look like a sensor far above its rate, and fusiond's rate
     /// limit (10 kHz, bursts of 100) rightly dropped them, so that their
-    /// snapshots never came ("no snapshot for IMU sample N" under load).
-    pub fn wait(&mut self) {
+    /// snapshots never came ("no snapshot for IMU sample N" under load). The
+    /// ticks after a stall stay on the grid, as a sensor's clock does.
+    pub fn wait(&mut self) -> u64 {
         self.next = next_tick(self.next, self.period_ns, now_ns());
         while now_ns() < self.next {
             if self.next.saturating_sub(now_ns()) > 200_000 {
@@ -42,14 +45,17 @@ impl Pacer {
                 std::hint::spin_loop();
             }
         }
+        let tick = self.next;
         self.next += self.period_ns;
+        tick
     }
 }
 
-/// The tick to wait for: `next`, or `now` when `now` is more than a period
-/// past it (the ticks missed are skipped). Ticks are never closer than a period.
+/// The tick to wait for: `next`, or the last tick of its grid at or before
+/// `now` when `now` is more than a period past it (the ticks missed are
+/// skipped). Ticks are never closer than a period.
 fn next_tick(next: u64, period_ns: u64, now: u64) -> u64 {
-    if now > next.saturating_add(period_ns) { now } else { next }
+    if now > next.saturating_add(period_ns) { next + (now - next) / period_ns * period_ns } else { next }
 }
 
 #[cfg(test)]
@@ -62,10 +68,11 @@ mod tests {
     fn a_stalled_pacer_skips_the_ticks_it_missed() {
         let period = 1_000_000;
         let mut next = 10 * period;
-        let mut now = next + 150 * period;
+        let mut now = next + 150 * period + 1234;
         let mut ticks = Vec::new();
         for _ in 0..20 {
             next = next_tick(next, period, now);
+            assert_eq!(next % period, 0, "on the grid");
             now = now.max(next) + 30_000; // the round trip after the tick
             ticks.push(next);
             next += period;

@@ -23,4 +23,9 @@ pub struct EngineStats {
     /// and [`Engine::settle`](super::Engine::settle), or because they were about to
     /// leave the history.
     pub settled_inline: u64,
+    /// Propagations ahead of the next input by [`Engine::step_ahead`](super::Engine::step_ahead).
+    pub stepped_ahead: u64,
+    /// In-order samples whose step started from a state stepped ahead to their
+    /// time (only fused on the latency path).
+    pub stepped_from_ahead: u64,
 }

@@ -85,6 +85,15 @@ impl HeldImu {
         (self.interval_ns > 0).then_some(self.interval_ns as f64 * 1e-9)
     }
 
+    /// When the next instant is due at the interval of the last two, ns:
+    /// where a model expects its next IMU sample (`None` before the second
+    /// instant). The engine may propagate to it ahead of the sample
+    /// ([`crate::engine::Engine::step_ahead`]).
+    #[inline]
+    pub fn next_ns(&self) -> Option<u64> {
+        (self.count > 0 && self.interval_ns > 0).then(|| self.t_ns.saturating_add(self.interval_ns))
+    }
+
     /// Average: whether the instant held still lacks a sample of an IMU that
     /// was in the mean of the instant before (`false` in failover, for one IMU,
     /// and before the second instant). The live loop holds back the snapshot

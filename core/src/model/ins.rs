@@ -479,6 +479,10 @@ impl<const D: usize> Model for InsModel<D> {
         s.imu.awaiting()
     }
 
+    fn next_input_ns(s: &InsState<D>) -> Option<u64> {
+        s.imu.next_ns()
+    }
+
     fn initialised(s: &InsState<D>) -> bool {
         s.ready
     }

@@ -297,6 +297,10 @@ impl Model for LinearModel {
         s.imu.awaiting()
     }
 
+    fn next_input_ns(s: &LinearState) -> Option<u64> {
+        s.imu.next_ns()
+    }
+
     fn x(s: &LinearState) -> &[f64] {
         s.kf.x().as_slice()
     }

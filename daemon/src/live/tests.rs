@@ -11,14 +11,24 @@ use crate::engine::EngineConfig;
 use crate::model::Model;
 use crate::model::linear::LinearModel;
 
-/// Hands out queued samples; once empty, asks for a stop.
+/// Hands out queued samples; once empty, asks for a stop. `trickle`: one
+/// sample a turn, and a turn with none (idle) after each.
 struct QueueSource<'a> {
     queue: VecDeque<Sample>,
     stop: &'a AtomicBool,
+    trickle: bool,
+    /// Trickle: calls since the last sample (the turn's end, then an idle turn).
+    calls: u8,
 }
 
 impl SampleSource for QueueSource<'_> {
     fn next(&mut self, _: Option<(u64, u8)>) -> Option<Sample> {
+        if self.trickle {
+            self.calls = (self.calls + 1) % 3;
+            if self.calls != 1 {
+                return None;
+            }
+        }
         let s = self.queue.pop_front();
         if s.is_none() {
             self.stop.store(true, Ordering::Relaxed);
@@ -31,7 +41,7 @@ impl SampleSource for QueueSource<'_> {
 /// A source with nothing in it.
 fn none() -> QueueSource<'static> {
     static STOP: AtomicBool = AtomicBool::new(false);
-    QueueSource { queue: VecDeque::new(), stop: &STOP }
+    QueueSource { queue: VecDeque::new(), stop: &STOP, trickle: false, calls: 0 }
 }
 
 /// Keeps every snapshot; refuses to send while `full`.
@@ -89,9 +99,28 @@ fn samples() -> Vec<Sample> {
 /// arrival order, and health and counters of every kind.
 #[test]
 fn the_live_core_publishes_what_the_engine_computes() {
+    publishes_what_the_engine_computes(false);
+}
+
+/// The same with a turn of idle time after each sample: the loop settles the
+/// rewinds there and steps the estimate ahead to the next IMU instant
+/// ([`Engine::step_ahead`]), and every snapshot is still the engine's estimate.
+#[test]
+fn idle_steps_ahead_leave_every_estimate_as_it_was() {
+    let core = publishes_what_the_engine_computes(true);
+    let stats = core.engine().stats();
+    // Of the 298 IMU samples after the first two (the interval is known from
+    // the second), nearly all start from a state stepped ahead: the late fixes
+    // and the velocities discard one each, and the idle turn after them goes
+    // to the rewind or steps ahead again.
+    assert!(stats.stepped_from_ahead >= 290, "{stats:?}");
+    assert!(stats.stepped_ahead >= stats.stepped_from_ahead + 15, "{stats:?}");
+}
+
+fn publishes_what_the_engine_computes(trickle: bool) -> LiveCore<LinearModel> {
     let stop = AtomicBool::new(false);
     let input = samples();
-    let mut source = QueueSource { queue: input.iter().copied().collect(), stop: &stop };
+    let mut source = QueueSource { queue: input.iter().copied().collect(), stop: &stop, trickle, calls: 0 };
     let mut sink = VecSink::default();
     let mut core = core();
     /// The reports the loop gave at its housekeeping.
@@ -151,6 +180,7 @@ fn the_live_core_publishes_what_the_engine_computes() {
     let velocity = last.sensor_counters().iter().find(|c| c.sample_kind() == Some(SampleKind::Velocity)).unwrap();
     assert_eq!((velocity.counts.received, velocity.counts.fused), (15, 15));
     assert!(last.rewinds > 0, "late fixes were fused by rewind");
+    core
 }
 
 #[test]
