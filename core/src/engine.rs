@@ -156,9 +156,9 @@ pub struct Engine<M: Steps> {
     /// the newest state while this has not moved.
     changes: u64,
     /// The newest state propagated to `ahead.0` by [`step_ahead`](Self::step_ahead)
-    /// at `ahead.1` changes (time 0: the model expected nothing then).
+    /// at `ahead.1` changes, in the history's reserved slot (time 0: the model
+    /// expected nothing then).
     ahead: Option<(u64, u64)>,
-    ahead_state: M::State,
     /// Samples refused in a row as a time jump (see [`JUMP_CONFIRMATION`]).
     jumps_in_a_row: u32,
     sensors: SensorTable,
@@ -198,7 +198,6 @@ impl<M: Steps> Engine<M> {
             newest_t: None,
             changes: 0,
             ahead: None,
-            ahead_state: initial,
             jumps_in_a_row: 0,
             sensors: SensorTable::new(TableLimits {
                 max_sensors: config.max_sensors,
@@ -396,18 +395,19 @@ impl<M: Steps> Engine<M> {
     /// the entry before it (or the initial state): one copy of the state, no
     /// moves. Exact unless that entry is stale.
     /// A state stepped ahead to the sample's time ([`step_ahead`](Self::step_ahead))
-    /// stands in for the one before it.
+    /// is in the slot already and stands in for the copy.
     fn step_in_order(&mut self, sample: &Sample, key: &SampleKey, slot: usize) -> Insert {
-        let ahead = self.ahead_at(key.t_ns).then_some(&self.ahead_state);
-        self.stats.stepped_from_ahead += u64::from(ahead.is_some());
+        let ahead = self.ahead_at(key.t_ns);
+        self.stats.stepped_from_ahead += u64::from(ahead);
         let (model, initial, index) = (&self.model, &self.initial, self.history.len());
         let mut outcome = StepOutcome::Propagated;
         let inserted = self.history.insert_with(index, *key, |before, entry| {
-            entry.state = match (ahead, before) {
-                (Some(a), _) => *a,
-                (None, Some(b)) => b.state,
-                (None, None) => *initial,
-            };
+            if !ahead {
+                entry.state = match before {
+                    Some(b) => b.state,
+                    None => *initial,
+                };
+            }
             outcome = model.step(&mut entry.state, sample);
             (entry.key, entry.sample, entry.outcome, entry.slot) = (*key, *sample, outcome, slot as u16);
             entry.fresh = false;
@@ -476,13 +476,15 @@ impl<M: Steps> Engine<M> {
         if self.stale_from.is_some() || self.ahead.is_some_and(|(_, at)| at == self.changes) {
             return false;
         }
-        // The state the next append steps from (`History::insert_with`).
-        let before = self.history.back().or(self.history.base()).map_or(&self.initial, |e| &e.state);
-        let next = M::next_input_ns(before).filter(|&t| M::time_ns(before).is_some_and(|now| t > now));
-        self.ahead = Some((next.unwrap_or(0), self.changes));
-        let Some(t) = next else { return false };
-        self.ahead_state = *before;
-        self.model.propagate_to(&mut self.ahead_state, t, None);
+        // Written in the slot of the next entry, from the state the next
+        // append steps from (`History::reserve_next`).
+        let Some((before, next)) = self.history.reserve_next() else { return false };
+        let before = before.map_or(&self.initial, |e| &e.state);
+        let t = M::next_input_ns(before).filter(|&t| M::time_ns(before).is_some_and(|now| t > now));
+        self.ahead = Some((t.unwrap_or(0), self.changes));
+        let Some(t) = t else { return false };
+        next.state = *before;
+        self.model.propagate_to(&mut next.state, t, None);
         self.stats.stepped_ahead += 1;
         true
     }

@@ -136,6 +136,10 @@ pub struct IpcSource {
     readers_refused: u64,
     /// In-order samples handed out in a row before a late one that was waiting.
     passed_over: u32,
+    /// The port of the last sample, when the merge picked it with no late
+    /// sample waiting and no port blocked: the next sample of its instant in
+    /// it goes alone ([`merge::goes_alone`]).
+    alone: Option<usize>,
     /// The wake listener was drained since the loop last looked at the
     /// subscribers: a notification from now on leaves a datagram, and
     /// [`SampleSource::wait`] may sleep on its socket.
@@ -182,7 +186,15 @@ impl IpcSource {
         open.ports.rotate_left(1);
         let wake = service::event_service(node, &names.wake)?;
         let wake = wake.listener_builder().create().map_err(ipc("wake listener"))?;
-        Ok(Self { ports: open.ports, wake, receive_errors: 0, readers_refused: 0, passed_over: 0, armed: false })
+        Ok(Self {
+            ports: open.ports,
+            wake,
+            receive_errors: 0,
+            readers_refused: 0,
+            passed_over: 0,
+            alone: None,
+            armed: false,
+        })
     }
 }
 
@@ -206,11 +218,24 @@ impl SampleSource for IpcSource {
     /// oldest it gave this turn: its unseen samples may be older. `None` then
     /// ends the turn; the next one gives its publishers their next share.
     fn next(&mut self, newest: Option<(u64, u8)>) -> Option<Sample> {
+        // The next sample of an instant, from the port of the last one, goes
+        // without polling every port (`merge::goes_alone`).
+        if let Some(i) = self.alone.take() {
+            let head = self.ports[i].poll(&mut self.receive_errors, newest);
+            if merge::goes_alone(&head, newest) {
+                self.alone = Some(i);
+                return self.ports[i].take(false);
+            }
+        }
         let mut heads = [Heads::EMPTY; SampleKind::COUNT];
         for (head, port) in heads.iter_mut().zip(self.ports.iter_mut()) {
             *head = port.poll(&mut self.receive_errors, newest);
         }
         let (port, late) = merge::pick(&heads, newest, &mut self.passed_over)?;
+        // A clean pick: no late sample waited (`passed_over` is reset only
+        // then) and no port was blocked.
+        let clean = !late && self.passed_over == 0 && heads.iter().all(|h| h.bound.is_none());
+        self.alone = clean.then_some(port);
         self.ports[port].take(late)
     }
 
@@ -229,6 +254,7 @@ impl SampleSource for IpcSource {
     }
 
     fn end_turn(&mut self) {
+        // `alone` stays: released, no port is blocked in the next turn.
         self.ports.iter_mut().for_each(|p| p.release());
     }
 

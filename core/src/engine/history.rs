@@ -31,20 +31,25 @@ pub(super) struct History<E, K> {
     free: Vec<u32>,
     /// Slot of the entry that left the front last, kept until the next one leaves.
     base: Option<u32>,
+    /// The slot the next insert writes, taken out of `free` ahead of it
+    /// ([`History::reserve_next`]).
+    reserved: Option<u32>,
     /// Most entries in `order`.
     capacity: usize,
 }
 
 impl<E: Copy, K: Copy> History<E, K> {
-    /// Room for `capacity` entries (and the base); every slot starts as `filler`.
+    /// Room for `capacity` entries, the base and a reserved slot; every slot
+    /// starts as `filler`.
     pub fn new(capacity: usize, filler: E) -> Self {
-        let capacity = capacity.min(u32::MAX as usize - 1);
+        let capacity = capacity.min(u32::MAX as usize - 2);
         Self {
-            slots: vec![filler; capacity + 1],
+            slots: vec![filler; capacity + 2],
             order: VecDeque::with_capacity(capacity),
             keys: VecDeque::with_capacity(capacity),
-            free: (0..=capacity as u32).rev().collect(),
+            free: (0..=capacity as u32 + 1).rev().collect(),
             base: None,
+            reserved: None,
             capacity,
         }
     }
@@ -87,12 +92,14 @@ impl<E: Copy, K: Copy> History<E, K> {
     /// Inserts an entry with `key` at position `index` (`0..=len`), written in
     /// its slot by `write(before, slot)`: `before` is the entry before it (the
     /// base when `index` is 0, if there is one), `slot` holds a stale entry to
-    /// overwrite. Returns false, writing nothing, when the history is full.
+    /// overwrite, or what was written in the reserved slot
+    /// ([`reserve_next`](Self::reserve_next)). Returns false, writing nothing,
+    /// when the history is full.
     pub fn insert_with(&mut self, index: usize, key: K, write: impl FnOnce(Option<&E>, &mut E)) -> bool {
         if self.order.len() >= self.capacity {
             return false;
         }
-        let Some(slot) = self.free.pop() else { return false };
+        let Some(slot) = self.reserved.take().or_else(|| self.free.pop()) else { return false };
         let before = if index == 0 { self.base } else { self.order.get(index - 1).copied() };
         // A free slot is never the base nor in `order`, so the two are disjoint.
         match before.and_then(|b| self.slots.get_disjoint_mut([b as usize, slot as usize]).ok()) {
@@ -102,6 +109,26 @@ impl<E: Copy, K: Copy> History<E, K> {
         self.order.insert(index, slot);
         self.keys.insert(index, key);
         true
+    }
+
+    /// The slot the next insert writes, reserved for it, and the entry an
+    /// append steps from (the newest, else the base): for writing the next
+    /// entry ahead of its insert. The next [`insert_with`](Self::insert_with),
+    /// wherever it inserts, takes this slot as it is. A slot is always free for
+    /// it (one beyond the capacity and the base).
+    pub fn reserve_next(&mut self) -> Option<(Option<&E>, &mut E)> {
+        if self.reserved.is_none() {
+            self.reserved = self.free.pop();
+        }
+        let slot = self.reserved? as usize;
+        match self.order.back().copied().or(self.base) {
+            // The reserved slot is neither in `order` nor the base.
+            Some(b) => {
+                let [before, next] = self.slots.get_disjoint_mut([b as usize, slot]).ok()?;
+                Some((Some(before), next))
+            }
+            None => Some((None, &mut self.slots[slot])),
+        }
     }
 
     /// Entry `index` (`0..len`), mutable, and the entry before it (the base when
@@ -121,11 +148,11 @@ impl<E: Copy, K: Copy> History<E, K> {
     }
 
     /// Reads the slots the next in-order insert touches: the newest entry (copied
-    /// from), the oldest and the base (the next eviction), and the next free slot
-    /// (written).
+    /// from), the oldest and the base (the next eviction), and the next free
+    /// (or reserved) slot (written).
     pub fn warm(&self) {
-        for slot in [self.order.back(), self.order.front(), self.base.as_ref(), self.free.last()].into_iter().flatten()
-        {
+        let next = self.reserved.as_ref().or(self.free.last());
+        for slot in [self.order.back(), self.order.front(), self.base.as_ref(), next].into_iter().flatten() {
             // A copy through `black_box` reads every cache line of the entry.
             std::hint::black_box(self.slots[*slot as usize]);
         }
@@ -203,5 +230,35 @@ mod tests {
         let mut fresh = History::new(2, 0u64);
         assert!(fresh.insert_with(0, (), |_, e| *e = 7));
         assert!(matches!(fresh.before_mut(0), Some((None, 7))), "nothing before the first entry of all");
+    }
+
+    /// The slot reserved ahead is written from the newest entry (else the
+    /// base), and the next insert, wherever it goes, finds it as written: also
+    /// in a full history with a base.
+    #[test]
+    fn the_next_entry_can_be_written_ahead_in_its_slot() {
+        let mut h = History::new(2, 0u64);
+        let (before, next) = h.reserve_next().unwrap();
+        assert_eq!(before, None);
+        *next = 1;
+        assert!(h.insert_with(0, (), |_, e| assert_eq!(*e, 1, "the slot as written ahead")));
+        assert!(h.insert_with(1, (), |_, e| *e = 2));
+        h.pop_front();
+        // Full (two entries and the base): a slot is still free to reserve.
+        assert!(h.insert_with(1, (), |_, e| *e = 3));
+        assert_eq!(h.iter().copied().collect::<Vec<_>>(), [2, 3]);
+        let (before, next) = h.reserve_next().unwrap();
+        assert_eq!(before.copied(), Some(3), "written from the newest");
+        *next = 4;
+        let (_, again) = h.reserve_next().unwrap();
+        assert_eq!(*again, 4, "the same slot until an insert takes it");
+        assert!(!h.insert_with(2, (), |_, _| unreachable!()), "full: refused, the slot stays reserved");
+        h.pop_front();
+        // A late insert takes it too.
+        assert!(h.insert_with(0, (), |before, e| *e += 10 * before.copied().unwrap()));
+        assert_eq!(h.iter().copied().collect::<Vec<_>>(), [24, 3]);
+        while h.pop_front().is_some() {}
+        let (before, _) = h.reserve_next().unwrap();
+        assert_eq!(before.copied(), Some(3), "empty: from the base");
     }
 }

@@ -14,6 +14,10 @@
 //! - A blocked port (its publishers gave their share of the turn and have more)
 //!   bounds every other: no sample at or after the oldest it gave this turn goes
 //!   before its unseen ones; with none left below the bound, the turn ends.
+//! - The next sample of an instant goes alone ([`goes_alone`]): a port whose
+//!   head has the very key of the newest sample processed (the second IMU
+//!   sample of an instant) is the oldest in-order sample there can be, and
+//!   the other ports need not be polled for it.
 
 /// A sample's place in the merge: `(t_ns, rank of its kind)`.
 pub type Key = (u64, u8);
@@ -84,9 +88,59 @@ pub fn pick(heads: &[Heads], newest: Option<Key>, passed_over: &mut u32) -> Opti
     }
 }
 
+/// Whether a port's head goes next without a look at the other ports: its
+/// pending sample has the key of the `newest` processed (another sample of
+/// the same kind at the same time: the next IMU sample of an instant), and
+/// the port holds no late sample and bounds nothing.
+///
+/// Every in-order sample's key is at or after `newest`, and only the port of
+/// one kind has keys of its rank, so no port can hold an in-order sample that
+/// goes first: [`pick`] would pick this one, if the last [`pick`] saw no late
+/// sample waiting and no port blocked (the caller's condition, kept from the
+/// last full look, since a late sample or a bound only appears where a port
+/// is polled). A late sample that arrived meanwhile waits at most for the
+/// instant's other samples, one per IMU.
+pub fn goes_alone(head: &Heads, newest: Option<Key>) -> bool {
+    head.pending.is_some() && head.pending == newest && head.late.is_none() && head.bound.is_none()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Wherever [`goes_alone`] says a port's head goes alone, [`pick`] over
+    /// every port (none with a late sample or a bound, as after a clean pick)
+    /// picks it.
+    #[test]
+    fn a_head_that_goes_alone_is_what_the_merge_picks() {
+        let newest = Some((100, 0));
+        let keys = [None, Some((100, 0)), Some((100, 1)), Some((100, 5)), Some((101, 0)), Some((250, 2))];
+        let mut checked = 0;
+        for a in keys {
+            for b in keys {
+                for c in keys {
+                    let heads = [a, b, c].map(|pending| Heads { pending, late: None, bound: None });
+                    // One port per kind: a rank appears in one port only.
+                    let ranks: Vec<u8> = heads.iter().filter_map(|h| h.pending.map(|k| k.1)).collect();
+                    if (1..ranks.len()).any(|i| ranks[..i].contains(&ranks[i])) {
+                        continue;
+                    }
+                    for (i, head) in heads.iter().enumerate() {
+                        if goes_alone(head, newest) {
+                            assert_eq!(pick(&heads, newest, &mut 0), Some((i, false)), "{heads:?}");
+                            checked += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 10);
+        let at = |pending, late, bound| Heads { pending, late, bound };
+        assert!(!goes_alone(&at(Some((100, 0)), Some((90, 0)), None), newest), "a late sample waits");
+        assert!(!goes_alone(&at(Some((100, 0)), None, Some((100, 0))), newest), "blocked");
+        assert!(!goes_alone(&at(Some((101, 0)), None, None), newest), "a later sample");
+        assert!(!goes_alone(&at(None, None, None), None));
+    }
 
     fn head(pending: Option<u64>, late: Option<u64>, bound: Option<u64>) -> Heads {
         let key = |t: Option<u64>| t.map(|t| (t, 1));
