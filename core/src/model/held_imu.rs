@@ -88,7 +88,7 @@ impl HeldImu {
     /// When the next instant is due at the interval of the last two, ns:
     /// where a model expects its next IMU sample (`None` before the second
     /// instant). The engine may propagate to it ahead of the sample
-    /// ([`crate::engine::Engine::step_ahead`]).
+    /// (`Engine::step_ahead`).
     #[inline]
     pub fn next_ns(&self) -> Option<u64> {
         (self.count > 0 && self.interval_ns > 0).then(|| self.t_ns.saturating_add(self.interval_ns))
