@@ -28,12 +28,13 @@
 //!
 //! The propagation can come early. [`Engine::step_ahead`] propagates the newest
 //! state, in the caller's idle time, to where the model expects its next input
-//! (the next IMU instant, [`Model::next_input_ns`](crate::model::Model::next_input_ns)). When the next in-order
-//! sample comes at that time and nothing else has changed the history since,
-//! its step starts from that state and only fuses: the same bits as stepping
-//! from the entry before it, since `propagate_to` is a pure function of the
-//! state and the time, and an equal time propagates nothing
-//! ([`crate::model::advance_time`]). Any other sample discards it.
+//! (the next IMU instant, [`crate::model::Model::next_input_ns`]), in the slot
+//! of the next entry. When the next in-order sample comes at that time and
+//! nothing else has changed the history since, its step starts from that
+//! state and only fuses: the same bits as stepping from the entry before it,
+//! since `propagate_to` is a pure function of the state and the time, and an
+//! equal time propagates nothing ([`crate::model::advance_time`]). Any other
+//! sample discards it.
 
 use fusion_shared::SampleKind;
 
@@ -393,9 +394,9 @@ impl<M: Steps> Engine<M> {
 
     /// Steps an in-order sample in its own slot at the end of the history from
     /// the entry before it (or the initial state): one copy of the state, no
-    /// moves. Exact unless that entry is stale.
-    /// A state stepped ahead to the sample's time ([`step_ahead`](Self::step_ahead))
-    /// is in the slot already and stands in for the copy.
+    /// moves. Exact unless that entry is stale. A state stepped ahead to the
+    /// sample's time ([`step_ahead`](Self::step_ahead)) is in the slot already
+    /// and stands in for the copy.
     fn step_in_order(&mut self, sample: &Sample, key: &SampleKey, slot: usize) -> Insert {
         let ahead = self.ahead_at(key.t_ns);
         self.stats.stepped_from_ahead += u64::from(ahead);
@@ -467,13 +468,14 @@ impl<M: Steps> Engine<M> {
     }
 
     /// Propagates the newest state to where the model expects its next input
-    /// ([`Model::next_input_ns`](crate::model::Model::next_input_ns)), for the next in-order sample at that time to
-    /// start from (see the module's doc). While an IMU instant awaits a
-    /// sample, that is the instant itself: the state is copied into the next
-    /// entry's slot, and the instant's next sample only holds its values. For the caller's idle time; does
-    /// nothing while a correction is pending (its re-steps would change the
-    /// newest state), when done already for the newest state, or when the
-    /// model expects nothing after it. Returns whether it propagated.
+    /// ([`crate::model::Model::next_input_ns`]), in the slot of the next entry,
+    /// for the next in-order sample at that time to start from (see the
+    /// module's doc). While an IMU instant awaits a sample, that is the instant
+    /// itself: the state is copied, and the instant's next sample only holds
+    /// its values. For the caller's idle time. Does nothing while a correction
+    /// is pending (its re-steps would change the newest state), when done
+    /// already for the newest state, or when the model expects nothing after
+    /// it. Returns whether it stepped.
     pub fn step_ahead(&mut self) -> bool {
         if self.stale_from.is_some() || self.ahead.is_some_and(|(_, at)| at == self.changes) {
             return false;
