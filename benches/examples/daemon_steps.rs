@@ -1,8 +1,7 @@
 //! Runs what `fusiond run` does per sample, without iceoryx2: engine insert,
 //! health, and the snapshot filled in place (in a chunk that holds the previous
 //! one, as a loaned chunk would); several IMUs averaged fill one snapshot per
-//! IMU instant, after its last sample, as the live loop does (and, as it does,
-//! copies an open instant's state into the next entry's slot for its next sample). For an instruction-count profile under
+//! IMU instant, after its last sample, as the live loop does. For an instruction-count profile under
 //! callgrind of the daemon's own time:
 //!
 //! ```sh
@@ -219,8 +218,6 @@ fn handle<M: Steps>(
     // As the live loop: an IMU sample that leaves its instant open (several
     // IMUs averaged) publishes nothing; the instant's last one does.
     if replayed == 0 && matches!(sample, Sample::Imu(_)) && engine.latest().is_some_and(|e| M::instant_open(&e.state)) {
-        // The instant's next sample starts from a copy of this state, made now.
-        engine.step_ahead();
         return;
     }
     let initialised = engine.latest().is_some_and(|e| M::initialised(&e.state));

@@ -470,12 +470,10 @@ impl<M: Steps> Engine<M> {
     /// Propagates the newest state to where the model expects its next input
     /// ([`crate::model::Model::next_input_ns`]), in the slot of the next entry,
     /// for the next in-order sample at that time to start from (see the
-    /// module's doc). While an IMU instant awaits a sample, that is the instant
-    /// itself: the state is copied, and the instant's next sample only holds
-    /// its values. For the caller's idle time. Does nothing while a correction
-    /// is pending (its re-steps would change the newest state), when done
-    /// already for the newest state, or when the model expects nothing after
-    /// it. Returns whether it stepped.
+    /// module's doc). For the caller's idle time. Does nothing while a
+    /// correction is pending (its re-steps would change the newest state), when
+    /// done already for the newest state, or when the model expects nothing
+    /// after it. Returns whether it propagated.
     pub fn step_ahead(&mut self) -> bool {
         if self.stale_from.is_some() || self.ahead.is_some_and(|(_, at)| at == self.changes) {
             return false;
@@ -484,8 +482,7 @@ impl<M: Steps> Engine<M> {
         // append steps from (`History::reserve_next`).
         let Some((before, next)) = self.history.reserve_next() else { return false };
         let before = before.map_or(&self.initial, |e| &e.state);
-        // At the state's own time (an open IMU instant) the step is a copy.
-        let t = M::next_input_ns(before).filter(|&t| M::time_ns(before).is_some_and(|now| t >= now));
+        let t = M::next_input_ns(before).filter(|&t| M::time_ns(before).is_some_and(|now| t > now));
         self.ahead = Some((t.unwrap_or(0), self.changes));
         let Some(t) = t else { return false };
         next.state = *before;

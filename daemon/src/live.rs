@@ -288,9 +288,6 @@ impl<M: Steps> LiveCore<M> {
             // The wait is bounded from the instant's first sample held.
             let due_ns = self.held.map_or(received_ns.saturating_add(self.instant_wait_ns), |h| h.due_ns);
             self.held = Some(HeldInstant { sample, received_ns, due_ns });
-            // The instant's next sample starts from a copy of this state, made
-            // now while it is on its way (`Engine::step_ahead`).
-            self.engine.step_ahead();
             return;
         }
         // This snapshot carries an instant held before it, if any.
@@ -494,10 +491,11 @@ impl<M: Steps> LiveCore<M> {
 
     /// While idle: propagates the estimate to the next IMU instant ahead of
     /// its sample ([`Engine::step_ahead`]), so that the sample's step on the
-    /// latency path is its fusion alone. (An open instant's was stepped when
-    /// it opened: a copy for its next sample.) Returns whether it propagated.
+    /// latency path is its fusion alone. Not while an instant is open: its last
+    /// sample is due any moment and would discard the state. Returns whether it
+    /// propagated.
     pub fn step_ahead(&mut self) -> bool {
-        self.engine.step_ahead()
+        self.held.is_none() && self.engine.step_ahead()
     }
 
     /// Spin mode, while idle: brings what the next in-order sample touches into

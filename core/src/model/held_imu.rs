@@ -85,15 +85,12 @@ impl HeldImu {
         (self.interval_ns > 0).then_some(self.interval_ns as f64 * 1e-9)
     }
 
-    /// When a model expects its next IMU sample, ns: the instant held while
-    /// it [awaits](Self::awaiting) an IMU's sample, else the next instant at
-    /// the interval of the last two (`None` before the second instant). The
-    /// engine may step the state to it ahead of the sample (`Engine::step_ahead`).
+    /// When the next instant is due at the interval of the last two, ns:
+    /// where a model expects its next IMU sample (`None` before the second
+    /// instant). The engine may propagate to it ahead of the sample
+    /// (`Engine::step_ahead`).
     #[inline]
     pub fn next_ns(&self) -> Option<u64> {
-        if self.awaiting() {
-            return Some(self.t_ns);
-        }
         (self.count > 0 && self.interval_ns > 0).then(|| self.t_ns.saturating_add(self.interval_ns))
     }
 
@@ -202,21 +199,18 @@ mod tests {
         assert_eq!(h.hold(imus, 4, 100, v(1.0), v(10.0)), Held::Held);
         assert_eq!(h.mean(), Some((v(1.0), v(10.0), 1)));
         assert!(!h.awaiting(), "the first instant: nothing known to await");
-        assert_eq!(h.next_ns(), None, "no interval yet");
         assert_eq!(h.hold(imus, 9, 100, v(2.0), v(20.0)), Held::Held);
         assert_eq!(h.mean(), Some((v(1.5), v(15.0), 2)));
         assert!(!h.awaiting());
         assert_eq!(h.hold(imus, 9, 110, v(3.0), v(30.0)), Held::Held);
         assert_eq!(h.mean(), Some((v(3.0), v(30.0), 1)), "IMU 4 missing at 110");
         assert!(h.awaiting(), "IMU 4 was in the instant before");
-        assert_eq!(h.next_ns(), Some(110), "awaiting: the next sample is of this instant");
         // Seen at the start of the next instant: 110 had another set than 100.
         assert_eq!(h.hold(imus, 9, 120, v(3.0), v(30.0)), Held::Switched);
         assert!(!h.awaiting(), "110 had IMU 9 alone");
         assert_eq!(h.hold(imus, 9, 130, v(3.0), v(30.0)), Held::Held);
         assert_eq!(h.hold(imus, 5, 130, v(9.0), v(9.0)), Held::Unknown);
         assert_eq!(h.mean(), Some((v(3.0), v(30.0), 1)));
-        assert_eq!(h.next_ns(), Some(140), "complete: the next instant, 10 ns on");
     }
 
     /// Failover: the first IMU heard is used, the other stands by; after

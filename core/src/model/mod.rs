@@ -171,10 +171,9 @@ pub trait Model {
         false
     }
 
-    /// When the model expects its next input at `state`, ns: the IMU instant
-    /// held while it awaits another IMU's sample, else the next one at the
-    /// interval of the last two ([`held_imu::HeldImu::next_ns`]); `None` if it
-    /// does not know. Never before the state's time. The engine propagates to it while idle
+    /// When the model expects its next input at `state`, ns: the next IMU
+    /// instant at the interval of the last two ([`held_imu::HeldImu::next_ns`]);
+    /// `None` if it does not know. The engine propagates to it while idle
     /// (`Engine::step_ahead`), so that the sample's own step
     /// is only its fusion.
     fn next_input_ns(_state: &Self::State) -> Option<u64> {
