@@ -199,6 +199,7 @@ mod tests {
         assert_eq!(h.hold(imus, 4, 100, v(1.0), v(10.0)), Held::Held);
         assert_eq!(h.mean(), Some((v(1.0), v(10.0), 1)));
         assert!(!h.awaiting(), "the first instant: nothing known to await");
+        assert_eq!(h.next_ns(), None, "no interval yet");
         assert_eq!(h.hold(imus, 9, 100, v(2.0), v(20.0)), Held::Held);
         assert_eq!(h.mean(), Some((v(1.5), v(15.0), 2)));
         assert!(!h.awaiting());
@@ -211,6 +212,7 @@ mod tests {
         assert_eq!(h.hold(imus, 9, 130, v(3.0), v(30.0)), Held::Held);
         assert_eq!(h.hold(imus, 5, 130, v(9.0), v(9.0)), Held::Unknown);
         assert_eq!(h.mean(), Some((v(3.0), v(30.0), 1)));
+        assert_eq!(h.next_ns(), Some(140), "the next instant, one interval on");
     }
 
     /// Failover: the first IMU heard is used, the other stands by; after
