@@ -20,9 +20,8 @@ use std::ops::{Index, IndexMut};
 /// lines of one small array.
 pub(super) struct History<E, K> {
     /// Every slot, written at construction: the kernel maps pages on first write,
-    /// so no page fault is left for the live path. One more than the capacity for
-    /// the base,
-    /// and one more for the slot reserved ahead ([`History::reserve_next`]).
+    /// so no page fault is left for the live path. Two more than the capacity:
+    /// the base, and the slot reserved ahead ([`History::reserve_next`]).
     slots: Vec<E>,
     /// Slot of each entry, in processing order.
     order: VecDeque<u32>,
