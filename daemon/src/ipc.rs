@@ -232,8 +232,8 @@ impl SampleSource for IpcSource {
             *head = port.poll(&mut self.receive_errors, newest);
         }
         let (port, late) = merge::pick(&heads, newest, &mut self.passed_over)?;
-        // A clean pick: no late sample waited (`passed_over` is reset only
-        // then) and no port was blocked.
+        // A clean pick: in order, no late sample waiting (`pick` leaves
+        // `passed_over` at 0 after an in-order pick only then) and no port blocked.
         let clean = !late && self.passed_over == 0 && heads.iter().all(|h| h.bound.is_none());
         self.alone = clean.then_some(port);
         self.ports[port].take(late)

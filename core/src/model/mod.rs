@@ -174,8 +174,7 @@ pub trait Model {
     /// When the model expects its next input at `state`, ns: the next IMU
     /// instant at the interval of the last two ([`held_imu::HeldImu::next_ns`]);
     /// `None` if it does not know. The engine propagates to it while idle
-    /// (`Engine::step_ahead`), so that the sample's own step
-    /// is only its fusion.
+    /// (`Engine::step_ahead`), so that the sample's own step is only its fusion.
     fn next_input_ns(_state: &Self::State) -> Option<u64> {
         None
     }
