@@ -106,8 +106,14 @@ impl<E: Copy, K: Copy> History<E, K> {
             Some([before, new]) => write(Some(before), new),
             None => write(None, &mut self.slots[slot as usize]),
         }
-        self.order.insert(index, slot);
-        self.keys.insert(index, key);
+        if index == self.order.len() {
+            // The in-order case: `insert` would take its general path.
+            self.order.push_back(slot);
+            self.keys.push_back(key);
+        } else {
+            self.order.insert(index, slot);
+            self.keys.insert(index, key);
+        }
         true
     }
 
