@@ -10,7 +10,7 @@
 //! callgrind_annotate --inclusive=yes /tmp/cg.out
 //! ```
 //!
-//! With `--toggle-collect='daemon_steps::handle*'` callgrind counts the
+//! With `--toggle-collect='*daemon_steps::handle*'` callgrind counts the
 //! latency path alone: the samples' handling, without the idle time's work
 //! (settling rewinds, stepping ahead to the next instant).
 //!
