@@ -153,11 +153,14 @@ impl HealthNow {
     }
 }
 
-/// NIS of a fused fix, or `None` for a gated one; with the count and sum of the
-/// fused ones, summed when a value comes in (not on every evaluation).
-#[derive(Debug, Clone, Copy)]
+/// A sensor's NIS window as the evaluation reads it: the count and sum of the
+/// fused values, summed when a value comes in (not on every evaluation), and
+/// the evaluation's own state. One cache line per sensor: a snapshot's health
+/// evaluation reads these and nothing else of the window
+/// ([`HealthMonitor::evaluate`]); the values themselves are in
+/// [`HealthMonitor::values`], read only when one comes in.
+#[derive(Debug, Clone, Copy, Default)]
 struct NisWindow {
-    values: [Option<f64>; MAX_NIS_WINDOW],
     next: usize,
     len: usize,
     fused: usize,
@@ -167,6 +170,9 @@ struct NisWindow {
     evaluated: u64,
     /// Measurements in a row after which the full window was out of its band.
     streak: u64,
+    /// Whether the last evaluation found the window persistently out of its
+    /// band. It stands until a measurement comes in: the streak moves only then.
+    persistent: bool,
 }
 
 /// How long a sensor's NIS window must stay out of its band before the health
@@ -181,8 +187,11 @@ pub struct HealthMonitor {
     config: HealthConfig,
     /// `bands[m][k]`: χ²_{mk} band for the NIS sum of `k` fused measurements of
     /// innovation dimension `m`.
-    bands: [[(f64, f64); MAX_NIS_WINDOW + 1]; MAX_INNOVATION_DIM + 1],
+    bands: Box<[[(f64, f64); MAX_NIS_WINDOW + 1]; MAX_INNOVATION_DIM + 1]>,
     windows: [NisWindow; MAX_SENSORS],
+    /// Per sensor: the window's NIS values, a ring of `nis_window` (`None`
+    /// for a gated measurement).
+    values: Box<[[Option<f64>; MAX_NIS_WINDOW]; MAX_SENSORS]>,
     /// Per group of kinds the health waits for ([`measurement::Needed`]): bit
     /// `k.index()` for each kind `k` of the group.
     needed_groups: [u32; KINDS],
@@ -200,7 +209,7 @@ impl HealthMonitor {
     pub fn new(mut config: HealthConfig) -> Self {
         config.nis_window = config.nis_window.clamp(1, MAX_NIS_WINDOW);
         let tail = (1.0 - config.nis_probability) / 2.0;
-        let mut bands = [[(0.0, f64::INFINITY); MAX_NIS_WINDOW + 1]; MAX_INNOVATION_DIM + 1];
+        let mut bands = Box::new([[(0.0, f64::INFINITY); MAX_NIS_WINDOW + 1]; MAX_INNOVATION_DIM + 1]);
         for (m, bands) in bands.iter_mut().enumerate().skip(1) {
             for (k, band) in bands.iter_mut().enumerate().take(config.nis_window + 1).skip(1) {
                 if let Ok(chi2) = ChiSquared::new((m * k) as f64) {
@@ -208,16 +217,6 @@ impl HealthMonitor {
                 }
             }
         }
-        let empty = NisWindow {
-            values: [None; MAX_NIS_WINDOW],
-            next: 0,
-            len: 0,
-            fused: 0,
-            sum: 0.0,
-            records: 0,
-            evaluated: 0,
-            streak: 0,
-        };
         let mut needed_groups = [0; KINDS];
         for &k in SampleKind::ALL {
             if let Some(group) = measurement::needed(k) {
@@ -228,7 +227,8 @@ impl HealthMonitor {
         Self {
             config,
             bands,
-            windows: [empty; MAX_SENSORS],
+            windows: [NisWindow::default(); MAX_SENSORS],
+            values: Box::new([[None; MAX_NIS_WINDOW]; MAX_SENSORS]),
             needed_groups,
             lost_seen: [0; MAX_SENSORS],
             last_loss_ns: None,
@@ -294,12 +294,12 @@ impl HealthMonitor {
             // the measurement yet (or its innovation covariance; counted as refused).
             StepOutcome::Refused | StepOutcome::Propagated => return,
         };
-        let Some(w) = self.windows.get_mut(slot) else { return };
-        w.values[w.next] = value;
+        let (Some(w), Some(values)) = (self.windows.get_mut(slot), self.values.get_mut(slot)) else { return };
+        values[w.next] = value;
         w.next = (w.next + 1) % self.config.nis_window;
         w.len = (w.len + 1).min(self.config.nis_window);
         w.records += 1;
-        let fused = w.values[..w.len].iter().flatten();
+        let fused = values[..w.len].iter().flatten();
         (w.fused, w.sum) = fused.fold((0, 0.0), |(k, sum), v| (k + 1, sum + v));
     }
 
@@ -331,28 +331,18 @@ impl HealthMonitor {
             }
             self.lost_seen[i] = s.stats.lost;
             let window = self.config.nis_window;
-            let (lo, hi) = self.nis_band(self.innovation_dim(s.kind, s.sensor), self.windows[i].fused);
-            let w = &mut self.windows[i];
+            let w = &self.windows[i];
             // The measurements since the last evaluation count towards the
             // streak only once the window is full (each after it filled).
+            // Without any, the streak and so the verdict stand.
             let new = w.records - w.evaluated;
-            w.evaluated = w.records;
-            if w.len < window {
-                w.streak = 0;
-                continue;
+            if new > 0 {
+                let band = self.nis_band(self.innovation_dim(s.kind, s.sensor), w.fused);
+                let w = &mut self.windows[i];
+                w.evaluated = w.records;
+                w.persistent = Self::judge(w, new, window, band);
             }
-            let full_for = w.records.saturating_sub(window as u64 - 1);
-            let (k, sum) = (w.fused, w.sum);
-            let out = 2 * k < w.len || sum < lo || sum > hi;
-            w.streak = if out {
-                w.streak + new.min(full_for)
-            } else if new > 0 {
-                0
-            } else {
-                w.streak
-            };
-            let persist = (window * PERSISTENCE.0).div_ceil(PERSISTENCE.1).max(1) as u64;
-            if w.streak >= persist {
+            if self.windows[i].persistent {
                 reasons |= health::NIS_OUT_OF_BOUNDS;
                 nis_sensors |= 1 << i;
             }
@@ -377,6 +367,21 @@ impl HealthMonitor {
             health::OK
         };
         HealthNow { state, reasons, stale_sensors, nis_sensors }
+    }
+
+    /// Moves the streak of window `w` by the `new` measurements that came in
+    /// since its last evaluation (`band`: the χ² band for its fused count) and
+    /// returns whether it is now persistently out of its band.
+    fn judge(w: &mut NisWindow, new: u64, window: usize, (lo, hi): (f64, f64)) -> bool {
+        if w.len < window {
+            w.streak = 0;
+            return false;
+        }
+        let full_for = w.records.saturating_sub(window as u64 - 1);
+        let out = 2 * w.fused < w.len || w.sum < lo || w.sum > hi;
+        w.streak = if out { w.streak + new.min(full_for) } else { 0 };
+        let persist = (window * PERSISTENCE.0).div_ceil(PERSISTENCE.1).max(1) as u64;
+        w.streak >= persist
     }
 }
 

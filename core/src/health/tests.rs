@@ -105,6 +105,35 @@ fn persistently_inconsistent_nis_is_flagged_and_recovers() {
     h.record(0, &StepOutcome::Propagated, false);
 }
 
+/// The snapshots between two measurements (IMU instants, a dozen per fix)
+/// each evaluate the health: those evaluations move no streak, so a monitor
+/// evaluated a hundred times between measurements reads as one evaluated once
+/// per measurement, through in-band, out-of-band and gated stretches.
+#[test]
+fn evaluations_between_measurements_change_no_verdict() {
+    let config = HealthConfig { nis_window: 8, ..Default::default() };
+    let (mut often, mut once) = (HealthMonitor::new(config), HealthMonitor::new(config));
+    let e = fix_engine();
+    let mut flagged = 0;
+    for i in 0..400u32 {
+        // A deterministic mix: consistent, far too large, far too small, gated.
+        let outcome = match (i / 40) % 4 {
+            0 => StepOutcome::Fused { nis: 1.0 + f64::from(i % 5) },
+            1 => StepOutcome::Fused { nis: 40.0 },
+            2 if i % 3 == 0 => StepOutcome::Gated { nis: 500.0 },
+            _ => StepOutcome::Fused { nis: 0.01 },
+        };
+        often.record(1, &outcome, false);
+        once.record(1, &outcome, false);
+        let expected = once.evaluate(e.sensors(), 0, true, 0);
+        for _ in 0..100 {
+            assert_eq!(often.evaluate(e.sensors(), 0, true, 0), expected, "after {} measurements", i + 1);
+        }
+        flagged += usize::from(expected.reasons == health::NIS_OUT_OF_BOUNDS);
+    }
+    assert!(flagged > 100 && flagged < 300, "both verdicts were seen: {flagged} of 400 flagged");
+}
+
 /// An AHRS fused for roll and pitch only gives 2-D innovations: its NIS is
 /// judged against χ² of 2 degrees of freedom per measurement (against the
 /// kind's 3, a consistent stream read far too low); other sensors keep
