@@ -104,9 +104,42 @@ pub fn goes_alone(head: &Heads, newest: Option<Key>) -> bool {
     head.pending.is_some() && head.pending == newest && head.late.is_none() && head.bound.is_none()
 }
 
+/// The port an idle scan polls besides the IMU's: of the `others` ports
+/// before it, the next active one after `last`, in turn (`None`: none is
+/// active). Successive scans poll each active port once in as many scans as
+/// there are active ones.
+pub fn scanned_next(others: usize, last: usize, active: impl Fn(usize) -> bool) -> Option<usize> {
+    (1..=others).map(|step| (last + step) % others).find(|&i| active(i))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every active port is scanned once in as many scans as there are active
+    /// ones, an inactive one never; with none active, none.
+    #[test]
+    fn a_scan_reaches_every_active_port_in_turn() {
+        let others = 9;
+        for mask in [0u32, 0b1, 0b100_000_000, 0b101_010_011, 0b111_111_111] {
+            let active = |i: usize| mask & (1 << i) != 0;
+            let count = mask.count_ones() as usize;
+            let mut last = 0;
+            for _ in 0..3 {
+                let mut seen = 0u32;
+                for _ in 0..count {
+                    let i = scanned_next(others, last, active).expect("an active port");
+                    assert!(active(i));
+                    seen |= 1 << i;
+                    last = i;
+                }
+                assert_eq!(seen, mask, "one round of scans covers every active port");
+            }
+            if count == 0 {
+                assert_eq!(scanned_next(others, last, active), None);
+            }
+        }
+    }
 
     /// Wherever [`goes_alone`] says a port's head goes alone, [`pick`] over
     /// every port (none with a late sample or a bound, as after a clean pick)

@@ -59,6 +59,8 @@ pub(super) trait Port {
     /// than `newest` (late) moves to the late slot if that is free, and the
     /// next one is received behind it.
     fn poll(&mut self, errors: &mut u64, newest: Option<Key>) -> Heads;
+    /// Whether the port is polled at all ([`Port::refresh`]).
+    fn active(&self) -> bool;
     /// Hands the pending sample over (`late`: the late slot's).
     fn take(&mut self, late: bool) -> Option<Sample>;
     /// Housekeeping: whether this kind has a publisher or waiting samples.
@@ -140,6 +142,10 @@ impl<T: WireSample> Port for KindPort<T> {
             // turn's); then nothing of this port bounds the others.
             bound: self.turn_oldest.filter(|_| self.blocked),
         }
+    }
+
+    fn active(&self) -> bool {
+        self.active
     }
 
     fn take(&mut self, late: bool) -> Option<Sample> {
