@@ -157,9 +157,10 @@ impl HealthNow {
 /// fused values, summed when a value comes in (not on every evaluation), and
 /// the evaluation's own state. One cache line per sensor: a snapshot's health
 /// evaluation reads these and nothing else of the window
-/// ([`HealthMonitor::evaluate`]); the values themselves are in
-/// [`HealthMonitor::values`], read only when one comes in.
+/// ([`HealthMonitor::evaluate`]); the values themselves are kept apart
+/// (the monitor's `values`) and read only when one comes in.
 #[derive(Debug, Clone, Copy, Default)]
+#[repr(align(64))]
 struct NisWindow {
     next: usize,
     len: usize,
@@ -174,6 +175,8 @@ struct NisWindow {
     /// band. It stands until a measurement comes in: the streak moves only then.
     persistent: bool,
 }
+
+const _: () = assert!(std::mem::size_of::<NisWindow>() == 64, "a window's scalars fill one cache line");
 
 /// How long a sensor's NIS window must stay out of its band before the health
 /// says so, in windows' worth of that sensor's measurements in a row: one
