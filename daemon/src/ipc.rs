@@ -207,9 +207,7 @@ impl IpcSource {
             armed: false,
         })
     }
-}
 
-impl IpcSource {
     /// A look while idle: polls the IMU's port and one other active port, each
     /// scan the next one in turn, into `heads`; returns whether either holds a
     /// sample. The merge then sees every other port as its last poll left it:
@@ -257,7 +255,7 @@ impl SampleSource for IpcSource {
     /// ends the turn; the next one gives its publishers their next share.
     ///
     /// Once a full look finds every port empty (and none blocked), the looks
-    /// are scans ([`IpcSource::scan`]) until a sample is taken or the loop
+    /// are scans (`IpcSource::scan`) until a sample is taken or the loop
     /// waits or refreshes.
     fn next(&mut self, newest: Option<(u64, u8)>) -> Option<Sample> {
         // The next sample of an instant, from the port of the last one, goes
