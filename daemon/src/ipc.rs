@@ -230,7 +230,7 @@ impl IpcSource {
             heads[i] = self.ports[i].poll(&mut self.receive_errors, newest);
         }
         heads[imu] = self.ports[imu].poll(&mut self.receive_errors, newest);
-        [heads[self.scanned], heads[imu]].iter().any(|h| h.pending.is_some() || h.late.is_some())
+        heads[self.scanned].holds() || heads[imu].holds()
     }
 }
 
@@ -279,7 +279,7 @@ impl SampleSource for IpcSource {
                 *head = port.poll(&mut self.receive_errors, newest);
             }
         }
-        self.holding |= heads.iter().any(|h| h.pending.is_some() || h.late.is_some());
+        self.holding |= heads.iter().any(Heads::holds);
         let Some((port, late)) = merge::pick(&heads, newest, &mut self.passed_over) else {
             // Nothing held and nothing blocked: idle.
             self.idle = heads.iter().all(|h| *h == Heads::EMPTY);

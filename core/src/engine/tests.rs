@@ -431,10 +431,6 @@ fn without_a_clock_a_time_jump_is_refused_until_a_run_confirms_it() {
     assert_accounted(&e);
 }
 
-/// Whether two inserts placed the sample alike (processed or placed with as
-/// many later samples, or refused for the same reason). Appended after stale
-/// entries, a measurement's own outcome is provisional: its NIS, and even its
-/// gate decision, may differ until the correction has settled.
 /// The model of the comparisons between two engines (no gate).
 fn model() -> LinearModel {
     LinearModel::new(0.3, [0.0; 6], [100.0, 100.0, 100.0, 10.0, 10.0, 10.0], None).unwrap()
@@ -448,6 +444,10 @@ fn record(out: &mut Vec<Final>, e: &Entry<crate::model::linear::LinearState>) {
     out.push((e.key, e.outcome, LinearModel::x(&e.state).to_vec(), LinearModel::covariance(&e.state)));
 }
 
+/// Whether two inserts placed the sample alike (processed or placed with as
+/// many later samples, or refused for the same reason). Appended after stale
+/// entries, a measurement's own outcome is provisional: its NIS, and even its
+/// gate decision, may differ until the correction has settled.
 fn same_decision(a: &Insert, b: &Insert) -> bool {
     match (a, b) {
         (

@@ -43,6 +43,11 @@ pub struct Heads {
 impl Heads {
     /// A port with nothing.
     pub const EMPTY: Heads = Heads { pending: None, late: None, bound: None };
+
+    /// Whether the port holds a sample (pending or late).
+    pub fn holds(&self) -> bool {
+        self.pending.is_some() || self.late.is_some()
+    }
 }
 
 /// The port whose sample goes next and whether it is its late slot's, given
