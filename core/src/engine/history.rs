@@ -20,8 +20,9 @@ use std::ops::{Index, IndexMut};
 /// lines of one small array.
 pub(super) struct History<E, K> {
     /// Every slot, written at construction: the kernel maps pages on first write,
-    /// so no page fault is left for the live path. Two more than the capacity:
-    /// the base, and the slot reserved ahead ([`History::reserve_next`]).
+    /// so no page fault is left for the live path. Three more than the capacity:
+    /// the base, the slot reserved ahead ([`History::reserve_next`]) and the one
+    /// prepared after it ([`History::prepare_after_next`]).
     slots: Vec<E>,
     /// Slot of each entry, in processing order.
     order: VecDeque<u32>,
@@ -34,22 +35,26 @@ pub(super) struct History<E, K> {
     /// The slot the next insert writes, taken out of `free` ahead of it
     /// ([`History::reserve_next`]).
     reserved: Option<u32>,
+    /// The slot the insert after the reserved one writes, taken out of `free`
+    /// and written ahead of it ([`History::prepare_after_next`]).
+    prepared: Option<u32>,
     /// Most entries in `order`.
     capacity: usize,
 }
 
 impl<E: Copy, K: Copy> History<E, K> {
-    /// Room for `capacity` entries, the base and a reserved slot; every slot
-    /// starts as `filler`.
+    /// Room for `capacity` entries, the base, a reserved and a prepared slot;
+    /// every slot starts as `filler`.
     pub fn new(capacity: usize, filler: E) -> Self {
-        let capacity = capacity.min(u32::MAX as usize - 2);
+        let capacity = capacity.min(u32::MAX as usize - 3);
         Self {
-            slots: vec![filler; capacity + 2],
+            slots: vec![filler; capacity + 3],
             order: VecDeque::with_capacity(capacity),
             keys: VecDeque::with_capacity(capacity),
-            free: (0..=capacity as u32 + 1).rev().collect(),
+            free: (0..=capacity as u32 + 2).rev().collect(),
             base: None,
             reserved: None,
+            prepared: None,
             capacity,
         }
     }
@@ -93,13 +98,16 @@ impl<E: Copy, K: Copy> History<E, K> {
     /// its slot by `write(before, slot)`: `before` is the entry before it (the
     /// base when `index` is 0, if there is one), `slot` holds a stale entry to
     /// overwrite, or what was written in the reserved slot
-    /// ([`reserve_next`](Self::reserve_next)). Returns false, writing nothing,
-    /// when the history is full.
+    /// ([`reserve_next`](Self::reserve_next)); after it, the next insert takes
+    /// the prepared one ([`prepare_after_next`](Self::prepare_after_next)).
+    /// Returns false, writing nothing, when the history is full.
     pub fn insert_with(&mut self, index: usize, key: K, write: impl FnOnce(Option<&E>, &mut E)) -> bool {
         if self.order.len() >= self.capacity {
             return false;
         }
-        let Some(slot) = self.reserved.take().or_else(|| self.free.pop()) else { return false };
+        let Some(slot) = self.reserved.take().or_else(|| self.prepared.take()).or_else(|| self.free.pop()) else {
+            return false;
+        };
         let before = if index == 0 { self.base } else { self.order.get(index - 1).copied() };
         // A free slot is never the base nor in `order`, so the two are disjoint.
         match before.and_then(|b| self.slots.get_disjoint_mut([b as usize, slot as usize]).ok()) {
@@ -120,11 +128,12 @@ impl<E: Copy, K: Copy> History<E, K> {
     /// The slot the next insert writes, reserved for it, and the entry an
     /// append steps from (the newest, else the base): for writing the next
     /// entry ahead of its insert. The next [`insert_with`](Self::insert_with),
-    /// wherever it inserts, takes this slot as it is. A slot is always free for
-    /// it (one beyond the capacity and the base).
+    /// wherever it inserts, takes this slot as it is (a prepared slot becomes
+    /// the reserved one). A slot is always free for it (beyond the capacity,
+    /// the base and the prepared slot).
     pub fn reserve_next(&mut self) -> Option<(Option<&E>, &mut E)> {
         if self.reserved.is_none() {
-            self.reserved = self.free.pop();
+            self.reserved = self.prepared.take().or_else(|| self.free.pop());
         }
         let slot = self.reserved? as usize;
         match self.order.back().copied().or(self.base) {
@@ -134,6 +143,31 @@ impl<E: Copy, K: Copy> History<E, K> {
                 Some((Some(before), next))
             }
             None => Some((None, &mut self.slots[slot])),
+        }
+    }
+
+    /// Prepares the slot the insert after the next one writes: takes it out of
+    /// `free` (once) and writes the reserved entry into it, so that its cache
+    /// lines are this core's, modified, when that insert copies a state in.
+    /// Does nothing before [`reserve_next`](Self::reserve_next).
+    ///
+    /// A free slot was last written when its entry was stepped, a history ago:
+    /// its lines are in a far cache or in memory, and a state of 2.4 KB copied
+    /// into it costs its sample one miss per 64 bytes, which stall the stores
+    /// behind them. The second IMU sample of an instant (and a fix stamped at
+    /// an IMU instant) steps into this slot right after the first, on the path
+    /// to the snapshot. What is written here is never read: the insert
+    /// overwrites the whole entry.
+    pub fn prepare_after_next(&mut self) {
+        let Some(reserved) = self.reserved else { return };
+        if self.prepared.is_none() {
+            self.prepared = self.free.pop();
+        }
+        // The reserved and the prepared slot are two distinct free slots.
+        if let Some(prepared) = self.prepared
+            && let Ok([from, to]) = self.slots.get_disjoint_mut([reserved as usize, prepared as usize])
+        {
+            *to = *from;
         }
     }
 
@@ -153,12 +187,13 @@ impl<E: Copy, K: Copy> History<E, K> {
         }
     }
 
-    /// Reads the slots the next in-order insert touches: the newest entry (copied
+    /// Reads the slots the next in-order inserts touch: the newest entry (copied
     /// from), the oldest and the base (the next eviction), and the next free
-    /// (or reserved) slot (written).
+    /// (or reserved) slot and the prepared one (written).
     pub fn warm(&self) {
         let next = self.reserved.as_ref().or(self.free.last());
-        for slot in [self.order.back(), self.order.front(), self.base.as_ref(), next].into_iter().flatten() {
+        let slots = [self.order.back(), self.order.front(), self.base.as_ref(), next, self.prepared.as_ref()];
+        for slot in slots.into_iter().flatten() {
             // A copy through `black_box` reads every cache line of the entry.
             std::hint::black_box(self.slots[*slot as usize]);
         }
@@ -266,5 +301,41 @@ mod tests {
         while h.pop_front().is_some() {}
         let (before, _) = h.reserve_next().unwrap();
         assert_eq!(before.copied(), Some(3), "empty: from the base");
+    }
+
+    /// The slot prepared after the reserved one holds a copy of it, and the
+    /// insert after the next takes it as written; a reserve takes it when no
+    /// slot is reserved. Also full: three slots beyond the capacity.
+    #[test]
+    fn the_slot_after_the_next_is_prepared_with_a_copy() {
+        let mut h = History::new(2, 0u64);
+        h.prepare_after_next();
+        assert!(h.prepared.is_none(), "nothing reserved: nothing to prepare");
+        *h.reserve_next().unwrap().1 = 7;
+        h.prepare_after_next();
+        assert!(h.insert_with(0, (), |_, e| assert_eq!(*e, 7, "the reserved slot")));
+        assert!(h.insert_with(1, (), |_, e| assert_eq!(*e, 7, "the prepared slot: a copy")));
+        h[1] = 8;
+        h.pop_front();
+        assert!(h.insert_with(1, (), |_, e| *e = 8));
+        // Full, with a base: a reserved and a prepared slot still.
+        *h.reserve_next().unwrap().1 = 9;
+        h.prepare_after_next();
+        let (reserved, prepared) = (h.reserved.unwrap(), h.prepared.unwrap());
+        assert!(!h.insert_with(2, (), |_, _| unreachable!()), "full: refused, both slots stay");
+        assert_eq!((h.reserved, h.prepared), (Some(reserved), Some(prepared)));
+        h.pop_front();
+        assert!(h.insert_with(1, (), |_, e| assert_eq!(*e, 9)));
+        h.pop_front();
+        // Prepared, none reserved: the next reserve takes the prepared slot.
+        let (_, next) = h.reserve_next().unwrap();
+        assert_eq!(*next, 9, "the prepared slot, reserved");
+        assert_eq!((h.reserved, h.prepared), (Some(prepared), None));
+        // Every slot is distinct: the entries, the base, the reserved and the prepared.
+        h.prepare_after_next();
+        let mut used: Vec<u32> = h.order.iter().copied().chain(h.base).chain(h.reserved).chain(h.prepared).collect();
+        used.sort_unstable();
+        used.dedup();
+        assert_eq!(used.len(), h.order.len() + 3);
     }
 }
