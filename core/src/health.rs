@@ -195,9 +195,11 @@ pub struct HealthMonitor {
     /// Per sensor: the window's NIS values, a ring of `nis_window` (`None`
     /// for a gated measurement).
     values: Box<[[Option<f64>; MAX_NIS_WINDOW]; MAX_SENSORS]>,
-    /// Per group of kinds the health waits for ([`measurement::Needed`]): bit
-    /// `k.index()` for each kind `k` of the group.
+    /// The groups of kinds the health waits for ([`measurement::Needed`]), each
+    /// once, in `needed_groups[..needed_len]`: bit `k.index()` for each kind `k`
+    /// of the group. Read for every snapshot: a few masks, not one per kind.
     needed_groups: [u32; KINDS],
+    needed_len: usize,
     lost_seen: [u64; MAX_SENSORS],
     last_loss_ns: Option<u64>,
     reinitialisations_seen: u64,
@@ -221,10 +223,15 @@ impl HealthMonitor {
             }
         }
         let mut needed_groups = [0; KINDS];
+        let mut needed_len = 0;
         for &k in SampleKind::ALL {
             if let Some(group) = measurement::needed(k) {
                 let of_group = SampleKind::ALL.iter().filter(|&&j| measurement::needed(j) == Some(group));
-                needed_groups[k.index()] = of_group.fold(0, |mask, j| mask | 1 << j.index());
+                let mask = of_group.fold(0, |mask, j| mask | 1 << j.index());
+                if !needed_groups[..needed_len].contains(&mask) {
+                    needed_groups[needed_len] = mask;
+                    needed_len += 1;
+                }
             }
         }
         Self {
@@ -233,6 +240,7 @@ impl HealthMonitor {
             windows: [NisWindow::default(); MAX_SENSORS],
             values: Box::new([[None; MAX_NIS_WINDOW]; MAX_SENSORS]),
             needed_groups,
+            needed_len,
             lost_seen: [0; MAX_SENSORS],
             last_loss_ns: None,
             reinitialisations_seen: 0,
@@ -270,11 +278,16 @@ impl HealthMonitor {
     /// false): no absolute position is waited for; `initialising` lasts until
     /// the model is ready and the IMU was processed.
     pub fn without_position(mut self) -> Self {
-        for &k in SampleKind::ALL {
-            if measurement::needed(k) == Some(measurement::Needed::Position) {
-                self.needed_groups[k.index()] = 0;
-            }
+        let position = |mask: u32| {
+            let mut kinds = SampleKind::ALL.iter().filter(|k| mask & 1 << k.index() != 0);
+            kinds.any(|&k| measurement::needed(k) == Some(measurement::Needed::Position))
+        };
+        let (groups, mut kept) = (self.needed_groups, 0);
+        for &mask in groups[..self.needed_len].iter().filter(|&&mask| !position(mask)) {
+            self.needed_groups[kept] = mask;
+            kept += 1;
         }
+        self.needed_len = kept;
         self
     }
 
@@ -361,7 +374,7 @@ impl HealthMonitor {
             reasons |= health::REINITIALISED;
         }
         // Each group that some kind belongs to needs a processed sample of one of its kinds.
-        let waiting = self.needed_groups.iter().any(|&group| group != 0 && seen & group == 0);
+        let waiting = self.needed_groups[..self.needed_len].iter().any(|&group| seen & group == 0);
         let state = if !initialised || waiting {
             health::INITIALISING
         } else if reasons != 0 {

@@ -22,6 +22,7 @@ fn engine() -> Engine<LinearModel> {
 fn a_dead_reckoning_model_is_ok_without_a_fix() {
     let mut h = HealthMonitor::new(HealthConfig::default()).without_position();
     let mut e = engine();
+    assert_eq!(h.evaluate(e.sensors(), 500, true, 0).state, health::INITIALISING, "it still waits for the IMU");
     let imu = Sample::Imu(ImuSample::new(1_000, 0, 0, [0.0; 3], [0.0; 3]));
     e.insert(&imu, Some(1_000), &mut |_| {});
     assert_eq!(h.evaluate(e.sensors(), 1_000, true, 0).state, health::OK);
