@@ -35,9 +35,8 @@
 //! since `propagate_to` is a pure function of the state and the time, and an
 //! equal time propagates nothing ([`crate::model::advance_time`]). Any other
 //! sample discards it.
-//! The slot after it is written too (a copy, never read): the sample after
-//! the next, an instant's second IMU sample, copies its state into memory
-//! this core holds, not into a slot last written a history ago.
+//! The slot after it is written too (`History::prepare_after_next`): an
+//! instant's second IMU sample steps into memory this core holds.
 
 use fusion_shared::SampleKind;
 
@@ -476,8 +475,7 @@ impl<M: Steps> Engine<M> {
     /// module's doc). For the caller's idle time. Does nothing while a
     /// correction is pending (its re-steps would change the newest state), when
     /// done already for the newest state, or when the model expects nothing
-    /// after it. It also writes the slot of the entry after the next one
-    /// (`History::prepare_after_next`). Returns whether it propagated.
+    /// after it. Returns whether it propagated.
     pub fn step_ahead(&mut self) -> bool {
         if self.stale_from.is_some() || self.ahead.is_some_and(|(_, at)| at == self.changes) {
             return false;
@@ -491,8 +489,6 @@ impl<M: Steps> Engine<M> {
         let Some(t) = t else { return false };
         next.state = *before;
         self.model.propagate_to(&mut next.state, t, None);
-        // The sample after that one (an instant's second IMU sample) steps
-        // into a slot written now too, not into one last written a history ago.
         self.history.prepare_after_next();
         self.stats.stepped_ahead += 1;
         true

@@ -226,8 +226,7 @@ impl HealthMonitor {
         let mut needed_len = 0;
         for &k in SampleKind::ALL {
             if let Some(group) = measurement::needed(k) {
-                let of_group = SampleKind::ALL.iter().filter(|&&j| measurement::needed(j) == Some(group));
-                let mask = of_group.fold(0, |mask, j| mask | 1 << j.index());
+                let mask = Self::group_mask(group);
                 if !needed_groups[..needed_len].contains(&mask) {
                     needed_groups[needed_len] = mask;
                     needed_len += 1;
@@ -278,17 +277,20 @@ impl HealthMonitor {
     /// false): no absolute position is waited for; `initialising` lasts until
     /// the model is ready and the IMU was processed.
     pub fn without_position(mut self) -> Self {
-        let position = |mask: u32| {
-            let mut kinds = SampleKind::ALL.iter().filter(|k| mask & 1 << k.index() != 0);
-            kinds.any(|&k| measurement::needed(k) == Some(measurement::Needed::Position))
-        };
+        let position = Self::group_mask(measurement::Needed::Position);
         let (groups, mut kept) = (self.needed_groups, 0);
-        for &mask in groups[..self.needed_len].iter().filter(|&&mask| !position(mask)) {
+        for &mask in groups[..self.needed_len].iter().filter(|&&mask| mask != position) {
             self.needed_groups[kept] = mask;
             kept += 1;
         }
         self.needed_len = kept;
         self
+    }
+
+    /// The kinds of `group`: bit `k.index()` for each kind `k` in it.
+    fn group_mask(group: measurement::Needed) -> u32 {
+        let kinds = SampleKind::ALL.iter().filter(|&&k| measurement::needed(k) == Some(group));
+        kinds.fold(0, |mask, k| mask | 1 << k.index())
     }
 
     /// The band for the NIS sum of `k` fused measurements of innovation dimension `m`.
