@@ -241,21 +241,31 @@ fn new_segments_are_never_open_to_another_user_not_even_while_they_are_made() {
     let domain = TestDomain::new("hammer");
     let mut daemon = Daemon::start(&domain, &config(), "event");
     let pattern = format!("/dev/shm/{}*", domain.prefix);
-    // As the other user: 3 s of attempts to open each file for writing (never
-    // creating one), printing the name of any that opens.
+    // As the other user: attempts to open each file for writing (never
+    // creating one), printing the name of any that opens, until told to stop;
+    // the count so far in a file of a folder both users write. Counts, not
+    // seconds, end both sides: the same overlap on a fast or a loaded machine.
+    let shared = tempfile::tempdir().unwrap();
+    std::fs::set_permissions(shared.path(), std::fs::Permissions::from_mode(0o777)).unwrap();
+    let (stop, count) = (shared.path().join("stop"), shared.path().join("count"));
     let script = format!(
-        "end=$(($(date +%s) + 3)); n=0; while [ $(date +%s) -lt $end ]; do for f in {pattern}; do \
+        "n=0; while [ ! -e {stop} ]; do for f in {pattern}; do \
          n=$((n+1)); dd if=/dev/null of=\"$f\" conv=nocreat,notrunc status=none 2>/dev/null && echo \"OPENED $f\"; \
-         done; done; echo \"attempts $n\""
+         done; echo $n > {count}.new && mv {count}.new {count}; done; echo \"attempts $n\"",
+        stop = stop.display(),
+        count = count.display(),
     );
     let peer = Command::new("timeout")
-        .args(["20", "runuser", "-u", PEER, "--", "sh", "-c", &script])
+        .args(["120", "runuser", "-u", PEER, "--", "sh", "-c", &script])
         .stdout(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    let started = Instant::now();
+    let peer_attempts = || std::fs::read_to_string(&count).ok().and_then(|n| n.trim().parse::<u64>().ok()).unwrap_or(0);
+    // A hang guard, not a timing: both counts are reached in seconds.
+    let guard = Instant::now() + Duration::from_secs(100);
     let mut made = 0;
-    while started.elapsed() < Duration::from_secs(3) {
+    while made < 50 || peer_attempts() < 200 {
+        assert!(Instant::now() < guard, "{made} clients, {} attempts of the other user", peer_attempts());
         let client = domain.client();
         let mut imu = client.imu_publisher(7).unwrap();
         // Come and go at once (no wait for fusiond to take the sample).
@@ -265,10 +275,11 @@ fn new_segments_are_never_open_to_another_user_not_even_while_they_are_made() {
         drop((reader, imu, client));
         made += 1;
     }
+    std::fs::write(&stop, "").unwrap();
     let out = peer.wait_with_output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout);
     assert!(!said.contains("OPENED"), "another user opened a segment:\n{said}");
     let attempts: u64 = said.lines().last().and_then(|l| l.strip_prefix("attempts ")?.parse().ok()).unwrap_or(0);
-    assert!(attempts > 100 && made > 20, "{attempts} attempts while {made} clients came and went");
+    assert!(attempts >= 200 && made >= 50, "{attempts} attempts while {made} clients came and went");
     assert!(daemon.terminate().success());
 }
