@@ -168,10 +168,7 @@ pub struct Engine<M: Steps> {
     stats: EngineStats,
 }
 
-/// Without a clock, this many samples in a row ahead of the newest processed
-/// time by more than `max_jump_ns` are refused; the next one is taken as a real
-/// gap in the recording, and time moves on.
-pub const JUMP_CONFIRMATION: u32 = 100;
+pub use fusion_shared::time::JUMP_CONFIRMATION;
 
 impl<M: Steps> Engine<M> {
     /// An engine running `model` within `config`'s limits.

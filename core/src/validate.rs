@@ -107,7 +107,7 @@ impl Default for ValidationConfig {
         Self {
             max_future_ns: 50_000_000,
             max_past_ns: 5_000_000_000,
-            max_jump_ns: 600_000_000_000,
+            max_jump_ns: fusion_shared::time::DEFAULT_MAX_JUMP_NS,
             max_sensors: 8,
             max_rate_hz: 10_000.0,
             max_burst: 100,

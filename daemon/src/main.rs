@@ -110,7 +110,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("fusiond: {}", fusion_shared::exit::error_line(e.as_ref()));
-            ExitCode::from(fusion_shared::exit::FAILURE)
+            ExitCode::from(fusion_shared::exit::status_of(e.as_ref()))
         }
     }
 }
@@ -238,7 +238,14 @@ fn replay_bag(
         .with_context(|| format!("replaying {}", input.display()))?;
     eprint!("{bag}");
     eprint!("{summary}");
-    Ok(())
+    match &bag.damage {
+        Some(damage) => Err(fusion_shared::exit::InputDamaged(format!(
+            "{} is damaged ({damage}): replayed what comes before it",
+            input.display()
+        ))
+        .into()),
+        None => Ok(()),
+    }
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
@@ -326,13 +333,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         .map_err(say_why)?;
                 bar.finish_and_clear();
                 eprint!("{summary}");
-                if recording.damage().is_some() {
-                    eprintln!(
-                        "replay: replayed what comes before the damage ({} samples) of {}",
-                        summary.read,
-                        input.display()
-                    );
-                } else if recording.was_cut_off() {
+                if recording.was_cut_off() && recording.damage().is_none() {
                     eprintln!(
                         "replay: {} was cut off (no summary: the recorder was killed or lost its power): replayed \
                          what its complete chunks hold ({} samples); what the recorder had not yet written is lost",
@@ -343,6 +344,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 if let Some(c) = comparison {
                     eprint!("{c}");
                     anyhow::ensure!(c.equal(), "the replay differs from the live run");
+                }
+                if let (Some(damage), Some(loss)) = (recording.damage(), recording.loss(summary.read)) {
+                    return Err(fusion_shared::exit::InputDamaged(format!(
+                        "{} is {damage}: replayed what comes before it ({} samples); {loss}",
+                        input.display(),
+                        summary.read
+                    ))
+                    .into());
                 }
                 return Ok(());
             }

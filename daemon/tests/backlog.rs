@@ -102,7 +102,7 @@ fn a_stalled_daemon_drains_its_backlog_in_time_order() {
         |s: &StateSnapshot| s.sensor_counters().iter().find(|r| r.kind == SampleKind::Imu as u32).map(|r| r.counts);
     let deadline = Instant::now() + Duration::from_secs(60);
     let last = loop {
-        let latest = reader.latest().unwrap().map(|s| *s);
+        let latest = reader.latest().unwrap().copied();
         if let Some(s) = latest.filter(|s| imu_of(s).is_some_and(|imu| imu.received >= 2001)) {
             break s;
         }

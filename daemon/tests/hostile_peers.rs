@@ -25,7 +25,7 @@ fn write_jsonl(path: &std::path::Path, samples: &[Sample]) {
 
 fn sim_input(domain: &TestDomain, input: &std::path::Path) {
     let out = Command::new(workspace_bin("fusion-sim"))
-        .args(["run", "--namespace", &domain.namespace, "--input"])
+        .args(["run", "--keep-stamps", "--namespace", &domain.namespace, "--input"])
         .arg(input)
         .env(DOMAIN_ENV, &domain.domain)
         .output()

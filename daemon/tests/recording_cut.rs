@@ -145,8 +145,10 @@ fn a_damaged_chunk_ends_the_replay_there(dir: &std::path::Path, config: &std::pa
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{:?}\n{stderr}", out.status);
+    // The damage is the exit status (4), and the loss is said.
+    assert_eq!(out.status.code(), Some(fusion_shared::exit::DAMAGED.into()), "{stderr}");
     assert!(stderr.contains(&format!("is damaged at byte {damaged_at}")), "{stderr}");
+    assert!(stderr.contains(&format!("the {} bytes from the damage", bytes.len() - damaged_at)), "{stderr}");
     let replayed = std::fs::read_to_string(dir.join("damaged.jsonl")).unwrap().lines().count();
     assert!(replayed > 0 && replayed < whole, "{replayed} of {whole}\n{stderr}");
 }

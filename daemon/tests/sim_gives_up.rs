@@ -24,12 +24,14 @@ fn sim(domain: &TestDomain, args: &[&str]) -> Output {
         .unwrap()
 }
 
-/// Samples stamped on another clock (a recording's, near 0 s of it) are all
-/// refused by a fusiond whose clock is far ahead: fusion-sim stops within a few
-/// seconds (not 50 ms per sample of the file), says why (from fusiond's refusal
-/// counters) and exits 1; and every place a user looks says why: the snapshot
-/// (published though no sample was processed), `fusionctl state`, one warning
-/// in fusiond's log naming the setting, and the summary line.
+/// A file stamped on another clock (a recording's, from 1 ms of it): fusion-sim
+/// moves its stamps onto this host's clock (fusiond would refuse them all as
+/// too far in the past) and says so; every sample is taken. Its samples
+/// beyond an IMU's range are all refused: fusion-sim stops within a few
+/// seconds (not 50 ms per sample of the file), says why (from fusiond's
+/// refusal counters) and exits 1; and every place a user looks says why: the
+/// snapshot (published though no sample was processed), `fusionctl state`,
+/// one warning in fusiond's log naming the setting, and the summary line.
 #[test]
 fn a_file_fusiond_refuses_entirely_ends_with_the_reason() {
     let domain = TestDomain::new("sim-refused");
@@ -38,24 +40,35 @@ fn a_file_fusiond_refuses_entirely_ends_with_the_reason() {
     let config = format!("{}\n[validation]\nmax_past_ns = 5_000_000_000\n", common::linear_config(Some(0.999)));
     let mut daemon = Daemon::start_with(&domain, &config, &["--wait", "event", "--summary-interval", "0.5"]);
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("old.jsonl");
-    let lines: String = (0..2000u64)
-        .map(|k| {
-            let s = Sample::Imu(ImuSample::new(1_000_000 + k * 5_000_000, 0, k, [0.1, 0.0, 0.0], [0.0; 3]));
-            fusion_shared::jsonl::format_sample(&s) + "\n"
-        })
-        .collect();
-    std::fs::write(&path, lines).unwrap();
+    let file = |name: &str, n: u64, accel: f64| {
+        let path = dir.path().join(name);
+        let lines: String = (0..n)
+            .map(|k| {
+                let s = Sample::Imu(ImuSample::new(1_000_000 + k * 5_000_000, 0, k, [accel, 0.0, 0.0], [0.0; 3]));
+                fusion_shared::jsonl::format_sample(&s) + "\n"
+            })
+            .collect();
+        std::fs::write(&path, lines).unwrap();
+        path
+    };
+    let good = file("recorded.jsonl", 100, 0.1);
+    let out = sim(&domain, &["--input", good.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("is stamped on another clock") && stderr.contains("moved onto this host's clock"));
+    assert!(stderr.contains("published 100 samples") && stderr.contains("0 without a snapshot"), "{stderr}");
+
+    let path = file("beyond.jsonl", 2000, 1000.0);
     let started = Instant::now();
     let out = sim(&domain, &["--input", path.to_str().unwrap()]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(started.elapsed() < Duration::from_secs(20), "it gave up after {:?}", started.elapsed());
     assert!(stderr.contains("answered none") && stderr.contains("its refusal counters"), "{stderr}");
-    assert!(stderr.contains("timestamp too far in the past: ") && stderr.contains("max_past_ns"), "{stderr}");
+    assert!(stderr.contains("beyond the sensor range: ") && stderr.contains("accel_range_mps2"), "{stderr}");
 
-    // The snapshot says how many and why, though no sample was processed (the
-    // last refusals' one within REFUSAL_SNAPSHOT_NS).
+    // The snapshot says how many and why (the last refusals' one within
+    // REFUSAL_SNAPSHOT_NS).
     std::thread::sleep(Duration::from_millis(500));
     let client = domain.client();
     let mut reader = client.state_subscriber().unwrap();
@@ -63,9 +76,8 @@ fn a_file_fusiond_refuses_entirely_ends_with_the_reason() {
         Some(s) => *s,
         None => *reader.wait_next(Duration::from_secs(5)).unwrap().expect("a snapshot of the refusals"),
     };
-    let refused = snap.rejections[rejection::PAST_TIMESTAMP as usize];
+    let refused = snap.rejections[rejection::OUT_OF_RANGE as usize];
     assert!(refused > 0 && snap.rejected() == refused, "{:?}", snap.rejections);
-    assert_eq!((snap.state_len, snap.sensor_count, snap.unknown_sensor), (0, 0, refused));
     drop((reader, client));
     let state = Command::new(workspace_bin("fusionctl"))
         .args(["state", "--namespace", &domain.namespace])
@@ -74,16 +86,15 @@ fn a_file_fusiond_refuses_entirely_ends_with_the_reason() {
         .unwrap();
     let text = String::from_utf8_lossy(&state.stdout);
     assert!(state.status.success(), "{text}{}", String::from_utf8_lossy(&state.stderr));
-    assert!(text.contains("no estimate yet"), "{text}");
     assert!(text.contains(&format!("refused in validation since start: {refused} samples")), "{text}");
-    assert!(text.contains(&format!("{refused} timestamp too far in the past: ")), "{text}");
-    assert!(text.contains("[validation] max_past_ns"), "{text}");
+    assert!(text.contains(&format!("{refused} beyond the sensor range (from imu 0): ")), "{text}");
+    assert!(text.contains("accel_range_mps2"), "{text}");
     assert!(daemon.terminate().success());
     let log = daemon.stderr();
     let warnings: Vec<&str> = log.lines().filter(|l| l.contains("refusing samples of")).collect();
     assert_eq!(warnings.len(), 1, "one warning for imu 0 and its reason:\n{log}");
-    assert!(warnings[0].contains("imu 0: timestamp too far in the past") && warnings[0].contains("max_past_ns"));
-    assert!(log.contains("(timestamp too far in the past "), "the summary line names the reason:\n{log}");
+    assert!(warnings[0].contains("imu 0: beyond the sensor range") && warnings[0].contains("accel_range_mps2"));
+    assert!(log.contains("(beyond the sensor range "), "the summary line names the reason:\n{log}");
     drop(daemon);
     assert!(domain.files().is_empty(), "{:?}", domain.files());
 }

@@ -7,6 +7,8 @@
 //! | [`FAILURE`] (1) | it was not: the one line on stderr says why |
 //! | [`USAGE`] (2) | invalid arguments, refused before anything started |
 //! | [`NO_STATE_YET`] (3) | `fusionctl state`: fusiond runs but has published no snapshot yet |
+//! | [`DAMAGED`] (4) | the input (a bag, a recording) is damaged: what could be read was processed and its output written; stderr names the damage and what was lost |
+//! | [`INTERRUPTED`] (130) | stopped by SIGINT or SIGTERM before the job was done (the shells' status for Ctrl-C); stderr says how far it got |
 
 /// The job was done.
 pub const SUCCESS: u8 = 0;
@@ -18,6 +20,43 @@ pub const USAGE: u8 = 2;
 /// `fusionctl state`: fusiond runs in the namespace but has published no
 /// snapshot yet (it has had no input); try again, or give `--wait`.
 pub const NO_STATE_YET: u8 = 3;
+
+/// The input (a bag, a recording) is damaged: the readable part was read and
+/// its output written; the error line names the damage and what was lost.
+pub const DAMAGED: u8 = 4;
+
+/// Stopped by SIGINT or SIGTERM before the job was done, as shells report a
+/// command ended by Ctrl-C (128 + 2).
+pub const INTERRUPTED: u8 = 130;
+
+/// The error a tool ends with when a signal stopped it before its job was
+/// done ([`INTERRUPTED`]): what it did up to there.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct Interrupted(pub String);
+
+/// The error a tool ends with when its input was damaged ([`DAMAGED`]): it
+/// did its job on the readable part, and says what was lost.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct InputDamaged(pub String);
+
+/// The exit status of a run that ended with `error`: [`DAMAGED`] when an
+/// [`InputDamaged`] is among its causes, [`INTERRUPTED`] for an
+/// [`Interrupted`], else [`FAILURE`].
+pub fn status_of(error: &(dyn std::error::Error + 'static)) -> u8 {
+    let mut next = Some(error);
+    while let Some(e) = next {
+        if e.is::<InputDamaged>() {
+            return DAMAGED;
+        }
+        if e.is::<Interrupted>() {
+            return INTERRUPTED;
+        }
+        next = e.source();
+    }
+    FAILURE
+}
 
 /// `error` and its causes on one line, `what: why: deeper cause`, each text
 /// once: a cause whose text the line already holds (an error that prints its

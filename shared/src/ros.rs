@@ -14,6 +14,7 @@
 //! [`BagSummary`] says what each topic gave.
 
 pub mod messages;
+mod ros1;
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -105,6 +106,10 @@ pub struct TopicSummary {
     pub samples: BTreeMap<&'static str, u64>,
     /// Messages (per kind) that made no sample, by reason.
     pub refused: BTreeMap<String, u64>,
+    /// Messages with the same bytes as an earlier one of the topic (within
+    /// [`DUPLICATE_WINDOW`]): their samples carry the earlier one's sequence
+    /// numbers, and fusiond counts them as duplicates.
+    pub duplicates: u64,
 }
 
 /// What a bag gave, topic by topic (`fusiond replay` prints it).
@@ -137,6 +142,9 @@ impl std::fmt::Display for BagSummary {
             let refused: Vec<String> = t.refused.iter().map(|(r, n)| format!("{n} refused: {r}")).collect();
             if !refused.is_empty() {
                 write!(f, "; {}", refused.join("; "))?;
+            }
+            if t.duplicates > 0 {
+                write!(f, "; {} duplicates (the same bytes as an earlier message)", t.duplicates)?;
             }
             writeln!(f)?;
         }
@@ -200,13 +208,20 @@ struct Topic {
     ty: Option<MessageType>,
     /// (kind, sensor, next seq).
     outputs: Vec<(SampleKind, u32, u64)>,
+    /// Its last [`DUPLICATE_WINDOW`] messages' bytes, with the sequence
+    /// number each output gave them.
+    recent: std::collections::VecDeque<(Vec<u8>, Vec<u64>)>,
 }
+
+/// How many of a mapped topic's last messages a message is compared with to
+/// find a duplicate (a driver or recorder that wrote a message twice).
+pub const DUPLICATE_WINDOW: usize = 64;
 
 /// The topic map checked against a topic of type `ty`.
 fn topic_for(routes: &[Route], topic: &str, ty: &str) -> Result<Topic, BagError> {
     let mapped: Vec<&Route> = routes.iter().filter(|r| r.topic == topic).collect();
     if mapped.is_empty() {
-        return Ok(Topic { ty: None, outputs: Vec::new() });
+        return Ok(Topic { ty: None, outputs: Vec::new(), recent: Default::default() });
     }
     let Some(t) = MessageType::from_name(ty) else {
         return Err(BagError::UnknownType { topic: topic.into(), ty: ty.into(), name: mapped[0].name.clone() });
@@ -227,7 +242,7 @@ fn topic_for(routes: &[Route], topic: &str, ty: &str) -> Result<Topic, BagError>
             outputs.push((kind, r.sensor, 0));
         }
     }
-    Ok(Topic { ty: Some(t), outputs })
+    Ok(Topic { ty: Some(t), outputs, recent: Default::default() })
 }
 
 /// How messages are decoded: ROS 1 serialisation or CDR.
@@ -254,9 +269,56 @@ impl Decode for Ros1 {
 
 impl Decode for Ros2 {
     type Header = Ros2Header;
+    /// A CDR message (XCDR1): the 4-byte encapsulation header (its second
+    /// byte 0: big-endian, 1: little-endian), then the data, aligned from
+    /// there. Every declared length is checked against the message before
+    /// anything is allocated (`cdr-encoding` borrows what it reads), and bytes
+    /// past the message, other than padding to a multiple of 4, are refused.
     fn decode<T: DeserializeOwned>(data: &[u8]) -> Result<T, String> {
-        cdr::deserialize::<T>(data).map_err(|e| format!("does not decode: {e}"))
+        use cdr_encoding::from_bytes;
+        // rosbag2's per-message compression (`--compression-mode message`):
+        // each message a zstd frame (a CDR message starts with 0x00).
+        let decompressed;
+        let data = if data.starts_with(ZSTD_MAGIC) {
+            decompressed =
+                decompress_zstd(data).map_err(|e| format!("a zstd-compressed message does not decompress: {e}"))?;
+            &decompressed[..]
+        } else {
+            data
+        };
+        let Some((header, body)) = data.split_at_checked(4) else {
+            return Err(format!("does not decode: {} bytes, shorter than a CDR header", data.len()));
+        };
+        let (value, used) = match [header[0], header[1]] {
+            [0, 0] => from_bytes::<T, byteorder::BigEndian>(body),
+            [0, 1] => from_bytes::<T, byteorder::LittleEndian>(body),
+            [a, b] => return Err(format!("does not decode: encapsulation {a:#04x}{b:02x} is not plain CDR")),
+        }
+        .map_err(|e| format!("does not decode: {e}"))?;
+        let left = body.len() - used;
+        if left >= 4 || (left > 0 && !body.len().is_multiple_of(4)) {
+            return Err(format!("does not decode: {left} bytes left over after the message"));
+        }
+        Ok(value)
     }
+}
+
+/// The first bytes of a zstd frame.
+pub const ZSTD_MAGIC: &[u8] = &[0x28, 0xb5, 0x2f, 0xfd];
+
+/// The most a compressed message may decompress to, bytes.
+pub const MAX_MESSAGE_BYTES: u64 = 1 << 28;
+
+/// A zstd frame, decompressed into at most [`MAX_MESSAGE_BYTES`].
+fn decompress_zstd(data: &[u8]) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    let decoder = zstd::stream::read::Decoder::with_buffer(data).map_err(|e| e.to_string())?;
+    let mut out = Vec::new();
+    decoder.take(MAX_MESSAGE_BYTES + 1).read_to_end(&mut out).map_err(|e| e.to_string())?;
+    if out.len() as u64 > MAX_MESSAGE_BYTES {
+        return Err(format!("it decompresses to more than {MAX_MESSAGE_BYTES} bytes"));
+    }
+    Ok(out)
 }
 
 fn decode<D: Decode>(ty: MessageType, data: &[u8]) -> Result<Box<dyn Convert>, String> {
@@ -296,22 +358,39 @@ impl<F: FnMut(BagItem)> Reading<'_, F> {
         Ok(())
     }
 
+    /// A message of `topic`: its samples, or why it gave none. A message with
+    /// the same bytes (its stamp among them) as one of the topic's last
+    /// [`DUPLICATE_WINDOW`] gives its samples again with the same sequence
+    /// numbers, so that fusiond counts them as duplicates.
     fn message<D: Decode>(&mut self, topic: &str, data: &[u8]) {
         self.position += 1;
         let (Some(t), Some(s)) = (self.topics.get_mut(topic), self.summary.topics.get_mut(topic)) else { return };
         s.messages += 1;
         let Some(ty) = t.ty else { return };
+        let earlier = t.recent.iter().find(|(bytes, _)| bytes.as_slice() == data).map(|(_, seqs)| seqs.clone());
+        s.duplicates += u64::from(earlier.is_some());
         let decoded = decode::<D>(ty, data);
-        for (kind, sensor, seq) in &mut t.outputs {
-            let sample = decoded.as_ref().map_err(Clone::clone).and_then(|m| m.sample(*kind, *sensor, *seq));
+        let mut seqs = Vec::with_capacity(t.outputs.len());
+        for (i, (kind, sensor, next)) in t.outputs.iter_mut().enumerate() {
+            let seq = earlier.as_ref().map_or(*next, |e| e[i]);
+            seqs.push(seq);
+            let sample = decoded.as_ref().map_err(Clone::clone).and_then(|m| m.sample(*kind, *sensor, seq));
             match &sample {
                 Ok(_) => {
-                    *seq += 1;
+                    if earlier.is_none() {
+                        *next += 1;
+                    }
                     *s.samples.entry(kind.name()).or_default() += 1;
                 }
                 Err(why) => *s.refused.entry(format!("{} {why}", kind.name())).or_default() += 1,
             }
             (self.each)(BagItem { position: self.position, sample });
+        }
+        if earlier.is_none() {
+            if t.recent.len() == DUPLICATE_WINDOW {
+                t.recent.pop_front();
+            }
+            t.recent.push_back((data.to_vec(), seqs));
         }
     }
 
@@ -386,8 +465,8 @@ fn ros1_index_pos(bytes: &[u8]) -> Result<u64, BagError> {
 }
 
 fn read_ros1<F: FnMut(BagItem)>(path: &Path, bytes: &[u8], r: &mut Reading<'_, F>) -> Result<(), BagError> {
-    use rosbag::{ChunkRecord, IndexRecord, MessageRecord, RosBag};
-    ros1_index_pos(bytes)?;
+    use rosbag::{IndexRecord, RosBag};
+    let index_pos = ros1_index_pos(bytes)? as usize;
     let bag = RosBag::new(path)?;
     // The index lists every connection: the topic map is checked before a message is read.
     for record in bag.index_records() {
@@ -397,37 +476,85 @@ fn read_ros1<F: FnMut(BagItem)>(path: &Path, bytes: &[u8], r: &mut Reading<'_, F
             Err(e) => return Err(BagError::Format(format!("its index is damaged: {e}"))),
         }
     }
+    // The chunk section: from the bag header record to the index.
+    let mut at = ROS1_MAGIC.len();
+    ros1::next_record(bytes, &mut at)
+        .map_err(|e| BagError::Format(format!("its bag header record is damaged: {e}")))?;
+    let section = &bytes[..index_pos];
     let mut connections: BTreeMap<u32, String> = BTreeMap::new();
-    for record in bag.chunk_records() {
-        let chunk = match record {
-            Ok(ChunkRecord::Chunk(chunk)) => chunk,
-            Ok(ChunkRecord::IndexData(_)) => continue,
-            Err(e) => {
-                r.summary.damage = Some(format!("a chunk after message {}: {e}", r.position));
-                return Ok(());
-            }
-        };
-        for m in chunk.messages() {
-            match m {
-                Ok(MessageRecord::Connection(c)) => {
-                    r.topic(c.topic, c.tp)?;
-                    connections.insert(c.id, c.topic.to_string());
-                }
-                Ok(MessageRecord::MessageData(d)) => match connections.get(&d.conn_id) {
-                    Some(topic) => r.message::<Ros1>(topic, d.data),
-                    None => {
-                        r.summary.damage = Some(format!("message {} is of an unknown connection", r.position + 1));
-                        return Ok(());
-                    }
-                },
-                Err(e) => {
-                    r.summary.damage = Some(format!("a record after message {}: {e}", r.position));
-                    return Ok(());
-                }
-            }
+    while at < section.len() {
+        let offset = at;
+        if let Err(what) = ros1_record(section, &mut at, &mut connections, r)? {
+            r.summary.damage = Some(format!("at byte {offset} (after message {}): {what}", r.position));
+            return Ok(());
         }
     }
     Ok(())
+}
+
+/// The record of the chunk section at `*at`: a chunk's messages read, index
+/// data skipped. `Err` when a topic does not fit the topic map, `Ok(Err)`
+/// where the bag is damaged.
+fn ros1_record<F: FnMut(BagItem)>(
+    section: &[u8],
+    at: &mut usize,
+    connections: &mut BTreeMap<u32, String>,
+    r: &mut Reading<'_, F>,
+) -> Result<Result<(), String>, BagError> {
+    let chunk = match ros1::next_record(section, at).and_then(|c| Ok((ros1::op_of(&c)?, c))) {
+        Ok((ros1::op::CHUNK, chunk)) => chunk,
+        Ok((ros1::op::INDEX_DATA, _)) => return Ok(Ok(())),
+        Ok((op, _)) => return Ok(Err(format!("a record of op {op:#04x} in the chunk section"))),
+        Err(e) => return Ok(Err(e)),
+    };
+    match ros1::chunk_data(&chunk) {
+        Ok(data) => Ok(ros1_chunk(&data, connections, r)?.map_err(|e| format!("in a chunk: {e}"))),
+        Err(e) => Ok(Err(e)),
+    }
+}
+
+/// The connections and messages of a decompressed ROS 1 chunk: `Err` when a
+/// topic does not fit the topic map, `Ok(Err)` where the chunk is damaged.
+fn ros1_chunk<F: FnMut(BagItem)>(
+    data: &[u8],
+    connections: &mut BTreeMap<u32, String>,
+    r: &mut Reading<'_, F>,
+) -> Result<Result<(), String>, BagError> {
+    let mut at = 0;
+    while at < data.len() {
+        let record = match ros1::next_record(data, &mut at).and_then(|m| Ok((ros1::op_of(&m)?, m))) {
+            Ok(record) => record,
+            Err(e) => return Ok(Err(e)),
+        };
+        match record {
+            (ros1::op::CONNECTION, c) => {
+                let connection = ros1::field_u32(c.header, "conn").and_then(|id| {
+                    let topic = ros1::required(c.header, "topic")?;
+                    Ok((id, String::from_utf8_lossy(topic).into_owned(), ros1::required(c.data, "type")?))
+                });
+                let (id, topic, ty) = match connection {
+                    Ok(c) => c,
+                    Err(e) => return Ok(Err(e)),
+                };
+                r.topic(&topic, &String::from_utf8_lossy(ty))?;
+                connections.insert(id, topic);
+            }
+            (ros1::op::MESSAGE_DATA, m) => {
+                let topic = match ros1::field_u32(m.header, "conn") {
+                    Ok(id) => connections
+                        .get(&id)
+                        .ok_or_else(|| format!("message {} is of an unknown connection {id}", r.position + 1)),
+                    Err(e) => Err(e),
+                };
+                match topic {
+                    Ok(topic) => r.message::<Ros1>(topic, m.data),
+                    Err(e) => return Ok(Err(e)),
+                }
+            }
+            (op, _) => return Ok(Err(format!("a record of op {op:#04x}"))),
+        }
+    }
+    Ok(Ok(()))
 }
 
 fn read_ros2<F: FnMut(BagItem)>(bytes: &[u8], r: &mut Reading<'_, F>) -> Result<(), BagError> {
@@ -464,16 +591,62 @@ fn read_ros2<F: FnMut(BagItem)>(bytes: &[u8], r: &mut Reading<'_, F>) -> Result<
     Ok(())
 }
 
+/// SQLite steps (virtual machine instructions) a `.db3` may take per byte of
+/// its file, for all its statements together: reading and sorting a real bag
+/// takes a few per byte.
+const SQLITE_STEPS_PER_BYTE: u64 = 200;
+/// Steps any `.db3` may take, however small.
+const SQLITE_MIN_STEPS: u64 = 50_000_000;
+/// Steps between two looks of the progress handler.
+const SQLITE_STEPS_PER_CALL: u64 = 10_000;
+
 /// A ROS 2 bag in SQLite (rosbag2's `sqlite3` storage: tables `topics` and
 /// `messages`, CDR messages), read in the order `ros2 bag play` plays it
 /// (by timestamp, then as written). A database that fails after some
 /// messages is read up to there, the damage named.
 fn read_db3<F: FnMut(BagItem)>(path: &Path, r: &mut Reading<'_, F>) -> Result<(), BagError> {
-    use rusqlite::{Connection, OpenFlags};
-    let format =
-        |e: rusqlite::Error| BagError::Format(format!("an SQLite database, but it cannot be read as a ROS 2 bag: {e}"));
+    use rusqlite::{Connection, OpenFlags, OptionalExtension};
+    let format = |e: rusqlite::Error| match e {
+        rusqlite::Error::SqliteFailure(f, _) if f.code == rusqlite::ErrorCode::OperationInterrupted => {
+            BagError::Format(
+                "an SQLite database whose reading did not end within the steps a file of its size needs (a hostile or \
+             damaged database)"
+                    .into(),
+            )
+        }
+        e => BagError::Format(format!("an SQLite database, but it cannot be read as a ROS 2 bag: {e}")),
+    };
     let flags = OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX;
     let db = Connection::open_with_flags(path, flags).map_err(format)?;
+    // Bounded: a hostile file's views (a recursive one never ends) are not
+    // read, and no statement runs for more SQLite steps than a file of this
+    // size can need.
+    let budget = std::fs::metadata(path)?.len().saturating_mul(SQLITE_STEPS_PER_BYTE).max(SQLITE_MIN_STEPS);
+    let mut steps = 0u64;
+    db.progress_handler(
+        SQLITE_STEPS_PER_CALL as i32,
+        Some(move || {
+            steps += SQLITE_STEPS_PER_CALL;
+            steps > budget
+        }),
+    );
+    for table in ["topics", "messages"] {
+        let kind: Option<String> = db
+            .query_row("SELECT type FROM sqlite_master WHERE name = ?1", [table], |row| row.get(0))
+            .optional()
+            .map_err(format)?;
+        match kind.as_deref() {
+            Some("table") => {}
+            Some(other) => {
+                return Err(BagError::Format(format!(
+                    "an SQLite database whose {table:?} is a {other}, not a table: not a ROS 2 bag (rosbag2 writes tables)"
+                )));
+            }
+            None => {
+                return Err(BagError::Format(format!("an SQLite database without a {table:?} table: not a ROS 2 bag")));
+            }
+        }
+    }
     let mut topics =
         db.prepare("SELECT id, name, type, serialization_format FROM topics ORDER BY id").map_err(format)?;
     let rows = topics
@@ -501,7 +674,7 @@ fn read_db3<F: FnMut(BagItem)>(path: &Path, r: &mut Reading<'_, F>) -> Result<()
             },
             Err(e) if r.position == 0 => return Err(format(e)),
             Err(e) => {
-                r.summary.damage.get_or_insert(format!("after message {}: {e}", r.position));
+                r.summary.damage.get_or_insert(format!("after message {}: {}", r.position, format(e)));
                 return Ok(());
             }
         }

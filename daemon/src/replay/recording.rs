@@ -15,7 +15,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use fusion_shared::SampleKind;
-use fusion_shared::mcap_scan::{self, Damage, Scan};
+use fusion_shared::mcap_scan::{self, Damage};
 use fusion_shared::recording::{self, SAMPLE_TOPIC_PREFIX, SnapshotJson};
 
 use super::{InputItem, ReplayError, ReplaySummary, replay_items, samples_read};
@@ -46,6 +46,9 @@ pub struct Recording {
     readable: usize,
     /// The damage that ends the readable part, if any.
     damage: Option<Damage>,
+    /// The messages the file's summary counts, when it is sound (a damaged
+    /// file's too): what the damage cost.
+    message_count: Option<u64>,
     /// The summary section, if the file has one (a cut-off recording has not).
     summary: Option<mcap::Summary>,
     /// A read of it ended at a record cut off by the end of the file.
@@ -82,9 +85,11 @@ impl Recording {
         // A damaged chunk is never handed to the mcap reader (it would believe
         // the sizes it declares): the recording is read up to it, without the
         // summary (whose index points past it).
-        let Scan { readable, damage } = mcap_scan::scan(&map);
-        let summary = if damage.is_none() { mcap::Summary::read(&map).ok().flatten() } else { None };
-        Ok(Self { map, readable, damage, summary, cut_off: AtomicBool::new(false) })
+        let scan = mcap_scan::scan(&map);
+        let (readable, damage, message_count) = (scan.readable, scan.damage, scan.message_count);
+        let whole = damage.is_none() && scan.summary_sound;
+        let summary = if whole { mcap::Summary::read(&map).ok().flatten() } else { None };
+        Ok(Self { map, readable, damage, message_count, summary, cut_off: AtomicBool::new(false) })
     }
 
     /// The part of the file that is read.
@@ -96,6 +101,19 @@ impl Recording {
     /// recording is read up to it.
     pub fn damage(&self) -> Option<&Damage> {
         self.damage.as_ref()
+    }
+
+    /// What the damage cost, for a user: the bytes after it, and the messages
+    /// the file held (when its summary says) of which `read` were read. `None`
+    /// for a recording without damage.
+    pub fn loss(&self, read: u64) -> Option<String> {
+        let damage = self.damage.as_ref()?;
+        let held = self.message_count.map_or(String::new(), |n| {
+            format!(
+                " (its summary counts {n} messages, samples and snapshots; {read} samples were read before the damage)"
+            )
+        });
+        Some(format!("the {} bytes from the damage to the end of the file are not read{held}", damage.lost_bytes))
     }
 
     /// Whether a read of the recording ended at a record cut off by the end of

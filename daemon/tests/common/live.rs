@@ -326,8 +326,10 @@ impl Drop for Running {
 pub fn publish_file(domain: &TestDomain, path: &Path, samples: &[Sample]) {
     let text: String = samples.iter().map(|s| fusion_shared::jsonl::format_sample(s) + "\n").collect();
     std::fs::write(path, text).unwrap();
+    // The tests' files are stamped on the scenario's clock, and their fusiond
+    // takes them as they are (`RECORDED_TIME`).
     let sim = Command::new(workspace_bin("fusion-sim"))
-        .args(["run", "--namespace", &domain.namespace, "--input"])
+        .args(["run", "--keep-stamps", "--namespace", &domain.namespace, "--input"])
         .arg(path)
         .env(DOMAIN_ENV, &domain.domain)
         .output()

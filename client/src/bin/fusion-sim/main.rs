@@ -74,6 +74,13 @@ enum Command {
         /// With --input: pace by the samples' timestamps instead of as fast as the daemon takes them.
         #[arg(long, requires = "input")]
         realtime: bool,
+        /// With a JSON-lines --input: publish its stamps as they are, even when
+        /// they are of another clock than this host's (a fusiond configured with a
+        /// large [validation] max_past_ns takes them). By default such a file
+        /// (its first stamp more than 4 s before now, or ahead of now) is
+        /// restamped onto this host's clock and published at its stamps' pace.
+        #[arg(long, requires = "input")]
+        keep_stamps: bool,
         /// Trajectory time 0 on CLOCK_MONOTONIC, ns (default: now + 100 ms). Give
         /// the same value to separate --imu-only and --position-only processes.
         #[arg(long)]
@@ -99,7 +106,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("fusion-sim: {}", fusion_shared::exit::error_line(e.as_ref()));
-            ExitCode::from(fusion_shared::exit::FAILURE)
+            ExitCode::from(fusion_shared::exit::status_of(e.as_ref()))
         }
     }
 }
@@ -120,6 +127,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             input,
             config: topic_map,
             realtime,
+            keep_stamps,
             start_at_ns,
             sim,
         } => {
@@ -143,10 +151,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                             path.display()
                         ))
                     };
-                    let routes = bag::routes(&map).unwrap_or_else(|e| usage_error(e));
-                    return publish_bag(&client, &path, &routes, allow_no_daemon, &stop);
+                    let config = bag::routes(&map).unwrap_or_else(|e| usage_error(e));
+                    return publish_bag(&client, &path, &config, allow_no_daemon, &stop);
                 }
-                return publish_file(&client, &path, realtime, allow_no_daemon, &stop);
+                return publish_file(&client, &path, realtime, keep_stamps, allow_no_daemon, &stop);
             }
             let mut daemon_seen = daemon_runs(&client);
             let start = start_at_ns.unwrap_or_else(|| now_ns() + 100_000_000);
@@ -244,7 +252,7 @@ fn daemon_runs(client: &Client) -> bool {
 fn publish_bag(
     client: &Client,
     path: &std::path::Path,
-    routes: &[fusion_shared::ros::Route],
+    config: &bag::BagConfig,
     allow_no_daemon: bool,
     stop: &AtomicBool,
 ) -> anyhow::Result<()> {
@@ -252,7 +260,7 @@ fn publish_bag(
     let (mut published, mut delivered, mut refused) = (0u64, 0u64, 0u64);
     let mut failed = None;
     let start = now_ns() + 100_000_000;
-    let summary = bag::samples(path, routes, start, |_, sample| {
+    let (summary, jumped) = bag::samples(path, config, start, |_, sample| {
         if stop.load(Ordering::Relaxed) {
             return false;
         }
@@ -261,6 +269,9 @@ fn publish_bag(
             return true;
         };
         sleep_until(sample.t_ns(), stop);
+        if stop.load(Ordering::Relaxed) {
+            return false;
+        }
         match publishers.publish(sample) {
             Ok(readers) => delivered += u64::from(readers.is_some_and(|r| r > 0)),
             Err(e) => {
@@ -275,18 +286,63 @@ fn publish_bag(
         return Err(e.into());
     }
     eprint!("{summary}");
-    eprintln!(
-        "fusion-sim: published {published} samples from {} ({refused} messages gave none, {} reached no reader)",
+    if jumped > 0 {
+        eprintln!(
+            "  {jumped} samples refused: stamped more than [validation] max_jump_ns ({} s) ahead of the bag's others \
+             (fusiond replay refuses them too)",
+            config.max_jump_ns as f64 * 1e-9
+        );
+    }
+    let done = format!(
+        "published {published} samples from {} ({refused} messages gave none, {} reached no reader)",
         path.display(),
         published - delivered
     );
+    if stop.load(Ordering::Relaxed) {
+        return Err(fusion_shared::exit::Interrupted(format!("interrupted: {done} before the signal")).into());
+    }
+    eprintln!("fusion-sim: {done}");
     if published > 0 && (delivered == 0 || !daemon_runs(client)) && !allow_no_daemon {
         anyhow::bail!(
             "no fusiond received the samples: none runs in namespace {:?} (--allow-no-daemon to publish anyway)",
             client.names().namespace
         );
     }
+    if let Some(damage) = &summary.damage {
+        return Err(fusion_shared::exit::InputDamaged(format!(
+            "{} is damaged ({damage}): published what comes before it",
+            path.display()
+        ))
+        .into());
+    }
     Ok(())
+}
+
+/// How far a file's samples are stamped before this host's clock allows
+/// (fusiond's `[validation] max_past_ns` is 5 s by default), with room to spare.
+const FOREIGN_CLOCK_PAST_NS: u64 = 4_000_000_000;
+
+/// The shift onto this host's clock (CLOCK_MONOTONIC) of a file whose first
+/// sample is stamped `first_t_ns`: `None` when that stamp is of this clock
+/// (within [`FOREIGN_CLOCK_PAST_NS`] before now, not ahead of it); else the
+/// file was stamped on another clock (a recording stamped from 1 s, as
+/// `fusion-sim record` writes it), and its samples are moved to start 0.1 s
+/// from now, said on stderr.
+fn foreign_clock_shift(path: &std::path::Path, first_t_ns: u64) -> Option<i128> {
+    let now = now_ns();
+    if first_t_ns + FOREIGN_CLOCK_PAST_NS >= now && first_t_ns <= now + 50_000_000 {
+        return None;
+    }
+    let start = now + 100_000_000;
+    eprintln!(
+        "fusion-sim: {} is stamped on another clock (its first sample at {:.3} s, this host's clock at {:.3} s): its \
+         stamps are moved onto this host's clock, the first 0.1 s from now, and each sample is published at its \
+         stamp",
+        path.display(),
+        first_t_ns as f64 * 1e-9,
+        now as f64 * 1e-9
+    );
+    Some(i128::from(start) - i128::from(first_t_ns))
 }
 
 /// Publishes a file in file order: paced by its timestamps (`realtime`), or in
@@ -297,6 +353,7 @@ fn publish_file(
     client: &Client,
     path: &std::path::Path,
     realtime: bool,
+    keep_stamps: bool,
     allow_no_daemon: bool,
     stop: &AtomicBool,
 ) -> anyhow::Result<()> {
@@ -313,6 +370,9 @@ fn publish_file(
     // fusiond's refusal counters, as its latest snapshot gave them.
     let mut rejections = [0u64; fusion_shared::snapshot::rejection::MAX];
     let mut pace: Option<(u64, u64)> = None; // (first timestamp, wall time of it)
+    // Set at the first sample: the shift onto this host's clock of a file
+    // stamped on another (`None`: stamped on this one).
+    let mut restamp: Option<Option<i128>> = None;
     // The IMU samples of one instant published so far: fusiond publishes one
     // snapshot for the instant, after whichever of them completes it, so the
     // lockstep waits once, after the instant's last one.
@@ -346,9 +406,20 @@ fn publish_file(
                 continue;
             }
         };
-        if realtime {
+        let mut sample = sample;
+        let shift =
+            *restamp.get_or_insert_with(|| (!keep_stamps).then(|| foreign_clock_shift(path, sample.t_ns())).flatten());
+        if let Some(shift) = shift {
+            let t = (i128::from(sample.t_ns()) + shift).clamp(0, i128::from(u64::MAX)) as u64;
+            sample.header_mut().t_ns = t;
+            // fusiond refuses stamps ahead of its clock: none goes out early.
+            sleep_until(t, stop);
+        } else if realtime {
             let (t0, wall0) = *pace.get_or_insert((sample.t_ns(), now_ns()));
             sleep_until(wall0 + sample.t_ns().saturating_sub(t0), stop);
+        }
+        if stop.load(Ordering::Relaxed) {
+            break;
         }
         delivered += u64::from(publishers.publish(sample)?.is_some_and(|readers| readers > 0));
         published += 1;
@@ -415,12 +486,16 @@ fn publish_file(
             }
         }
     }
-    eprintln!(
-        "fusion-sim: published {published} samples from {} ({skipped} unreadable lines, {unacknowledged} without a \
-         snapshot, {} reached no reader)",
+    let done = format!(
+        "published {published} samples from {} ({skipped} unreadable lines, {unacknowledged} without a snapshot, {} \
+         reached no reader)",
         path.display(),
         published - delivered
     );
+    if stop.load(Ordering::Relaxed) {
+        return Err(fusion_shared::exit::Interrupted(format!("interrupted: {done} before the signal")).into());
+    }
+    eprintln!("fusion-sim: {done}");
     if published == 0 && skipped > 0 {
         anyhow::bail!("{}: none of its {skipped} lines is a sample (see the lines above)", path.display());
     }

@@ -140,7 +140,7 @@ fn main() -> ExitCode {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("fusionctl: {}", fusion_shared::exit::error_line(e.as_ref()));
-            ExitCode::from(fusion_shared::exit::FAILURE)
+            ExitCode::from(fusion_shared::exit::status_of(e.as_ref()))
         }
     }
 }
@@ -213,11 +213,14 @@ fn run(cli: Cli) -> anyhow::Result<u8> {
             Ok(fusion_shared::exit::SUCCESS)
         }
         Command::Plot { input, samples, truth, output_dir } => {
-            let files = plot::run(&input, samples.as_deref(), truth.as_deref(), &output_dir)?;
+            let (files, damage) = plot::run(&input, samples.as_deref(), truth.as_deref(), &output_dir)?;
             for f in files {
                 println!("{}", f.display());
             }
-            Ok(fusion_shared::exit::SUCCESS)
+            match damage {
+                Some(damage) => Err(fusion_shared::exit::InputDamaged(damage).into()),
+                None => Ok(fusion_shared::exit::SUCCESS),
+            }
         }
         Command::Top { namespace } => top::run(&namespace, &stop).map(|()| fusion_shared::exit::SUCCESS),
         Command::Foxglove { namespace, host, port } => {

@@ -85,6 +85,8 @@ struct Data {
     truth: Vec<(f64, [f64; 6], [f64; 4])>,
     /// Sent → published, µs, of the samples processed in order.
     latency_us: Vec<f64>,
+    /// The damage of a recording, and what the report still shows.
+    damage: Option<String>,
 }
 
 /// The χ² degrees of freedom of a kind's NIS.
@@ -210,10 +212,13 @@ fn from_recording(path: &Path) -> anyhow::Result<Data> {
         let m = match m {
             Ok(m) => m,
             Err(mcap::McapError::UnexpectedEof) if let Some(damage) = &scan.damage => {
-                eprintln!(
-                    "fusionctl: {} is {damage}: the report shows the {messages} messages before it",
-                    path.display()
-                );
+                let held = scan.message_count.map_or(String::new(), |n| format!(" of the {n} the file held"));
+                data.damage = Some(format!(
+                    "{} is {damage}: the report shows the {messages} messages before it{held}; the {} bytes after \
+                     it are not read",
+                    path.display(),
+                    damage.lost_bytes
+                ));
                 break;
             }
             // Cut off by the end of the file (the recorder was killed or lost
@@ -441,8 +446,14 @@ impl Page {
 }
 
 /// Writes the report of `input` (a recording, or a replay output with
-/// `samples` its input) into `dir`; returns the files written.
-pub fn run(input: &Path, samples: Option<&Path>, truth: Option<&Path>, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+/// `samples` its input) into `dir`; returns the files written, and the
+/// damage of a recording read only up to it.
+pub fn run(
+    input: &Path,
+    samples: Option<&Path>,
+    truth: Option<&Path>,
+    dir: &Path,
+) -> anyhow::Result<(Vec<PathBuf>, Option<String>)> {
     plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
         .map_err(|_| anyhow::anyhow!("the embedded font does not load"))?;
     let mut head = [0u8; 8];
@@ -457,7 +468,14 @@ pub fn run(input: &Path, samples: Option<&Path>, truth: Option<&Path>, dir: &Pat
     );
     let mut data =
         if head[..n].starts_with(mcap::MAGIC) { from_recording(input)? } else { from_replay(input, samples)? };
-    anyhow::ensure!(!data.estimates.is_empty(), "{} has no estimates to plot", input.display());
+    if data.estimates.is_empty() {
+        return Err(match data.damage {
+            Some(damage) => {
+                fusion_shared::exit::InputDamaged(format!("{damage}: no estimate before it to plot")).into()
+            }
+            None => anyhow::anyhow!("{} has no estimates to plot", input.display()),
+        });
+    }
     if let Some(truth) = truth {
         data.truth = read_truth(truth)?;
     }
@@ -500,5 +518,5 @@ pub fn run(input: &Path, samples: Option<&Path>, truth: Option<&Path>, dir: &Pat
     });
     std::fs::write(&report, serde_json::to_string_pretty(&json)?)?;
     files.push(report);
-    Ok(files)
+    Ok((files, data.damage))
 }
