@@ -310,7 +310,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 .transpose()?;
             if let Some(damage) = recording.as_ref().and_then(Recording::damage) {
                 // Nothing before the damage: nothing to replay.
-                anyhow::ensure!(damage.offset > mcap::MAGIC.len() as u64, "{} is {damage}", input.display());
+                if damage.offset <= mcap::MAGIC.len() as u64 {
+                    return Err(fusion_shared::exit::InputDamaged(format!(
+                        "{} is {damage}: nothing before it to replay; the {} bytes from the damage to the end of the \
+                         file are not read",
+                        input.display(),
+                        damage.lost_bytes
+                    ))
+                    .into());
+                }
                 eprintln!("replay: {} is {damage}: what comes after it is not read", input.display());
             }
             let config = replay_config(config.as_deref(), recording.as_ref(), &input)?;
@@ -328,9 +336,21 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         since = 0;
                     }
                 };
-                let (summary, comparison) =
-                    replay::recording::replay_recording(&config, &recording, writer, smooth, compare, tick)
-                        .map_err(say_why)?;
+                let replayed = replay::recording::replay_recording(&config, &recording, writer, smooth, compare, tick);
+                let (summary, comparison) = match (replayed, recording.damage()) {
+                    (Ok(replayed), _) => replayed,
+                    // The damage is why nothing could be replayed: say so, as damage.
+                    (Err(replay::ReplayError::NothingProcessed(_)), Some(damage)) => {
+                        return Err(fusion_shared::exit::InputDamaged(format!(
+                            "{} is {damage}: no sample before it to replay; the {} bytes from the damage to the \
+                             end of the file are not read",
+                            input.display(),
+                            damage.lost_bytes
+                        ))
+                        .into());
+                    }
+                    (Err(e), _) => return Err(say_why(e).into()),
+                };
                 bar.finish_and_clear();
                 eprint!("{summary}");
                 if recording.was_cut_off() && recording.damage().is_none() {

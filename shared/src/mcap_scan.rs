@@ -75,7 +75,26 @@ pub fn scan(bytes: &[u8]) -> Scan {
         }
     };
     let summary = summary(bytes, &chunks, readable);
+    // Whole data under a summary that fails its checks: the damage is the
+    // summary's, and the data is read without it.
+    if let (None, None, Some(start)) = (&damage, &summary, summary_start(bytes)) {
+        let what = "its summary section (the index at the end of the file) does not match its CRC or is damaged: \
+                    the data before it is whole, and is read without it";
+        let damage = Damage { offset: start as u64, what: what.into(), lost_bytes: (bytes.len() - start) as u64 };
+        return Scan { readable: start, damage: Some(damage), summary_sound: false, message_count: None };
+    }
     Scan { readable, damage, summary_sound: summary.is_some(), message_count: summary.flatten() }
+}
+
+/// Where the footer of a whole file says its summary starts (`None`: no
+/// footer, or no summary).
+fn summary_start(bytes: &[u8]) -> Option<usize> {
+    let footer_at = bytes.len().checked_sub(mcap::MAGIC.len() + 29)?;
+    if !bytes.ends_with(mcap::MAGIC) || bytes[footer_at] != op::FOOTER {
+        return None;
+    }
+    let start = u64::from_le_bytes(bytes[footer_at + 9..footer_at + 17].try_into().ok()?);
+    usize::try_from(start).ok().filter(|&s| s > mcap::MAGIC.len() && s <= footer_at)
 }
 
 /// Walks the records from the magic to the footer (or the end of a file cut
