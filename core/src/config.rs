@@ -213,10 +213,9 @@ max_readers = 8
 /// line instead, found in `text` below that header. Any other error as it is.
 fn locate_unknown_key(text: &str, e: toml::de::Error) -> ConfigError {
     let message = e.message().to_string();
-    let (Some(field), Some(span)) =
-        (message.strip_prefix("unknown field `").and_then(|r| r.split('`').next()), e.span())
-    else {
-        return e.into();
+    let Some(span) = e.span() else { return e.into() };
+    let Some(field) = message.strip_prefix("unknown field `").and_then(|r| r.split('`').next()) else {
+        return locate_bad_value(text, span.start, &message).unwrap_or_else(|| e.into());
     };
     let rest = &text[span.start.min(text.len())..];
     let header = rest.lines().next().unwrap_or("").trim();
@@ -245,6 +244,43 @@ fn locate_unknown_key(text: &str, e: toml::de::Error) -> ConfigError {
         }
     }
     e.into()
+}
+
+/// A value of the wrong type or range inside a table read through a tagged
+/// enum (`[model]`, `[model.alignment]`) comes back at the table's header
+/// line, with the value but not its key: the key holding that value, found
+/// below the header (its sub-tables too), and its own line instead.
+fn locate_bad_value(text: &str, at: usize, message: &str) -> Option<ConfigError> {
+    // `invalid value: integer `-3`, expected u32`, `invalid type: string "x", expected f64`.
+    let literal = if let Some((_, r)) = message.split_once('`') {
+        r.split('`').next()?.to_string()
+    } else {
+        let r = message.split_once(" string \"")?.1;
+        format!("\"{}\"", r.split('"').next()?)
+    };
+    let rest = &text[at.min(text.len())..];
+    let header = rest.lines().next()?.trim();
+    let table = header.strip_prefix('[')?.strip_suffix(']')?.trim();
+    let first_line = text[..at.min(text.len())].matches('\n').count() + 1;
+    let mut current = table.to_string();
+    for (i, line) in rest.lines().enumerate().skip(1) {
+        let line = line.trim_start();
+        if let Some(header) = line.strip_prefix('[') {
+            match header.split(']').next().map(str::trim) {
+                Some(sub) if sub.strip_prefix(table).is_some_and(|r| r.starts_with('.')) => {
+                    current = sub.to_string();
+                    continue;
+                }
+                _ => return None,
+            }
+        }
+        let Some((key, value)) = line.split_once('=') else { continue };
+        let value = value.split('#').next().unwrap_or("").trim();
+        if value == literal || value.replace('_', "") == literal {
+            return Some(invalid(format!("{current}.{}", key.trim()), format!("{message} (line {})", first_line + i)));
+        }
+    }
+    None
 }
 
 /// The default configuration with comments, as printed by `fusiond print-config`:

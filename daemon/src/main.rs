@@ -144,6 +144,20 @@ fn progress_bar(len: Option<u64>, bytes: bool) -> indicatif::ProgressBar {
 
 /// A replay that processed nothing: its summary (every refused line with its
 /// reason) goes to stderr first.
+/// Whether `file` starts as text does: its first 4 KiB UTF-8 with no NUL
+/// (a character cut at the end of them aside).
+fn is_text(file: &mut File) -> std::io::Result<bool> {
+    let mut head = vec![0u8; 4096];
+    file.seek(std::io::SeekFrom::Start(0))?;
+    let n = file.read(&mut head)?;
+    let head = &head[..n];
+    let utf8 = match std::str::from_utf8(head) {
+        Ok(_) => true,
+        Err(e) => e.error_len().is_none() && n == 4096,
+    };
+    Ok(utf8 && !head.contains(&0))
+}
+
 fn say_why(e: replay::ReplayError) -> replay::ReplayError {
     if let replay::ReplayError::NothingProcessed(summary) = &e {
         eprint!("{summary}");
@@ -219,11 +233,18 @@ fn replay_bag(
 ) -> anyhow::Result<()> {
     anyhow::ensure!(!compare, "--compare needs an MCAP recording (fusionctl record), not a ROS bag");
     let Some(path) = config else {
-        anyhow::bail!(
-            "--config is needed: {} is a ROS bag, and the configuration's [[sensor]] topic keys say which of its \
-             topics are read",
-            input.display()
-        )
+        // A usage error (status 2), as fusion-sim's for the same mistake.
+        use clap::CommandFactory;
+        Cli::command()
+            .error(
+                clap::error::ErrorKind::MissingRequiredArgument,
+                format!(
+                    "--config is needed: {} is a ROS bag, and the configuration's [[sensor]] topic keys say which of \
+                     its topics are read",
+                    input.display()
+                ),
+            )
+            .exit()
     };
     let config = Config::load(path)?;
     eprintln!("replay: model {}, form {}", config.model.kind(), config.filter.form.name());
@@ -349,6 +370,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         ))
                         .into());
                     }
+                    (Err(replay::ReplayError::NothingProcessed(s)), None) if s.read == 0 => {
+                        let why = if recording.was_cut_off() {
+                            "it was cut off before its first sample (the recorder was killed or lost its power at \
+                             its start)"
+                        } else {
+                            "it holds no sample message (a recording of a run that had no input)"
+                        };
+                        anyhow::bail!("{}: nothing to replay: {why}", input.display());
+                    }
                     (Err(e), _) => return Err(say_why(e).into()),
                 };
                 bar.finish_and_clear();
@@ -376,6 +406,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 return Ok(());
             }
             anyhow::ensure!(!compare, "--compare needs an MCAP recording (fusionctl record)");
+            anyhow::ensure!(
+                is_text(&mut file)?,
+                "{}: not a text file: fusiond replay reads JSON lines, an MCAP recording (fusionctl record) or a ROS \
+                 bag (ROS 1, or ROS 2 in MCAP or .db3)",
+                input.display()
+            );
             file.seek(std::io::SeekFrom::Start(0))?;
             let bar = progress_bar(file.metadata().ok().map(|m| m.len()), true);
             let summary = replay::replay(&config, BufReader::new(bar.wrap_read(file)), writer, smooth);

@@ -49,8 +49,17 @@ pub enum ReplayError {
     Model(#[from] ConfigError),
     /// No sample of the input could be processed: the summary says why, line
     /// by line (`fusiond replay` prints it).
-    #[error("no sample could be processed ({} lines read; the reasons are above)", .0.read)]
+    #[error("no sample could be processed ({})", nothing_processed(.0))]
     NothingProcessed(Box<ReplaySummary>),
+}
+
+/// Why a replay processed nothing, in brackets after the error's words.
+fn nothing_processed(summary: &ReplaySummary) -> String {
+    let unit = if summary.of_messages { "samples" } else { "lines" };
+    match summary.read {
+        0 => format!("the input holds no {unit}: an empty file, or one cut off before its first"),
+        n => format!("{n} {unit} read; the reasons are above"),
+    }
 }
 
 /// Counts of one replay, printed on stderr by `fusiond replay`.

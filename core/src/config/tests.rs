@@ -227,3 +227,21 @@ fn an_unknown_key_in_the_model_table_is_reported_at_its_own_line() {
     let ipc = err(&format!("{MIN}[ipc]\nbogus = 1\n"));
     assert!(ipc.contains("line 8") && ipc.contains("bogus"), "{ipc}");
 }
+
+/// A mistake inside `[model.constraints]` or `[model.alignment]` (read
+/// through the model's tagged table) is named at its own key and line, not at
+/// the `[model]` header: an unknown key, a value of the wrong type, a value
+/// out of its type's range.
+#[test]
+fn a_mistake_in_a_model_sub_table_names_its_own_line() {
+    let text = |table: &str, line: &str| format!("# a robot\n[model]\nkind = \"ins\"\n\n[model.{table}]\n{line}\n");
+    for (table, line, key) in [
+        ("constraints", "nonholonomic_stdd_mps = 0.05", "model.constraints.nonholonomic_stdd_mps"),
+        ("constraints", "nonholonomic_std_mps = \"fast\"", "model.constraints.nonholonomic_std_mps"),
+        ("alignment", "static_samples = -3", "model.alignment.static_samples"),
+        ("alignment", "static_samples = 1.5", "model.alignment.static_samples"),
+    ] {
+        let e = Config::parse(&text(table, line)).unwrap_err().to_string();
+        assert!(e.contains(key) && e.contains("(line 6)"), "{line}: {e}");
+    }
+}

@@ -130,7 +130,37 @@ fn an_empty_or_binary_input_is_an_error() {
             what,
         );
     }
+    // fusiond replay: an empty file, a magic-only MCAP file and a binary one
+    // each say what they are, not "the reasons are above" with none above.
+    let magic = dir.path().join("magic.mcap");
+    std::fs::write(&magic, b"\x89MCAP0\r\n").unwrap();
+    let config = dir.path().join("linear.toml");
+    std::fs::write(&config, crate::common::linear_config(None)).unwrap();
+    let config = config.to_str().unwrap();
+    for (file, what) in [
+        (empty.to_str().unwrap(), "the input holds no lines: an empty file"),
+        (magic.to_str().unwrap(), "cut off before its first sample"),
+        ("/bin/ls", "not a text file"),
+    ] {
+        let out = run(&domain, &fusiond(), &["replay", "--config", config, "--input", file]);
+        assert!(!out.2.contains("reasons are above") && out.2.matches("not UTF-8").count() == 0, "{}", out.2);
+        assert_failure(out, "fusiond", what);
+    }
     assert!(domain.files().is_empty(), "{:?}", domain.files());
+}
+
+/// The same mistake, the same status in every tool: a ROS bag without the
+/// configuration that maps its topics is a usage error (2) in `fusiond
+/// replay` as in `fusion-sim run`.
+#[test]
+fn a_bag_without_its_topic_map_is_a_usage_error_in_every_tool() {
+    let domain = TestDomain::new("exit-bag-usage");
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("robot.bag");
+    std::fs::write(&bag, b"#ROSBAG V2.0\n").unwrap();
+    let bag = bag.to_str().unwrap();
+    assert_usage(&domain, &fusiond(), &["replay", "--input", bag], "--config");
+    assert_usage(&domain, &workspace_bin("fusion-sim"), &["run", "--input", bag], "--config");
 }
 
 /// `fusion-sim run --help` names every kind `--position-only` publishes.
@@ -157,6 +187,22 @@ fn a_publisher_that_reached_no_daemon_fails_unless_allowed() {
     assert_failure(out, "fusion-sim", "--allow-no-daemon");
     let (code, _, err) = run(&domain, &sim, &args(&["--allow-no-daemon"]));
     assert_eq!(code, i32::from(SUCCESS), "{err}");
+    // A file too, without --realtime (as the help says): published at its pace.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("few.jsonl");
+    let now = fusion_shared::now_ns();
+    let lines: String = (0..20u64)
+        .map(|k| {
+            let s = fusion_shared::ImuSample::new(now + k * 1_000_000, 0, k, [0.0; 3], [0.0; 3]);
+            fusion_shared::jsonl::format_sample(&s.into()) + "\n"
+        })
+        .collect();
+    std::fs::write(&file, lines).unwrap();
+    let input = ["--input", file.to_str().unwrap()];
+    let (code, _, err) = run(&domain, &sim, &[&["run"][..], &ns, &input, &["--allow-no-daemon"]].concat());
+    assert_eq!(code, i32::from(SUCCESS), "{err}");
+    assert!(err.contains("published 20 samples"), "{err}");
+    assert_failure(run(&domain, &sim, &[&["run"][..], &ns, &input].concat()), "fusion-sim", "is not running");
 
     // With a daemon, the same run is done: every sample reached it.
     let mut daemon = Daemon::start(&domain, &crate::common::linear_config(None), "event");

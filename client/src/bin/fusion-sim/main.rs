@@ -141,8 +141,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
                 signal_hook::flag::register(signal, Arc::clone(&stop))?;
             }
-            let client = Client::connect(&namespace)?;
             if let Some(path) = input {
+                // A mistake in the arguments is refused before anything starts.
                 if fusion_shared::ros::is_bag(&path) {
                     let Some(map) = topic_map else {
                         usage_error(anyhow::anyhow!(
@@ -152,10 +152,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         ))
                     };
                     let config = bag::routes(&map).unwrap_or_else(|e| usage_error(e));
+                    let client = Client::connect(&namespace)?;
                     return publish_bag(&client, &path, &config, allow_no_daemon, &stop);
                 }
+                let client = Client::connect(&namespace)?;
                 return publish_file(&client, &path, realtime, keep_stamps, allow_no_daemon, &stop);
             }
+            let client = Client::connect(&namespace)?;
             let mut daemon_seen = daemon_runs(&client);
             let start = start_at_ns.unwrap_or_else(|| now_ns() + 100_000_000);
             let trajectory = config.trajectory().map_err(|e| anyhow::anyhow!("--stop: {e}"))?;
@@ -362,9 +365,11 @@ fn publish_file(
     // Lockstep needs the daemon's snapshots; paced by the clock, it may start later.
     let mut state = match client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER) {
         Ok(s) => Some(s),
-        Err(fusion_client::ClientError::DaemonNotRunning { .. }) if realtime => None,
+        Err(fusion_client::ClientError::DaemonNotRunning { .. }) if realtime || allow_no_daemon => None,
         Err(e) => return Err(e.into()),
     };
+    // No daemon to keep step with (--allow-no-daemon): the file's own pace.
+    let realtime = realtime || state.is_none();
     let (mut published, mut delivered, mut skipped, mut unacknowledged) = (0u64, 0u64, 0u64, 0u64);
     let (mut last_answer, mut unanswered) = (std::time::Instant::now(), 0u64);
     // fusiond's refusal counters, as its latest snapshot gave them.
