@@ -59,6 +59,13 @@ fn a_foxglove_client_receives_the_live_estimate() {
     BufReader::new(server.0.stdout.take().unwrap()).read_line(&mut line).unwrap();
     let port: u16 = line.trim().rsplit(':').next().unwrap().parse().unwrap_or_else(|_| panic!("{line}"));
 
+    // A plain HTTP request (a browser, curl) is told what the port is.
+    let mut plain = TcpStream::connect(("127.0.0.1", port)).unwrap();
+    std::io::Write::write_all(&mut plain, b"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n").unwrap();
+    let mut answer = String::new();
+    std::io::Read::read_to_string(&mut plain, &mut answer).unwrap();
+    assert!(answer.starts_with("HTTP/1.1 426") && answer.contains("Foxglove WebSocket"), "{answer}");
+
     // The channels are advertised; subscribe to the pose.
     let mut socket = connect(port);
     let deadline = Instant::now() + Duration::from_secs(10);

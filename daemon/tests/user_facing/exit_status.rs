@@ -223,11 +223,17 @@ fn fusionctl_state_tells_no_daemon_from_no_snapshot_yet() {
     let (code, out, err) = run(&domain, &ctl, &state);
     assert_eq!(code, i32::from(NO_STATE_YET), "{out}{err}");
     assert!(out.is_empty() && err.lines().count() == 1 && err.contains("no snapshot yet"), "{err}");
-    // `echo` says so too, once, instead of waiting in silence.
+    // `echo` says so too, once, instead of waiting in silence; ended by its
+    // --idle-timeout with no snapshot, it says that and exits 3 as `state`.
     let echo = ["echo", "--namespace", domain.namespace.as_str(), "--idle-timeout", "3"];
     let (code, out, err) = run(&domain, &ctl, &echo);
-    assert_eq!(code, i32::from(SUCCESS), "{err}");
+    assert_eq!(code, i32::from(NO_STATE_YET), "{err}");
     assert!(out.is_empty() && err.matches("has published no snapshot yet").count() == 1, "{err}");
+    assert!(err.contains("published no snapshot in 3.0 s of --idle-timeout"), "{err}");
+    let echo = ["echo", "--namespace", domain.namespace.as_str(), "--idle-timeout", "1"];
+    let (code, _, err) = run(&domain, &ctl, &echo);
+    assert_eq!(code, i32::from(NO_STATE_YET), "{err}");
+    assert!(err.contains("published no snapshot in 1.0 s of --idle-timeout"), "{err}");
 
     // One sample: now there is a state to print.
     let client = domain.client();

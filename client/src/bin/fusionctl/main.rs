@@ -42,7 +42,8 @@ enum Command {
         /// Stop after this many snapshots.
         #[arg(long)]
         count: Option<u64>,
-        /// Stop after this many seconds without a snapshot.
+        /// Stop after this many seconds without a snapshot (exit 3, as
+        /// `fusionctl state`, when fusiond runs but published none).
         #[arg(long, value_parser = seconds)]
         idle_timeout: Option<f64>,
     },
@@ -183,7 +184,17 @@ fn run(cli: Cli) -> anyhow::Result<u8> {
                             );
                             said = true;
                         }
-                        if idle.is_some_and(|d| last.elapsed() >= d) {
+                        if let Some(idle) = idle.filter(|&d| last.elapsed() >= d) {
+                            let _ = out.flush();
+                            if printed == 0 {
+                                // As `fusionctl state` says it: fusiond runs, nothing yet.
+                                eprintln!(
+                                    "fusionctl echo: fusiond runs in namespace {namespace:?} but published no \
+                                     snapshot in {:.1} s of --idle-timeout (no sample has reached it)",
+                                    idle.as_secs_f64()
+                                );
+                                return Ok(fusion_shared::exit::NO_STATE_YET);
+                            }
                             break;
                         }
                     }

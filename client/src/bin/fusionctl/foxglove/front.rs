@@ -91,6 +91,32 @@ pub fn with_subprotocol(head: &str, value: &str) -> String {
         .collect()
 }
 
+/// The answer to a request that is no WebSocket upgrade (a browser, `curl`):
+/// HTTP 426 with a line saying what the port is and how to open it; `None`
+/// for an upgrade request.
+pub fn plain_http_answer(head: &str) -> Option<String> {
+    let upgrade = head.lines().filter_map(|l| l.split_once(':')).any(|(name, value)| {
+        name.trim().eq_ignore_ascii_case("upgrade") && value.trim().eq_ignore_ascii_case("websocket")
+    });
+    if upgrade {
+        return None;
+    }
+    let host = head
+        .lines()
+        .filter_map(|l| l.split_once(':'))
+        .find(|(name, _)| name.trim().eq_ignore_ascii_case("host"))
+        .map_or("this host and port", |(_, value)| value.trim());
+    let body = format!(
+        "This is fusionctl foxglove: fusiond's state over the Foxglove WebSocket protocol, not a web page. In \
+         Foxglove (or Lichtblick), open a connection, choose Foxglove WebSocket, and give ws://{host}\n"
+    );
+    Some(format!(
+        "HTTP/1.1 426 Upgrade Required\r\nUpgrade: websocket\r\nContent-Type: text/plain; charset=utf-8\r\n\
+         Content-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        body.len()
+    ))
+}
+
 /// One connection: the upgrade request (renamed if need be), the response
 /// (named back), then the bytes both ways until either side closes.
 fn pass(mut client: TcpStream, peer: SocketAddr, backend: SocketAddr) -> std::io::Result<()> {
@@ -98,6 +124,11 @@ fn pass(mut client: TcpStream, peer: SocketAddr, backend: SocketAddr) -> std::io
     client.set_read_timeout(Some(Duration::from_secs(10)))?;
     let (head, rest) = read_head(&mut client)?;
     client.set_read_timeout(None)?;
+    if let Some(answer) = plain_http_answer(&head) {
+        client.write_all(answer.as_bytes())?;
+        let _ = client.shutdown(Shutdown::Both);
+        return Ok(());
+    }
     let offered = offered(&head);
     let sdk = offered.iter().any(|p| SDK_NAMES.contains(&p.as_str()));
     let old = !sdk && offered.iter().any(|p| p == OLD_V1);
@@ -142,5 +173,15 @@ mod tests {
         assert_eq!(offered(&renamed), vec![SDK_V1.to_string()]);
         assert!(renamed.starts_with("GET / HTTP/1.1\r\nHost: x\r\n") && renamed.ends_with("\r\n\r\n"));
         assert!(offered("GET / HTTP/1.1\r\n\r\n").is_empty());
+    }
+
+    #[test]
+    fn a_plain_http_request_is_told_what_the_port_is() {
+        assert_eq!(plain_http_answer(REQUEST), None);
+        let answer = plain_http_answer("GET / HTTP/1.1\r\nHost: robot:8765\r\n\r\n").unwrap();
+        assert!(answer.starts_with("HTTP/1.1 426 Upgrade Required\r\n"), "{answer}");
+        let body = answer.split("\r\n\r\n").nth(1).unwrap();
+        assert!(body.contains("Foxglove WebSocket") && body.contains("ws://robot:8765"), "{body}");
+        assert!(answer.contains(&format!("Content-Length: {}\r\n", body.len())));
     }
 }
