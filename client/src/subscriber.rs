@@ -36,6 +36,8 @@ const WAIT_SLICE: Duration = Duration::from_millis(5);
 /// ```
 pub struct StateSubscriber {
     service: String,
+    /// `<ns>/state` itself: whether fusiond still publishes there.
+    state: iceoryx2::service::port_factory::publish_subscribe::PortFactory<Ipc, StateSnapshot, ()>,
     subscriber: Subscriber<Ipc, StateSnapshot, ()>,
     event: PortFactory<Ipc>,
     /// Created by the first [`wait_next`](Self::wait_next): a reader that only
@@ -83,7 +85,15 @@ impl StateSubscriber {
                 e => port(format!("{e:?}")),
             })?;
         let event = fusion_shared::service::event_service(client.node(), &names.state)?;
-        Ok(Self { service: names.state.clone(), subscriber, event, listener: None, held: None })
+        Ok(Self { service: names.state.clone(), state: service, subscriber, event, listener: None, held: None })
+    }
+
+    /// Whether a fusiond publishes on `<ns>/state` now. The service outlives
+    /// the daemon while readers hold it (a `fusionctl top`, this one): a
+    /// reader opened after fusiond stopped still finds it, and the last
+    /// snapshot in it, but no publisher.
+    pub fn fusiond_publishes(&self) -> bool {
+        self.state.dynamic_config().number_of_publishers() > 0
     }
 
     /// The listener on `<ns>/state`, created on first use.

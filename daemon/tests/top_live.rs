@@ -73,12 +73,29 @@ fn the_dashboard_shows_a_running_daemon_and_quits_on_q() {
             screen.push_str(&String::from_utf8_lossy(&bytes));
         }
     }
+    // fusiond stops while the dashboard and a reader hold its state service:
+    // `fusionctl state` says it is not running, and the dashboard says stopped.
+    assert!(daemon.terminate().success());
+    let state = Command::new(workspace_bin("fusionctl"))
+        .args(["state", "--namespace", &domain.namespace])
+        .env(DOMAIN_ENV, &domain.domain)
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&state.stderr);
+    assert_eq!(state.status.code(), Some(1), "{said}");
+    assert!(said.contains("fusiond is not running in namespace"), "{said}");
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while !screen.contains("STOPPED") {
+        assert!(Instant::now() < deadline, "the dashboard did not say fusiond stopped:\n{screen}");
+        if let Ok(bytes) = rx.recv_timeout(Duration::from_millis(100)) {
+            screen.push_str(&String::from_utf8_lossy(&bytes));
+        }
+    }
     top.0.stdin.as_mut().unwrap().write_all(b"q").unwrap();
     let status = top.wait_for(Duration::from_secs(10)).expect("fusionctl top did not quit on q");
     assert!(status.success(), "fusionctl top failed: {status}");
     drop(reader);
     drop(client);
-    assert!(daemon.terminate().success());
     assert!(domain.files().is_empty(), "left in /dev/shm: {:?}", domain.files());
 }
 

@@ -240,6 +240,11 @@ fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::State { namespace, wait } => {
             let client = Client::connect(&namespace)?;
             let mut state = client.state_subscriber()?;
+            anyhow::ensure!(
+                state.fusiond_publishes(),
+                "fusiond is not running in namespace {namespace:?}: it stopped (its state service stays while \
+                 readers such as a fusionctl top hold it open)"
+            );
             let s = match state.latest()? {
                 Some(s) => *s,
                 None => match state.wait_next(Duration::from_secs_f64(wait))? {

@@ -133,7 +133,10 @@ pub fn draw(frame: &mut Frame, view: &View) {
         Constraint::Length(1),
     ])
     .areas(area);
-    let title = format!(" fusiond · namespace {} ", view.namespace);
+    let title = match (&view.latest, view.daemon_running) {
+        (Some(_), Some(false)) => format!(" fusiond · namespace {} · STOPPED: its last snapshot ", view.namespace),
+        _ => format!(" fusiond · namespace {} ", view.namespace),
+    };
     let Some(s) = &view.latest else {
         let text = if view.daemon_running == Some(false) {
             format!(
@@ -308,14 +311,22 @@ pub fn run(namespace: &str, stop: &AtomicBool) -> anyhow::Result<()> {
             if state.is_none() {
                 // fusiond may start after the dashboard.
                 match client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER) {
-                    Ok(s) => (state, view.daemon_running) = (Some(s), Some(true)),
+                    Ok(s) => {
+                        view.daemon_running = Some(s.fusiond_publishes());
+                        state = Some(s);
+                    }
                     Err(fusion_client::ClientError::DaemonNotRunning { .. }) => view.daemon_running = Some(false),
                     Err(e) => return Err(e.into()),
                 }
             }
-            if let Some(state) = &mut state {
-                while let Some(s) = state.try_next()? {
+            if let Some(reader) = &mut state {
+                while let Some(s) = reader.try_next()? {
                     view.add(s, Instant::now());
+                }
+                // fusiond stopped (readers keep its service): say so, and look
+                // for a new one from the next turn on.
+                if !reader.fusiond_publishes() {
+                    (state, view.daemon_running) = (None, Some(false));
                 }
             }
             terminal.draw(|frame| draw(frame, &view))?;
