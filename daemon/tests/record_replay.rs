@@ -365,3 +365,36 @@ fn a_damaged_chunk_is_read_up_to(dir: &Path, mcap: &Path) {
         assert!(stderr.contains(&said) && stderr.contains("bytes after it are not read"), "{stderr}");
     }
 }
+
+/// A recording started while fusiond already ran (its first samples not in
+/// it): the comparison cannot be equal, and it says why, naming where the
+/// recording began, instead of listing every snapshot as a difference.
+#[test]
+fn a_recording_begun_mid_run_says_so_when_compared() {
+    let domain = TestDomain::new("record-midrun");
+    let dir = tempfile::tempdir().unwrap();
+    let samples = drive();
+    let (before, after) = samples.split_at(samples.len() / 3);
+    let config = config(0.3);
+    let mut daemon = Daemon::start(&domain, &config, "event");
+    common::live::publish_file(&domain, &dir.path().join("before.jsonl"), before);
+    let mcap = dir.path().join("late.mcap");
+    let mut recorder = Running(
+        Command::new(workspace_bin("fusionctl"))
+            .args(["record", "--namespace", &domain.namespace, "--output"])
+            .arg(&mcap)
+            .env(DOMAIN_ENV, &domain.domain)
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    common::live::wait_for_state_reader(&domain, "fusionctl record");
+    common::live::publish_file(&domain, &dir.path().join("after.jsonl"), after);
+    assert!(Command::new("kill").args(["-INT", &recorder.0.id().to_string()]).status().unwrap().success());
+    assert!(recorder.wait_for(Duration::from_secs(20)).is_some_and(|s| s.success()));
+    assert!(daemon.terminate().success());
+    let (ok, stderr) = replay(dir.path(), &config, &mcap, &["--compare"]);
+    assert!(!ok, "{stderr}");
+    assert!(stderr.contains("the recording began at snapshot") && stderr.contains("a run already going"), "{stderr}");
+    assert!(stderr.contains(&format!("fusiond had taken {} samples", before.len())), "{stderr}");
+}

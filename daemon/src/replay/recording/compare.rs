@@ -50,6 +50,10 @@ pub struct ComparisonReport {
     /// The recording was cut off (or damaged): its samples and its snapshots
     /// end at different points, so what only one of them has is not compared.
     pub cut: bool,
+    /// The recording began in a run already going: the first recorded
+    /// snapshot's number, and the samples fusiond had taken before it that the
+    /// recording does not hold. A replay from the start cannot equal it.
+    pub began_mid_run: Option<(u64, u64)>,
 }
 
 impl ComparisonReport {
@@ -89,6 +93,14 @@ impl std::fmt::Display for ComparisonReport {
             "live snapshots: {} compared, {} differ; {} processed in the replay only, {} live only",
             self.compared, self.differing, self.replay_only, self.live_only
         )?;
+        if let Some((seq, taken)) = self.began_mid_run {
+            writeln!(
+                f,
+                "  the recording began at snapshot {seq} of a run already going: fusiond had taken {taken} samples \
+                 the recording does not hold, so a replay from its start cannot equal the live estimate (to \
+                 compare, start fusionctl record before the sensors)"
+            )?;
+        }
         for d in &self.differences {
             writeln!(
                 f,
@@ -236,7 +248,18 @@ impl<I: Iterator<Item = std::io::Result<SnapshotJson>>> ReplayCheck for LiveComp
             return;
         }
         let live = match self.live.next() {
-            Some(Ok(live)) => live,
+            Some(Ok(live)) => {
+                if self.report.compared == 0 {
+                    // The first snapshot the recording holds: had fusiond taken
+                    // samples the replay has not?
+                    let taken: u64 = live.counters.iter().map(|c| c.received).sum();
+                    let replayed = engine.totals(None).received;
+                    if taken > replayed {
+                        self.report.began_mid_run = Some((live.snapshot_seq, taken - replayed));
+                    }
+                }
+                live
+            }
             Some(Err(e)) => {
                 self.error = Some(e);
                 return;
