@@ -40,6 +40,32 @@ fn the_example_drive_gives_a_report_with_its_points() {
         .unwrap();
     assert!(plot.status.success(), "{}", String::from_utf8_lossy(&plot.stderr));
 
+    // Another run's truth (stamped 1000 s later): no error panels of nothing,
+    // but an error that says the times do not meet.
+    let other = dir.path().join("other.truth.jsonl");
+    let shifted: String = std::fs::read_to_string(examples().join("drive.truth.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+            v["t_ns"] = (v["t_ns"].as_u64().unwrap() + 1_000_000_000_000).into();
+            v.to_string() + "\n"
+        })
+        .collect();
+    std::fs::write(&other, shifted).unwrap();
+    let mismatched = Command::new(workspace_bin("fusionctl"))
+        .args(["plot", "--input"])
+        .arg(&estimates)
+        .arg("--truth")
+        .arg(&other)
+        .arg("--output-dir")
+        .arg(dir.path().join("other"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&mismatched.stderr);
+    assert_eq!(mismatched.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("no estimate falls within it") && stderr.contains("this run's truth"), "{stderr}");
+
     for page in ["trajectory", "errors", "nis"] {
         for ext in ["svg", "png"] {
             let f = report.join(format!("{page}.{ext}"));

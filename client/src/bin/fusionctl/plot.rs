@@ -476,8 +476,28 @@ pub fn run(
             None => anyhow::anyhow!("{} has no estimates to plot", input.display()),
         });
     }
-    if let Some(truth) = truth {
-        data.truth = read_truth(truth)?;
+    if let Some(path) = truth {
+        data.truth = read_truth(path)?;
+        let covered = data.estimates.iter().filter(|e| truth_at(&data.truth, e.t).is_some()).count();
+        let span = |t: &mut dyn Iterator<Item = f64>| {
+            t.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)))
+        };
+        let (e0, e1) = span(&mut data.estimates.iter().map(|e| e.t));
+        let (t0, t1) = span(&mut data.truth.iter().map(|t| t.0));
+        anyhow::ensure!(
+            covered > 0,
+            "{}: the truth covers t = {t0:.3}..{t1:.3} s and the estimates t = {e0:.3}..{e1:.3} s (CLOCK_MONOTONIC): \
+             no estimate falls within it, so there is no error to plot (is it this run's truth?)",
+            path.display()
+        );
+        if covered * 2 < data.estimates.len() {
+            eprintln!(
+                "fusionctl: {} covers {covered} of the {} estimates (t = {t0:.3}..{t1:.3} s of the estimates' \
+                 {e0:.3}..{e1:.3} s): the error panels show those",
+                path.display(),
+                data.estimates.len()
+            );
+        }
     }
     // Times since the first estimate (CLOCK_MONOTONIC seconds say nothing).
     data.t0 = data.estimates.iter().map(|e| e.t).fold(f64::INFINITY, f64::min);
