@@ -12,7 +12,7 @@ use fusion_shared::snapshot::{INPUT_NONE, StateSnapshot};
 use hdrhistogram::Histogram;
 
 use super::Args;
-use super::status::{Status, describe, rate_hz};
+use super::status::{Status, describe, rate_hz, say};
 
 /// What the snapshots showed over the drive.
 pub struct Seen {
@@ -157,7 +157,7 @@ pub fn print_result(args: &Args, seen: &Seen, last: &(StateSnapshot, f64), start
     let (s, err) = last;
     let sd: Vec<f64> = s.std_devs().collect();
     let driven_s = (s.t_ns as f64 - start_ns as f64) * 1e-9;
-    println!("\nresult after {driven_s:.1} s of driving:");
+    say(&format!("\nresult after {driven_s:.1} s of driving:"));
     for c in s.sensor_counters() {
         let kind = fusion_shared::SampleKind::from_code(c.kind);
         let n = &c.counts;
@@ -175,45 +175,45 @@ pub fn print_result(args: &Args, seen: &Seen, last: &(StateSnapshot, f64), start
                 if unused > 0 { format!(", {unused} before the filter could use them") } else { String::new() };
             format!("fused {}, gated {}{unused}", n.fused, n.gated)
         };
-        println!(
+        say(&format!(
             "  {name:<21} received {}, {what}; out of order {} (processed exactly by rewind), too late {}, \
              invalid {}, lost {}",
             n.received, n.late, n.too_late, n.invalid, n.lost
-        );
+        ));
     }
-    println!(
+    say(&format!(
         "  position error vs truth: final {err:.3} m (1-sigma {:.3} / {:.3} / {:.3} m), RMS over the drive {:.3} m",
         sd[0],
         sd[1],
         sd[2],
         (seen.sum_sq / seen.n_err.max(1) as f64).sqrt()
-    );
+    ));
     if let (Some(k), Some(sd)) = (s.odometry_scale(), s.odometry_scale_std()) {
-        println!("  odometry scale factor: estimated {k:.4} (1-sigma {sd:.4}), simulated 1.0100");
+        say(&format!("  odometry scale factor: estimated {k:.4} (1-sigma {sd:.4}), simulated 1.0100"));
     }
     for (o, end) in args.outage.iter().zip(&seen.outage_ends) {
         if let Some((e, sd)) = end {
-            println!(
+            say(&format!(
                 "  GNSS outage {:.0}-{:.0} s: horizontal error at its end {e:.2} m (1-sigma {sd:.2} m)",
                 o.at_s,
                 o.at_s + o.duration_s
-            );
+            ));
         }
     }
     if seen.stood > 0 {
-        println!(
+        say(&format!(
             "  while the car stood: fusiond found it standing in {:.1} % of the samples ({} standstill updates); \
              the estimate moved at most {:.3} m horizontally",
             100.0 * seen.found_standing as f64 / seen.stood as f64,
             s.standstill_updates,
             seen.stop_drift
-        );
+        ));
     }
 }
 
 /// The end-to-end latency this reader saw, with `processes` sharing the cores.
 pub fn print_latency(latency: &Histogram<u64>, processes: usize, wait: &str) {
-    println!(
+    say(&format!(
         "  end-to-end latency, sample published -> snapshot received ({} samples, --wait {wait}):\n    p50 {:.1} us, \
          p90 {:.1} us, p99 {:.1} us, max {:.1} us",
         latency.len(),
@@ -221,12 +221,12 @@ pub fn print_latency(latency: &Histogram<u64>, processes: usize, wait: &str) {
         latency.value_at_quantile(0.9) as f64 / 1e3,
         latency.value_at_quantile(0.99) as f64 / 1e3,
         latency.max() as f64 / 1e3,
-    );
+    ));
     let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
-    println!(
+    say(&format!(
         "    (this reader sleeps on an event and {processes} processes share {cores} cores; the README's ~1 us is the \
          benchmark's busy-polling reader: cargo bench -p fusion-benches --bench latency)"
-    );
+    ));
 }
 
 /// The health at the end of the drive, and after the sensors stopped if it
@@ -238,13 +238,11 @@ pub fn print_health(seen: &Seen, last: &StateSnapshot) {
         d
     });
     match during {
-        Some(d) if (d.health, d.health_reasons) != (last.health, last.health_reasons) => {
-            println!(
-                "  health at the end of the drive: {}; after the sensors stopped: {}",
-                describe(&d),
-                describe(last)
-            )
-        }
-        _ => println!("  health at the end of the drive: {}", describe(last)),
+        Some(d) if (d.health, d.health_reasons) != (last.health, last.health_reasons) => say(&format!(
+            "  health at the end of the drive: {}; after the sensors stopped: {}",
+            describe(&d),
+            describe(last)
+        )),
+        _ => say(&format!("  health at the end of the drive: {}", describe(last))),
     }
 }

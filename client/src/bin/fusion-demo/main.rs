@@ -12,6 +12,7 @@ use anyhow::{Context, bail};
 use clap::{Parser, ValueEnum};
 mod drive;
 mod status;
+use status::say;
 
 use fusion_client::sim::{CarTrajectory, FixPhase, Outage, Stop};
 use fusion_client::{Client, now_ns};
@@ -261,10 +262,10 @@ fn run(args: Args) -> anyhow::Result<()> {
     }
     let truth = CarTrajectory::new(args.seed).with_stops(&args.stop).map_err(|e| anyhow::anyhow!("--stop: {e}"))?;
     let setup = Setup::new(&args)?;
-    println!(
+    say(&format!(
         "fusiond demo: namespace {}, model {}, --wait {}, {} s",
         setup.namespace, setup.model, setup.wait, args.duration
-    );
+    ));
     let (mut children, mut recorder, mut reader) = setup.start_fusiond()?;
     // Every sensor process drives the same trajectory from the same start time.
     let start_ns = now_ns() + 300_000_000;
@@ -402,7 +403,7 @@ impl Setup {
                 Err(e) => bail!("fusiond did not start: {e} (log: {})", self.log.display()),
             }
         };
-        println!("  fusiond started (log: {})", self.log.display());
+        say(&format!("  fusiond started (log: {})", self.log.display()));
         Ok((children, recorder, Reader { state, _client: client }))
     }
 
@@ -430,33 +431,36 @@ impl Setup {
         if !self.ins {
             children.0.push(("fusion-sim --imu-only", sim(&["--imu-only"])?));
             children.0.push(("fusion-sim --position-only", sim(&["--position-only"])?));
-            println!(
+            say(&format!(
                 "  fusion-sim --imu-only ({imu_hz} Hz) and fusion-sim --position-only (a GNSS receiver: 10 Hz positions \
                  with 3 % outliers and 10 Hz Doppler velocities, 20-120 ms late) started\n"
-            );
+            ));
             return Ok(());
         }
         children.0.push(("fusion-sim --imu-only --imu-ids 0", sim(&["--imu-only", "--imu-ids", "0"])?));
         children.0.push(("fusion-sim --imu-only --imu-ids 1", sim(&["--imu-only", "--imu-ids", "1"])?));
         children.0.push(("fusion-sim --position-only", sim(&["--position-only"])?));
-        println!(
+        say(&format!(
             "  fusion-sim: two IMU processes ({imu_hz} Hz each, one clock, differently mounted, one in FRD axes) and \
              a GNSS receiver\n  (10 Hz latitude/longitude/height with 3 % outliers and 10 Hz Doppler velocity of an \
              antenna 1.5 m from the IMUs,\n  20-120 ms late) with wheel odometry (50 Hz, 1 % scale error) started\n"
-        );
+        ));
         if !args.fix_phase.is_empty() {
             let phases: Vec<String> = args
                 .fix_phase
                 .iter()
                 .map(|p| format!("{} from {} s", fusion_shared::fix::name(p.fix_type), p.at_s))
                 .collect();
-            println!("  the receiver's fix type: {} (noise and reported accuracy change with it)", phases.join(", "));
+            say(&format!(
+                "  the receiver's fix type: {} (noise and reported accuracy change with it)",
+                phases.join(", ")
+            ));
         }
         if args.gnss_clock_lag_ms > 0 {
-            println!(
+            say(&format!(
                 "  the receiver's clock is {} ms late; the configuration says so (time_offset_ns)",
                 args.gnss_clock_lag_ms
-            );
+            ));
         }
         Ok(())
     }
@@ -475,11 +479,11 @@ impl Setup {
         if !plot.status.success() {
             bail!("the report failed: {}", String::from_utf8_lossy(&plot.stderr).trim());
         }
-        println!(
+        say(&format!(
             "\nrecording: {}\nreport (trajectory, errors with ±3σ, NIS, latency): {}",
             self.recording.display(),
             report.display()
-        );
+        ));
         Ok(())
     }
 }

@@ -53,13 +53,73 @@ impl Status {
         if fits(&full) {
             return full;
         }
-        // Without the position (the error says how good it is), the health last.
-        let compact = format!(
-            "t {:.1} s err {:.2} m fixes {}/{} p50 {:.0} us {}",
-            self.t, self.err, self.fused, self.gated, self.p50_us, self.health
+        // Without the position (the error says how good it is), the health
+        // last, shortened by whole words ("degraded (velocity stale, …)").
+        let head = format!(
+            "t {:.1} s err {:.2} m fixes {}/{} p50 {:.0} us ",
+            self.t, self.err, self.fused, self.gated, self.p50_us
         );
+        let room = width.saturating_sub(1).saturating_sub(head.chars().count());
+        let compact = format!("{head}{}", shorten(&self.health, room));
         compact.chars().take(width.saturating_sub(1)).collect()
     }
+}
+
+/// `text` in at most `room` characters, cut after a whole word with "…" (and
+/// a bracket it opened closed); the first word alone, cut, if even that is
+/// too long.
+pub fn shorten(text: &str, room: usize) -> String {
+    if text.chars().count() <= room {
+        return text.to_string();
+    }
+    let close = |t: &str| if t.matches('(').count() > t.matches(')').count() { ")" } else { "" };
+    // Every cut after a word, longest first, with what it needs after it.
+    let cuts = text.char_indices().filter(|&(_, c)| c == ' ').map(|(i, _)| i).rev();
+    for at in cuts {
+        let kept = text[..at].trim_end_matches([',', ' ']);
+        let shortened = format!("{kept} …{}", close(kept));
+        if shortened.chars().count() <= room && !kept.is_empty() {
+            return shortened;
+        }
+    }
+    text.chars().take(room).collect()
+}
+
+/// Prints a report line wrapped at the terminal's width (when stdout is one)
+/// between words, each further line indented under the first's text.
+pub fn say(text: &str) {
+    use std::io::IsTerminal;
+    let width = std::io::stdout()
+        .is_terminal()
+        .then(|| ratatui::crossterm::terminal::size().ok())
+        .flatten()
+        .map(|(w, _)| usize::from(w));
+    for line in text.split('\n') {
+        println!("{}", wrap(line, width));
+    }
+}
+
+/// `line` broken between words into lines shorter than `width` columns, the
+/// later ones indented 4 more than the first; as it is without a width.
+pub fn wrap(line: &str, width: Option<usize>) -> String {
+    let Some(width) = width.filter(|&w| w > 20) else { return line.to_string() };
+    let indent = line.chars().take_while(|c| *c == ' ').count();
+    let mut out = String::new();
+    let mut current = " ".repeat(indent);
+    for word in line.split(' ').filter(|w| !w.is_empty()) {
+        let fresh = current.trim().is_empty();
+        if !fresh && current.chars().count() + 1 + word.chars().count() >= width {
+            out.push_str(&current);
+            out.push('\n');
+            current = " ".repeat(indent + 4);
+        }
+        if !current.trim().is_empty() {
+            current.push(' ');
+        }
+        current.push_str(word);
+    }
+    out.push_str(&current);
+    out
 }
 
 #[cfg(test)]
@@ -76,6 +136,40 @@ mod tests {
         assert!((rate_hz(4001, 40.0, Imu, &tunnel) - 100.0).abs() < 1e-9);
         // An outage past the span counts only in part.
         assert!((rate_hz(101, 25.0, Geodetic, &tunnel) - 10.0).abs() < 1e-9);
+    }
+
+    /// The compact line cuts the health after a whole reason, never within a
+    /// word, and closes its bracket; the report's long lines wrap between
+    /// words, every line shorter than the terminal.
+    #[test]
+    fn the_health_is_cut_after_whole_words_and_long_lines_wrap_between_words() {
+        let status = Status {
+            t: 12.5,
+            pos: [75.39, 17.25, -1.01],
+            err: 0.03,
+            health: "degraded (velocity stale, geodetic stale, odometry stale)".into(),
+            fused: 192,
+            gated: 3,
+            p50_us: 28.0,
+        };
+        let line = status.line(Some(70));
+        assert!(line.ends_with("degraded (velocity stale …)"), "{line}");
+        assert!(line.chars().count() < 70);
+        let line = status.line(Some(60));
+        assert!(line.ends_with("degraded …"), "{line}");
+        assert_eq!(shorten("degraded (a b)", 30), "degraded (a b)");
+
+        let long =
+            format!("  {}", "the receiver's fix type: rtk fixed, rtk float, dgps, single (noise changes) ".repeat(3));
+        let wrapped = wrap(long.trim_end(), Some(80));
+        assert!(wrapped.lines().count() >= 3, "{wrapped}");
+        for l in wrapped.lines() {
+            assert!(l.chars().count() < 80, "{l:?}");
+        }
+        // Every word kept, whole, in order.
+        let words = |t: &str| t.split_whitespace().map(String::from).collect::<Vec<_>>();
+        assert_eq!(words(&wrapped), words(&long));
+        assert_eq!(wrap("  short line", Some(80)), "  short line");
     }
 
     /// In an 80-column terminal the status line fits (it was ~135 columns and
