@@ -17,7 +17,7 @@ use ratatui::crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers
 use ratatui::layout::{Constraint, Layout};
 use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Block, Borders, Cell, Paragraph, Row, Table};
+use ratatui::widgets::{Block, Borders, Cell, Paragraph, Row, Table, Wrap};
 
 /// How often the view is redrawn.
 pub const REFRESH: Duration = Duration::from_millis(200);
@@ -90,8 +90,9 @@ impl View {
 
 /// Width of one column of the estimate panel: name, value, 1-sigma.
 const ESTIMATE_COLUMN: u16 = 40;
-/// Below this width the sensor table uses its short column names.
-const WIDE: u16 = 120;
+/// From this width on the sensor table has a column per counter: its
+/// columns' widths and the spaces between them (15 + 13 × 9 + 13).
+const WIDE: u16 = 145;
 
 /// The estimate's rows: each state (name, value, 1-sigma), and for the `ins`
 /// model roll, pitch and yaw in degrees.
@@ -119,42 +120,11 @@ fn estimate_rows(s: &StateSnapshot) -> Vec<[String; 3]> {
     rows
 }
 
-/// Draws the dashboard of `view` into `frame`: at 80×24 the whole `ins`
-/// estimate (in columns) and up to six sensors show.
-pub fn draw(frame: &mut Frame, view: &View) {
-    let area = frame.area();
-    let columns = (area.width / ESTIMATE_COLUMN).max(1) as usize;
-    let estimate_height = view.latest.as_ref().map_or(0, |s| estimate_rows(s).len().div_ceil(columns));
-    let refused = view.latest.as_ref().map_or(0, |s| s.rejected());
-    let [header, sensors, lower, footer] = Layout::vertical([
-        Constraint::Length(3 + u16::from(refused > 0)),
-        Constraint::Min(4),
-        Constraint::Length(estimate_height as u16 + 2),
-        Constraint::Length(1),
-    ])
-    .areas(area);
-    let title = match (&view.latest, view.daemon_running) {
-        (Some(_), Some(false)) => format!(" fusiond · namespace {} · STOPPED: its last snapshot ", view.namespace),
-        _ => format!(" fusiond · namespace {} ", view.namespace),
-    };
-    let Some(s) = &view.latest else {
-        let text = if view.daemon_running == Some(false) {
-            format!(
-                "no fusiond runs in namespace {:?}: waiting for one (is the namespace right? `fusionctl state \
-                 --namespace NS` asks one)",
-                view.namespace
-            )
-        } else {
-            format!(
-                "fusiond runs in namespace {:?}: waiting for its first snapshot (no sample has reached it yet) …",
-                view.namespace
-            )
-        };
-        frame.render_widget(Paragraph::new(text).block(Block::new().borders(Borders::TOP).title(title)), header);
-        frame.render_widget(Paragraph::new(" q: quit"), footer);
-        return;
-    };
-
+/// The header's lines for snapshot `s`: the health and its reasons, the
+/// model, snapshot, time and counts; whether the estimate is settled; the
+/// refusals with their settings.
+fn header_lines(view: &View, s: &StateSnapshot) -> Vec<Line<'static>> {
+    let refused = s.rejected();
     let colour = match s.health {
         health::OK => Color::Green,
         health::DEGRADED => Color::Red,
@@ -167,7 +137,7 @@ pub fn draw(frame: &mut Frame, view: &View) {
         Span::styled(health::name(s.health), Style::default().fg(colour).add_modifier(Modifier::BOLD)),
         Span::raw(if reasons.is_empty() { String::new() } else { format!(" ({})", reasons.join(", ")) }),
         Span::raw(format!(
-            "   model {}   snapshot {} ({age_ms:.0} ms ago)   t {:.3} s   rewinds {}   re-initialisations {}",
+            "  model {}  snapshot {} ({age_ms:.0} ms ago)  t {:.3} s  rewinds {}  re-initialisations {}",
             model::name(s.model),
             s.seq,
             s.t_ns as f64 * 1e-9,
@@ -178,7 +148,7 @@ pub fn draw(frame: &mut Frame, view: &View) {
     let standing = if s.standing() { "; standing still (attitude held)" } else { "" };
     let settled = Line::from(if s.settled() {
         format!(
-            "estimate settled (includes every sample received); {} of {} snapshots read were provisional{standing}",
+            "estimate settled (every sample received is in); {} of {} read were provisional{standing}",
             view.provisional, view.snapshots
         )
     } else {
@@ -202,7 +172,78 @@ pub fn draw(frame: &mut Frame, view: &View) {
             Style::default().fg(Color::Red),
         ));
     }
-    frame.render_widget(Paragraph::new(lines).block(Block::new().borders(Borders::TOP).title(title)), header);
+    lines
+}
+
+/// A NIS in at most 4 characters up to 9999: three significant digits.
+fn nis_text(nis: f64) -> String {
+    match nis.abs() {
+        v if v >= 100.0 => format!("{nis:.0}"),
+        v if v >= 10.0 => format!("{nis:.1}"),
+        _ => format!("{nis:.2}"),
+    }
+}
+
+/// A line's text.
+fn line_text(line: &Line<'_>) -> String {
+    line.spans.iter().map(|s| s.content.as_ref()).collect()
+}
+
+/// The rows `text` takes wrapped between words in `width` columns (a word
+/// longer than a row is cut).
+fn wrapped_rows(text: &str, width: u16) -> u16 {
+    let width = usize::from(width.max(1));
+    let (mut rows, mut used) = (1u16, 0usize);
+    for word in text.split_whitespace() {
+        let n = word.chars().count();
+        let need = if used == 0 { n } else { used + 1 + n };
+        if need <= width {
+            used = need;
+        } else {
+            rows += 1 + (n.saturating_sub(1) / width) as u16;
+            used = n % width;
+        }
+    }
+    rows
+}
+
+/// Draws the dashboard of `view` into `frame`: at 80×24 the whole `ins`
+/// estimate (in columns) and up to six sensors show.
+pub fn draw(frame: &mut Frame, view: &View) {
+    let area = frame.area();
+    let columns = (area.width / ESTIMATE_COLUMN).max(1) as usize;
+    let estimate_height = view.latest.as_ref().map_or(0, |s| estimate_rows(s).len().div_ceil(columns));
+    let title = match (&view.latest, view.daemon_running) {
+        (Some(_), Some(false)) => format!(" fusiond · namespace {} · STOPPED: its last snapshot ", view.namespace),
+        _ => format!(" fusiond · namespace {} ", view.namespace),
+    };
+    let lines = match &view.latest {
+        Some(s) => header_lines(view, s),
+        None if view.daemon_running == Some(false) => vec![Line::from(format!(
+            "no fusiond runs in namespace {:?}: waiting for one (is the namespace right? `fusionctl state \
+             --namespace NS` asks one)",
+            view.namespace
+        ))],
+        None => vec![Line::from(format!(
+            "fusiond runs in namespace {:?}: waiting for its first snapshot (no sample has reached it yet) …",
+            view.namespace
+        ))],
+    };
+    // The header's lines wrap between words: as tall as they need.
+    let header_height = 1 + lines.iter().map(|l| wrapped_rows(&line_text(l), area.width)).sum::<u16>();
+    let [header, sensors, lower, footer] = Layout::vertical([
+        Constraint::Length(header_height),
+        Constraint::Min(4),
+        Constraint::Length(estimate_height as u16 + 2),
+        Constraint::Length(1),
+    ])
+    .areas(area);
+    let paragraph = Paragraph::new(lines).wrap(Wrap { trim: true });
+    frame.render_widget(paragraph.block(Block::new().borders(Borders::TOP).title(title)), header);
+    let Some(s) = &view.latest else {
+        frame.render_widget(Paragraph::new(" q: quit"), footer);
+        return;
+    };
 
     let wide = area.width >= WIDE;
     let head: &[&str] = if wide {
@@ -221,7 +262,7 @@ pub fn draw(frame: &mut Frame, view: &View) {
         .map(|c| {
             let n = &c.counts;
             let rate = view.rates.get(&(c.kind, c.sensor)).map_or("-".into(), |r| format!("{r:.1}"));
-            let nis = if c.last_nis.is_finite() { format!("{:.2}", c.last_nis) } else { "-".into() };
+            let nis = if c.last_nis.is_finite() { nis_text(c.last_nis) } else { "-".into() };
             let style = if stale_rows.contains(&(c.kind, c.sensor)) {
                 Style::default().fg(Color::Red)
             } else {
@@ -254,10 +295,12 @@ pub fn draw(frame: &mut Frame, view: &View) {
         title = format!(" sensors ({} of {count} shown: a taller terminal shows the rest) ", rows.len() - 1);
     }
     let widths: Vec<Constraint> = if wide {
-        std::iter::once(14).chain([9; 13]).map(Constraint::Length).collect()
+        std::iter::once(15).chain([9; 13]).map(Constraint::Length).collect()
     } else {
-        // 80 columns: "magnetometer 0" and the counts up to 6 digits.
-        [14, 5, 6, 6, 5, 5, 4, 5, 5, 4, 5, 5].map(Constraint::Length).to_vec()
+        // 80 columns: "magnetometer 12", the counts up to 6 digits, the NIS
+        // in what is left (at least 4: `nis_text`).
+        let fixed = [15, 5, 6, 6, 5, 5, 4, 5, 5, 4, 5].map(Constraint::Length);
+        fixed.into_iter().chain([Constraint::Fill(1)]).collect()
     };
     let table = Table::new(rows, widths)
         .header(Row::new(head.to_vec()).style(Style::default().add_modifier(Modifier::BOLD)))
@@ -399,7 +442,7 @@ mod tests {
         s.sensors[0].counts.received = 1200;
         view.add(&s, start + RATE_WINDOW);
         let text = screen(&view);
-        assert!(text.contains("estimate settled (includes every sample received); 0 of 2"), "{text}");
+        assert!(text.contains("estimate settled (every sample received is in); 0 of 2"), "{text}");
         (s.pending_steps, s.pending_since_t_ns) = (12, 1_500_000_000);
         view.add(&s, start + RATE_WINDOW);
         let text = screen(&view);
@@ -426,10 +469,12 @@ mod tests {
         }
     }
 
-    /// At 80×24 a vehicle's dashboard shows the whole `ins` estimate (with the
-    /// odometry scale, and roll, pitch and yaw), every sensor and whole column names.
+    /// At 80×26 a vehicle's dashboard shows the whole `ins` estimate (with the
+    /// odometry scale, and roll, pitch and yaw), every sensor and whole column
+    /// names, below a header wrapped to four lines (at 80×24 two sensors are
+    /// said to be hidden: the next test).
     #[test]
-    fn at_80_by_24_the_whole_ins_estimate_and_every_sensor_show() {
+    fn at_80_by_26_the_whole_ins_estimate_and_every_sensor_show() {
         use fusion_shared::snapshot::aux;
         let mut s = StateSnapshot {
             model: model::INS,
@@ -453,10 +498,10 @@ mod tests {
         s.sensors[5].counts.refused = 4321;
         let mut view = View::new("vehicle");
         view.add(&s, Instant::now());
-        let text = screen_of(&view, 80, 24);
+        let text = screen_of(&view, 80, 26);
         for (name, _) in s.state_layout() {
             let name = name.replace("rad/s", "deg/h");
-            assert!(text.contains(&name), "{name:?} not on the 80x24 screen:\n{text}");
+            assert!(text.contains(&name), "{name:?} not on the 80x26 screen:\n{text}");
         }
         for needle in [
             "roll deg",
@@ -532,6 +577,51 @@ mod tests {
             text.contains("refused in validation: 1072 (timestamp too far in the past 1072: [validation] max_past_ns)"),
             "{text}"
         );
+    }
+
+    /// At 80 and 100 columns the header's lines wrap between words instead of
+    /// being cut (the health's reasons, the re-initialisations' count, the
+    /// snapshots read); from 120 to 143 columns the sensor table keeps its
+    /// narrow form, whose names and headers fit, and from 144 on the wide one.
+    #[test]
+    fn the_header_wraps_and_the_table_fits_at_every_width() {
+        let mut s = StateSnapshot {
+            model: model::INS,
+            health: health::DEGRADED,
+            health_reasons: health::NIS_OUT_OF_BOUNDS
+                | health::SAMPLES_LOST
+                | health::stale(SampleKind::Velocity)
+                | health::stale(SampleKind::Geodetic),
+            state_len: 16,
+            cov_dim: 15,
+            sensor_count: 2,
+            reinitialisations: 7,
+            seq: 123_456,
+            ..Default::default()
+        };
+        s.x[6] = 1.0;
+        s.sensors[0].kind = SampleKind::Magnetometer as u32;
+        s.sensors[0].sensor = 12;
+        s.sensors[1].kind = SampleKind::Imu as u32;
+        let mut view = View::new("vehicle");
+        view.add(&s, Instant::now());
+        let words = |t: &str| t.split_whitespace().map(String::from).collect::<Vec<_>>();
+        for width in [80, 100, 120, 130, 144, 145, 160] {
+            let text = screen_of(&view, width, 40);
+            let flat = words(&text).join(" ");
+            for said in [
+                "(nis out of bounds, samples lost, velocity stale, geodetic stale)",
+                "re-initialisations 7",
+                "read were provisional",
+                "magnetometer 12",
+            ] {
+                assert!(flat.contains(said), "{width} columns: {said:?} cut:\n{text}");
+            }
+            let heads: &[&str] = if width >= WIDE { &["too late", "restarts"] } else { &["2late", "other"] };
+            for head in heads {
+                assert!(text.contains(head), "{width} columns: {head:?}:\n{text}");
+            }
+        }
     }
 
     #[test]
