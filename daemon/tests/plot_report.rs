@@ -40,6 +40,28 @@ fn the_example_drive_gives_a_report_with_its_points() {
         .unwrap();
     assert!(plot.status.success(), "{}", String::from_utf8_lossy(&plot.stderr));
 
+    // Without the samples there are no fixes: the legend does not list them,
+    // and it marks where the drive starts and ends.
+    let bare = dir.path().join("bare");
+    let plot = Command::new(workspace_bin("fusionctl"))
+        .args(["plot", "--input"])
+        .arg(&estimates)
+        .arg("--output-dir")
+        .arg(&bare)
+        .output()
+        .unwrap();
+    assert!(plot.status.success(), "{}", String::from_utf8_lossy(&plot.stderr));
+    // The SVG's texts, one a line between their tags.
+    let texts = |path: &std::path::Path| -> Vec<String> {
+        let svg = std::fs::read_to_string(path).unwrap();
+        svg.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('<')).map(String::from).collect()
+    };
+    let said = texts(&bare.join("trajectory.svg"));
+    assert!(!said.iter().any(|t| t.contains("fix")), "fixes in the legend: {said:?}");
+    assert!(said.contains(&"start".into()) && said.contains(&"end".into()), "no start and end: {said:?}");
+    assert!(!said.iter().any(|t| t == "-0" || t == "-0.0"), "a tick reads -0: {said:?}");
+    assert!(texts(&report.join("trajectory.svg")).contains(&"fix".into()), "the fixes drawn are in the legend");
+
     // Another run's truth (stamped 1000 s later): no error panels of nothing,
     // but an error that says the times do not meet.
     let other = dir.path().join("other.truth.jsonl");

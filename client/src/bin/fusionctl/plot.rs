@@ -196,6 +196,34 @@ impl Outcomes {
     }
 }
 
+/// When t = 0 is (`t0`, s of the input's clock): seconds of CLOCK_MONOTONIC,
+/// or, for stamps of the wall clock (a ROS bag's: past 10⁹ s, which no
+/// uptime reaches), the UTC date and time.
+fn time_zero(t0: f64) -> String {
+    if t0 < 1.0e9 {
+        return format!("{t0:.3} s of CLOCK_MONOTONIC");
+    }
+    let secs = t0.floor() as i64;
+    let (days, day_s) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // Days since 1970-01-01 to the civil date (H. Hinnant, "chrono-Compatible
+    // Low-Level Date Algorithms", days_from_civil's inverse).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    let seconds = (day_s % 60) as f64 + t0.fract();
+    format!(
+        "{year:04}-{month:02}-{day:02} {:02}:{:02}:{seconds:06.3} UTC (the input's wall-clock stamps)",
+        day_s / 3600,
+        day_s % 3600 / 60
+    )
+}
+
 /// Reads an MCAP recording: snapshots for the estimate, NIS and latency; the
 /// sample messages for the fixes.
 fn from_recording(path: &Path) -> anyhow::Result<Data> {
@@ -429,9 +457,9 @@ impl Page {
         // Every page says when its time 0 is and what its estimates are.
         root.fill(&WHITE)?;
         let title = format!(
-            "{}: t = 0 at {:.3} s of CLOCK_MONOTONIC{}",
+            "{}: t = 0 at {}{}",
             self.name(),
-            d.t0,
+            time_zero(d.t0),
             if d.smoothed { "; RTS-smoothed estimates (fusiond replay --smooth)" } else { "" }
         );
         let root = root.titled(&title, ("sans-serif", 18))?;
@@ -539,4 +567,41 @@ pub fn run(
     std::fs::write(&report, serde_json::to_string_pretty(&json)?)?;
     files.push(report);
     Ok((files, data.damage))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// CLOCK_MONOTONIC seconds are said as such; a ROS bag's wall-clock
+    /// stamps as the date they are.
+    #[test]
+    fn time_zero_is_said_on_its_own_clock() {
+        assert_eq!(time_zero(12.5), "12.500 s of CLOCK_MONOTONIC");
+        assert_eq!(time_zero(1_478_087_696.25), "2016-11-02 11:54:56.250 UTC (the input's wall-clock stamps)");
+        assert!(time_zero(951_782_400.0 + 1e8).starts_with("2003-"), "{}", time_zero(951_782_400.0 + 1e8));
+        assert!(time_zero(1_709_164_800.0).starts_with("2024-02-29 00:00:00.000"), "a leap day");
+    }
+
+    /// A σ that drops at every fix (10 Hz) and grows between them (100 Hz
+    /// samples) over 100 s, on 500 columns: one edge point a column, the
+    /// highest and lowest of its teeth, not 10 000 bars.
+    #[test]
+    fn a_saw_tooth_band_is_drawn_as_its_edge() {
+        let band: Vec<(f64, f64, f64)> =
+            (0..10_000).map(|i| (i as f64 * 0.01, 0.0, 1.0 + (i % 10) as f64 * 0.1)).collect();
+        let edge = pages::envelope(&band, 0.0..100.0, 500);
+        assert_eq!(edge.len(), 500);
+        assert!(edge.iter().all(|e| (e.1 - 1.9).abs() < 1e-12 && (e.2 + 1.9).abs() < 1e-12), "{:?}", &edge[..3]);
+        assert!(edge.windows(2).all(|w| w[1].0 > w[0].0));
+    }
+
+    /// No tick reads `-0`.
+    #[test]
+    fn no_tick_reads_minus_zero() {
+        for v in [-0.0, -1e-17, -1e-300] {
+            assert!(!pages::tick(&v).starts_with('-'), "{v}: {}", pages::tick(&v));
+        }
+        assert_eq!(pages::tick(&-2.5), "-2.5");
+    }
 }

@@ -21,6 +21,59 @@ where
     Ok(())
 }
 
+/// An axis label as plotters writes it, but never `-0` (a tick at a
+/// rounding error below zero).
+pub(super) fn tick(v: &f64) -> String {
+    use plotters::coord::ranged1d::ValueFormatter;
+    let text = <plotters::coord::types::RangedCoordf64 as ValueFormatter<f64>>::format(v);
+    match text.strip_prefix('-') {
+        Some(rest) if rest.chars().all(|c| c == '0' || c == '.') => rest.to_string(),
+        _ => text,
+    }
+}
+
+/// The corner of a plot (x and y ranges) with the fewest of `points` near
+/// it, where a legend hides the least.
+fn emptiest_corner(points: &[(f64, f64)], x: &std::ops::Range<f64>, y: &std::ops::Range<f64>) -> SeriesLabelPosition {
+    let near = |right: bool, top: bool| {
+        let (w, h) = (x.end - x.start, y.end - y.start);
+        points
+            .iter()
+            .filter(|(px, py)| {
+                let fx = (px - x.start) / w;
+                let fy = (py - y.start) / h;
+                (if right { fx > 0.6 } else { fx < 0.4 }) && (if top { fy > 0.6 } else { fy < 0.4 })
+            })
+            .count()
+    };
+    [
+        (near(true, true), SeriesLabelPosition::UpperRight),
+        (near(false, true), SeriesLabelPosition::UpperLeft),
+        (near(true, false), SeriesLabelPosition::LowerRight),
+        (near(false, false), SeriesLabelPosition::LowerLeft),
+    ]
+    .into_iter()
+    .min_by_key(|(n, _)| *n)
+    .map_or(SeriesLabelPosition::UpperRight, |(_, p)| p)
+}
+
+/// A band's outer edge: for each of `columns` equal stretches of `t`, its
+/// middle time, the highest `centre + 3σ` and the lowest `centre − 3σ` in it
+/// (stretches without a point left out).
+pub(super) fn envelope(band: &[(f64, f64, f64)], t: std::ops::Range<f64>, columns: usize) -> Vec<(f64, f64, f64)> {
+    let width = (t.end - t.start).max(1e-12) / columns as f64;
+    let mut out: Vec<(usize, f64, f64)> = Vec::new();
+    for &(time, centre, sigma3) in band {
+        let column = (((time - t.start) / width).floor().max(0.0) as usize).min(columns - 1);
+        let (hi, lo) = (centre + sigma3, centre - sigma3);
+        match out.last_mut() {
+            Some(last) if last.0 == column => (last.1, last.2) = (last.1.max(hi), last.2.min(lo)),
+            _ => out.push((column, hi, lo)),
+        }
+    }
+    out.into_iter().map(|(c, hi, lo)| (t.start + (c as f64 + 0.5) * width, hi, lo)).collect()
+}
+
 /// How much longer than the data the NIS panels' time axis is, for the legend
 /// (about a third of a panel's width at 1200 px).
 const LEGEND_ROOM: f64 = 0.45;
@@ -88,8 +141,16 @@ where
     let [xs, ys] = equal_scales(xs, ys, area);
     counts.scale("trajectory.east_m_per_px", (xs.end - xs.start) / f64::from(area.0.max(1)));
     counts.scale("trajectory.north_m_per_px", (ys.end - ys.start) / f64::from(area.1.max(1)));
+    let path: Vec<(f64, f64)> = est.iter().map(|e| (e.pv[0], e.pv[1])).collect();
+    let corner = emptiest_corner(&path, &xs, &ys);
     let mut chart = builder(xs, ys)?;
-    chart.configure_mesh().x_desc("east, m").y_desc("north, m").draw()?;
+    chart
+        .configure_mesh()
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .x_desc("east, m")
+        .y_desc("north, m")
+        .draw()?;
     if !truth.is_empty() {
         chart
             .draw_series(LineSeries::new(truth.iter().map(|t| (t.1[0], t.1[1])), BLACK.stroke_width(1)))?
@@ -107,15 +168,34 @@ where
     // as measured, they lie a lever arm beside the IMU's track.
     let (fix, gated_fix) =
         if ins { ("fix (antenna, as measured)", "gated fix (antenna)") } else { ("fix", "gated fix") };
-    chart
-        .draw_series(fused.iter().map(|f| Circle::new((f.east, f.north), 3, GREEN.filled())))?
-        .label(fix)
-        .legend(|(x, y)| Circle::new((x + 10, y), 3, GREEN.filled()));
-    chart
-        .draw_series(gated.iter().map(|f| Cross::new((f.east, f.north), 6, RED.stroke_width(2))))?
-        .label(gated_fix)
-        .legend(|(x, y)| Cross::new((x + 10, y), 6, RED));
-    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+    // In the legend only what is drawn.
+    if !fused.is_empty() {
+        chart
+            .draw_series(fused.iter().map(|f| Circle::new((f.east, f.north), 3, GREEN.filled())))?
+            .label(fix)
+            .legend(|(x, y)| Circle::new((x + 10, y), 3, GREEN.filled()));
+    }
+    if !gated.is_empty() {
+        chart
+            .draw_series(gated.iter().map(|f| Cross::new((f.east, f.north), 6, RED.stroke_width(2))))?
+            .label(gated_fix)
+            .legend(|(x, y)| Cross::new((x + 10, y), 6, RED));
+    }
+    // Where the drive began and where it ended.
+    if let (Some(&first), Some(&last)) = (path.first(), path.last()) {
+        chart
+            .draw_series([TriangleMarker::new(first, 9, GREEN.mix(0.9).filled())])?
+            .label("start")
+            .legend(|(x, y)| TriangleMarker::new((x + 10, y), 7, GREEN.filled()));
+        chart
+            .draw_series([Rectangle::new(
+                [(last.0, last.1), (last.0, last.1)],
+                ShapeStyle::from(&BLACK).stroke_width(8),
+            )])?
+            .label("end")
+            .legend(|(x, y)| Rectangle::new([(x + 6, y - 4), (x + 14, y + 4)], BLACK.filled()));
+    }
+    chart.configure_series_labels().position(corner).background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
     counts.insert("trajectory.estimate", est.len());
     counts.insert("trajectory.truth", truth.len());
     counts.insert("trajectory.fixes", fused.len());
@@ -151,12 +231,26 @@ where
         .x_label_area_size(30)
         .y_label_area_size(60)
         .build_cartesian_2d(t, y)?;
-    chart.configure_mesh().x_desc("t since start, s").y_desc(unit).draw()?;
     chart
-        .draw_series(LineSeries::new(band.iter().map(|b| (b.0, b.1 + b.2)), RED.stroke_width(1)))?
+        .configure_mesh()
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .x_desc("t since start, s")
+        .y_desc(unit)
+        .draw()?;
+    // The band as an area: a σ that falls at every fix and grows between them
+    // drawn as two lines at a point a sample is a comb of bars; its outer edge
+    // per pixel of time, filled, reads as the band it is.
+    let columns = usize::try_from(chart.plotting_area().dim_in_pixel().0).unwrap_or(1000).max(1);
+    let edge = envelope(band, chart.x_range(), columns);
+    let outline: Vec<(f64, f64)> =
+        edge.iter().map(|e| (e.0, e.1)).chain(edge.iter().rev().map(|e| (e.0, e.2))).collect();
+    chart.draw_series([Polygon::new(outline, RED.mix(0.15).filled())])?;
+    chart
+        .draw_series(LineSeries::new(edge.iter().map(|e| (e.0, e.1)), RED.stroke_width(1)))?
         .label("±3σ")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED));
-    chart.draw_series(LineSeries::new(band.iter().map(|b| (b.0, b.1 - b.2)), RED.stroke_width(1)))?;
+        .legend(|(x, y)| Rectangle::new([(x, y - 4), (x + 20, y + 4)], RED.mix(0.3).filled()));
+    chart.draw_series(LineSeries::new(edge.iter().map(|e| (e.0, e.2)), RED.stroke_width(1)))?;
     if !series.is_empty() {
         chart
             .draw_series(LineSeries::new(series.iter().copied(), BLUE.stroke_width(1)))?
@@ -275,7 +369,13 @@ where
             .x_label_area_size(30)
             .y_label_area_size(60)
             .build_cartesian_2d(t.clone(), 0.0..top)?;
-        chart.configure_mesh().x_desc("t since start, s").y_desc("NIS (no unit)").draw()?;
+        chart
+            .configure_mesh()
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
+            .x_desc("t since start, s")
+            .y_desc("NIS (no unit)")
+            .draw()?;
         chart
             .draw_series(LineSeries::new([(t.start, hi), (t.end, hi)], RED.stroke_width(1)))?
             .label(format!("χ² 2.5 % and 97.5 % ({lo:.2}, {hi:.2})"))
@@ -335,7 +435,7 @@ where
         .x_label_area_size(40)
         .y_label_area_size(60)
         .build_cartesian_2d(0.0..top, 0u32..hist.iter().copied().max().unwrap_or(1) + 1)?;
-    chart.configure_mesh().x_desc("µs").y_desc("samples").draw()?;
+    chart.configure_mesh().x_label_formatter(&tick).x_desc("µs").y_desc("samples").draw()?;
     chart.draw_series(
         hist.iter().enumerate().map(|(i, &n)| {
             Rectangle::new([(i as f64 * width, 0), ((i + 1) as f64 * width, n)], BLUE.mix(0.6).filled())
