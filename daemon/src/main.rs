@@ -144,18 +144,20 @@ fn progress_bar(len: Option<u64>, bytes: bool) -> indicatif::ProgressBar {
 
 /// A replay that processed nothing: its summary (every refused line with its
 /// reason) goes to stderr first.
-/// Whether `file` starts as text does: its first 4 KiB UTF-8 with no NUL
-/// (a character cut at the end of them aside).
+/// Whether `file` starts as text does: no NUL in its first 4 KiB, and most
+/// of them printable UTF-8 (a line of garbage among JSON lines is counted
+/// with its line number, not taken for a binary file).
 fn is_text(file: &mut File) -> std::io::Result<bool> {
     let mut head = vec![0u8; 4096];
     file.seek(std::io::SeekFrom::Start(0))?;
     let n = file.read(&mut head)?;
     let head = &head[..n];
-    let utf8 = match std::str::from_utf8(head) {
-        Ok(_) => true,
-        Err(e) => e.error_len().is_none() && n == 4096,
-    };
-    Ok(utf8 && !head.contains(&0))
+    if head.contains(&0) {
+        return Ok(false);
+    }
+    let text = String::from_utf8_lossy(head);
+    let odd = text.chars().filter(|&c| c == '\u{fffd}' || (c.is_control() && !c.is_whitespace())).count();
+    Ok(odd * 10 < text.chars().count().max(1))
 }
 
 fn say_why(e: replay::ReplayError) -> replay::ReplayError {
