@@ -322,6 +322,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if fusion_shared::ros::is_bag(&input) {
                 return replay_bag(config.as_deref(), &input, output, smooth, compare);
             }
+            // rosbag2's file compression (`--compression-mode file`) makes
+            // `bag.db3.zstd` or `bag.mcap.zstd`: whole files, not read here.
+            anyhow::ensure!(
+                !magic[..n].starts_with(fusion_shared::ros::ZSTD_MAGIC),
+                "{}: a zstd-compressed file (as rosbag2's --compression-mode file writes a bag): decompress it \
+                 first (`zstd -d {}`) and replay what it holds",
+                input.display(),
+                input.display()
+            );
             let named_mcap = input.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
             anyhow::ensure!(
                 !named_mcap || Recording::is_mcap(&magic[..n]),

@@ -524,3 +524,47 @@ fn a_stamp_an_hour_ahead_is_refused_by_replay_and_by_fusion_sim() {
     assert!(out.status.success(), "{said}");
     assert!(said.contains("1 samples refused: stamped more than [validation] max_jump_ns"), "{said}");
 }
+
+/// A whole file compressed (rosbag2's `--compression-mode file`: `bag.db3.zstd`)
+/// is named as such, with what to do.
+#[test]
+fn a_bag_compressed_whole_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = dir.path().join("plain.db3");
+    drop(db3_bag(&plain, &cdr_messages(10)));
+    let zstd = write(dir.path(), "bag.db3.zstd", &zstd::encode_all(&std::fs::read(&plain).unwrap()[..], 3).unwrap());
+    let out = replay(dir.path(), &zstd);
+    let said = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{said}");
+    assert!(said.contains("a zstd-compressed file") && said.contains("zstd -d"), "{said}");
+}
+
+/// Ctrl-C while `fusion-sim` publishes a bag: it says it was interrupted and
+/// how far it got, and exits 130, not 0 as if the bag had been published.
+#[test]
+fn fusion_sim_interrupted_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    // 20 s of a robot at rest, published at its pace.
+    let bag = write(dir.path(), "long.bag", &ros1_bag(&[ros1_chunk(&messages(2000))]));
+    let config = dir.path().join("config.toml");
+    std::fs::write(&config, jackal()).unwrap();
+    let mut sim = common::live::Running(
+        Command::new(workspace_bin("fusion-sim"))
+            .args(["run", "--allow-no-daemon", "--namespace", &format!("hostile-int-{}", std::process::id())])
+            .arg("--config")
+            .arg(&config)
+            .arg("--input")
+            .arg(&bag)
+            .env(DOMAIN_ENV, format!("hi{}", std::process::id()))
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    assert!(Command::new("kill").args(["-INT", &sim.0.id().to_string()]).status().unwrap().success());
+    let status = sim.wait_for(std::time::Duration::from_secs(20)).expect("fusion-sim did not stop on SIGINT");
+    let mut said = String::new();
+    std::io::Read::read_to_string(&mut sim.0.stderr.take().unwrap(), &mut said).unwrap();
+    assert_eq!(status.code(), Some(i32::from(fusion_shared::exit::INTERRUPTED)), "{said}");
+    assert!(said.contains("interrupted: published") && said.contains("before the signal"), "{said}");
+}
