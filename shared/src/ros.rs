@@ -1,6 +1,8 @@
-//! ROS bags in: ROS 1 bags (`.bag`, read by the `rosbag` crate, messages by
-//! `serde_rosmsg`) and ROS 2 bags in MCAP (read by the `mcap` crate, messages
-//! in CDR by `cdr`).
+//! ROS bags in: ROS 1 bags (`.bag`: the index read by the `rosbag` crate, the
+//! chunks here, in `ros1`, with every size checked; messages by
+//! `serde_rosmsg`) and ROS 2 bags in MCAP (the `mcap` crate, after
+//! `mcap_scan` checked the file) or in SQLite (`db3`), messages in CDR by
+//! `cdr-encoding`.
 //!
 //! A topic map ([`Route`]s: a topic, the kinds it gives and the sensor id they
 //! go to; fusiond's `[[sensor]] topic = …`) says which topics are read and as
@@ -13,6 +15,7 @@
 //! message that does not decode) is a counted refusal with its reason, and
 //! [`BagSummary`] says what each topic gave.
 
+mod db3;
 pub mod messages;
 mod ros1;
 
@@ -414,7 +417,7 @@ pub fn read_bag(path: &Path, routes: &[Route], each: impl FnMut(BagItem)) -> Res
     let map = unsafe { memmap2::Mmap::map(&file)? };
     let mut reading = Reading { routes, topics: BTreeMap::new(), summary: BagSummary::default(), position: 0, each };
     if is_ros1(&map) {
-        read_ros1(path, &map, &mut reading)?;
+        ros1::read(path, &map, &mut reading)?;
         return Ok(reading.finish("ROS 1"));
     }
     if map.starts_with(mcap::MAGIC) {
@@ -426,135 +429,10 @@ pub fn read_bag(path: &Path, routes: &[Route], each: impl FnMut(BagItem)) -> Res
     }
     if map.starts_with(SQLITE_MAGIC) {
         drop(map);
-        read_db3(path, &mut reading)?;
+        db3::read(path, &mut reading)?;
         return Ok(reading.finish("ROS 2 (SQLite)"));
     }
     Err(BagError::Format("neither a ROS 1 bag (#ROSBAG V2.0) nor a ROS 2 bag (MCAP, or SQLite .db3)".into()))
-}
-
-/// The `index_pos` of a ROS 1 bag's header record, checked against the file
-/// (the `rosbag` crate takes it on trust).
-fn ros1_index_pos(bytes: &[u8]) -> Result<u64, BagError> {
-    let bad = || BagError::Format("its bag header record is damaged".into());
-    let at = ROS1_MAGIC.len();
-    let len = bytes.get(at..at + 4).ok_or_else(bad)?;
-    let len = u32::from_le_bytes(len.try_into().map_err(|_| bad())?) as usize;
-    let mut fields = bytes.get(at + 4..at + 4 + len).ok_or_else(bad)?;
-    while fields.len() >= 4 {
-        let n = u32::from_le_bytes(fields[..4].try_into().map_err(|_| bad())?) as usize;
-        let field = fields.get(4..4 + n).ok_or_else(bad)?;
-        if let Some(v) = field.strip_prefix(b"index_pos=") {
-            let pos = u64::from_le_bytes(v.try_into().map_err(|_| bad())?);
-            let end = bytes.len() as u64;
-            if pos == 0 {
-                return Err(BagError::Format(
-                    "it has no index (its recording was cut off): `rosbag reindex` repairs it".into(),
-                ));
-            }
-            if pos > end || pos < (at + 4 + len) as u64 {
-                return Err(BagError::Format(format!(
-                    "it is truncated: its index is at byte {pos} of a file of {end} bytes (`rosbag reindex` \
-                     repairs a bag whose recording was cut off)"
-                )));
-            }
-            return Ok(pos);
-        }
-        fields = &fields[4 + n..];
-    }
-    Err(bad())
-}
-
-fn read_ros1<F: FnMut(BagItem)>(path: &Path, bytes: &[u8], r: &mut Reading<'_, F>) -> Result<(), BagError> {
-    use rosbag::{IndexRecord, RosBag};
-    let index_pos = ros1_index_pos(bytes)? as usize;
-    let bag = RosBag::new(path)?;
-    // The index lists every connection: the topic map is checked before a message is read.
-    for record in bag.index_records() {
-        match record {
-            Ok(IndexRecord::Connection(c)) => r.topic(c.topic, c.tp)?,
-            Ok(_) => {}
-            Err(e) => return Err(BagError::Format(format!("its index is damaged: {e}"))),
-        }
-    }
-    // The chunk section: from the bag header record to the index.
-    let mut at = ROS1_MAGIC.len();
-    ros1::next_record(bytes, &mut at)
-        .map_err(|e| BagError::Format(format!("its bag header record is damaged: {e}")))?;
-    let section = &bytes[..index_pos];
-    let mut connections: BTreeMap<u32, String> = BTreeMap::new();
-    while at < section.len() {
-        let offset = at;
-        if let Err(what) = ros1_record(section, &mut at, &mut connections, r)? {
-            r.summary.damage = Some(format!("at byte {offset} (after message {}): {what}", r.position));
-            return Ok(());
-        }
-    }
-    Ok(())
-}
-
-/// The record of the chunk section at `*at`: a chunk's messages read, index
-/// data skipped. `Err` when a topic does not fit the topic map, `Ok(Err)`
-/// where the bag is damaged.
-fn ros1_record<F: FnMut(BagItem)>(
-    section: &[u8],
-    at: &mut usize,
-    connections: &mut BTreeMap<u32, String>,
-    r: &mut Reading<'_, F>,
-) -> Result<Result<(), String>, BagError> {
-    let chunk = match ros1::next_record(section, at).and_then(|c| Ok((ros1::op_of(&c)?, c))) {
-        Ok((ros1::op::CHUNK, chunk)) => chunk,
-        Ok((ros1::op::INDEX_DATA, _)) => return Ok(Ok(())),
-        Ok((op, _)) => return Ok(Err(format!("a record of op {op:#04x} in the chunk section"))),
-        Err(e) => return Ok(Err(e)),
-    };
-    match ros1::chunk_data(&chunk) {
-        Ok(data) => Ok(ros1_chunk(&data, connections, r)?.map_err(|e| format!("in a chunk: {e}"))),
-        Err(e) => Ok(Err(e)),
-    }
-}
-
-/// The connections and messages of a decompressed ROS 1 chunk: `Err` when a
-/// topic does not fit the topic map, `Ok(Err)` where the chunk is damaged.
-fn ros1_chunk<F: FnMut(BagItem)>(
-    data: &[u8],
-    connections: &mut BTreeMap<u32, String>,
-    r: &mut Reading<'_, F>,
-) -> Result<Result<(), String>, BagError> {
-    let mut at = 0;
-    while at < data.len() {
-        let record = match ros1::next_record(data, &mut at).and_then(|m| Ok((ros1::op_of(&m)?, m))) {
-            Ok(record) => record,
-            Err(e) => return Ok(Err(e)),
-        };
-        match record {
-            (ros1::op::CONNECTION, c) => {
-                let connection = ros1::field_u32(c.header, "conn").and_then(|id| {
-                    let topic = ros1::required(c.header, "topic")?;
-                    Ok((id, String::from_utf8_lossy(topic).into_owned(), ros1::required(c.data, "type")?))
-                });
-                let (id, topic, ty) = match connection {
-                    Ok(c) => c,
-                    Err(e) => return Ok(Err(e)),
-                };
-                r.topic(&topic, &String::from_utf8_lossy(ty))?;
-                connections.insert(id, topic);
-            }
-            (ros1::op::MESSAGE_DATA, m) => {
-                let topic = match ros1::field_u32(m.header, "conn") {
-                    Ok(id) => connections
-                        .get(&id)
-                        .ok_or_else(|| format!("message {} is of an unknown connection {id}", r.position + 1)),
-                    Err(e) => Err(e),
-                };
-                match topic {
-                    Ok(topic) => r.message::<Ros1>(topic, m.data),
-                    Err(e) => return Ok(Err(e)),
-                }
-            }
-            (op, _) => return Ok(Err(format!("a record of op {op:#04x}"))),
-        }
-    }
-    Ok(Ok(()))
 }
 
 fn read_ros2<F: FnMut(BagItem)>(bytes: &[u8], r: &mut Reading<'_, F>) -> Result<(), BagError> {
@@ -589,96 +467,6 @@ fn read_ros2<F: FnMut(BagItem)>(bytes: &[u8], r: &mut Reading<'_, F>) -> Result<
         r.message::<Ros2>(topic, &m.data);
     }
     Ok(())
-}
-
-/// SQLite steps (virtual machine instructions) a `.db3` may take per byte of
-/// its file, for all its statements together: reading and sorting a real bag
-/// takes a few per byte.
-const SQLITE_STEPS_PER_BYTE: u64 = 200;
-/// Steps any `.db3` may take, however small.
-const SQLITE_MIN_STEPS: u64 = 50_000_000;
-/// Steps between two looks of the progress handler.
-const SQLITE_STEPS_PER_CALL: u64 = 10_000;
-
-/// A ROS 2 bag in SQLite (rosbag2's `sqlite3` storage: tables `topics` and
-/// `messages`, CDR messages), read in the order `ros2 bag play` plays it
-/// (by timestamp, then as written). A database that fails after some
-/// messages is read up to there, the damage named.
-fn read_db3<F: FnMut(BagItem)>(path: &Path, r: &mut Reading<'_, F>) -> Result<(), BagError> {
-    use rusqlite::{Connection, OpenFlags, OptionalExtension};
-    let format = |e: rusqlite::Error| match e {
-        rusqlite::Error::SqliteFailure(f, _) if f.code == rusqlite::ErrorCode::OperationInterrupted => {
-            BagError::Format(
-                "an SQLite database whose reading did not end within the steps a file of its size needs (a hostile or \
-             damaged database)"
-                    .into(),
-            )
-        }
-        e => BagError::Format(format!("an SQLite database, but it cannot be read as a ROS 2 bag: {e}")),
-    };
-    let flags = OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX;
-    let db = Connection::open_with_flags(path, flags).map_err(format)?;
-    // Bounded: a hostile file's views (a recursive one never ends) are not
-    // read, and no statement runs for more SQLite steps than a file of this
-    // size can need.
-    let budget = std::fs::metadata(path)?.len().saturating_mul(SQLITE_STEPS_PER_BYTE).max(SQLITE_MIN_STEPS);
-    let mut steps = 0u64;
-    db.progress_handler(
-        SQLITE_STEPS_PER_CALL as i32,
-        Some(move || {
-            steps += SQLITE_STEPS_PER_CALL;
-            steps > budget
-        }),
-    );
-    for table in ["topics", "messages"] {
-        let kind: Option<String> = db
-            .query_row("SELECT type FROM sqlite_master WHERE name = ?1", [table], |row| row.get(0))
-            .optional()
-            .map_err(format)?;
-        match kind.as_deref() {
-            Some("table") => {}
-            Some(other) => {
-                return Err(BagError::Format(format!(
-                    "an SQLite database whose {table:?} is a {other}, not a table: not a ROS 2 bag (rosbag2 writes tables)"
-                )));
-            }
-            None => {
-                return Err(BagError::Format(format!("an SQLite database without a {table:?} table: not a ROS 2 bag")));
-            }
-        }
-    }
-    let mut topics =
-        db.prepare("SELECT id, name, type, serialization_format FROM topics ORDER BY id").map_err(format)?;
-    let rows = topics
-        .query_map([], |row| Ok((row.get::<_, i64>(0)?, row.get::<_, String>(1)?, row.get(2)?, row.get(3)?)))
-        .map_err(format)?;
-    let mut names = BTreeMap::new();
-    for row in rows {
-        let (id, name, ty, serialization): (i64, String, String, String) = row.map_err(format)?;
-        let ty = if serialization == "cdr" { ty } else { format!("{serialization} message") };
-        r.topic(&name, &ty)?;
-        names.insert(id, name);
-    }
-    let mut messages = db.prepare("SELECT topic_id, data FROM messages ORDER BY timestamp, id").map_err(format)?;
-    let mut rows = messages.query([]).map_err(format)?;
-    loop {
-        let message = match rows.next() {
-            Ok(None) => return Ok(()),
-            Ok(Some(row)) => row.get::<_, i64>(0).and_then(|id| Ok((id, row.get_ref(1)?.as_blob()?))),
-            Err(e) => Err(e),
-        };
-        match message {
-            Ok((id, data)) => match names.get(&id) {
-                Some(name) => r.message::<Ros2>(name, data),
-                None => r.position += 1,
-            },
-            Err(e) if r.position == 0 => return Err(format(e)),
-            Err(e) => {
-                r.summary.damage.get_or_insert(format!("after message {}: {}", r.position, format(e)));
-                return Ok(());
-            }
-        }
-    }
 }
 
 #[cfg(test)]

@@ -15,8 +15,11 @@
 //! exactly.
 
 use std::borrow::Cow;
+use std::collections::BTreeMap;
 use std::io::Read;
+use std::path::Path;
 
+use super::{BagError, BagItem, ROS1_MAGIC, Reading, Ros1};
 use crate::mcap_scan::MAX_CHUNK_BYTES;
 
 /// One record: its header fields and its data.
@@ -138,6 +141,132 @@ fn bounded_read(reader: impl Read, size: u64, compressed: usize) -> std::io::Res
     let mut out = Vec::with_capacity(guess);
     reader.take(size + 1).read_to_end(&mut out)?;
     Ok(out)
+}
+
+/// The `index_pos` of a ROS 1 bag's header record, checked against the file
+/// (the `rosbag` crate takes it on trust).
+fn ros1_index_pos(bytes: &[u8]) -> Result<u64, BagError> {
+    let bad = || BagError::Format("its bag header record is damaged".into());
+    let at = ROS1_MAGIC.len();
+    let len = bytes.get(at..at + 4).ok_or_else(bad)?;
+    let len = u32::from_le_bytes(len.try_into().map_err(|_| bad())?) as usize;
+    let mut fields = bytes.get(at + 4..at + 4 + len).ok_or_else(bad)?;
+    while fields.len() >= 4 {
+        let n = u32::from_le_bytes(fields[..4].try_into().map_err(|_| bad())?) as usize;
+        let field = fields.get(4..4 + n).ok_or_else(bad)?;
+        if let Some(v) = field.strip_prefix(b"index_pos=") {
+            let pos = u64::from_le_bytes(v.try_into().map_err(|_| bad())?);
+            let end = bytes.len() as u64;
+            if pos == 0 {
+                return Err(BagError::Format(
+                    "it has no index (its recording was cut off): `rosbag reindex` repairs it".into(),
+                ));
+            }
+            if pos > end || pos < (at + 4 + len) as u64 {
+                return Err(BagError::Format(format!(
+                    "it is truncated: its index is at byte {pos} of a file of {end} bytes (`rosbag reindex` \
+                     repairs a bag whose recording was cut off)"
+                )));
+            }
+            return Ok(pos);
+        }
+        fields = &fields[4 + n..];
+    }
+    Err(bad())
+}
+
+/// Reads the ROS 1 bag `bytes` (at `path`): the index's connections (checked
+/// against the topic map), then every chunk's messages, up to any damage.
+pub(super) fn read<F: FnMut(BagItem)>(path: &Path, bytes: &[u8], r: &mut Reading<'_, F>) -> Result<(), BagError> {
+    use rosbag::{IndexRecord, RosBag};
+    let index_pos = ros1_index_pos(bytes)? as usize;
+    let bag = RosBag::new(path)?;
+    // The index lists every connection: the topic map is checked before a message is read.
+    for record in bag.index_records() {
+        match record {
+            Ok(IndexRecord::Connection(c)) => r.topic(c.topic, c.tp)?,
+            Ok(_) => {}
+            Err(e) => return Err(BagError::Format(format!("its index is damaged: {e}"))),
+        }
+    }
+    // The chunk section: from the bag header record to the index.
+    let mut at = ROS1_MAGIC.len();
+    next_record(bytes, &mut at).map_err(|e| BagError::Format(format!("its bag header record is damaged: {e}")))?;
+    let section = &bytes[..index_pos];
+    let mut connections: BTreeMap<u32, String> = BTreeMap::new();
+    while at < section.len() {
+        let offset = at;
+        if let Err(what) = ros1_record(section, &mut at, &mut connections, r)? {
+            r.summary.damage = Some(format!("at byte {offset} (after message {}): {what}", r.position));
+            return Ok(());
+        }
+    }
+    Ok(())
+}
+
+/// The record of the chunk section at `*at`: a chunk's messages read, index
+/// data skipped. `Err` when a topic does not fit the topic map, `Ok(Err)`
+/// where the bag is damaged.
+fn ros1_record<F: FnMut(BagItem)>(
+    section: &[u8],
+    at: &mut usize,
+    connections: &mut BTreeMap<u32, String>,
+    r: &mut Reading<'_, F>,
+) -> Result<Result<(), String>, BagError> {
+    let chunk = match next_record(section, at).and_then(|c| Ok((op_of(&c)?, c))) {
+        Ok((op::CHUNK, chunk)) => chunk,
+        Ok((op::INDEX_DATA, _)) => return Ok(Ok(())),
+        Ok((op, _)) => return Ok(Err(format!("a record of op {op:#04x} in the chunk section"))),
+        Err(e) => return Ok(Err(e)),
+    };
+    match chunk_data(&chunk) {
+        Ok(data) => Ok(ros1_chunk(&data, connections, r)?.map_err(|e| format!("in a chunk: {e}"))),
+        Err(e) => Ok(Err(e)),
+    }
+}
+
+/// The connections and messages of a decompressed ROS 1 chunk: `Err` when a
+/// topic does not fit the topic map, `Ok(Err)` where the chunk is damaged.
+fn ros1_chunk<F: FnMut(BagItem)>(
+    data: &[u8],
+    connections: &mut BTreeMap<u32, String>,
+    r: &mut Reading<'_, F>,
+) -> Result<Result<(), String>, BagError> {
+    let mut at = 0;
+    while at < data.len() {
+        let record = match next_record(data, &mut at).and_then(|m| Ok((op_of(&m)?, m))) {
+            Ok(record) => record,
+            Err(e) => return Ok(Err(e)),
+        };
+        match record {
+            (op::CONNECTION, c) => {
+                let connection = field_u32(c.header, "conn").and_then(|id| {
+                    let topic = required(c.header, "topic")?;
+                    Ok((id, String::from_utf8_lossy(topic).into_owned(), required(c.data, "type")?))
+                });
+                let (id, topic, ty) = match connection {
+                    Ok(c) => c,
+                    Err(e) => return Ok(Err(e)),
+                };
+                r.topic(&topic, &String::from_utf8_lossy(ty))?;
+                connections.insert(id, topic);
+            }
+            (op::MESSAGE_DATA, m) => {
+                let topic = match field_u32(m.header, "conn") {
+                    Ok(id) => connections
+                        .get(&id)
+                        .ok_or_else(|| format!("message {} is of an unknown connection {id}", r.position + 1)),
+                    Err(e) => Err(e),
+                };
+                match topic {
+                    Ok(topic) => r.message::<Ros1>(topic, m.data),
+                    Err(e) => return Ok(Err(e)),
+                }
+            }
+            (op, _) => return Ok(Err(format!("a record of op {op:#04x}"))),
+        }
+    }
+    Ok(Ok(()))
 }
 
 #[cfg(test)]
