@@ -10,10 +10,9 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::live::{Daemon, Running, TestDomain, workspace_bin};
+use common::live::{Daemon, TestDomain, workspace_bin};
 use fusion_client::sim::{Scenario, ScenarioConfig};
 use fusion_shared::recording;
-use fusion_shared::service::DOMAIN_ENV;
 use fusion_shared::{Sample, SampleKind};
 
 /// The daemon's config, which the replay must be given too: simulated time
@@ -51,17 +50,7 @@ fn record_live_run_with(
 ) -> std::path::PathBuf {
     let mut daemon = Daemon::start(domain, config, wait);
     let mcap = dir.join("run.mcap");
-    let mut recorder = Running(
-        Command::new(workspace_bin("fusionctl"))
-            .args(["record", "--namespace", &domain.namespace, "--output"])
-            .arg(&mcap)
-            .env(DOMAIN_ENV, &domain.domain)
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
-    );
-    // The recorder opens the sample services before the state service.
-    common::live::wait_for_state_reader(domain, "fusionctl record");
+    let mut recorder = common::live::start_recorder(domain, &mcap, Stdio::piped());
     common::live::publish_file(domain, &dir.join("drive.jsonl"), samples);
     // Every sample processed live before the recorder is stopped.
     let mut reader = domain.client().state_subscriber().unwrap();
@@ -379,16 +368,7 @@ fn a_recording_begun_mid_run_says_so_when_compared() {
     let mut daemon = Daemon::start(&domain, &config, "event");
     common::live::publish_file(&domain, &dir.path().join("before.jsonl"), before);
     let mcap = dir.path().join("late.mcap");
-    let mut recorder = Running(
-        Command::new(workspace_bin("fusionctl"))
-            .args(["record", "--namespace", &domain.namespace, "--output"])
-            .arg(&mcap)
-            .env(DOMAIN_ENV, &domain.domain)
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    common::live::wait_for_state_reader(&domain, "fusionctl record");
+    let mut recorder = common::live::start_recorder(&domain, &mcap, Stdio::null());
     common::live::publish_file(&domain, &dir.path().join("after.jsonl"), after);
     assert!(Command::new("kill").args(["-INT", &recorder.0.id().to_string()]).status().unwrap().success());
     assert!(recorder.wait_for(Duration::from_secs(20)).is_some_and(|s| s.success()));

@@ -409,6 +409,22 @@ pub fn received_by(domain: &TestDomain, sensor: u32, n: u64) -> u64 {
     }
 }
 
+/// `fusionctl record --output mcap` in `domain`, once it reads the state
+/// service (it opens the sample services before it), its stderr to `stderr`.
+pub fn start_recorder(domain: &TestDomain, mcap: &Path, stderr: Stdio) -> Running {
+    let recorder = Running(
+        Command::new(workspace_bin("fusionctl"))
+            .args(["record", "--namespace", &domain.namespace, "--output"])
+            .arg(mcap)
+            .env(DOMAIN_ENV, &domain.domain)
+            .stderr(stderr)
+            .spawn()
+            .unwrap(),
+    );
+    wait_for_state_reader(domain, "fusionctl record");
+    recorder
+}
+
 /// A recording of a live run of 3 s of a drive (200 Hz IMU, fixes 20–120 ms
 /// late), made with the tools as a user makes one: `fusiond run` with
 /// `config`, `fusionctl record`, `fusion-sim run --input`; the recorder stopped
@@ -423,16 +439,7 @@ pub fn record_drive(dir: &Path, config: &str) -> PathBuf {
         fusion_client::sim::Scenario::generate(&c).arrivals.into_iter().map(|a| a.sample).collect();
     let mut daemon = Daemon::start(&domain, config, "event");
     let mcap = dir.join("run.mcap");
-    let mut recorder = Running(
-        Command::new(workspace_bin("fusionctl"))
-            .args(["record", "--namespace", &domain.namespace, "--output"])
-            .arg(&mcap)
-            .env(DOMAIN_ENV, &domain.domain)
-            .stderr(std::process::Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    wait_for_state_reader(&domain, "fusionctl record");
+    let mut recorder = start_recorder(&domain, &mcap, Stdio::null());
     publish_file(&domain, &dir.join("drive.jsonl"), &samples);
     let mut reader = domain.client().state_subscriber().unwrap();
     let processed = |s: &StateSnapshot| s.sensor_counters().iter().map(|c| c.counts.processed).sum::<u64>();
