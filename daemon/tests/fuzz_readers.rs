@@ -204,12 +204,14 @@ fn rl_data(name: &str) -> Option<PathBuf> {
     if path.exists() {
         return Some(path);
     }
-    eprintln!(
-        "skipped: {} is absent (robot_localization's test bags, BSD, from its repository's test/ folder; the ROS 2 \
-         copies made with rosbags-convert: see ../shared/data/robot_localization/README.md; FUSION_RL_DATA names \
-         another folder)",
+    let said = format!(
+        "{} is absent (robot_localization's test bags, BSD, from its repository's test/ folder; the ROS 2 copies \
+         made with rosbags-convert: see ../shared/data/robot_localization/README.md; FUSION_RL_DATA names another \
+         folder)",
         path.display()
     );
+    assert!(std::env::var_os("FUSION_REQUIRE_RL_DATA").is_none(), "{said}");
+    eprintln!("skipped: {said}");
     None
 }
 

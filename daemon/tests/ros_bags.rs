@@ -1,5 +1,6 @@
 //! ROS bags in, as a robot_localization user brings them: robot_localization's
-//! own test bags (`tests/data/robot_localization`) replayed by the real
+//! own test bags (`../shared/data/robot_localization`, or the folder
+//! `FUSION_RL_DATA` names; not in this repository) replayed by the real
 //! `fusiond replay` with the configurations of the guide's ground-robot page,
 //! ending within robot_localization's own tolerance of its expected position;
 //! the same bag as ROS 2 (MCAP) giving the same estimate; bad bags giving clear
@@ -13,8 +14,27 @@ use std::process::{Command, Output};
 use fusion_daemon::replay::OutputLine;
 use nalgebra::{UnitQuaternion, Vector3};
 
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/robot_localization").join(name)
+/// One of robot_localization's test bags: a ROS 1 bag from its `test/`
+/// folder, a ROS 2 copy from `ros2/`. `None`, said on stderr with where the
+/// bags come from, when they are absent (a failure instead where
+/// `FUSION_REQUIRE_RL_DATA` is set, as in `.ci/run`).
+fn data(name: &str) -> Option<PathBuf> {
+    let root = std::env::var_os("FUSION_RL_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/robot_localization"));
+    let path = root.join(if name.ends_with(".bag") { "test" } else { "ros2" }).join(name);
+    if path.exists() {
+        return Some(path);
+    }
+    let said = format!(
+        "{} is absent: robot_localization's test bags (its repository's test/ folder, BSD; the ROS 2 copies made \
+         with rosbags-convert, see the README beside them) are read from ../shared/data/robot_localization or \
+         the folder FUSION_RL_DATA names",
+        path.display()
+    );
+    assert!(std::env::var_os("FUSION_REQUIRE_RL_DATA").is_none(), "{said}");
+    eprintln!("skipped: {said}");
+    None
 }
 
 /// The ```toml block of the ground-robot page whose first line is `# <name>`.
@@ -29,7 +49,8 @@ fn page_config(name: &str) -> String {
 fn replay(dir: &Path, config: &str, input: &Path) -> (Output, PathBuf) {
     let config_path = dir.join("config.toml");
     std::fs::write(&config_path, config).unwrap();
-    let output = dir.join(format!("{}.jsonl", input.file_stem().unwrap().to_string_lossy()));
+    // By the whole file name: test2.bag's and test2.mcap's estimates side by side.
+    let output = dir.join(format!("{}.jsonl", input.file_name().unwrap().to_string_lossy()));
     let out = Command::new(env!("CARGO_BIN_EXE_fusiond"))
         .args(["replay", "--config"])
         .arg(&config_path)
@@ -62,7 +83,8 @@ fn base_link_end(output: &Path, imu_in_base: Vector3<f64>) -> Vector3<f64> {
 #[test]
 fn the_husky_bag_ends_within_robot_localizations_tolerance() {
     let dir = tempfile::tempdir().unwrap();
-    let (out, output) = replay(dir.path(), &page_config("husky.toml"), &data("test1.bag"));
+    let Some(bag) = data("test1.bag") else { return };
+    let (out, output) = replay(dir.path(), &page_config("husky.toml"), &bag);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(stderr.contains("/imu/data (sensor_msgs/Imu): 11865 messages -> 11865 attitude, 11865 imu"), "{stderr}");
@@ -75,6 +97,15 @@ fn the_husky_bag_ends_within_robot_localizations_tolerance() {
         "test1.bag: base_link ends at {end:?}, {off:.3} m from robot_localization's expected (tolerance 1.0452 m)"
     );
     assert!(off < 1.0452, "{off} m off: {end:?}");
+    // The same bag as ROS 2, in MCAP and in SQLite: the same estimate, bit for bit.
+    let ros1 = std::fs::read(&output).unwrap();
+    for (name, format) in [("test1.mcap", "bag (ROS 2 (MCAP))"), ("test1.db3", "bag (ROS 2 (SQLite))")] {
+        let Some(ros2) = data(name) else { return };
+        let (out, output) = replay(dir.path(), &page_config("husky.toml"), &ros2);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success() && stderr.contains(format), "{name}: {stderr}");
+        assert_eq!(ros1, std::fs::read(&output).unwrap(), "test1.bag and {name} differ");
+    }
 }
 
 /// The yaw σ of each line, rad: the attitude error's σ about world up.
@@ -102,7 +133,8 @@ fn without_a_heading_the_husky_bag_keeps_its_heading_unknown() {
     let config = page_config("husky.toml")
         .replace("topic = \"/imu/data\"", "topic = \"/imu/data\"\n[sensor.attitude]\nyaw = false");
     assert!(config.contains("yaw = false"));
-    let (out, output) = replay(dir.path(), &config, &data("test1.bag"));
+    let Some(bag) = data("test1.bag") else { return };
+    let (out, output) = replay(dir.path(), &config, &bag);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let sds = yaw_sds(&output);
     let (start, least) = (sds[0], sds.iter().copied().fold(f64::INFINITY, f64::min));
@@ -123,7 +155,10 @@ fn without_a_heading_the_husky_bag_keeps_its_heading_unknown() {
 fn the_jackal_bag_ends_within_robot_localizations_tolerance_as_ros1_and_ros2() {
     let dir = tempfile::tempdir().unwrap();
     let config = page_config("jackal.toml");
-    let (out, ros1) = replay(dir.path(), &config, &data("test2.bag"));
+    let (Some(bag), Some(mcap), Some(db3)) = (data("test2.bag"), data("test2.mcap"), data("test2.db3")) else {
+        return;
+    };
+    let (out, ros1) = replay(dir.path(), &config, &bag);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let end = base_link_end(&ros1, Vector3::zeros());
     let off = (end - Vector3::new(1.0206, 3.4292, 0.7419)).norm();
@@ -131,7 +166,7 @@ fn the_jackal_bag_ends_within_robot_localizations_tolerance_as_ros1_and_ros2() {
         "test2.bag: base_link ends at {end:?}, {off:.3} m from robot_localization's expected (tolerance 0.1383 m)"
     );
     assert!(off < 0.1383, "{off} m off: {end:?}");
-    let (out, ros2) = replay(dir.path(), &config, &data("test2.mcap"));
+    let (out, ros2) = replay(dir.path(), &config, &mcap);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(
@@ -139,7 +174,7 @@ fn the_jackal_bag_ends_within_robot_localizations_tolerance_as_ros1_and_ros2() {
         "{stderr}"
     );
     assert_eq!(std::fs::read(&ros1).unwrap(), std::fs::read(&ros2).unwrap(), "ROS 1 and ROS 2 differ");
-    let (out, db3) = replay(dir.path(), &config, &data("test2.db3"));
+    let (out, db3) = replay(dir.path(), &config, &db3);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(
@@ -160,20 +195,21 @@ fn failure(out: &Output) -> String {
 fn a_bag_that_does_not_fit_its_topic_map_is_refused_with_the_reason() {
     let dir = tempfile::tempdir().unwrap();
     let jackal = page_config("jackal.toml");
+    let Some(test2) = data("test2.bag") else { return };
     // The IMU's topic mapped to a kind an Imu message does not give.
     let wrong = jackal.replace("kinds = [\"imu\", \"attitude\"]", "kinds = [\"imu\", \"twist\"]");
-    let stderr = failure(&replay(dir.path(), &wrong, &data("test2.bag")).0);
+    let stderr = failure(&replay(dir.path(), &wrong, &test2).0);
     assert!(
         stderr.contains("topic /imu/data is a sensor_msgs/Imu, which gives no twist sample ([[sensor]] \"imu\"); it gives imu, attitude"),
         "{stderr}"
     );
     // No topic at all.
     let none = jackal.replace("topic = ", "# topic = ");
-    let stderr = failure(&replay(dir.path(), &none, &data("test2.bag")).0);
+    let stderr = failure(&replay(dir.path(), &none, &test2).0);
     assert!(stderr.contains("no [[sensor]] has a topic"), "{stderr}");
     // A mapped topic that is not in the bag: said, and the rest replayed.
     let missing = jackal.replace("/jackal_velocity_controller/odom", "/wheel/odom");
-    let (out, _) = replay(dir.path(), &missing, &data("test2.bag"));
+    let (out, _) = replay(dir.path(), &missing, &test2);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success() && stderr.contains("/wheel/odom: mapped, but no message in the bag"), "{stderr}");
 }
@@ -182,7 +218,8 @@ fn a_bag_that_does_not_fit_its_topic_map_is_refused_with_the_reason() {
 fn damaged_bags_get_clear_errors_never_a_panic() {
     let dir = tempfile::tempdir().unwrap();
     let jackal = page_config("jackal.toml");
-    let bag = std::fs::read(data("test2.bag")).unwrap();
+    let (Some(test2), Some(test2_db3)) = (data("test2.bag"), data("test2.db3")) else { return };
+    let bag = std::fs::read(test2).unwrap();
     // Cut off: the index (at the end) is gone.
     let cut = dir.path().join("cut.bag");
     std::fs::write(&cut, &bag[..bag.len() / 2]).unwrap();
@@ -199,7 +236,7 @@ fn damaged_bags_get_clear_errors_never_a_panic() {
     assert!(stderr.contains("the bag is damaged") || stderr.contains("does not decode"), "{stderr}");
     // A ROS 2 bag in SQLite cut in half, or to its first page: an error or
     // what comes before the damage, named; never a panic.
-    let db3 = std::fs::read(data("test2.db3")).unwrap();
+    let db3 = std::fs::read(test2_db3).unwrap();
     for (name, len) in [("half.db3", db3.len() / 2), ("page.db3", 4096)] {
         let cut = dir.path().join(name);
         std::fs::write(&cut, &db3[..len]).unwrap();
