@@ -160,6 +160,19 @@ fn is_text(file: &mut File) -> std::io::Result<bool> {
     Ok(odd * 10 < text.chars().count().max(1))
 }
 
+/// The error of a recording damaged before its first sample (status 4).
+fn nothing_before(
+    input: &std::path::Path,
+    damage: &fusion_shared::mcap_scan::Damage,
+) -> fusion_shared::exit::InputDamaged {
+    fusion_shared::exit::InputDamaged(format!(
+        "{} is {damage}: no sample before it to replay; the {} bytes from the damage to the end of the file are not \
+         read",
+        input.display(),
+        damage.lost_bytes
+    ))
+}
+
 fn say_why(e: replay::ReplayError) -> replay::ReplayError {
     if let replay::ReplayError::NothingProcessed(summary) = &e {
         eprint!("{summary}");
@@ -343,13 +356,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if let Some(damage) = recording.as_ref().and_then(Recording::damage) {
                 // Nothing before the damage: nothing to replay.
                 if damage.offset <= mcap::MAGIC.len() as u64 {
-                    return Err(fusion_shared::exit::InputDamaged(format!(
-                        "{} is {damage}: nothing before it to replay; the {} bytes from the damage to the end of the \
-                         file are not read",
-                        input.display(),
-                        damage.lost_bytes
-                    ))
-                    .into());
+                    return Err(nothing_before(&input, damage).into());
                 }
                 eprintln!("replay: {} is {damage}: what comes after it is not read", input.display());
             }
@@ -373,13 +380,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     (Ok(replayed), _) => replayed,
                     // The damage is why nothing could be replayed: say so, as damage.
                     (Err(replay::ReplayError::NothingProcessed(_)), Some(damage)) => {
-                        return Err(fusion_shared::exit::InputDamaged(format!(
-                            "{} is {damage}: no sample before it to replay; the {} bytes from the damage to the \
-                             end of the file are not read",
-                            input.display(),
-                            damage.lost_bytes
-                        ))
-                        .into());
+                        return Err(nothing_before(&input, damage).into());
                     }
                     (Err(replay::ReplayError::NothingProcessed(s)), None) if s.read == 0 => {
                         let why = if recording.was_cut_off() {

@@ -391,15 +391,24 @@ fn check_chunk(body: &[u8]) -> Result<(), String> {
 /// A chunk's data decompressed: exactly `size` bytes, or why not.
 fn decompress(compression: &[u8], data: &[u8], size: u64) -> Result<Vec<u8>, String> {
     let name = String::from_utf8_lossy(compression);
-    let mut out = Vec::with_capacity((data.len() as u64).saturating_mul(8).min(size) as usize);
     let read = match compression {
-        b"zstd" => zstd::stream::read::Decoder::with_buffer(data).and_then(|d| d.take(size + 1).read_to_end(&mut out)),
-        _ => lz4::Decoder::new(data).and_then(|d| d.take(size + 1).read_to_end(&mut out)),
+        b"zstd" => zstd::stream::read::Decoder::with_buffer(data).and_then(|d| read_at_most(d, size, data.len())),
+        _ => lz4::Decoder::new(data).and_then(|d| read_at_most(d, size, data.len())),
     };
-    read.map_err(|e| format!("a {name} chunk does not decompress: {e}"))?;
+    let out = read.map_err(|e| format!("a {name} chunk does not decompress: {e}"))?;
     if out.len() as u64 != size {
         return Err(format!("a {name} chunk declares {size} bytes and decompresses to {}", out.len()));
     }
+    Ok(out)
+}
+
+/// Reads a decompressing `reader` to its end or to `limit + 1` bytes,
+/// whichever comes first (more than `limit` says the data holds more than
+/// it may), reserving up front no more than 8 times the `compressed` length:
+/// a hostile size is never allocated before the data shows it.
+pub(crate) fn read_at_most(reader: impl Read, limit: u64, compressed: usize) -> std::io::Result<Vec<u8>> {
+    let mut out = Vec::with_capacity((compressed as u64).saturating_mul(8).min(limit) as usize);
+    reader.take(limit.saturating_add(1)).read_to_end(&mut out)?;
     Ok(out)
 }
 

@@ -314,10 +314,8 @@ pub const MAX_MESSAGE_BYTES: u64 = 1 << 28;
 
 /// A zstd frame, decompressed into at most [`MAX_MESSAGE_BYTES`].
 fn decompress_zstd(data: &[u8]) -> Result<Vec<u8>, String> {
-    use std::io::Read;
     let decoder = zstd::stream::read::Decoder::with_buffer(data).map_err(|e| e.to_string())?;
-    let mut out = Vec::new();
-    decoder.take(MAX_MESSAGE_BYTES + 1).read_to_end(&mut out).map_err(|e| e.to_string())?;
+    let out = crate::mcap_scan::read_at_most(decoder, MAX_MESSAGE_BYTES, data.len()).map_err(|e| e.to_string())?;
     if out.len() as u64 > MAX_MESSAGE_BYTES {
         return Err(format!("it decompresses to more than {MAX_MESSAGE_BYTES} bytes"));
     }

@@ -16,11 +16,10 @@
 
 use std::borrow::Cow;
 use std::collections::BTreeMap;
-use std::io::Read;
 use std::path::Path;
 
 use super::{BagError, BagItem, ROS1_MAGIC, Reading, Ros1};
-use crate::mcap_scan::MAX_CHUNK_BYTES;
+use crate::mcap_scan::{MAX_CHUNK_BYTES, read_at_most};
 
 /// One record: its header fields and its data.
 #[derive(Debug, Clone, Copy)]
@@ -113,9 +112,9 @@ pub fn chunk_data<'a>(chunk: &Record<'a>) -> Result<Cow<'a, [u8]>, String> {
         b"none" => return Err(format!("an uncompressed chunk declares {size} bytes and holds {}", data.len())),
         b"lz4" => {
             let decoder = lz4::Decoder::new(data).map_err(|e| format!("an lz4 chunk does not decompress: {e}"))?;
-            bounded_read(decoder, size, data.len()).map_err(|e| format!("an lz4 chunk does not decompress: {e}"))?
+            read_at_most(decoder, size, data.len()).map_err(|e| format!("an lz4 chunk does not decompress: {e}"))?
         }
-        b"bz2" => bounded_read(bzip2::read::BzDecoder::new(data), size, data.len())
+        b"bz2" => read_at_most(bzip2::read::BzDecoder::new(data), size, data.len())
             .map_err(|e| format!("a bz2 chunk does not decompress: {e}"))?,
         other => {
             return Err(format!(
@@ -132,15 +131,6 @@ pub fn chunk_data<'a>(chunk: &Record<'a>) -> Result<Cow<'a, [u8]>, String> {
         ));
     }
     Ok(Cow::Owned(out))
-}
-
-/// Reads `reader` to its end or to `size + 1` bytes, whichever comes first,
-/// reserving no more up front than the compressed length suggests.
-fn bounded_read(reader: impl Read, size: u64, compressed: usize) -> std::io::Result<Vec<u8>> {
-    let guess = (compressed as u64).saturating_mul(8).min(size) as usize;
-    let mut out = Vec::with_capacity(guess);
-    reader.take(size + 1).read_to_end(&mut out)?;
-    Ok(out)
 }
 
 /// The `index_pos` of a ROS 1 bag's header record, checked against the file
