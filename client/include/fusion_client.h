@@ -132,8 +132,11 @@
 // Refused: the header's kind is not the service's.
 #define FUSION_REJECTION_WRONG_KIND 10
 
+// Refused (replay): the timestamp steps back behind the others (`[validation] max_jump_ns`).
+#define FUSION_REJECTION_TIME_STEP_BACK 11
+
 // Rejection codes in use: `1..=FUSION_REJECTION_COUNT` (see `fusion_rejection_name`).
-#define FUSION_REJECTION_COUNT 10
+#define FUSION_REJECTION_COUNT 11
 
 // Entries of `FusionStateSnapshot.rejections` (entry 0 unused).
 #define MAX_REJECTIONS 16

@@ -140,8 +140,10 @@ pub const FUSION_REJECTION_OUT_OF_RANGE: u32 = 8;
 pub const FUSION_REJECTION_VARIANCE_NOT_POSITIVE: u32 = 9;
 /// Refused: the header's kind is not the service's.
 pub const FUSION_REJECTION_WRONG_KIND: u32 = 10;
+/// Refused (replay): the timestamp steps back behind the others (`[validation] max_jump_ns`).
+pub const FUSION_REJECTION_TIME_STEP_BACK: u32 = 11;
 /// Rejection codes in use: `1..=FUSION_REJECTION_COUNT` (see `fusion_rejection_name`).
-pub const FUSION_REJECTION_COUNT: u32 = 10;
+pub const FUSION_REJECTION_COUNT: u32 = 11;
 /// Entries of `FusionStateSnapshot.rejections` (entry 0 unused).
 pub const MAX_REJECTIONS: usize = 16;
 
@@ -199,6 +201,7 @@ const _: () = {
         assert!(FUSION_REJECTION_OUT_OF_RANGE == r::OUT_OF_RANGE);
         assert!(FUSION_REJECTION_VARIANCE_NOT_POSITIVE == r::VARIANCE_NOT_POSITIVE);
         assert!(FUSION_REJECTION_WRONG_KIND == r::WRONG_KIND);
+        assert!(FUSION_REJECTION_TIME_STEP_BACK == r::TIME_STEP_BACK);
         assert!(FUSION_REJECTION_COUNT as usize == r::COUNT && MAX_REJECTIONS == r::MAX);
     }
 };

@@ -89,7 +89,9 @@ nis_probability = 0.999
 max_future_ns = 50_000_000
 max_past_ns = 5_000_000_000
 # Replay has no clock: a sample more than this far ahead of every sample before
-# it is refused (unless 100 such samples in a row show a real gap).
+# it, or back behind them, is refused; 100 such samples in a row (the same way)
+# show that the recording's clock was set or has a gap: the next starts a new
+# timeline, the estimate starting over.
 max_jump_ns = 600_000_000_000
 # Distinct sensor ids per kind ({kinds}) the daemon tracks; at most 16 sensors
 # in all (the rows of a snapshot). Further ids are refused and counted.

@@ -66,7 +66,7 @@ pub struct EngineConfig {
     /// Largest accepted lag of a timestamp behind `now` (when `now` is given).
     pub max_past_ns: u64,
     /// Without `now` (replay): largest accepted lead of a timestamp over the
-    /// newest processed one (see [`JUMP_CONFIRMATION`]).
+    /// newest processed one, and lag behind it (see [`JUMP_CONFIRMATION`]).
     pub max_jump_ns: u64,
     /// Largest sustained rate of one sensor, Hz, on sample timestamps.
     pub max_rate_hz: f64,
@@ -162,13 +162,14 @@ pub struct Engine<M: Steps> {
     /// at `ahead.1` changes, in the history's reserved slot (time 0: the model
     /// expected nothing then).
     ahead: Option<(u64, u64)>,
-    /// Samples refused in a row as a time jump (see [`JUMP_CONFIRMATION`]).
-    jumps_in_a_row: u32,
+    /// Samples refused in a row as a time jump, ahead or back (see [`JUMP_CONFIRMATION`]).
+    jumps: JumpRun,
     sensors: SensorTable,
     stats: EngineStats,
 }
 
 pub use fusion_shared::time::JUMP_CONFIRMATION;
+use fusion_shared::time::{Direction, Jump, JumpRun};
 
 impl<M: Steps> Engine<M> {
     /// An engine running `model` within `config`'s limits.
@@ -198,7 +199,7 @@ impl<M: Steps> Engine<M> {
             newest_t: None,
             changes: 0,
             ahead: None,
-            jumps_in_a_row: 0,
+            jumps: JumpRun::new(config.max_jump_ns),
             sensors: SensorTable::new(TableLimits {
                 max_sensors: config.max_sensors,
                 max_rate_hz: config.max_rate_hz,
@@ -300,14 +301,17 @@ impl<M: Steps> Engine<M> {
         let key = key_of(sample);
         // Validation comes before anything a sample can change: an invalid sample
         // takes no sensor row and moves no sequence tracking.
-        if let Err(r) = self.check(sample, &key, now_ns) {
-            self.stats.rejections[r.code() as usize] += 1;
-            if !self.sensors.count_invalid(&key, r.code()) {
-                self.stats.unknown_sensor += 1;
+        match self.check(sample, &key, now_ns) {
+            Err(r) => {
+                self.stats.rejections[r.code() as usize] += 1;
+                if !self.sensors.count_invalid(&key, r.code()) {
+                    self.stats.unknown_sensor += 1;
+                }
+                return Insert::Rejected(r);
             }
-            return Insert::Rejected(r);
+            Ok(Some(step_ns)) => self.new_timeline(step_ns, on_final),
+            Ok(None) => {}
         }
-        self.jumps_in_a_row = 0;
         let history = &self.history;
         let slot = match self.sensors.admit(&key, now_ns, |key| history.keys().any(|k| k == key)) {
             Ok(slot) => slot,
@@ -342,22 +346,44 @@ impl<M: Steps> Engine<M> {
     /// The checks of a sample's own content and of its timestamp against the
     /// clock (`now_ns`), or, without one (replay), against the newest processed
     /// time: a sample far ahead of everything processed is refused, or it would
-    /// make every later sample too late; only a run of such samples
-    /// ([`JUMP_CONFIRMATION`]) moves time on (a real gap in a recording).
-    fn check(&mut self, sample: &Sample, key: &SampleKey, now_ns: Option<u64>) -> Result<(), Rejection> {
+    /// make every later sample too late; one far back behind it is refused too
+    /// (it is no late sample but of another clock). Only a run of such samples
+    /// ([`JUMP_CONFIRMATION`], the same way) shows that the recording's clock
+    /// was set or has a real gap: `Ok(Some(step))`, a new timeline begins with
+    /// this sample ([`new_timeline`](Self::new_timeline)).
+    fn check(&mut self, sample: &Sample, key: &SampleKey, now_ns: Option<u64>) -> Result<Option<i128>, Rejection> {
         crate::measurement::validate(sample, &self.config.limits)?;
         match now_ns {
             Some(now) if key.t_ns > now.saturating_add(self.config.max_future_ns) => Err(Rejection::FutureTimestamp),
             Some(now) if key.t_ns < now.saturating_sub(self.config.max_past_ns) => Err(Rejection::PastTimestamp),
-            Some(_) => Ok(()),
-            None => match self.newest_t {
-                Some(newest) if key.t_ns > newest.saturating_add(self.config.max_jump_ns) => {
-                    self.jumps_in_a_row += 1;
-                    if self.jumps_in_a_row > JUMP_CONFIRMATION { Ok(()) } else { Err(Rejection::TimeJump) }
-                }
-                _ => Ok(()),
+            Some(_) => Ok(None),
+            None => match self.jumps.judge(self.newest_t, key.t_ns) {
+                Jump::Near => Ok(None),
+                Jump::Refused(Direction::Ahead) => Err(Rejection::TimeJump),
+                Jump::Refused(Direction::Back) => Err(Rejection::TimeStepBack),
+                Jump::NewTimeline { step_ns, .. } => Ok(Some(step_ns)),
             },
         }
+    }
+
+    /// Starts a new timeline (replay only: a recording's clock set, ahead or
+    /// back by `step_ns`, or a real gap in it; [`JUMP_CONFIRMATION`]): every
+    /// entry becomes final (handed to `on_final`), and the estimate starts
+    /// over from the model's initial state, as after a restart. Nothing of
+    /// the old timeline's times can be compared with the new one's: a state
+    /// propagated across the step would be propagated over a time that never
+    /// passed (or back in time), and every later sample would be too late.
+    /// The sensors' counters stay; their times, sequence windows and rate
+    /// limits start again. Counted in [`EngineStats::new_timelines`].
+    fn new_timeline(&mut self, step_ns: i128, on_final: &mut impl FnMut(&Entry<M::State>)) {
+        self.flush(on_final);
+        self.history.forget_base();
+        self.initial = self.model.initial_state();
+        (self.newest_t, self.ahead, self.pending_since_t) = (None, None, None);
+        self.changes += 1;
+        self.sensors.new_timeline();
+        self.stats.new_timelines += 1;
+        self.stats.last_timeline_step_ns = step_ns;
     }
 
     /// The index `key` goes to in the history (its length: appended), with room

@@ -243,6 +243,15 @@ impl SensorTable {
         row.stats.processed += 1;
     }
 
+    /// A new timeline (`Engine`'s, replay): every row's times, sequence window
+    /// and rate limit start again, as for a sensor seen first; its counters stay.
+    pub fn new_timeline(&mut self) {
+        for row in &mut self.rows {
+            (row.last_t_ns, row.highest_seq, row.seen) = (None, None, SeqWindow::default());
+            (row.tokens, row.tokens_t_ns) = (0.0, None);
+        }
+    }
+
     /// Reads every row's counters without changing anything (see
     /// `Engine::warm`).
     pub fn warm(&self) {

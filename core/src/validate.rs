@@ -38,6 +38,9 @@ pub enum Rejection {
     /// The header's kind code is not the kind of the payload (of the service the
     /// sample came on): a publisher writing another wire layout, or garbage.
     WrongKind,
+    /// Without a clock (replay): the timestamp steps further back behind
+    /// everything processed than `validation.max_jump_ns`.
+    TimeStepBack,
 }
 
 impl Rejection {
@@ -55,6 +58,7 @@ impl Rejection {
             Rejection::OutOfRange => r::OUT_OF_RANGE,
             Rejection::VarianceNotPositive => r::VARIANCE_NOT_POSITIVE,
             Rejection::WrongKind => r::WRONG_KIND,
+            Rejection::TimeStepBack => r::TIME_STEP_BACK,
         }
     }
 

@@ -98,6 +98,13 @@ pub struct ReplaySummary {
     pub smoothing_breaks: u64,
     /// The times of the first of them, ns.
     pub smoothing_breaks_at: Vec<u64>,
+    /// Each new timeline (the input's clock set ahead or back, or a real gap:
+    /// [`fusion_core::engine::JUMP_CONFIRMATION`]): the input's position of
+    /// its first sample, and the step, ns (negative: back).
+    pub new_timelines: Vec<(u64, i128)>,
+    /// Re-initialisations and standstill updates of the timelines before the
+    /// current one (each timeline's estimate starts over).
+    carried: (u64, u64),
 }
 
 impl ReplaySummary {
@@ -113,13 +120,21 @@ impl ReplaySummary {
     /// re-initialisations and where they happened, the standstills begun, the
     /// velocity time offset.
     fn follow(&mut self, position: u64, d: Diagnostics) {
-        if d.reinitialisations > self.reinitialisations && self.reinitialised_at.len() < INVALID_LINES_REPORTED {
+        let reinitialisations = self.carried.0 + d.reinitialisations;
+        if reinitialisations > self.reinitialisations && self.reinitialised_at.len() < INVALID_LINES_REPORTED {
             self.reinitialised_at.push(position);
         }
-        self.reinitialisations = d.reinitialisations;
+        self.reinitialisations = reinitialisations;
         self.standstills += u64::from(d.standing && !self.standing);
-        (self.standing, self.standstill_updates) = (d.standing, d.standstill_updates);
+        (self.standing, self.standstill_updates) = (d.standing, self.carried.1 + d.standstill_updates);
         self.velocity_time_offset = d.velocity_time_offset;
+    }
+
+    /// A new timeline begun at `position` with a step of `step_ns`: the
+    /// counts so far are carried past the estimate's new start.
+    fn new_timeline(&mut self, position: u64, step_ns: i128) {
+        self.new_timelines.push((position, step_ns));
+        self.carried = (self.reinitialisations, self.standstill_updates);
     }
 }
 
@@ -198,6 +213,17 @@ impl std::fmt::Display for ReplaySummary {
                  gated for [gating] lockout_ns (at line {})",
                 self.reinitialisations,
                 lines.join(", ")
+            )?;
+        }
+        for (position, step) in &self.new_timelines {
+            writeln!(
+                f,
+                "the input's clock was set {} by {:.3} s at {at} {position} (or the input has a gap there): a new \
+                 timeline began, the estimate started over from the initial state after the {} samples before it \
+                 were refused ([validation] max_jump_ns)",
+                if *step < 0 { "back" } else { "ahead" },
+                step.unsigned_abs() as f64 * 1e-9,
+                fusion_core::engine::JUMP_CONFIRMATION
             )?;
         }
         if self.smoothing_breaks > 0 {
@@ -378,6 +404,8 @@ pub fn replay_items(
 struct Sink<M: Steps, W: Write> {
     output: Option<W>,
     finals: Option<Vec<(SampleKey, StepOutcome, Sample)>>,
+    /// Where in `finals` each new timeline begins (its estimate starts over).
+    timelines: Vec<usize>,
     error: Option<std::io::Error>,
     /// The covariance of the entry being written.
     cov: Vec<f64>,
@@ -421,6 +449,7 @@ fn replay_model<M: Steps>(
     let mut sink = Sink::<M, _> {
         output,
         finals: smooth.then(Vec::new),
+        timelines: Vec::new(),
         error: None,
         cov: Vec::new(),
         _model: Default::default(),
@@ -444,6 +473,11 @@ fn replay_model<M: Steps>(
         } else {
             engine.insert(&sample, received_ns, &mut |e| sink.take(e))
         };
+        if engine.stats().new_timelines > summary.new_timelines.len() as u64 {
+            // Everything before it was handed out final in this insert.
+            summary.new_timeline(position, engine.stats().last_timeline_step_ns);
+            sink.timelines.push(sink.finals.as_ref().map_or(0, Vec::len));
+        }
         match inserted {
             Insert::Rejected(r) => summary.invalid(position, r.reason().to_string()),
             Insert::Processed { replayed, .. } | Insert::Placed { replayed } => {
@@ -457,7 +491,7 @@ fn replay_model<M: Steps>(
     engine.flush(&mut |e| sink.take(e));
     sink.check()?;
     if let Some(finals) = sink.finals.take() {
-        let smoothed = smooth_run(engine.model(), &finals, &mut summary);
+        let smoothed = smooth_run(engine.model(), &finals, &sink.timelines, &mut summary);
         if let Some(output) = &mut sink.output {
             for ((key, outcome, _), record) in finals.iter().zip(&smoothed) {
                 write_output(output, key, outcome, M::record_output(record), true)?;
@@ -479,17 +513,23 @@ fn replay_model<M: Steps>(
 /// Re-runs the final samples of a run through `model`, keeping each step's
 /// record, and smooths them (RTS). A re-initialisation cuts the run: the
 /// estimate after it owes nothing to the one before, so each stretch between
-/// them is smoothed alone. The steps the smoothing could not pass back through
-/// are counted in `summary`.
+/// them is smoothed alone; so does a new timeline (at the indices
+/// `timelines`), where the engine started over from the initial state. The
+/// steps the smoothing could not pass back through are counted in `summary`.
 fn smooth_run<M: Steps>(
     model: &M,
     finals: &[(SampleKey, StepOutcome, Sample)],
+    timelines: &[usize],
     summary: &mut ReplaySummary,
 ) -> Vec<M::Record> {
     let mut state = model.initial_state();
     let mut smoothed: Vec<M::Record> = Vec::with_capacity(finals.len());
     let mut stretches = vec![0];
     for (i, (_, outcome, sample)) in finals.iter().enumerate() {
+        if timelines.contains(&i) && i > 0 {
+            state = model.initial_state();
+            stretches.push(i);
+        }
         let before = M::diagnostics(&state).reinitialisations;
         let (again, record) = model.step_recorded(&mut state, sample);
         debug_assert_eq!(again, *outcome, "the re-run reproduces the engine");

@@ -186,10 +186,11 @@ fn rust_layout() -> Value {
         ("REJECTION_OUT_OF_RANGE", snap::rejection::OUT_OF_RANGE),
         ("REJECTION_VARIANCE_NOT_POSITIVE", snap::rejection::VARIANCE_NOT_POSITIVE),
         ("REJECTION_WRONG_KIND", snap::rejection::WRONG_KIND),
+        ("REJECTION_TIME_STEP_BACK", snap::rejection::TIME_STEP_BACK),
     ] {
         constants[name] = json!(code);
     }
-    assert_eq!(snap::rejection::ALL.len(), 10, "a new rejection code needs its REJECTION_ constant here");
+    assert_eq!(snap::rejection::ALL.len(), 11, "a new rejection code needs its REJECTION_ constant here");
     use fusion_shared::fix;
     for (name, code) in [
         ("FIX_UNKNOWN", fix::UNKNOWN),
@@ -226,7 +227,7 @@ fn the_python_mirrors_have_the_rust_layout() {
     let out = common::python_command("unused", "tests/check_layout.py", &[path.to_str().unwrap()]).output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
-    assert!(said.contains("15 types, 51 constants: 0 differences"), "{said}");
+    assert!(said.contains("15 types, 52 constants: 0 differences"), "{said}");
 
     // The check sees a difference: a layout with one offset moved fails it.
     let mut broken = rust_layout();

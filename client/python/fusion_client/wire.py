@@ -50,7 +50,8 @@ MAX_REJECTIONS = 16
     REJECTION_OUT_OF_RANGE,
     REJECTION_VARIANCE_NOT_POSITIVE,
     REJECTION_WRONG_KIND,
-) = range(1, 11)
+    REJECTION_TIME_STEP_BACK,
+) = range(1, 12)
 REJECTION_NAMES = {
     1: "non-finite value",
     2: "covariance not symmetric",
@@ -62,6 +63,7 @@ REJECTION_NAMES = {
     8: "beyond the sensor range",
     9: "variance not positive",
     10: "header kind does not match the payload",
+    11: "timestamp steps too far back behind the others",
 }
 
 f64x3 = ctypes.c_double * 3

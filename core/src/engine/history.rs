@@ -199,6 +199,15 @@ impl<E: Copy, K: Copy> History<E, K> {
         }
     }
 
+    /// Frees the base (the entry that left the front last): an entry inserted
+    /// at the front next steps from the initial state. For an empty history
+    /// whose past no longer counts (a new timeline).
+    pub fn forget_base(&mut self) {
+        if let Some(old) = self.base.take() {
+            self.free.push(old);
+        }
+    }
+
     /// Removes the oldest entry, which becomes the base, and returns it.
     pub fn pop_front(&mut self) -> Option<&E> {
         let slot = self.order.pop_front()?;

@@ -28,4 +28,11 @@ pub struct EngineStats {
     /// In-order samples whose step started from a state stepped ahead to their
     /// time (only fused on the latency path).
     pub stepped_from_ahead: u64,
+    /// New timelines begun without a clock (replay): runs of samples far ahead
+    /// of or back behind the newest ([`crate::engine::JUMP_CONFIRMATION`]).
+    pub new_timelines: u64,
+    /// The last new timeline's step: the first far sample's time (the first of
+    /// the run that confirmed it) less the newest before it, ns (negative: the
+    /// clock went back).
+    pub last_timeline_step_ns: i128,
 }

@@ -31,9 +31,13 @@ pub const OUT_OF_RANGE: u32 = 8;
 pub const VARIANCE_NOT_POSITIVE: u32 = 9;
 /// The header's kind code is not the kind of the service the sample came on.
 pub const WRONG_KIND: u32 = 10;
+/// Without a clock (replay): the timestamp steps further back behind everything
+/// processed than `[validation] max_jump_ns` (a recording's clock set back, or
+/// a sensor stamping on another clock than the others).
+pub const TIME_STEP_BACK: u32 = 11;
 
 /// Codes in use: `1..=COUNT`.
-pub const COUNT: usize = 10;
+pub const COUNT: usize = 11;
 /// Entries of [`StateSnapshot::rejections`](super::StateSnapshot::rejections)
 /// (room for codes to come; entry 0 is unused).
 pub const MAX: usize = super::MAX_REJECTIONS;
@@ -52,6 +56,7 @@ pub const ALL: [(u32, &str); COUNT] = [
     (OUT_OF_RANGE, "beyond the sensor range"),
     (VARIANCE_NOT_POSITIVE, "variance not positive"),
     (WRONG_KIND, "header kind does not match the payload"),
+    (TIME_STEP_BACK, "timestamp steps too far back behind the others"),
 ];
 
 /// The name of a code ("unknown" for none).
@@ -65,7 +70,7 @@ pub const fn setting(code: u32) -> Option<&'static str> {
     match code {
         FUTURE_TIMESTAMP => Some("[validation] max_future_ns"),
         PAST_TIMESTAMP => Some("[validation] max_past_ns"),
-        TIME_JUMP => Some("[validation] max_jump_ns"),
+        TIME_JUMP | TIME_STEP_BACK => Some("[validation] max_jump_ns"),
         TOO_MANY_SENSORS => Some("[validation] max_sensors"),
         OUT_OF_RANGE => Some("[validation] accel_range_mps2 and gyro_range_radps (IMU)"),
         _ => None,
@@ -86,6 +91,11 @@ pub const fn advice(code: u32) -> &'static str {
         }
         TIME_JUMP => {
             "the timestamps jump ahead of the other sensors': check the clock, or raise [validation] max_jump_ns"
+        }
+        TIME_STEP_BACK => {
+            "the timestamps step back behind the other sensors': a sensor stamping on another clock, or the \
+             recording's clock set back (a run of such stamps starts a new timeline); check the clock, or raise \
+             [validation] max_jump_ns"
         }
         TOO_MANY_SENSORS => {
             "more sensor ids than the table has rows: check the publishers' sensor ids, or raise [validation] \

@@ -5,14 +5,18 @@
 //! The bag's stamps are of the robot's clock, not of this host's
 //! CLOCK_MONOTONIC, which fusiond checks samples against: every stamp is moved
 //! by one offset so that the first sample is stamped now, and the samples are
-//! published paced by their stamps (their order and spacing kept).
+//! published paced by their stamps (their order and spacing kept). Where the
+//! robot's clock was set (stepped ahead or back by more than `[validation]
+//! max_jump_ns`, as `fusiond replay` tells it), the offset is taken again: the
+//! new timeline goes on where the old one stopped, after the time its
+//! refused samples span.
 
 use std::path::Path;
 
 use anyhow::Context;
 use fusion_shared::Sample;
 use fusion_shared::ros::{BagItem, BagSummary, Route, read_bag};
-use fusion_shared::time::{DEFAULT_MAX_JUMP_NS, TimeJumps};
+use fusion_shared::time::{DEFAULT_MAX_JUMP_NS, Direction, Jump, TimeJumps};
 use serde::Deserialize;
 
 /// The `[[sensor]]` keys a topic map needs, and `[validation] max_jump_ns`;
@@ -67,36 +71,87 @@ pub fn routes(path: &Path) -> anyhow::Result<BagConfig> {
     Ok(BagConfig { routes, max_jump_ns: map.validation.max_jump_ns.unwrap_or(DEFAULT_MAX_JUMP_NS) })
 }
 
+/// The bag's stamps that jumped: refused ones, and where a new timeline began.
+#[derive(Debug, Default)]
+pub struct Jumps {
+    /// Samples refused as stamped more than `max_jump_ns` ahead of the others.
+    pub ahead: u64,
+    /// Samples refused as stamped more than `max_jump_ns` back behind them.
+    pub back: u64,
+    /// Each new timeline: the message's number in the bag, and the step, ns.
+    pub timelines: Vec<(u64, i128)>,
+}
+
+impl std::fmt::Display for Jumps {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for (n, way) in [(self.ahead, "ahead of"), (self.back, "back behind")] {
+            if n > 0 {
+                writeln!(
+                    f,
+                    "  {n} samples refused: stamped more than [validation] max_jump_ns {way} the bag's others"
+                )?;
+            }
+        }
+        for (position, step) in &self.timelines {
+            writeln!(
+                f,
+                "  the bag's clock was set {} by {:.3} s at message {position}: a new timeline from there, published \
+                 on from where the old one stopped",
+                if *step < 0 { "back" } else { "ahead" },
+                step.unsigned_abs() as f64 * 1e-9
+            )?;
+        }
+        Ok(())
+    }
+}
+
 /// Reads the bag at `path` on a thread of its own, calling `each` with every
 /// sample (or why a message gave none) restamped onto this host's clock from
 /// `now_ns` on; stops reading when `each` returns false. A stamp more than
-/// `max_jump_ns` ahead of the bag's others is refused as `fusiond replay`
-/// refuses it ([`TimeJumps`]): it would stop the stream until then. Returns
-/// what the bag gave, and how many samples were refused so.
+/// `max_jump_ns` ahead of the bag's others, or back behind them, is refused as
+/// `fusiond replay` refuses it ([`TimeJumps`]): it would stop the stream until
+/// then, or be refused by fusiond as from another clock. A run of them is a
+/// new timeline: its first sample is stamped the time the run spans after the
+/// newest one published. Returns what the bag gave, and what jumped.
 pub fn samples(
     path: &Path,
     config: &BagConfig,
     now_ns: u64,
     mut each: impl FnMut(u64, Result<Sample, String>) -> bool,
-) -> anyhow::Result<(BagSummary, u64)> {
+) -> anyhow::Result<(BagSummary, Jumps)> {
     std::thread::scope(|scope| {
         let (tx, rx) = crossbeam::channel::bounded::<BagItem>(4096);
         let reader = scope.spawn(move || read_bag(path, &config.routes, |item| drop(tx.send(item))));
         let mut offset: Option<i128> = None;
-        let mut jumps = TimeJumps::new(config.max_jump_ns);
-        let mut jumped = 0;
+        let mut newest_out = i128::from(now_ns);
+        let mut time = TimeJumps::new(config.max_jump_ns);
+        let mut jumps = Jumps::default();
+        let max_jump_s = config.max_jump_ns as f64 * 1e-9;
         for item in rx.iter() {
             let sample = item.sample.and_then(|mut s| {
                 let t = i128::from(s.t_ns());
-                if !jumps.admit(s.t_ns()) {
-                    jumped += 1;
-                    return Err(format!(
-                        "its stamp jumps more than [validation] max_jump_ns ({} s) ahead of the bag's others",
-                        config.max_jump_ns as f64 * 1e-9
-                    ));
+                match time.admit(s.t_ns()) {
+                    Jump::Near => {}
+                    Jump::Refused(way) => {
+                        let (count, way) = match way {
+                            Direction::Ahead => (&mut jumps.ahead, "ahead of"),
+                            Direction::Back => (&mut jumps.back, "back behind"),
+                        };
+                        *count += 1;
+                        return Err(format!(
+                            "its stamp jumps more than [validation] max_jump_ns ({max_jump_s} s) {way} the bag's \
+                             others"
+                        ));
+                    }
+                    Jump::NewTimeline { step_ns, run_start_ns } => {
+                        jumps.timelines.push((item.position, step_ns));
+                        offset = Some(newest_out + (t - i128::from(run_start_ns)) - t);
+                    }
                 }
                 let shift = *offset.get_or_insert(i128::from(now_ns) - t);
-                s.header_mut().t_ns = (t + shift).clamp(0, i128::from(u64::MAX)) as u64;
+                let stamped = (t + shift).clamp(0, i128::from(u64::MAX));
+                newest_out = newest_out.max(stamped);
+                s.header_mut().t_ns = stamped as u64;
                 Ok(s)
             });
             if !each(item.position, sample) {
@@ -105,6 +160,6 @@ pub fn samples(
         }
         drop(rx);
         let summary = reader.join().map_err(|_| anyhow::anyhow!("the bag's reader failed"))?;
-        Ok((summary.with_context(|| path.display().to_string())?, jumped))
+        Ok((summary.with_context(|| path.display().to_string())?, jumps))
     })
 }

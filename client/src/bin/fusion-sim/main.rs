@@ -263,7 +263,7 @@ fn publish_bag(
     let (mut published, mut delivered, mut refused) = (0u64, 0u64, 0u64);
     let mut failed = None;
     let start = now_ns() + 100_000_000;
-    let (summary, jumped) = bag::samples(path, config, start, |_, sample| {
+    let (summary, jumps) = bag::samples(path, config, start, |_, sample| {
         if stop.load(Ordering::Relaxed) {
             return false;
         }
@@ -289,13 +289,7 @@ fn publish_bag(
         return Err(e.into());
     }
     eprint!("{summary}");
-    if jumped > 0 {
-        eprintln!(
-            "  {jumped} samples refused: stamped more than [validation] max_jump_ns ({} s) ahead of the bag's others \
-             (fusiond replay refuses them too)",
-            config.max_jump_ns as f64 * 1e-9
-        );
-    }
+    eprint!("{jumps}");
     let done = format!(
         "published {published} samples from {} ({refused} messages gave none, {} reached no reader)",
         path.display(),
