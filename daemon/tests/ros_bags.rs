@@ -108,6 +108,55 @@ fn the_husky_bag_ends_within_robot_localizations_tolerance() {
     }
 }
 
+/// `fusionctl plot --samples test1.bag` of the husky's replay: the bag's
+/// `/fix` drawn beside the estimate, as a reference where no `[[sensor]]`
+/// reads it, or fused and gated as the replay decided where one does; the
+/// page's time 0 said as the bag's UTC date; the drive's end marked.
+#[test]
+fn a_bags_replay_is_plotted_with_its_fixes() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(bag) = data("test1.bag") else { return };
+    let plot = |output: &Path, report: &str| {
+        let out = Command::new(common::live::workspace_bin("fusionctl"))
+            .args(["plot", "--input"])
+            .arg(output)
+            .arg("--samples")
+            .arg(&bag)
+            .arg("--output-dir")
+            .arg(dir.path().join(report))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{stderr}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join(report).join("report.json")).unwrap())
+                .unwrap();
+        let n = |k: &str| json["points"][k].as_u64().unwrap();
+        let svg = std::fs::read_to_string(dir.path().join(report).join("trajectory.svg")).unwrap();
+        (stderr, [n("trajectory.fixes"), n("trajectory.gated"), n("trajectory.not_fused")], svg)
+    };
+    let (out, output) = replay(dir.path(), &page_config("husky.toml"), &bag);
+    assert!(out.status.success());
+    let (said, fates, svg) = plot(&output, "reference");
+    assert!(said.contains("989 fixes of /fix (989 not fused)"), "{said}");
+    assert_eq!(fates, [0, 0, 989]);
+    assert!(svg.contains("fix, not fused (a reference)"), "the legend names them");
+    assert!(svg.contains("2015-05-21 19:11:37.989 UTC"), "the bag's wall-clock start as a date");
+    // The end: a 10-pixel black square (besides the legend's 8-pixel one).
+    assert!(svg.contains(r##"width="10" height="10" opacity="1" fill="#000000""##), "the end is marked");
+    // With the GNSS fused, every fix is fused or gated, found by its stamp.
+    let gnss = format!(
+        "{}\n[[sensor]]\nname = \"gnss\"\nid = 0\nkinds = [\"geodetic\"]\ntopic = \"/fix\"\n\n[gating]\nprobability = 0.999\n",
+        page_config("husky.toml")
+    );
+    let (out, output) = replay(dir.path(), &gnss, &bag);
+    assert!(out.status.success());
+    let (said, [fused, gated, not_fused], _) = plot(&output, "fused");
+    assert!(said.contains("989 fixes of /fix (0 not fused)"), "{said}");
+    assert_eq!((fused + gated, not_fused), (989, 0));
+    assert!(fused > 0 && gated > 0, "{fused} fused, {gated} gated");
+}
+
 /// The yaw σ of each line, rad: the attitude error's σ about world up.
 fn yaw_sds(output: &Path) -> Vec<f64> {
     let text = std::fs::read_to_string(output).unwrap();

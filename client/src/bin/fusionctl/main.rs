@@ -75,7 +75,8 @@ enum Command {
         /// An MCAP recording, or a replay output (`fusiond replay --output`).
         #[arg(long)]
         input: std::path::PathBuf,
-        /// With a replay output: the replay's input, for the fixes.
+        /// With a replay output: the replay's input, for the fixes (JSON lines,
+        /// or a ROS bag: its every sensor_msgs/NavSatFix topic, fused or not).
         #[arg(long)]
         samples: Option<std::path::PathBuf>,
         /// The truth (`fusion-sim record --truth`), for the errors.

@@ -1,9 +1,11 @@
 //! `fusionctl plot`: a report of a run, as SVG and PNG, from an MCAP recording
 //! (`fusionctl record`) or a replay output (`fusiond replay --output`, with its
-//! input for the fixes):
+//! input for the fixes: the JSON-lines file, or the ROS bag, whose every
+//! `sensor_msgs/NavSatFix` topic is drawn, fused or not):
 //!
 //! - `trajectory`: the estimate east/north on equal scales, the fixes (gated ones as
-//!   crosses; for `ins` the antenna positions as measured), the truth;
+//!   crosses, ones fusiond did not fuse as rings; for `ins` the antenna positions
+//!   as measured), the truth;
 //! - `errors`: each position and velocity component's error with its ±3σ band
 //!   (with truth), or the ±3σ band alone (the page says so);
 //! - `attitude` (`ins`): the attitude error (with truth) or its ±3σ band, and each
@@ -55,12 +57,34 @@ struct InsPart {
     bias_sd: [f64; 6],
 }
 
-/// A position fix in the ENU frame; `gated` when the filter refused it.
+/// A position fix in the ENU frame and what fusiond made of it.
 #[derive(Debug, Clone, Copy)]
 struct Fix {
     east: f64,
     north: f64,
-    gated: bool,
+    fate: Fate,
+}
+
+/// What fusiond made of a fix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Fate {
+    Fused,
+    /// The filter refused it (χ² gate).
+    Gated,
+    /// Not in the output: a topic no `[[sensor]]` reads (a reference drawn
+    /// beside the estimate), or a sample refused before the filter.
+    NotFused,
+}
+
+impl Fate {
+    /// The fate of a fix found in the output (`Some(gated)`) or not.
+    fn of(gated: Option<bool>) -> Self {
+        match gated {
+            Some(false) => Fate::Fused,
+            Some(true) => Fate::Gated,
+            None => Fate::NotFused,
+        }
+    }
 }
 
 /// One measurement's NIS.
@@ -293,7 +317,7 @@ fn from_recording(path: &Path) -> anyhow::Result<Data> {
     for s in &samples {
         if let Some((east, north)) = fix_of(s, datum) {
             let gated = gated_fixes.get(&sample_key(s)).copied().unwrap_or(false);
-            data.fixes.push(Fix { east, north, gated });
+            data.fixes.push(Fix { east, north, fate: Fate::of(Some(gated)) });
         }
     }
     Ok(data)
@@ -304,6 +328,9 @@ fn from_replay(output: &Path, input: Option<&Path>) -> anyhow::Result<Data> {
     let text = read_text(output, "--input: a replay output (JSON lines) or an MCAP recording")?;
     let mut data = Data::default();
     let mut gated_fixes = HashMap::new();
+    // A bag's samples are found by kind and time (their sensor ids are the
+    // configuration's, which the plot does not read).
+    let mut gated_at = HashMap::new();
     for (i, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
         let v: serde_json::Value =
             serde_json::from_str(line).with_context(|| format!("{}:{}", output.display(), i + 1))?;
@@ -320,17 +347,22 @@ fn from_replay(output: &Path, input: Option<&Path>) -> anyhow::Result<Data> {
         };
         let gated = v["accepted"].as_bool() == Some(false);
         gated_fixes.insert((kind, sensor as u32, seq), gated);
+        gated_at.insert((kind, t_ns), gated);
         if let Some(value) = v["nis"].as_f64() {
             let series = data.nis.entry(format!("{} {sensor}", kind.name())).or_insert((dimension(kind), Vec::new()));
             series.1.push(Nis { t: t_ns as f64 * 1e-9, value, gated });
         }
     }
-    if let Some(input) = input {
+    if let Some(input) = input
+        && fusion_shared::ros::is_bag(input)
+    {
+        data.fixes = bag_fixes(input, &gated_at)?;
+    } else if let Some(input) = input {
         let bytes = std::fs::read(input).with_context(|| format!("cannot read {}", input.display()))?;
         anyhow::ensure!(
             !bytes.starts_with(mcap::MAGIC),
-            "{}: --samples takes the JSON-lines file that was replayed; an MCAP recording carries its samples: give \
-             it as --input",
+            "{}: --samples takes the file that was replayed (JSON lines, or a ROS bag); an MCAP recording carries \
+             its samples: give it as --input",
             input.display()
         );
         let text = as_text(input, bytes, "--samples: the JSON-lines file that was replayed")?;
@@ -349,12 +381,69 @@ fn from_replay(output: &Path, input: Option<&Path>) -> anyhow::Result<Data> {
         }
         for s in samples {
             if let Some((east, north)) = fix_of(&s, datum) {
-                let gated = gated_fixes.get(&sample_key(&s)).copied().unwrap_or(false);
-                data.fixes.push(Fix { east, north, gated });
+                let fate = Fate::of(gated_fixes.get(&sample_key(&s)).copied());
+                data.fixes.push(Fix { east, north, fate });
             }
         }
     }
     Ok(data)
+}
+
+/// The fixes of a ROS bag: every `sensor_msgs/NavSatFix` topic's, whether the
+/// replay's configuration maps it or not (a GNSS kept out of the filter is the
+/// reference a user draws the estimate against). Placed about the bag's first
+/// fix, as fusiond places them without a `[datum]`; each one's fate is the
+/// replay output's line of a geodetic sample at its stamp, if there is one.
+fn bag_fixes(bag: &Path, gated_at: &HashMap<(SampleKind, u64), bool>) -> anyhow::Result<Vec<Fix>> {
+    use fusion_shared::ros::{Route, messages::MessageType, read_bag};
+    let context = || format!("--samples {}", bag.display());
+    // The topics and their types first: the bag's own list.
+    let topics = read_bag(bag, &[], |_| {}).with_context(context)?.topics;
+    let routes: Vec<Route> = topics
+        .iter()
+        .filter(|(_, t)| MessageType::from_name(&t.ty) == Some(MessageType::NavSatFix))
+        .enumerate()
+        .map(|(i, (topic, _))| Route {
+            topic: topic.clone(),
+            kinds: vec![SampleKind::Geodetic],
+            sensor: i as u32,
+            name: topic.clone(),
+        })
+        .collect();
+    if routes.is_empty() {
+        eprintln!("fusionctl: {} has no sensor_msgs/NavSatFix topic: no fixes to draw", bag.display());
+        return Ok(Vec::new());
+    }
+    let mut samples = Vec::new();
+    let summary = read_bag(bag, &routes, |item| {
+        if let Ok(s) = item.sample {
+            samples.push(s);
+        }
+    })
+    .with_context(context)?;
+    if let Some(damage) = &summary.damage {
+        eprintln!("fusionctl: {} is damaged ({damage}): the fixes before the damage are drawn", bag.display());
+    }
+    let datum = samples.iter().find_map(|s| match s {
+        Sample::Geodetic(g) => fusion_shared::geodesy::Datum::new(g.lat_deg, g.lon_deg, g.height_m).ok(),
+        _ => None,
+    });
+    let mut fixes = Vec::new();
+    for s in &samples {
+        if let Some((east, north)) = fix_of(s, datum) {
+            fixes.push(Fix { east, north, fate: Fate::of(gated_at.get(&(s.kind(), s.t_ns())).copied()) });
+        }
+    }
+    let topics: Vec<&str> = routes.iter().map(|r| r.topic.as_str()).collect();
+    let not_fused = fixes.iter().filter(|f| f.fate == Fate::NotFused).count();
+    eprintln!(
+        "fusionctl: {} fixes of {} ({} not fused), placed about the first one (fusiond's datum without a [datum] \
+         table)",
+        fixes.len(),
+        topics.join(", "),
+        not_fused
+    );
+    Ok(fixes)
 }
 
 /// The text of `path`, or an error that says what the file should have been
@@ -562,7 +651,7 @@ pub fn run(
         "smoothed": data.smoothed,
         "points": counts.0,
         "scales": counts.1,
-        "gated_fixes": data.fixes.iter().filter(|f| f.gated).map(|f| [f.east, f.north]).collect::<Vec<_>>(),
+        "gated_fixes": data.fixes.iter().filter(|f| f.fate == Fate::Gated).map(|f| [f.east, f.north]).collect::<Vec<_>>(),
     });
     std::fs::write(&report, serde_json::to_string_pretty(&json)?)?;
     files.push(report);

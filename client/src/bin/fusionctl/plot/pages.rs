@@ -4,7 +4,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
-use super::{Counts, Data, InsPart, MAX_POINTS, Nis, attitude_error_deg, truth_at};
+use super::{Counts, Data, Fate, Fix, InsPart, MAX_POINTS, Nis, attitude_error_deg, truth_at};
 
 /// The legend of a panel: upper right, on a white box.
 fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(chart: &mut ChartContext<'a, DB, CT>) -> Result<()>
@@ -162,8 +162,8 @@ where
         .draw_series(LineSeries::new(est.iter().map(|e| (e.pv[0], e.pv[1])), BLUE.stroke_width(2)))?
         .label(if ins { "estimate (IMU)" } else { "estimate" })
         .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLUE));
-    let fused: Vec<_> = d.fixes.iter().filter(|f| !f.gated).collect();
-    let gated: Vec<_> = d.fixes.iter().filter(|f| f.gated).collect();
+    let of = |fate| d.fixes.iter().filter(move |f: &&Fix| f.fate == fate).collect::<Vec<_>>();
+    let (fused, gated, not_fused) = (of(Fate::Fused), of(Fate::Gated), of(Fate::NotFused));
     // The ins model fuses fixes at their antenna through the lever arm: drawn
     // as measured, they lie a lever arm beside the IMU's track.
     let (fix, gated_fix) =
@@ -181,6 +181,13 @@ where
             .label(gated_fix)
             .legend(|(x, y)| Cross::new((x + 10, y), 6, RED));
     }
+    if !not_fused.is_empty() {
+        let ring = MAGENTA.mix(0.8).stroke_width(1);
+        chart
+            .draw_series(not_fused.iter().map(|f| Circle::new((f.east, f.north), 3, ring)))?
+            .label("fix, not fused (a reference)")
+            .legend(move |(x, y)| Circle::new((x + 10, y), 3, ring));
+    }
     // Where the drive began and where it ended.
     if let (Some(&first), Some(&last)) = (path.first(), path.last()) {
         chart
@@ -188,10 +195,9 @@ where
             .label("start")
             .legend(|(x, y)| TriangleMarker::new((x + 10, y), 7, GREEN.filled()));
         chart
-            .draw_series([Rectangle::new(
-                [(last.0, last.1), (last.0, last.1)],
-                ShapeStyle::from(&BLACK).stroke_width(8),
-            )])?
+            // A square of 10 pixels about the end (one of no size in data
+            // units would draw nothing).
+            .draw_series([EmptyElement::at(last) + Rectangle::new([(-5, -5), (5, 5)], BLACK.filled())])?
             .label("end")
             .legend(|(x, y)| Rectangle::new([(x + 6, y - 4), (x + 14, y + 4)], BLACK.filled()));
     }
@@ -200,6 +206,7 @@ where
     counts.insert("trajectory.truth", truth.len());
     counts.insert("trajectory.fixes", fused.len());
     counts.insert("trajectory.gated", gated.len());
+    counts.insert("trajectory.not_fused", not_fused.len());
     root.present()?;
     Ok(())
 }
