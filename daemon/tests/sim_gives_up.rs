@@ -99,6 +99,50 @@ fn a_file_fusiond_refuses_entirely_ends_with_the_reason() {
     assert!(domain.files().is_empty(), "{:?}", domain.files());
 }
 
+/// A file stamped on another clock with two samples stamped no time among
+/// its own (`u64::MAX`, an hour ahead: a driver's garbage): fusion-sim does
+/// not sleep until them, it sends them at once, out of pace, and fusiond
+/// refuses them by its clock. Nothing is counted lost: a sample withheld
+/// would have been a gap in the IMU's sequence.
+#[test]
+fn samples_stamped_no_time_in_a_file_are_sent_for_fusiond_to_refuse_not_waited_for() {
+    let domain = TestDomain::new("sim-notime");
+    let config = format!("{}\n[validation]\nmax_past_ns = 5_000_000_000\n", common::linear_config(Some(0.999)));
+    let mut daemon = Daemon::start_with(&domain, &config, &["--wait", "event"]);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("no-time.jsonl");
+    let hour = 3_600_000_000_000;
+    let lines: String = (0..200u64)
+        .map(|k| {
+            let t = match k {
+                80 => u64::MAX,
+                140 => 1_000_000 + k * 5_000_000 + hour,
+                _ => 1_000_000 + k * 5_000_000,
+            };
+            fusion_shared::jsonl::format_sample(&Sample::Imu(ImuSample::new(t, 0, k, [0.1, 0.0, 0.0], [0.0; 3]))) + "\n"
+        })
+        .collect();
+    std::fs::write(&path, lines).unwrap();
+    let out = sim(&domain, &["--input", path.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("2 samples stamped more than [validation] max_jump_ns ahead of the others"), "{stderr}");
+    assert!(stderr.contains("published 200 samples"), "{stderr}");
+    let client = domain.client();
+    let mut reader = client.state_subscriber().unwrap();
+    let snap = match reader.latest().unwrap() {
+        Some(s) => *s,
+        None => *reader.wait_next(Duration::from_secs(5)).unwrap().expect("a snapshot"),
+    };
+    let imu = snap.sensors[0].counts;
+    assert_eq!((imu.received, imu.invalid, imu.lost), (200, 2, 0), "{imu:?}");
+    assert_eq!(snap.rejections[rejection::FUTURE_TIMESTAMP as usize], 2, "{:?}", snap.rejections);
+    drop((reader, client));
+    assert!(daemon.terminate().success());
+    drop(daemon);
+    assert!(domain.files().is_empty(), "{:?}", domain.files());
+}
+
 /// A file with no sample in it publishes nothing and says so: exit 1.
 #[test]
 fn a_file_of_garbage_is_an_error() {

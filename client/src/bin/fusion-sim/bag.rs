@@ -71,15 +71,18 @@ pub fn routes(path: &Path) -> anyhow::Result<BagConfig> {
     Ok(BagConfig { routes, max_jump_ns: map.validation.max_jump_ns.unwrap_or(DEFAULT_MAX_JUMP_NS) })
 }
 
-/// The bag's stamps that jumped: refused ones, and where a new timeline began.
-#[derive(Debug, Default)]
+/// A recording's stamps that jumped: the ones sent out of pace, and where a
+/// new timeline began.
+#[derive(Debug)]
 pub struct Jumps {
-    /// Samples refused as stamped more than `max_jump_ns` ahead of the others.
+    /// Samples stamped more than `max_jump_ns` ahead of the others.
     pub ahead: u64,
-    /// Samples refused as stamped more than `max_jump_ns` back behind them.
+    /// Samples stamped more than `max_jump_ns` back behind them.
     pub back: u64,
-    /// Each new timeline: the message's number in the bag, and the step, ns.
+    /// Each new timeline: the message's (or line's) number, and the step, ns.
     pub timelines: Vec<(u64, i128)>,
+    /// What the numbers count: "message" (a bag's) or "line" (a file's).
+    pub at: &'static str,
 }
 
 impl std::fmt::Display for Jumps {
@@ -88,71 +91,100 @@ impl std::fmt::Display for Jumps {
             if n > 0 {
                 writeln!(
                     f,
-                    "  {n} samples refused: stamped more than [validation] max_jump_ns {way} the bag's others"
+                    "  {n} samples stamped more than [validation] max_jump_ns {way} the others: published at once, \
+                     not paced (fusiond refuses them by its clock, as replay refuses them)"
                 )?;
             }
         }
         for (position, step) in &self.timelines {
             writeln!(
                 f,
-                "  the bag's clock was set {} by {:.3} s at message {position}: a new timeline from there, published \
-                 on from where the old one stopped",
+                "  the clock was set {} by {:.3} s at {} {position}: a new timeline from there, published on from \
+                 where the old one stopped",
                 if *step < 0 { "back" } else { "ahead" },
-                step.unsigned_abs() as f64 * 1e-9
+                step.unsigned_abs() as f64 * 1e-9,
+                self.at
             )?;
         }
         Ok(())
     }
 }
 
+/// A recording's stamps moved onto this host's clock by one offset, taken
+/// again where the recording's clock was set ([`TimeJumps`], as `fusiond
+/// replay` tells it): the new timeline goes on where the old one stopped,
+/// after the time its refused samples span. A stamp the rule refuses keeps
+/// the offset and is sent out of pace: waiting for it would stop the stream
+/// (an hour ahead, or `u64::MAX`), and withholding it would leave a gap in
+/// its sensor's sequence that fusiond counts as lost.
+pub struct Restamp {
+    shift: Option<i128>,
+    start_ns: i128,
+    newest_out: i128,
+    time: TimeJumps,
+    /// What jumped so far.
+    pub jumps: Jumps,
+}
+
+impl Restamp {
+    /// The first stamp goes to `start_ns`, or is moved by `shift` when given;
+    /// `at` names the input's positions ("message", "line").
+    pub fn new(max_jump_ns: u64, start_ns: u64, shift: Option<i128>, at: &'static str) -> Self {
+        let start_ns = i128::from(start_ns);
+        let jumps = Jumps { ahead: 0, back: 0, timelines: Vec::new(), at };
+        Self { shift, start_ns, newest_out: start_ns, time: TimeJumps::new(max_jump_ns), jumps }
+    }
+
+    /// The stamp on this host's clock of a sample stamped `t_ns` (the
+    /// input's `position`), and whether it is paced by it.
+    pub fn stamp(&mut self, position: u64, t_ns: u64) -> (u64, bool) {
+        let t = i128::from(t_ns);
+        let paced = match self.time.admit(t_ns) {
+            Jump::Near => true,
+            Jump::Refused(Direction::Ahead) => {
+                self.jumps.ahead += 1;
+                false
+            }
+            Jump::Refused(Direction::Back) => {
+                self.jumps.back += 1;
+                false
+            }
+            Jump::NewTimeline { step_ns, run_start_ns } => {
+                self.jumps.timelines.push((position, step_ns));
+                self.shift = Some(self.newest_out + (t - i128::from(run_start_ns)) - t);
+                true
+            }
+        };
+        let start = self.start_ns;
+        let shift = *self.shift.get_or_insert(start - t);
+        let stamped = (t + shift).clamp(0, i128::from(u64::MAX));
+        if paced {
+            self.newest_out = self.newest_out.max(stamped);
+        }
+        (stamped as u64, paced)
+    }
+}
+
 /// Reads the bag at `path` on a thread of its own, calling `each` with every
 /// sample (or why a message gave none) restamped onto this host's clock from
-/// `now_ns` on; stops reading when `each` returns false. A stamp more than
-/// `max_jump_ns` ahead of the bag's others, or back behind them, is refused as
-/// `fusiond replay` refuses it ([`TimeJumps`]): it would stop the stream until
-/// then, or be refused by fusiond as from another clock. A run of them is a
-/// new timeline: its first sample is stamped the time the run spans after the
-/// newest one published. Returns what the bag gave, and what jumped.
+/// `now_ns` on ([`Restamp`]), and whether it is paced by its stamp; stops
+/// reading when `each` returns false. Returns what the bag gave, and what
+/// jumped.
 pub fn samples(
     path: &Path,
     config: &BagConfig,
     now_ns: u64,
-    mut each: impl FnMut(u64, Result<Sample, String>) -> bool,
+    mut each: impl FnMut(u64, Result<(Sample, bool), String>) -> bool,
 ) -> anyhow::Result<(BagSummary, Jumps)> {
     std::thread::scope(|scope| {
         let (tx, rx) = crossbeam::channel::bounded::<BagItem>(4096);
         let reader = scope.spawn(move || read_bag(path, &config.routes, |item| drop(tx.send(item))));
-        let mut offset: Option<i128> = None;
-        let mut newest_out = i128::from(now_ns);
-        let mut time = TimeJumps::new(config.max_jump_ns);
-        let mut jumps = Jumps::default();
-        let max_jump_s = config.max_jump_ns as f64 * 1e-9;
+        let mut restamp = Restamp::new(config.max_jump_ns, now_ns, None, "message");
         for item in rx.iter() {
-            let sample = item.sample.and_then(|mut s| {
-                let t = i128::from(s.t_ns());
-                match time.admit(s.t_ns()) {
-                    Jump::Near => {}
-                    Jump::Refused(way) => {
-                        let (count, way) = match way {
-                            Direction::Ahead => (&mut jumps.ahead, "ahead of"),
-                            Direction::Back => (&mut jumps.back, "back behind"),
-                        };
-                        *count += 1;
-                        return Err(format!(
-                            "its stamp jumps more than [validation] max_jump_ns ({max_jump_s} s) {way} the bag's \
-                             others"
-                        ));
-                    }
-                    Jump::NewTimeline { step_ns, run_start_ns } => {
-                        jumps.timelines.push((item.position, step_ns));
-                        offset = Some(newest_out + (t - i128::from(run_start_ns)) - t);
-                    }
-                }
-                let shift = *offset.get_or_insert(i128::from(now_ns) - t);
-                let stamped = (t + shift).clamp(0, i128::from(u64::MAX));
-                newest_out = newest_out.max(stamped);
-                s.header_mut().t_ns = stamped as u64;
-                Ok(s)
+            let sample = item.sample.map(|mut s| {
+                let (t, paced) = restamp.stamp(item.position, s.t_ns());
+                s.header_mut().t_ns = t;
+                (s, paced)
             });
             if !each(item.position, sample) {
                 break;
@@ -160,6 +192,6 @@ pub fn samples(
         }
         drop(rx);
         let summary = reader.join().map_err(|_| anyhow::anyhow!("the bag's reader failed"))?;
-        Ok((summary.with_context(|| path.display().to_string())?, jumps))
+        Ok((summary.with_context(|| path.display().to_string())?, restamp.jumps))
     })
 }

@@ -26,6 +26,7 @@ use std::time::Duration;
 mod bag;
 mod scenario_args;
 
+use fusion_shared::time::DEFAULT_MAX_JUMP_NS;
 use scenario_args::SimArgs;
 
 use fusion_client::sim::player::{ArrivalMerge, play, sleep_until};
@@ -267,11 +268,13 @@ fn publish_bag(
         if stop.load(Ordering::Relaxed) {
             return false;
         }
-        let Ok(sample) = sample else {
+        let Ok((sample, paced)) = sample else {
             refused += 1;
             return true;
         };
-        sleep_until(sample.t_ns(), stop);
+        if paced {
+            sleep_until(sample.t_ns(), stop);
+        }
         if stop.load(Ordering::Relaxed) {
             return false;
         }
@@ -369,9 +372,9 @@ fn publish_file(
     // fusiond's refusal counters, as its latest snapshot gave them.
     let mut rejections = [0u64; fusion_shared::snapshot::rejection::MAX];
     let mut pace: Option<(u64, u64)> = None; // (first timestamp, wall time of it)
-    // Set at the first sample: the shift onto this host's clock of a file
-    // stamped on another (`None`: stamped on this one).
-    let mut restamp: Option<Option<i128>> = None;
+    // Set at the first sample: the stamps moved onto this host's clock of a
+    // file stamped on another (`None`: stamped on this one).
+    let mut restamp: Option<Option<bag::Restamp>> = None;
     // The IMU samples of one instant published so far: fusiond publishes one
     // snapshot for the instant, after whichever of them completes it, so the
     // lockstep waits once, after the instant's last one.
@@ -406,13 +409,18 @@ fn publish_file(
             }
         };
         let mut sample = sample;
-        let shift =
-            *restamp.get_or_insert_with(|| (!keep_stamps).then(|| foreign_clock_shift(path, sample.t_ns())).flatten());
-        if let Some(shift) = shift {
-            let t = (i128::from(sample.t_ns()) + shift).clamp(0, i128::from(u64::MAX)) as u64;
+        let restamped = restamp.get_or_insert_with(|| {
+            let shift = (!keep_stamps).then(|| foreign_clock_shift(path, sample.t_ns())).flatten()?;
+            Some(bag::Restamp::new(DEFAULT_MAX_JUMP_NS, 0, Some(shift), "line"))
+        });
+        if let Some(restamp) = restamped {
+            let (t, paced) = restamp.stamp(i as u64 + 1, sample.t_ns());
             sample.header_mut().t_ns = t;
-            // fusiond refuses stamps ahead of its clock: none goes out early.
-            sleep_until(t, stop);
+            // fusiond refuses stamps ahead of its clock: none goes out early
+            // (a stamp far from the others goes at once, for fusiond to refuse).
+            if paced {
+                sleep_until(t, stop);
+            }
         } else if realtime {
             let (t0, wall0) = *pace.get_or_insert((sample.t_ns(), now_ns()));
             sleep_until(wall0 + sample.t_ns().saturating_sub(t0), stop);
@@ -493,6 +501,9 @@ fn publish_file(
     );
     if stop.load(Ordering::Relaxed) {
         return Err(fusion_shared::exit::Interrupted(format!("interrupted: {done} before the signal")).into());
+    }
+    if let Some(Some(restamp)) = &restamp {
+        eprint!("{}", restamp.jumps);
     }
     eprintln!("fusion-sim: {done}");
     if published == 0 && skipped > 0 {
