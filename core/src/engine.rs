@@ -352,7 +352,7 @@ impl<M: Steps> Engine<M> {
     /// was set or has a real gap: `Ok(Some(step))`, a new timeline begins with
     /// this sample ([`new_timeline`](Self::new_timeline)).
     fn check(&mut self, sample: &Sample, key: &SampleKey, now_ns: Option<u64>) -> Result<Option<i128>, Rejection> {
-        crate::measurement::validate(sample, &self.config.limits)?;
+        self.model.validate(sample, &self.config.limits)?;
         match now_ns {
             Some(now) if key.t_ns > now.saturating_add(self.config.max_future_ns) => Err(Rejection::FutureTimestamp),
             Some(now) if key.t_ns < now.saturating_sub(self.config.max_past_ns) => Err(Rejection::PastTimestamp),

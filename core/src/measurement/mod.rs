@@ -101,6 +101,14 @@ pub trait Measurement: WireSample {
     /// Checks the payload; the header is the engine's business.
     fn validate(&self, limits: &Limits) -> Result<(), Rejection>;
 
+    /// Checks the payload as a sensor with `settings` fuses it (`None`: the
+    /// kind's defaults): a kind whose settings select components checks only
+    /// those ([`components`]: what was not selected is never looked at).
+    /// [`validate`](Self::validate) by default.
+    fn validate_as(&self, limits: &Limits, _settings: Option<&Self::Settings>) -> Result<(), Rejection> {
+        self.validate(limits)
+    }
+
     /// A valid sample about to be processed may set what the frames still lack
     /// (a geodetic fix: the datum). Nothing by default.
     fn admit(&self, _frames: &Frames) {}
@@ -201,6 +209,9 @@ pub trait Steps: Model {
     /// still lack (a geodetic fix: the datum; [`Measurement::admit`]).
     fn admit(&self, sample: &Sample);
 
+    /// Validates a sample as its sensor's settings select it ([`validate`]).
+    fn validate(&self, sample: &Sample, limits: &Limits) -> Result<(), Rejection>;
+
     /// Processes one sample.
     fn step(&self, state: &mut Self::State, sample: &Sample) -> StepOutcome;
 
@@ -253,7 +264,7 @@ pub fn covariance<const N: usize>(cov: &[f64]) -> Result<(), Rejection> {
 }
 
 /// Relative tolerance of the symmetry check, against the largest entry.
-const SYMMETRY_TOLERANCE: f64 = 1e-9;
+pub(crate) const SYMMETRY_TOLERANCE: f64 = 1e-9;
 
 /// The settings of sensor `sensor` of kind `T` (`None`: not configured, or
 /// without settings: the kind's defaults apply).
@@ -372,13 +383,17 @@ macro_rules! registry {
         }
 
         /// Validates a sample: its header names the kind of its payload, and the
-        /// payload passes its kind's checks.
-        pub fn validate(sample: &Sample, limits: &Limits) -> Result<(), Rejection> {
+        /// payload passes its kind's checks as its sensor's settings in
+        /// `frames` select it ([`Measurement::validate_as`]).
+        pub fn validate(sample: &Sample, limits: &Limits, frames: &Frames) -> Result<(), Rejection> {
             if sample.header().kind != sample.kind() as u32 {
                 return Err(Rejection::WrongKind);
             }
             match sample {
-                $(Sample::$variant(s) => s.validate(limits),)*
+                $(Sample::$variant(s) => s.validate_as(
+                    limits,
+                    settings::<fusion_shared::$ty>(frames, s.header.sensor),
+                ),)*
             }
         }
 
@@ -445,6 +460,11 @@ macro_rules! registry {
             #[inline]
             fn admit(&self, sample: &Sample) {
                 admit(sample, self.frames())
+            }
+
+            #[inline]
+            fn validate(&self, sample: &Sample, limits: &Limits) -> Result<(), Rejection> {
+                validate(sample, limits, self.frames())
             }
 
             fn step(&self, state: &mut M::State, sample: &Sample) -> StepOutcome {
@@ -521,10 +541,11 @@ mod tests {
         }
         let mut p = PositionSample::new(5, 0, 0, [0.0; 3], [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
         let limits = Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 };
-        assert_eq!(validate(&Sample::Position(p), &limits), Ok(()));
+        let frames = Frames::new(None);
+        assert_eq!(validate(&Sample::Position(p), &limits, &frames), Ok(()));
         p.header.kind = SampleKind::Imu as u32;
-        assert_eq!(validate(&Sample::Position(p), &limits), Err(Rejection::WrongKind));
+        assert_eq!(validate(&Sample::Position(p), &limits, &frames), Err(Rejection::WrongKind));
         p.header.kind = 0;
-        assert_eq!(validate(&Sample::Position(p), &limits), Err(Rejection::WrongKind));
+        assert_eq!(validate(&Sample::Position(p), &limits, &frames), Err(Rejection::WrongKind));
     }
 }

@@ -35,14 +35,16 @@
 //! - `linear`: refused (no attitude to turn a body speed into the world frame);
 //!   a config naming an odometry sensor is refused at start-up.
 //!
-//! Validation: finite; |speed| ≤ [`MAX_SPEED_MPS`]; variance > 0 and ≤
-//! [`MAX_SPEED_MPS`]². Not required by the health; stale after 1 s once seen.
+//! Validation: finite; |speed| ≤ [`MAX_SPEED_MPS`]; variance ≥ 0 and ≤
+//! [`MAX_SPEED_MPS`]², fused as at least [`VARIANCE_FLOOR`] (a driver's 0).
+//! Not required by the health; stale after 1 s once seen.
 
 #![allow(non_snake_case)]
 
 use fusion_shared::{OdometrySample, SampleKind};
 use nalgebra::{Matrix1, SMatrix, SVector, Vector1, Vector3};
 
+use super::components::VARIANCE_FLOOR;
 use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, finite};
 use crate::model::ins::nonholonomic;
 use crate::model::ins::{InsModel, InsState, N};
@@ -62,7 +64,9 @@ impl Measurement for OdometrySample {
         if self.speed_mps.abs() > MAX_SPEED_MPS {
             return Err(Rejection::OutOfRange);
         }
-        if !(self.var_m2ps2 > 0.0 && self.var_m2ps2 <= MAX_SPEED_MPS * MAX_SPEED_MPS) {
+        // A zero variance (a driver's "not given" or "exact") is fused as
+        // [`VARIANCE_FLOOR`], as robot_localization floors it.
+        if !(self.var_m2ps2 >= 0.0 && self.var_m2ps2 <= MAX_SPEED_MPS * MAX_SPEED_MPS) {
             return Err(Rejection::VarianceNotPositive);
         }
         Ok(())
@@ -104,7 +108,8 @@ impl<const D: usize> Observe<1, D> for OdometrySample {
         }
         let mount = model.frames().mount(SampleKind::Odometry, self.header.sensor);
         let (h, H) = forward_speed(s, &mount.lever_arm);
-        Some(Observation { y: Vector1::new(self.speed_mps - h), H, R: Matrix1::new(self.var_m2ps2) })
+        let R = Matrix1::new(self.var_m2ps2.max(VARIANCE_FLOOR));
+        Some(Observation { y: Vector1::new(self.speed_mps - h), H, R })
     }
 }
 
@@ -122,7 +127,7 @@ mod tests {
         assert_eq!(odo(f64::NAN, 0.01), Err(Rejection::NonFinite));
         assert_eq!(odo(12.0, f64::INFINITY), Err(Rejection::NonFinite));
         assert_eq!(odo(12.0, -0.01), Err(Rejection::VarianceNotPositive));
-        assert_eq!(odo(12.0, 0.0), Err(Rejection::VarianceNotPositive));
+        assert_eq!(odo(12.0, 0.0), Ok(()), "a zero variance is floored when fused");
         assert_eq!(odo(1e6, 0.01), Err(Rejection::OutOfRange));
     }
 

@@ -30,9 +30,12 @@
 //! - `linear`: refused (no attitude); a config naming a twist sensor is refused
 //!   at start-up.
 //!
-//! Validation: finite; |linear| ≤ [`MAX_SPEED_MPS`],
-//! |angular| ≤ `[validation] gyro_range_radps`; covariance symmetric positive
-//! definite. Not required by the health; stale after 1 s once seen.
+//! Validation, of the components `[sensor.twist] fuse` selects (all six
+//! without it; the others are never looked at): finite; |linear| ≤
+//! [`MAX_SPEED_MPS`], |angular| ≤ `[validation] gyro_range_radps`; their
+//! covariance block symmetric positive definite, a variance below
+//! [`VARIANCE_FLOOR`](super::components::VARIANCE_FLOOR) (a driver's 0) taken
+//! as it. Not required by the health; stale after 1 s once seen.
 
 #![allow(non_snake_case)]
 
@@ -43,7 +46,8 @@ use fusion_shared::{SampleKind, TwistSample};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector6};
 
 use super::odometry::MAX_SPEED_MPS;
-use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance, finite};
+use super::components::{selected_covariance, selected_finite};
+use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection};
 use crate::frames::Mount;
 use crate::model::ins::nonholonomic;
 use crate::model::ins::{InsModel, InsState};
@@ -70,14 +74,23 @@ impl Measurement for TwistSample {
     }
 
     fn validate(&self, limits: &Limits) -> Result<(), Rejection> {
-        finite(&self.linear_mps)?;
-        finite(&self.angular_radps)?;
-        if Vector3::from(self.linear_mps).norm() > MAX_SPEED_MPS
-            || Vector3::from(self.angular_radps).norm() > limits.gyro_range_radps
+        self.validate_as(limits, None)
+    }
+
+    /// The selected components only (`[sensor.twist] fuse`; all six without
+    /// it): finite, within range, their covariance block positive definite
+    /// with a zero variance floored ([`selected_covariance`]). What is not
+    /// selected (a drone driver's zero variances, NaN) is never looked at.
+    fn validate_as(&self, limits: &Limits, settings: Option<&TwistConfig>) -> Result<(), Rejection> {
+        let mask = settings.map_or([true; 6], |c| c.fuse.mask);
+        selected_finite(&self.linear_mps, &self.angular_radps, &mask)?;
+        let pick = |v: &[f64; 3], from: usize| Vector3::from_fn(|i, _| if mask[from + i] { v[i] } else { 0.0 });
+        if pick(&self.linear_mps, 0).norm() > MAX_SPEED_MPS
+            || pick(&self.angular_radps, 3).norm() > limits.gyro_range_radps
         {
             return Err(Rejection::OutOfRange);
         }
-        covariance::<6>(&self.cov)
+        selected_covariance(&self.cov, &mask).map(drop)
     }
 }
 
@@ -127,8 +140,10 @@ impl<const D: usize> Fuse<InsModel<D>> for TwistSample {
 
 /// `y = z − h` of [`twist`], `R` the sample's plus the gyro's noise carried by
 /// the lever arm (`gyro_noise`); all six components (a sensor's
-/// `[sensor.twist] fuse` selects among them when fused). `None` while the tilt
-/// is unknown: body-frame velocities need the tilt, not the heading.
+/// `[sensor.twist] fuse` selects among them when fused; the sample's
+/// covariance is its selected block, a zero variance floored:
+/// [`selected_covariance`]). `None` while the tilt is unknown: body-frame
+/// velocities need the tilt, not the heading.
 impl<const D: usize> Observe<6, D> for TwistSample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<6, D>> {
         if !nonholonomic::tilt_known(s) {
@@ -139,7 +154,8 @@ impl<const D: usize> Observe<6, D> for TwistSample {
         z.fixed_rows_mut::<3>(0).copy_from(&Vector3::from(self.linear_mps));
         z.fixed_rows_mut::<3>(3).copy_from(&Vector3::from(self.angular_radps));
         let (h, H) = twist(s, mount);
-        let R = SMatrix::<f64, 6, 6>::from_row_slice(&self.cov) + gyro_noise(model, s, mount);
+        let mask = super::settings::<TwistSample>(model.frames(), self.header.sensor).map_or([true; 6], |c| c.fuse.mask);
+        let R = selected_covariance(&self.cov, &mask).ok()? + gyro_noise(model, s, mount);
         Some(Observation { y: z - h, H, R })
     }
 }

@@ -41,7 +41,12 @@ impl<const D: usize> InsModel<D> {
         if keep.iter().all(|k| *k) {
             return self.update_residual(s, y, H, R);
         }
-        self.update_with(s, y, H, R, self.gate.as_ref(), Some(keep))
+        // The components not selected are left out before anything reads
+        // them: what a driver sent there (NaN, garbage) is never looked at,
+        // and the update is the same whatever it was.
+        let mut view = MeasurementView::new(*y, *H, *R, *R);
+        Select(keep).inspect(&mut view);
+        self.update_with(s, &view.residual, &view.H, &view.R, self.gate.as_ref(), Some(keep))
     }
 
     /// [`update_residual`](Self::update_residual) with `gate` instead of the
