@@ -63,7 +63,8 @@ form = "joseph"
 
 [gating]
 # Chi-square gate on the NIS: the probability a consistent measurement passes.
-# Leave out the [gating] table to fuse every measurement.
+# The one table whose values are not those of an empty file: a file without a
+# [gating] table fuses every measurement (no gate, no lock-out recovery).
 probability = 0.999
 # Lock-out recovery: when every position fix for lockout_ns (and at least
 # lockout_fixes of them) was gated, the filter re-initialises its position and

@@ -106,6 +106,35 @@ fn persistently_inconsistent_nis_is_flagged_and_recovers() {
     h.record(0, &StepOutcome::Propagated, false);
 }
 
+/// An AHRS's attitude (another filter's estimate, its errors correlated over
+/// seconds) with NIS values far below the band, as robot_localization's test1
+/// bag gives (mean 0.22 for 3 degrees of freedom): not flagged; far above it:
+/// flagged. A position fix's small NIS still is.
+#[test]
+fn a_filtered_sensors_small_nis_is_no_fault_but_a_large_one_is() {
+    let mut e = engine();
+    let mut sink = |_: &Entry<_>| {};
+    e.insert(&Sample::Imu(ImuSample::default()), Some(0), &mut sink);
+    let attitude = fusion_shared::AttitudeSample::new(
+        0,
+        2,
+        0,
+        [1.0, 0.0, 0.0, 0.0],
+        [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-4],
+    );
+    e.insert(&Sample::Attitude(attitude), Some(0), &mut sink);
+    let slot = e.slot_of(fusion_shared::SampleKind::Attitude, 2).expect("the attitude's row");
+    let mut h = HealthMonitor::new(HealthConfig { nis_window: 10, ..Default::default() });
+    for _ in 0..40 {
+        h.record(slot, &StepOutcome::Fused { nis: 0.05 }, false);
+    }
+    assert_eq!(h.evaluate(e.sensors(), 0, true, 0).nis_sensors, 0, "a small NIS of a filtered sensor");
+    for _ in 0..40 {
+        h.record(slot, &StepOutcome::Fused { nis: 30.0 }, false);
+    }
+    assert_eq!(h.evaluate(e.sensors(), 0, true, 0).nis_sensors, 1 << slot, "a large one");
+}
+
 /// The snapshots between two measurements (IMU instants, a dozen per fix)
 /// each evaluate the health: those evaluations move no streak, so a monitor
 /// evaluated a hundred times between measurements reads as one evaluated once

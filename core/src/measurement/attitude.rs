@@ -69,6 +69,8 @@ impl Measurement for AttitudeSample {
     const RANK: u8 = 2;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
+    /// An AHRS's orientation: its own filter's estimate.
+    const FILTERED: bool = true;
     const ROTATED: bool = true;
     type Settings = AttitudeConfig;
     const TABLE: Option<&'static str> = Some("attitude");

@@ -59,6 +59,12 @@ pub trait Measurement: WireSample {
     const TIMEOUT_NS: u64;
     /// The group of kinds of which the health waits for one ([`Needed`]), if any.
     const NEEDED: Option<Needed>;
+    /// Whether its samples are another filter's estimate (an AHRS's attitude),
+    /// whose errors are correlated over seconds: the scatter from one sample to
+    /// the next, which the filter's innovations see, is far below the declared
+    /// (absolute) error, so a small NIS says nothing of the filter's
+    /// consistency and the health judges only a large one ([`crate::health`]).
+    const FILTERED: bool = false;
     /// Whether its samples are in the sensor's own axes, so that a `[[sensor]]`
     /// rotation and axis convention apply to them (the others are in the world
     /// frame, or a scalar along the body's x axis).
@@ -364,6 +370,13 @@ macro_rules! registry {
         pub const fn default_timeout_ns(kind: SampleKind) -> u64 {
             match kind {
                 $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::TIMEOUT_NS,)*
+            }
+        }
+
+        /// Whether a kind's samples are another filter's estimate ([`Measurement::FILTERED`]).
+        pub const fn filtered(kind: SampleKind) -> bool {
+            match kind {
+                $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::FILTERED,)*
             }
         }
 
