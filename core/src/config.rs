@@ -70,7 +70,9 @@ probability = 0.999
 # lockout_fixes of them) was gated, the filter re-initialises its position and
 # velocity from the fixes (health "degraded: re-initialised after a lock-out"); when
 # every sample of another kind (wheels, twist, heading, attitude, ...) was, its
-# next sample resets the states it observes to what it says. 0 turns it off.
+# next sample resets the states it observes to what it says (a magnetometer's:
+# the heading alone, from a field of the expected strength and inclination).
+# 0 turns it off.
 lockout_ns = 5_000_000_000
 lockout_fixes = 5
 

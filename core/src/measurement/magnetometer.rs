@@ -110,7 +110,20 @@ impl<const D: usize> Fuse<InsModel<D>> for MagnetometerSample {
             return (StepOutcome::Refused, None);
         }
         let R = C * Matrix3::from_row_slice(&self.cov_ut2) * C.transpose();
-        let turned = align_heading(s, tilt_var, &z, &R, &earth.world_ut);
+        let turned = if s.kind_runs_mut().due_now() {
+            // Lock-out recovery: the heading alone, turned to the field's, and
+            // only from a field of the expected strength and inclination (the
+            // tilt known, so that the inclination was checked above). The
+            // generic reset forgets what the field observes, the tilt too, and
+            // one vector then set the pitch of a device at rest to −30°.
+            let Some(turned) = world.and_then(|_| heading_from_field(s, tilt_var, &z, &R, &earth.world_ut)) else {
+                return (StepOutcome::Refused, None);
+            };
+            s.kind_runs_mut().handled();
+            Some(turned)
+        } else {
+            align_heading(s, tilt_var, &z, &R, &earth.world_ut)
+        };
         // Until the heading is aligned (by this very sample, once the static
         // alignment has set roll and pitch), the field is not fused: against
         // a heading still unknown (tens of degrees off) the 3-D update would
@@ -161,6 +174,19 @@ fn align_heading<const D: usize>(
     {
         return None;
     }
+    heading_from_field(s, tilt_var, z, R, earth)
+}
+
+/// Turns the heading to the tilt-compensated field's, whatever its variance
+/// ([`align_heading`]'s turn, also the magnetometer's lock-out recovery);
+/// `None` where the field is (nearly) vertical.
+fn heading_from_field<const D: usize>(
+    s: &mut InsState<D>,
+    tilt_var: f64,
+    z: &Vector3<f64>,
+    R: &Matrix3<f64>,
+    earth: &Vector3<f64>,
+) -> Option<SVector<f64, D>> {
     let Rq = s.q().to_rotation_matrix().into_inner();
     let m = Rq * z;
     let (m_h, e_h) = (m.xy().norm(), earth.xy().norm());

@@ -271,6 +271,13 @@ impl<const D: usize> InsState<D> {
         &mut self.aux
     }
 
+    /// The lock-out runs of the kinds, for a kind that makes its reset its own
+    /// way ([`KindRuns::handled`]: the magnetometer turns the heading alone).
+    #[inline]
+    pub(crate) fn kind_runs_mut(&mut self) -> &mut KindRuns {
+        &mut self.kind_runs
+    }
+
     /// Resets the attitude to `q`, its error covariance to `block`, uncorrelated
     /// with the other states (an attitude set from a measurement of it).
     pub(crate) fn reset_attitude(&mut self, q: UnitQuaternion<f64>, block: &Matrix3<f64>) {

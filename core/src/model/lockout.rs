@@ -112,6 +112,8 @@ pub struct KindRuns {
     due: u16,
     /// The sample being fused resets (its run is due).
     resetting: bool,
+    /// Its kind made the reset its own way ([`handled`](Self::handled)).
+    handled: bool,
     resets: u32,
 }
 
@@ -122,6 +124,7 @@ impl Default for KindRuns {
             gated: [0; SampleKind::COUNT],
             due: 0,
             resetting: false,
+            handled: false,
             resets: 0,
         }
     }
@@ -139,14 +142,29 @@ impl KindRuns {
         self.resetting = self.due & (1 << kind.index()) != 0;
     }
 
-    /// Whether the sample being fused resets what it observes.
+    /// Whether the sample being fused resets what it observes (and its kind
+    /// has not made the reset its own way).
     pub fn resetting(&self) -> bool {
+        self.resetting && !self.handled
+    }
+
+    /// Whether the sample being fused is due to reset, however its kind
+    /// makes the reset.
+    pub fn due_now(&self) -> bool {
         self.resetting
+    }
+
+    /// The sample's kind made the reset its own way (a magnetometer turns the
+    /// heading alone): the update is then an ordinary one, and the reset is
+    /// counted when it is fused.
+    pub fn handled(&mut self) {
+        self.handled = true;
     }
 
     /// After a sample of `kind` at `t_ns` was fused with `outcome`.
     pub fn after(&mut self, config: Option<&LockoutConfig>, kind: SampleKind, t_ns: u64, outcome: &StepOutcome) {
         let reset = std::mem::take(&mut self.resetting);
+        self.handled = false;
         let Some(c) = config.filter(|_| Self::tracked(kind)) else { return };
         let i = kind.index();
         match outcome {
@@ -464,5 +482,61 @@ mod tests {
         let (x, n, after) = run(None);
         assert_eq!(n, 0);
         assert!(after.iter().all(|f| !*f) && x[3].abs() < 0.1, "{x:?}");
+    }
+
+    /// A device at rest, level, its heading known, whose magnetometer reads a
+    /// field turned 40° about up from 10 s on (a heading change its gyro did
+    /// not see, or a disturbance of the field's direction alone): gated
+    /// against the known heading; after the lock-out the next sample turns the
+    /// heading alone to the field's, and roll and pitch stay level (the
+    /// generic reset forgot the tilt too and set it from the one vector).
+    #[test]
+    fn a_locked_out_magnetometer_turns_the_heading_alone() {
+        use fusion_shared::MagnetometerSample;
+        use nalgebra::{Rotation3, UnitQuaternion};
+        let toml = "name = \"mag\"\nid = 0\nkinds = [\"magnetometer\"]\n\
+                    [magnetic]\ndeclination_deg = 3.5\ninclination_deg = 64.5\nstrength_ut = 48.5\n";
+        let sensor: crate::frames::SensorConfig = toml::from_str(toml).unwrap();
+        let frames =
+            crate::frames::Frames::from_config(None, &[sensor], Default::default(), &crate::measurement::Kinds)
+                .unwrap();
+        let earth = crate::measurement::settings::<MagnetometerSample>(&frames, 0).unwrap().world_ut;
+        let mut x0 = [0.0; 16];
+        x0[6] = 1.0;
+        let mut p0 = [1e-4; 15];
+        p0[12..15].copy_from_slice(&[1e-8; 3]);
+        let model = InsModel::new(tests_support::NOISE, 9.80665, x0, p0, ChiSquareGate::new(0.999).ok(), 0)
+            .unwrap()
+            .with_lockout(Some(LockoutConfig::default()))
+            .with_frames(frames);
+        let mut engine = Engine::new(model, EngineConfig { max_future_ns: u64::MAX, ..EngineConfig::default() });
+        let turned = Rotation3::from_axis_angle(&Vector3::z_axis(), 40f64.to_radians()) * earth;
+        let cov = [0.04, 0.0, 0.0, 0.0, 0.04, 0.0, 0.0, 0.0, 0.04];
+        let mut after = Vec::new();
+        for i in 0..5000u64 {
+            let t = i * 5_000_000;
+            let mut samples = vec![Sample::Imu(ImuSample::new(t, 0, i, G, [0.0; 3]))];
+            if i % 10 == 3 {
+                let field = if t < 10_000_000_000 { earth } else { turned };
+                samples.push(Sample::Magnetometer(MagnetometerSample::new(t, 0, i / 10, field.into(), cov)));
+            }
+            for s in samples {
+                let out = engine.insert(&s, None, &mut |_: &Entry<_>| {});
+                if let (Sample::Magnetometer(_), Insert::Processed { outcome, .. }) = (&s, out)
+                    && s.t_ns() >= 10_000_000_000
+                {
+                    after.push(outcome.accepted() == Some(true));
+                }
+            }
+        }
+        let latest = engine.latest().unwrap();
+        assert_eq!(<InsModel as crate::model::Model>::diagnostics(&latest.state).reinitialisations, 1);
+        let gated = after.iter().take_while(|f| !**f).count();
+        assert!(gated > 90 && after[gated..].iter().all(|f| *f), "{gated} gated, then {after:?}");
+        let x = <InsModel as crate::model::Model>::x(&latest.state);
+        let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]));
+        let (roll, pitch, yaw) = q.euler_angles();
+        assert!((yaw.to_degrees() + 40.0).abs() < 1.0, "yaw {:.2}°", yaw.to_degrees());
+        assert!(roll.to_degrees().abs() < 0.5 && pitch.to_degrees().abs() < 0.5, "{roll} {pitch}: the tilt kept");
     }
 }
