@@ -431,6 +431,39 @@ mod tests {
         assert!(after.iter().all(|f| !*f) && x[0].abs() < 1.0, "{x:?}");
     }
 
+    /// An `ins` model of a level vehicle at rest, its attitude known (1e-4 rad²).
+    fn resting_ins(lockout: Option<LockoutConfig>) -> InsModel {
+        let mut x0 = [0.0; 16];
+        x0[6] = 1.0;
+        let mut p0 = [1e-4; 15];
+        p0[12..15].copy_from_slice(&[1e-8; 3]);
+        InsModel::new(tests_support::NOISE, 9.80665, x0, p0, ChiSquareGate::new(0.999).ok(), 0)
+            .unwrap()
+            .with_lockout(lockout)
+    }
+
+    /// `n` IMU samples at rest at 200 Hz, with `aid(t, k)` (the `k`-th) after
+    /// every `every`-th; whether each aid sample from 10 s on was fused.
+    fn at_rest(engine: &mut Engine<InsModel>, n: u64, every: u64, aid: impl Fn(u64, u64) -> Sample) -> Vec<bool> {
+        let mut after = Vec::new();
+        for i in 0..n {
+            let t = i * 5_000_000;
+            let mut samples = vec![Sample::Imu(ImuSample::new(t, 0, i, G, [0.0; 3]))];
+            if i % every == every / 2 {
+                samples.push(aid(t, i / every));
+            }
+            for s in samples {
+                let out = engine.insert(&s, None, &mut |_: &Entry<_>| {});
+                if let (false, Insert::Processed { outcome, .. }) = (matches!(s, Sample::Imu(_)), out)
+                    && s.t_ns() >= 10_000_000_000
+                {
+                    after.push(outcome.accepted() == Some(true));
+                }
+            }
+        }
+        after
+    }
+
     /// Wheels reading 0 m/s for 10 s, then 2 m/s (a vehicle carried off
     /// unseen by its IMU): every odometry sample is gated against the
     /// confident velocity estimate. After 5 s of it the next sample resets the
@@ -440,31 +473,12 @@ mod tests {
     fn an_ins_whose_wheels_are_locked_out_resets_from_them() {
         use fusion_shared::OdometrySample;
         let run = |lockout| {
-            let mut x0 = [0.0; 16];
-            x0[6] = 1.0;
-            let mut p0 = [1e-4; 15];
-            p0[12..15].copy_from_slice(&[1e-8; 3]);
-            let model = InsModel::new(tests_support::NOISE, 9.80665, x0, p0, ChiSquareGate::new(0.999).ok(), 0)
-                .unwrap()
-                .with_lockout(lockout);
-            let mut engine = Engine::new(model, EngineConfig { max_future_ns: u64::MAX, ..EngineConfig::default() });
-            let mut after = Vec::new();
-            for i in 0..4000u64 {
-                let t = i * 5_000_000;
-                let mut samples = vec![Sample::Imu(ImuSample::new(t, 0, i, G, [0.0; 3]))];
-                if i % 4 == 2 {
-                    let speed = if t < 10_000_000_000 { 0.0 } else { 2.0 };
-                    samples.push(Sample::Odometry(OdometrySample::new(t, 0, i / 4, speed, 1e-4)));
-                }
-                for s in samples {
-                    let out = engine.insert(&s, None, &mut |_: &Entry<_>| {});
-                    if let (Sample::Odometry(_), Insert::Processed { outcome, .. }) = (&s, out)
-                        && s.t_ns() >= 10_000_000_000
-                    {
-                        after.push(outcome.accepted() == Some(true));
-                    }
-                }
-            }
+            let mut engine =
+                Engine::new(resting_ins(lockout), EngineConfig { max_future_ns: u64::MAX, ..EngineConfig::default() });
+            let after = at_rest(&mut engine, 4000, 4, |t, k| {
+                let speed = if t < 10_000_000_000 { 0.0 } else { 2.0 };
+                Sample::Odometry(OdometrySample::new(t, 0, k, speed, 1e-4))
+            });
             let latest = engine.latest().unwrap();
             (
                 <InsModel as crate::model::Model>::x(&latest.state).to_vec(),
@@ -501,34 +515,14 @@ mod tests {
             crate::frames::Frames::from_config(None, &[sensor], Default::default(), &crate::measurement::Kinds)
                 .unwrap();
         let earth = crate::measurement::settings::<MagnetometerSample>(&frames, 0).unwrap().world_ut;
-        let mut x0 = [0.0; 16];
-        x0[6] = 1.0;
-        let mut p0 = [1e-4; 15];
-        p0[12..15].copy_from_slice(&[1e-8; 3]);
-        let model = InsModel::new(tests_support::NOISE, 9.80665, x0, p0, ChiSquareGate::new(0.999).ok(), 0)
-            .unwrap()
-            .with_lockout(Some(LockoutConfig::default()))
-            .with_frames(frames);
+        let model = resting_ins(Some(LockoutConfig::default())).with_frames(frames);
         let mut engine = Engine::new(model, EngineConfig { max_future_ns: u64::MAX, ..EngineConfig::default() });
         let turned = Rotation3::from_axis_angle(&Vector3::z_axis(), 40f64.to_radians()) * earth;
         let cov = [0.04, 0.0, 0.0, 0.0, 0.04, 0.0, 0.0, 0.0, 0.04];
-        let mut after = Vec::new();
-        for i in 0..5000u64 {
-            let t = i * 5_000_000;
-            let mut samples = vec![Sample::Imu(ImuSample::new(t, 0, i, G, [0.0; 3]))];
-            if i % 10 == 3 {
-                let field = if t < 10_000_000_000 { earth } else { turned };
-                samples.push(Sample::Magnetometer(MagnetometerSample::new(t, 0, i / 10, field.into(), cov)));
-            }
-            for s in samples {
-                let out = engine.insert(&s, None, &mut |_: &Entry<_>| {});
-                if let (Sample::Magnetometer(_), Insert::Processed { outcome, .. }) = (&s, out)
-                    && s.t_ns() >= 10_000_000_000
-                {
-                    after.push(outcome.accepted() == Some(true));
-                }
-            }
-        }
+        let after = at_rest(&mut engine, 5000, 10, |t, k| {
+            let field = if t < 10_000_000_000 { earth } else { turned };
+            Sample::Magnetometer(MagnetometerSample::new(t, 0, k, field.into(), cov))
+        });
         let latest = engine.latest().unwrap();
         assert_eq!(<InsModel as crate::model::Model>::diagnostics(&latest.state).reinitialisations, 1);
         let gated = after.iter().take_while(|f| !**f).count();
