@@ -107,6 +107,11 @@ pub trait Measurement: WireSample {
     /// Checks the payload; the header is the engine's business.
     fn validate(&self, limits: &Limits) -> Result<(), Rejection>;
 
+    /// Whether [`validate_as`](Self::validate_as) reads the sensor's settings
+    /// (a kind whose settings select components): only then are they looked
+    /// up for each sample.
+    const VALIDATES_AS_SELECTED: bool = false;
+
     /// Checks the payload as a sensor with `settings` fuses it (`None`: the
     /// kind's defaults): a kind whose settings select components checks only
     /// those ([`components`]: what was not selected is never looked at).
@@ -403,10 +408,11 @@ macro_rules! registry {
                 return Err(Rejection::WrongKind);
             }
             match sample {
-                $(Sample::$variant(s) => s.validate_as(
-                    limits,
-                    settings::<fusion_shared::$ty>(frames, s.header.sensor),
-                ),)*
+                $(Sample::$variant(s) => if <fusion_shared::$ty as Measurement>::VALIDATES_AS_SELECTED {
+                    s.validate_as(limits, settings::<fusion_shared::$ty>(frames, s.header.sensor))
+                } else {
+                    s.validate(limits)
+                },)*
             }
         }
 

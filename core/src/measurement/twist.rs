@@ -73,6 +73,8 @@ impl Measurement for TwistSample {
         settings.fuse.count()
     }
 
+    const VALIDATES_AS_SELECTED: bool = true;
+
     fn validate(&self, limits: &Limits) -> Result<(), Rejection> {
         self.validate_as(limits, None)
     }
