@@ -23,7 +23,7 @@
 //!   unconfigured id), when the sample is disturbed: its strength, or (once
 //!   the tilt is known to 0.1 rad) its inclination in the estimated world frame,
 //!   off the configured field by more than the limits; and while the heading is
-//!   unknown and the sample cannot align it ([`align_heading`]: before the
+//!   unknown and the sample cannot align it (`align_heading`: before the
 //!   static alignment has set roll and pitch), as a field fused against an
 //!   unknown heading turns the tilt.
 //! - `linear`: refused (no attitude); a config naming a magnetometer is refused
