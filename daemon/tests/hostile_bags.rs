@@ -23,6 +23,11 @@ fn jackal() -> String {
     page[start..end].to_string()
 }
 
+#[path = "hostile_bags/clocks.rs"]
+mod clocks;
+#[path = "hostile_bags/drivers.rs"]
+mod drivers;
+
 const IMU_TOPIC: &str = "/imu/data";
 const ODOM_TOPIC: &str = "/jackal_velocity_controller/odom";
 
@@ -508,141 +513,6 @@ fn a_db3_whose_messages_never_end_is_refused() {
         assert_eq!(out.status.code(), Some(1), "{said}");
         assert!(said.contains("\"messages\" is a view, not a table"), "{said}");
     }
-}
-
-/// One message stamped an hour ahead in a bag of 2 s: `fusiond replay`
-/// refuses it as a time jump, and `fusion-sim` sends it at once, out of
-/// pace, for fusiond to refuse by its clock, instead of sleeping until that
-/// stamp (or withholding it, a gap fusiond would count as lost).
-#[test]
-fn a_stamp_an_hour_ahead_is_refused_by_replay_and_by_fusion_sim() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut m = messages(200);
-    m.insert(150, (ODOM_TOPIC, m[150].1 + 3_600_000_000_000));
-    let chunk = ros1_chunk(&m);
-    let bag = write(dir.path(), "ahead.bag", &ros1_bag(&[chunk]));
-    let out = replay(dir.path(), &bag);
-    let said = stderr(&out);
-    assert!(out.status.success(), "{said}");
-    assert!(said.contains("timestamp jumps too far ahead"), "{said}");
-    // An hour's sleep would be cut by the hang guard (exit 124, a failure).
-    let out = sim(dir.path(), &bag);
-    let said = stderr(&out);
-    assert!(out.status.success(), "{said}");
-    assert!(
-        said.contains(
-            "1 samples stamped more than [validation] max_jump_ns ahead of the others: published at once, not paced"
-        ),
-        "{said}"
-    );
-}
-
-/// A robot's clock set back an hour halfway through its bag (NTP stepping a
-/// wall clock): `fusiond replay` refuses the first samples after the step as
-/// stepping back, then names the new timeline and fuses the rest of the bag
-/// to its end (with `--smooth` too, each timeline smoothed alone); nothing
-/// is dropped too late or rate-limited. `fusion-sim` publishes the new
-/// timeline on from where the old one stopped, neither flooding the past nor
-/// sleeping.
-#[test]
-fn a_clock_set_back_an_hour_mid_bag_starts_a_new_timeline_in_replay_and_in_fusion_sim() {
-    let dir = tempfile::tempdir().unwrap();
-    let hour = 3_600_000_000_000;
-    let mut m = messages(600);
-    let half = m.len() / 2;
-    m[..half].iter_mut().for_each(|(_, t)| *t += hour);
-    let last_stamp = m.last().unwrap().1;
-    let bag = write(dir.path(), "stepped.bag", &ros1_bag(&[ros1_chunk(&m)]));
-    let out = replay(dir.path(), &bag);
-    let said = stderr(&out);
-    assert!(out.status.success(), "{said}");
-    assert!(said.contains("timestamp steps too far back behind the others"), "{said}");
-    assert!(said.contains("the input's clock was set back by 3599.990 s at message"), "{said}");
-    assert!(said.contains("invalid 100,") && said.contains("dropped too late 0,"), "{said}");
-    assert!(said.contains("rate-limited 0,"), "{said}");
-    let out_lines = lines(dir.path());
-    let end: serde_json::Value = serde_json::from_str(out_lines.last().unwrap()).unwrap();
-    assert_eq!(end["t_ns"].as_u64(), Some(last_stamp), "the new timeline is fused to the bag's end");
-    let smoothed = Command::new(env!("CARGO_BIN_EXE_fusiond"))
-        .args(["replay", "--smooth", "--config"])
-        .arg(dir.path().join("config.toml"))
-        .arg("--input")
-        .arg(&bag)
-        .arg("--output")
-        .arg(dir.path().join("smoothed.jsonl"))
-        .output()
-        .unwrap();
-    assert!(smoothed.status.success(), "{}", stderr(&smoothed));
-    let text = std::fs::read_to_string(dir.path().join("smoothed.jsonl")).unwrap();
-    assert_eq!(text.lines().count(), out_lines.len());
-    let out = sim(dir.path(), &bag);
-    let said = stderr(&out);
-    assert!(out.status.success(), "{said}");
-    assert!(said.contains("100 samples stamped more than [validation] max_jump_ns back behind the others"), "{said}");
-    assert!(said.contains("the clock was set back by 3599.990 s at message"), "{said}");
-}
-
-/// A drone's odometry as its driver sends it: the orientation (0, 0, 0, 0),
-/// a pose covariance of zeros, and a twist covariance with variances only for
-/// what it measures, one of them 0. With `[sensor.twist] fuse = ["vx", "vy"]`
-/// nothing is refused for what was not selected; the estimate is bit for bit
-/// the one of the same bag with every unselected field valid (a unit
-/// quaternion, variances, other values), and the selected zero variance is
-/// fused as the documented floor (bit for bit the bag that sends the floor).
-#[test]
-fn a_drones_odometry_is_fused_as_selected_whatever_it_sends_elsewhere() {
-    let dir = tempfile::tempdir().unwrap();
-    let config = jackal().replace(
-        "kinds = [\"odometry\"]\ntopic = \"/jackal_velocity_controller/odom\"",
-        "kinds = [\"twist\"]\ntopic = \"/jackal_velocity_controller/odom\"\n[sensor.twist]\nfuse = [\"vx\", \"vy\"]",
-    );
-    assert!(config.contains("fuse = [\"vx\", \"vy\"]"), "{config}");
-    // (orientation, pose covariance, twist values, twist covariance)
-    let odometry = |t: u64, quaternion: [f64; 4], pose_var: f64, rest: f64, vy_var: f64| {
-        let header = Header(Stamp((t / 1_000_000_000) as i32, (t % 1_000_000_000) as u32), "odom".into());
-        let [w, x, y, z] = quaternion;
-        let pose = [1.0, 2.0, 0.5, x, y, z, w];
-        let mut pose_cov = [0.0; 36];
-        let mut twist_cov = [0.0; 36];
-        for i in 0..6 {
-            pose_cov[i * 7] = pose_var;
-            twist_cov[i * 7] = rest;
-        }
-        (twist_cov[0], twist_cov[7]) = (0.01, vy_var);
-        let twist = [0.02, -0.01, 3.0 * rest, rest, -rest, 2.0 * rest];
-        let m = Odometry(header, "base_link".into(), pose, vec36(pose_cov), twist, vec36(twist_cov));
-        cdr::serialize::<_, _, cdr::CdrLe>(&m, cdr::Infinite).unwrap()
-    };
-    let bag = |name: &str, quaternion, pose_var, rest, vy_var| {
-        let m: Vec<_> = messages(300)
-            .into_iter()
-            .map(|(topic, t)| match topic {
-                IMU_TOPIC => (topic, t, cdr_message(topic, t)),
-                _ => (topic, t, odometry(t, quaternion, pose_var, rest, vy_var)),
-            })
-            .collect();
-        let path = dir.path().join(name);
-        mcap_bag(&path, &m);
-        path
-    };
-    let run = |bag: &Path| {
-        let out = replay_with(dir.path(), bag, &config);
-        let said = stderr(&out);
-        assert!(out.status.success(), "{said}");
-        (said, lines(dir.path()))
-    };
-    let (said, as_sent) = run(&bag("drone.mcap", [0.0; 4], 0.0, 0.0, 0.0));
-    assert!(said.contains("messages -> 60 twist;") || said.contains("messages -> 60 twist\n"), "{said}");
-    assert!(!said.contains("refused:"), "no message refused: {said}");
-    assert!(said.contains("invalid 0,"), "{said}");
-    let fused = as_sent.iter().filter(|l| l.contains("\"kind\":\"twist\"") && l.contains("\"accepted\":true")).count();
-    assert!(fused > 40, "{fused} twists fused:\n{said}");
-    let (_, valid_elsewhere) = run(&bag("valid.mcap", [1.0, 0.0, 0.0, 0.0], 1e-3, 0.7, 0.0));
-    assert_eq!(as_sent, valid_elsewhere, "what was not selected changed the estimate");
-    let (_, floor) = run(&bag("floor.mcap", [0.0; 4], 0.0, 0.0, 1e-9));
-    assert_eq!(as_sent, floor, "a selected zero variance is fused as 1e-9");
-    let (_, larger) = run(&bag("larger.mcap", [0.0; 4], 0.0, 0.0, 1e-4));
-    assert_ne!(as_sent, larger, "the selected variance counts");
 }
 
 /// A whole file compressed (rosbag2's `--compression-mode file`: `bag.db3.zstd`)
