@@ -98,9 +98,11 @@ pub struct ReplaySummary {
     pub smoothing_breaks: u64,
     /// The times of the first of them, ns.
     pub smoothing_breaks_at: Vec<u64>,
-    /// Each new timeline (the input's clock set ahead or back, or a real gap:
-    /// [`fusion_core::engine::JUMP_CONFIRMATION`]): the input's position of
-    /// its first sample, and the step, ns (negative: back).
+    /// New timelines begun (the input's clock set ahead or back, or a real
+    /// gap: [`fusion_core::engine::JUMP_CONFIRMATION`]).
+    pub timelines_begun: u64,
+    /// The first of them: the input's position of its first sample, and the
+    /// step, ns (negative: back).
     pub new_timelines: Vec<(u64, i128)>,
     /// Re-initialisations and standstill updates of the timelines before the
     /// current one (each timeline's estimate starts over).
@@ -133,7 +135,10 @@ impl ReplaySummary {
     /// A new timeline begun at `position` with a step of `step_ns`: the
     /// counts so far are carried past the estimate's new start.
     fn new_timeline(&mut self, position: u64, step_ns: i128) {
-        self.new_timelines.push((position, step_ns));
+        self.timelines_begun += 1;
+        if self.new_timelines.len() < INVALID_LINES_REPORTED {
+            self.new_timelines.push((position, step_ns));
+        }
         self.carried = (self.reinitialisations, self.standstill_updates);
     }
 }
@@ -225,6 +230,9 @@ impl std::fmt::Display for ReplaySummary {
                 step.unsigned_abs() as f64 * 1e-9,
                 fusion_core::engine::JUMP_CONFIRMATION
             )?;
+        }
+        if self.timelines_begun > self.new_timelines.len() as u64 {
+            writeln!(f, "  … and {} more new timelines", self.timelines_begun - self.new_timelines.len() as u64)?;
         }
         if self.smoothing_breaks > 0 {
             let at: Vec<String> = self.smoothing_breaks_at.iter().map(|t| format!("{:.3}", *t as f64 * 1e-9)).collect();
@@ -473,7 +481,7 @@ fn replay_model<M: Steps>(
         } else {
             engine.insert(&sample, received_ns, &mut |e| sink.take(e))
         };
-        if engine.stats().new_timelines > summary.new_timelines.len() as u64 {
+        if engine.stats().new_timelines > summary.timelines_begun {
             // Everything before it was handed out final in this insert.
             summary.new_timeline(position, engine.stats().last_timeline_step_ns);
             sink.timelines.push(sink.finals.as_ref().map_or(0, Vec::len));

@@ -79,11 +79,17 @@ pub struct Jumps {
     pub ahead: u64,
     /// Samples stamped more than `max_jump_ns` back behind them.
     pub back: u64,
-    /// Each new timeline: the message's (or line's) number, and the step, ns.
+    /// New timelines begun.
+    pub timelines_begun: u64,
+    /// The first [`TIMELINES_SAID`] of them: the message's (or line's)
+    /// number, and the step, ns.
     pub timelines: Vec<(u64, i128)>,
     /// What the numbers count: "message" (a bag's) or "line" (a file's).
     pub at: &'static str,
 }
+
+/// How many new timelines a summary names one by one.
+pub const TIMELINES_SAID: usize = 10;
 
 impl std::fmt::Display for Jumps {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -105,6 +111,9 @@ impl std::fmt::Display for Jumps {
                 step.unsigned_abs() as f64 * 1e-9,
                 self.at
             )?;
+        }
+        if self.timelines_begun > self.timelines.len() as u64 {
+            writeln!(f, "  … and {} more new timelines", self.timelines_begun - self.timelines.len() as u64)?;
         }
         Ok(())
     }
@@ -131,7 +140,7 @@ impl Restamp {
     /// `at` names the input's positions ("message", "line").
     pub fn new(max_jump_ns: u64, start_ns: u64, shift: Option<i128>, at: &'static str) -> Self {
         let start_ns = i128::from(start_ns);
-        let jumps = Jumps { ahead: 0, back: 0, timelines: Vec::new(), at };
+        let jumps = Jumps { ahead: 0, back: 0, timelines_begun: 0, timelines: Vec::new(), at };
         Self { shift, start_ns, newest_out: start_ns, time: TimeJumps::new(max_jump_ns), jumps }
     }
 
@@ -150,7 +159,10 @@ impl Restamp {
                 false
             }
             Jump::NewTimeline { step_ns, run_start_ns } => {
-                self.jumps.timelines.push((position, step_ns));
+                self.jumps.timelines_begun += 1;
+                if self.jumps.timelines.len() < TIMELINES_SAID {
+                    self.jumps.timelines.push((position, step_ns));
+                }
                 self.shift = Some(self.newest_out + (t - i128::from(run_start_ns)) - t);
                 true
             }
