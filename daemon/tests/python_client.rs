@@ -390,7 +390,13 @@ fn python_reads_one_snapshot_per_imu_instant() {
     // Spin: the daemon never sleeps between an instant's samples (in event
     // mode an instant's snapshot also goes out when it would).
     let mut daemon = Daemon::start(&domain, &config, "spin");
-    let out = common::python_command(&domain.domain, "tests/instants.py", &[&domain.namespace]).output().unwrap();
+    let out = common::python_command(
+        &domain.domain,
+        "tests/instants.py",
+        &[&domain.namespace, &common::INSTANT_WAIT_NS.to_string()],
+    )
+    .output()
+    .unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
     common::assert_one_snapshot_per_instant(&said);
