@@ -45,8 +45,10 @@
 //!   refused at start-up.
 //!
 //! Validation: finite; the quaternion of unit norm within
-//! [`QUATERNION_NORM_TOLERANCE`]; covariance symmetric positive definite. Not
-//! required by the health; stale after 1 s once seen.
+//! [`QUATERNION_NORM_TOLERANCE`]; covariance symmetric positive definite, of
+//! a roll-and-pitch sensor only its roll and pitch block, a zero variance
+//! there floored (`tilt_sigma`). Not required by the health; stale after 1 s
+//! once seen.
 
 #![allow(non_snake_case)]
 
@@ -56,6 +58,7 @@ pub use settings::AttitudeConfig;
 use fusion_shared::{AttitudeSample, SampleKind};
 use nalgebra::{Matrix3, Quaternion, Rotation3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 
+use super::components::selected_covariance;
 use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance3, finite};
 use crate::model::ins::course::{ALIGN_ABOVE_SD, heading_variance};
 use crate::model::ins::nonholonomic::{MAX_ATTITUDE_SD, tilt_variance};
@@ -95,6 +98,37 @@ impl Measurement for AttitudeSample {
         }
         covariance3(&self.cov_rad2)
     }
+
+    const VALIDATES_AS_SELECTED: bool = true;
+
+    /// A sensor of roll and pitch only (`[sensor.attitude] yaw = false`):
+    /// the quaternion as always, and of the covariance only its roll and
+    /// pitch block ([`tilt_sigma`]): the yaw's variance and correlations (an
+    /// AHRS without a magnetometer sends 0 or −1 there) are never looked at.
+    fn validate_as(&self, limits: &Limits, settings: Option<&AttitudeConfig>) -> Result<(), Rejection> {
+        if settings.is_none_or(|c| c.yaw) {
+            return self.validate(limits);
+        }
+        finite(&self.orientation_wxyz)?;
+        let norm = self.orientation_wxyz.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+            return Err(Rejection::OutOfRange);
+        }
+        tilt_sigma(&self.cov_rad2).map(drop)
+    }
+}
+
+/// The covariance a roll-and-pitch sample is fused with: its roll and pitch
+/// block ([`selected_covariance`]: a zero variance floored), and about the
+/// sensor's `z` axis, uncorrelated, the larger of the two variances in place
+/// of what was sent. The tilt update projects across world up (`[u]×` in the
+/// module doc), which removes the error about `z` entirely only for a level
+/// sensor; for a tilted one, part of it counts as tilt error, and that part
+/// is then of the tilt's own size, never of a "yaw unknown" variance.
+fn tilt_sigma(cov: &[f64; 9]) -> Result<Matrix3<f64>, Rejection> {
+    let mut c = selected_covariance(cov, &[true, true, false])?;
+    c[(2, 2)] = c[(0, 0)].max(c[(1, 1)]);
+    Ok(c)
 }
 
 /// A sample's rotation (sensor → world), normalised.
@@ -186,7 +220,8 @@ impl<const D: usize> Fuse<InsModel<D>> for AttitudeSample {
         let yaw = super::settings::<AttitudeSample>(frames, self.header.sensor).is_none_or(|c| c.yaw);
         let C = frames.mount(SampleKind::Attitude, self.header.sensor).rotation;
         let Z = rotation_of(&self.orientation_wxyz);
-        let Sigma = Matrix3::from_row_slice(&self.cov_rad2);
+        let sigma = if yaw { Ok(Matrix3::from_row_slice(&self.cov_rad2)) } else { tilt_sigma(&self.cov_rad2) };
+        let Ok(Sigma) = sigma else { return (StepOutcome::Refused, None) };
         if unknown(s, yaw) {
             return (StepOutcome::Propagated, Some(align(s, &C, &Z, &Sigma, yaw)));
         }

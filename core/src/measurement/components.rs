@@ -72,23 +72,26 @@ impl<'de, N: ComponentNames> Deserialize<'de> for Components<N> {
 /// the prior's part of it, and with a prior as small, not invertible.
 pub const VARIANCE_FLOOR: f64 = 1e-9;
 
-/// The covariance a six-component sample is fused with when `mask` selects
-/// its components (`cov` row-major 6×6): the selected block of `cov`, each of
-/// its variances below [`VARIANCE_FLOOR`] (≥ 0) floored to it; the rows and
-/// columns of the components not selected zero, with a unit variance, so
-/// that nothing of them (a NaN, a zero, garbage) is looked at. Checked as
-/// [`super::covariance`] checks a whole one: finite, symmetric, positive
-/// definite (a negative variance is refused, never floored).
+/// The covariance a sample of `N` components is fused with when `mask`
+/// selects among them (`cov` row-major `N`×`N`): the selected block of `cov`,
+/// each of its variances below [`VARIANCE_FLOOR`] (≥ 0) floored to it; the
+/// rows and columns of the components not selected zero, with a unit
+/// variance, so that nothing of them (a NaN, a zero, garbage) is looked at.
+/// Checked as [`super::covariance`] checks a whole one: finite, symmetric,
+/// positive definite (a negative variance is refused, never floored).
 ///
 /// Math note: the marginal of the selected components of a Gaussian is the
 /// selected block of its covariance; floored, it is that block plus a
 /// non-negative diagonal.
-pub fn selected_covariance(cov: &[f64; 36], mask: &[bool; 6]) -> Result<nalgebra::Matrix6<f64>, super::Rejection> {
+pub fn selected_covariance<const N: usize>(
+    cov: &[f64],
+    mask: &[bool; N],
+) -> Result<nalgebra::SMatrix<f64, N, N>, super::Rejection> {
     use super::Rejection;
-    let mut c = nalgebra::Matrix6::<f64>::identity();
-    for i in (0..6).filter(|&i| mask[i]) {
-        for j in (0..6).filter(|&j| mask[j]) {
-            let v = cov[i * 6 + j];
+    let mut c = nalgebra::SMatrix::<f64, N, N>::identity();
+    for i in (0..N).filter(|&i| mask[i]) {
+        for j in (0..N).filter(|&j| mask[j]) {
+            let v = cov[i * N + j];
             if !v.is_finite() {
                 return Err(Rejection::NonFinite);
             }

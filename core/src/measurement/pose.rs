@@ -68,9 +68,10 @@ use fusion_shared::snapshot::aux;
 use fusion_shared::{PoseSample, SampleKind};
 use nalgebra::{Matrix3, Quaternion, Rotation3, SMatrix, SVector, UnitQuaternion, Vector3, Vector6};
 
+use super::components::selected_covariance;
 use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance, finite};
 use crate::frames::Mount;
-use crate::model::ins::aux::{AuxPrior, augment};
+use crate::model::ins::aux::{AuxPrior, augment_some};
 
 /// Standard deviation given the map frame's origin before the first pose
 /// sets it, m.
@@ -136,6 +137,40 @@ impl Measurement for PoseSample {
         }
         covariance::<6>(&self.cov)
     }
+
+    const VALIDATES_AS_SELECTED: bool = true;
+
+    /// The components a sensor fuses (`[sensor.pose] fuse`; all six without
+    /// it): the selected coordinates finite and within range, the quaternion
+    /// finite and of unit norm only if an attitude component is selected, and
+    /// the selected covariance block positive definite with a zero variance
+    /// floored ([`selected_covariance`]). What is not selected (a drone
+    /// driver's (0, 0, 0, 0) orientation and zero variances) is never looked
+    /// at. A relative sensor differences whole poses: all of it is checked.
+    fn validate_as(&self, limits: &Limits, settings: Option<&PoseConfig>) -> Result<(), Rejection> {
+        let mask = match settings {
+            Some(c) if !c.relative => c.fuse.mask,
+            _ => return self.validate(limits),
+        };
+        let picked = Vector3::from_fn(|i, _| if mask[i] { self.position_m[i] } else { 0.0 });
+        finite(picked.as_slice())?;
+        if picked.norm() > MAX_POSITION_M {
+            return Err(Rejection::OutOfRange);
+        }
+        if attitude_selected(&mask) {
+            finite(&self.orientation_wxyz)?;
+            let norm = self.orientation_wxyz.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+                return Err(Rejection::OutOfRange);
+            }
+        }
+        selected_covariance(&self.cov, &mask).map(drop)
+    }
+}
+
+/// Whether a selection fuses any of the attitude's components.
+fn attitude_selected(mask: &[bool; 6]) -> bool {
+    mask[3..].contains(&true)
 }
 
 /// The map frame a pose is predicted in: yaw, origin, and the error-state
@@ -211,38 +246,79 @@ pub fn pose<const D: usize>(
     (m, S, H)
 }
 
-/// The residual `[z_p − m̂; Log(Ŝᵀ Z)]`.
-fn residual(m: &Vector3<f64>, S: &Matrix3<f64>, sample: &PoseSample) -> Vector6<f64> {
-    let Z = rotation_of(&sample.orientation_wxyz);
-    let dtheta = log(&(S.transpose() * Z));
+/// The residual `[z_p − m̂; Log(Ŝᵀ Z)]` of the components `mask` selects (0
+/// for the others, which are never read: the attitude's only if one of its
+/// components is selected).
+fn residual(m: &Vector3<f64>, S: &Matrix3<f64>, sample: &PoseSample, mask: &[bool; 6]) -> Vector6<f64> {
     let mut y = Vector6::zeros();
+    if attitude_selected(mask) {
+        let Z = rotation_of(&sample.orientation_wxyz);
+        y.fixed_rows_mut::<3>(3).copy_from(&log(&(S.transpose() * Z)));
+    }
     y.fixed_rows_mut::<3>(0).copy_from(&(Vector3::from(sample.position_m) - m));
-    y.fixed_rows_mut::<3>(3).copy_from(&dtheta);
+    for (v, keep) in y.iter_mut().zip(mask) {
+        if !keep {
+            *v = 0.0;
+        }
+    }
     y
 }
 
+/// Which of the estimated frame's states `(ψ, t_e, t_n, t_u)` a pose of the
+/// components `mask` selects sets: `ψ` with the yaw, the horizontal origin
+/// with both `x` and `y`, the height with `z`.
+fn frame_states_set(mask: &[bool; 6]) -> [bool; 4] {
+    let horizontal = mask[0] && mask[1];
+    [mask[5], horizontal, horizontal, mask[2]]
+}
+
 /// Sets the estimated map frame (states at `i..i + 4`) from `sample`, by
-/// state augmentation (see the module doc).
+/// state augmentation (see the module doc), the states the selection `mask`
+/// does not inform ([`frame_states_set`]: a sonar's height alone sets the
+/// origin's height) left as they were, counted with the other states. The
+/// least squares is over the selected rows: `R` is
+/// [`selected_covariance`]'s, unit and uncorrelated where not selected, and
+/// those rows of `H_a` are zero.
 fn set_frame<const D: usize>(
     s: &mut InsState<D>,
     mount: &Mount,
     i: usize,
     sample: &PoseSample,
     R: &SMatrix<f64, 6, 6>,
+    mask: &[bool; 6],
 ) -> bool {
+    let set = frame_states_set(mask);
     let Rb = s.q().to_rotation_matrix().into_inner();
-    let Z = rotation_of(&sample.orientation_wxyz);
-    let M = Rb * mount.rotation * Z.transpose(); // world ← map, a yaw for a gravity-aligned map
-    let yaw = M[(1, 0)].atan2(M[(0, 0)]);
-    let origin = s.p() + Rb * mount.lever_arm - yaw_matrix(yaw) * Vector3::from(sample.position_m);
+    let now = MapFrame::estimated_at(s, i);
+    let yaw = if set[0] {
+        let Z = rotation_of(&sample.orientation_wxyz);
+        let M = Rb * mount.rotation * Z.transpose(); // world ← map, a yaw for a gravity-aligned map
+        M[(1, 0)].atan2(M[(0, 0)])
+    } else {
+        now.yaw
+    };
+    let picked = Vector3::from_fn(|r, _| if mask[r] { sample.position_m[r] } else { 0.0 });
+    let through = s.p() + Rb * mount.lever_arm - yaw_matrix(yaw) * picked;
+    let pick = |r: usize| if set[r + 1] { through[r] } else { now.origin[r] };
+    let origin = Vector3::new(pick(0), pick(1), pick(2));
     let frame = MapFrame { yaw, origin, states: Some(i) };
-    let (_, _, H) = pose(s, mount, &frame);
-    let Ha = H.fixed_view::<6, 4>(0, i).into_owned();
+    let (_, _, mut H) = pose(s, mount, &frame);
+    for r in (0..6).filter(|&r| !mask[r]) {
+        H.row_mut(r).fill(0.0);
+    }
+    let mut Ha = H.fixed_view::<6, 4>(0, i).into_owned();
+    for c in (0..4).filter(|&c| !set[c]) {
+        Ha.column_mut(c).fill(0.0);
+    }
     let Some(W) = R.try_inverse() else { return false };
-    let Some(N) = (Ha.transpose() * W * Ha).try_inverse() else { return false };
+    let mut N = Ha.transpose() * W * Ha;
+    for c in (0..4).filter(|&c| !set[c]) {
+        N[(c, c)] = 1.0;
+    }
+    let Some(N) = N.try_inverse() else { return false };
     let A: SMatrix<f64, 4, 6> = N * Ha.transpose() * W;
     let a = SVector::<f64, 4>::new(yaw, origin.x, origin.y, origin.z);
-    augment(s, i, &a, &(-A * H), &A, R).is_ok()
+    augment_some(s, i, &set, &a, &(-A * H), &A, R).is_ok()
 }
 
 /// The upper triangle of the 3×3 block at `at` of a row-major 6×6 matrix.
@@ -315,8 +391,8 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
         if estimated {
             let Some(i) = s.aux_index(aux::POSE_FRAME_YAW) else { return (StepOutcome::Refused, None) };
             if s.aux_progress().pose.due(self.reset_counter, config.realign_after_gated) {
-                let R = SMatrix::<f64, 6, 6>::from_row_slice(&self.cov);
-                if !set_frame(s, mount, i, self, &R) {
+                let Ok(R) = selected_covariance(&self.cov, &config.fuse.mask) else { return (StepOutcome::Refused, None) };
+                if !set_frame(s, mount, i, self, &R, &config.fuse.mask) {
                     return (StepOutcome::Refused, None);
                 }
                 s.aux_progress_mut().pose.aligned(self.reset_counter);
@@ -354,7 +430,8 @@ impl<const D: usize> Observe<6, D> for PoseSample {
             }
         };
         let (m, S, H) = pose(s, frames.mount(SampleKind::Pose, self.header.sensor), &frame);
-        Some(Observation { y: residual(&m, &S, self), H, R: SMatrix::<f64, 6, 6>::from_row_slice(&self.cov) })
+        let mask = &config.fuse.mask;
+        Some(Observation { y: residual(&m, &S, self, mask), H, R: selected_covariance(&self.cov, mask).ok()? })
     }
 }
 

@@ -145,3 +145,36 @@ fn an_unknown_attitude_is_aligned_from_the_sample() {
     assert!((heading_variance(&s) - heading_var).abs() < 1e-12);
     assert!(tilt_variance(&s) < 5e-4, "{}", tilt_variance(&s));
 }
+
+/// Roll and pitch only, as an AHRS without a magnetometer sends them: the yaw's
+/// variance −1 ("not given") or 0, garbage in its correlations. Validated as
+/// selected, refused whole; fused bit for bit as the same sample with a valid
+/// yaw variance; a zero roll variance is floored, a negative one refused.
+#[test]
+fn roll_and_pitch_only_never_look_at_the_yaw_variance() {
+    let limits = Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 };
+    let m = mounted(false);
+    let config = *crate::measurement::settings::<AttitudeSample>(m.frames(), 3).unwrap();
+    let truth = UnitQuaternion::from_euler_angles(0.1, -0.05, 2.0);
+    let q = reading(&m, &truth);
+    let mut sent = COV;
+    (sent[8], sent[2], sent[6], sent[0]) = (-1.0, 7.0, f64::NAN, 0.0);
+    let mut valid = COV;
+    (valid[8], valid[0]) = (0.3, 0.0);
+    let sample = |cov| AttitudeSample::new(1, 3, 0, q, cov);
+    assert_eq!(sample(sent).validate(&limits), Err(Rejection::NonFinite), "whole, it is refused");
+    assert_eq!(sample(sent).validate_as(&limits, Some(&config)), Ok(()));
+    let start = known(&m, UnitQuaternion::from_euler_angles(0.12, -0.07, 2.3), 0.05);
+    let (mut a, mut b) = (start, start);
+    let (out, _) = sample(sent).fuse(&m, &mut a);
+    assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
+    assert_eq!(out, sample(valid).fuse(&m, &mut b).0);
+    assert_eq!((InsModel::x_of(&a), a.filter().P()), (InsModel::x_of(&b), b.filter().P()));
+    let mut floored = valid;
+    floored[0] = crate::measurement::components::VARIANCE_FLOOR;
+    let mut c = start;
+    sample(floored).fuse(&m, &mut c);
+    assert_eq!(c.filter().P(), a.filter().P(), "a zero roll variance is the floor");
+    sent[4] = -1e-4;
+    assert_eq!(sample(sent).validate_as(&limits, Some(&config)), Err(Rejection::CovarianceNotPositiveDefinite));
+}

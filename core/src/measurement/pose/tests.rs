@@ -208,3 +208,54 @@ fn relative_poses_are_fused_as_their_change() {
     assert!(relative_twist(&previous(&c), &previous(&d)).is_none(), "a reset is not differenced");
     assert_eq!(d.fuse(&m, &mut s).0, StepOutcome::Propagated);
 }
+
+/// A sonar's height as a pose (`fuse = ["z"]`), as a drone's driver sends
+/// it: orientation (0, 0, 0, 0), NaN where nothing is measured and every
+/// variance 0. It validates as selected (not whole); the first sets the
+/// frame's height alone (its yaw and horizontal origin keep their prior),
+/// the next is fused with the zero variance floored, and every step is bit
+/// for bit the one of the same poses with valid values where nothing is
+/// selected.
+#[test]
+fn a_height_alone_sets_and_fuses_the_height_only() {
+    let frames =
+        Frames::from_config(None, &[sensor("[pose]\nfuse = [\"z\"]\n")], Default::default(), &crate::measurement::Kinds)
+            .unwrap();
+    let (aux, _) = crate::measurement::aux_states(AuxStates::default(), &frames);
+    let m: InsModel<{ N + 4 }> = model().with_frames(frames).with_aux(aux).unwrap();
+    let config = *crate::measurement::settings::<PoseSample>(m.frames(), 4).unwrap();
+    let limits = Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 };
+    let truth = MapFrame { yaw: 0.9, origin: Vector3::new(30.0, -12.0, 1.5), states: None };
+    let (mut driven, mut valid) = (moving(&m), moving(&m));
+    let i = valid.aux_index(aux::POSE_FRAME_YAW).unwrap();
+    for k in 0..2 {
+        let mut clean = reading(&m, &valid, &truth, 0);
+        clean.position_m[2] += 0.05 * k as f64;
+        clean.cov[14] = 0.0;
+        let mut sent = clean;
+        (sent.orientation_wxyz, sent.cov) = ([0.0; 4], [0.0; 36]);
+        (sent.position_m[0], sent.position_m[1]) = (f64::NAN, f64::NAN);
+        assert_eq!(sent.validate(&limits), Err(Rejection::NonFinite), "whole, it is refused");
+        assert_eq!(sent.validate_as(&limits, Some(&config)), Ok(()));
+        let before = valid;
+        let (a, b) = (sent.fuse(&m, &mut driven), clean.fuse(&m, &mut valid));
+        assert_eq!(a, b);
+        assert_eq!(InsModel::x_of(&driven), InsModel::x_of(&valid), "{k}");
+        assert_eq!(driven.filter().P(), valid.filter().P(), "{k}");
+        if k == 0 {
+            assert_eq!(a.0, StepOutcome::Propagated, "the first sets the frame");
+            let frame = MapFrame::estimated(&valid).unwrap();
+            assert!((frame.origin.z - truth.origin.z).abs() < 1e-9, "{frame:?}");
+            assert_eq!((frame.yaw, frame.origin.x, frame.origin.y), (0.0, 0.0, 0.0), "not informed");
+            let (P, P0) = (valid.filter().P(), before.filter().P());
+            assert_eq!(P.fixed_view::<3, 3>(i, i), P0.fixed_view::<3, 3>(i, i), "their prior kept");
+            // The height is set: as uncertain as the vehicle's (not its 1 km prior).
+            assert!(P[(i + 3, i + 3)] < 4.0 * P0[(2, 2)], "{} {}", P[(i + 3, i + 3)], P0[(2, 2)]);
+            assert!(P0[(i + 3, i + 3)] > 1e5);
+        } else {
+            assert!(matches!(a.0, StepOutcome::Fused { .. }), "{a:?}");
+            let o = sent.observe(&m, &before).unwrap();
+            assert_eq!(o.R[(2, 2)], crate::measurement::components::VARIANCE_FLOOR);
+        }
+    }
+}

@@ -197,8 +197,8 @@ pub struct AuxProgress {
     /// The pose sensor's ([`PoseProgress`]).
     pub pose: PoseProgress,
     /// Times states were set from a sample (`augment`), and the error-state
-    /// indices of the last ones set (first, count): the smoother's record of
-    /// that step (`smoother_record`).
+    /// indices of the last ones set (the first of their block, and a bit for
+    /// each one set of it): the smoother's record of that step (`smoother_record`).
     pub sets: u32,
     /// See `sets`.
     pub last_set: (u8, u8),
@@ -274,34 +274,55 @@ pub(crate) fn augment<const D: usize, const K: usize, const M: usize>(
     Gz: &SMatrix<f64, K, M>,
     R: &SMatrix<f64, M, M>,
 ) -> Result<(), FilterError> {
+    augment_some(s, first, &[true; K], a, Gx, Gz, R)
+}
+
+/// [`augment`] of the states among `first..first + K` that `set` marks: the
+/// others keep their value, variance and correlations, and count among the
+/// states `G_x` maps from (their columns of `G_x` are read; their rows of
+/// `a`, `G_x` and `G_z` are not).
+pub(crate) fn augment_some<const D: usize, const K: usize, const M: usize>(
+    s: &mut InsState<D>,
+    first: usize,
+    set: &[bool; K],
+    a: &SVector<f64, K>,
+    Gx: &SMatrix<f64, K, D>,
+    Gz: &SMatrix<f64, K, M>,
+    R: &SMatrix<f64, M, M>,
+) -> Result<(), FilterError> {
+    let rows = || (0..K).filter(|&r| set[r]);
     let mut Gx = *Gx;
-    for c in first..first + K {
-        Gx.column_mut(c).fill(0.0);
+    for r in rows() {
+        Gx.column_mut(first + r).fill(0.0);
     }
     let mut P = s.kf.P();
-    for c in first..first + K {
-        P.column_mut(c).fill(0.0);
-        P.row_mut(c).fill(0.0);
+    for r in rows() {
+        P.column_mut(first + r).fill(0.0);
+        P.row_mut(first + r).fill(0.0);
     }
     let cross = Gx * P; // K×D, zero in the set states' columns
     let Paa = Gx * P * Gx.transpose() + Gz * R * Gz.transpose();
-    for (r, i) in (first..first + K).enumerate() {
+    for r in rows() {
         for j in 0..D {
-            P[(i, j)] = cross[(r, j)];
-            P[(j, i)] = cross[(r, j)];
+            P[(first + r, j)] = cross[(r, j)];
+            P[(j, first + r)] = cross[(r, j)];
         }
     }
-    P.fixed_view_mut::<K, K>(first, first).copy_from(&Paa);
+    for (r, c) in rows().flat_map(|r| rows().map(move |c| (r, c))) {
+        P[(first + r, first + c)] = Paa[(r, c)];
+    }
     if nalgebra::Cholesky::new(P).is_none() {
         return Err(FilterError::CovarianceNotPositiveDefinite);
     }
     s.kf.set_state(SVector::zeros(), P)?;
-    for (r, i) in (first..first + K).enumerate() {
-        s.nominal[i + 1] = a[r];
+    let mut mask = 0u8;
+    for r in rows() {
+        s.nominal[first + r + 1] = a[r];
+        s.aux.set |= aux_bit(s.aux_bits, first + r);
+        mask |= 1 << r;
     }
-    s.aux.set |= (first..first + K).fold(0, |b, i| b | aux_bit(s.aux_bits, i));
     s.aux.sets = s.aux.sets.wrapping_add(1);
-    s.aux.last_set = (first as u8, K as u8);
+    s.aux.last_set = (first as u8, mask);
     Ok(())
 }
 
@@ -320,15 +341,15 @@ fn aux_bit(present: u32, i: usize) -> u32 {
 const UNINFORMED: f64 = 1e12;
 
 /// The smoother's record of a step that set states from a sample
-/// ([`augment`]; `set` = (first index, count)): the new states do not continue
+/// ([`augment_some`]; `set` = (first index, the bits of those set from it)): the new states do not continue
 /// the old ones, so their rows of the step's transition are zero and their
 /// prior is uninformed (zero mean, variance [`UNINFORMED`], uncorrelated). The
 /// smoothing then passes nothing of the new states back to the old ones, and
 /// the old ones keep what the other states tell them (their correlation with
 /// those before the step).
 pub(super) fn smoother_record<const D: usize>(step: &mut crate::filter::RtsStep<f64, D>, set: (u8, u8)) {
-    let (first, count) = (usize::from(set.0), usize::from(set.1));
-    for i in first..(first + count).min(D) {
+    let first = usize::from(set.0);
+    for i in (0..8).filter(|r| set.1 & (1 << r) != 0).map(|r| first + r).filter(|&i| i < D) {
         step.F.row_mut(i).fill(0.0);
         step.P_prior.row_mut(i).fill(0.0);
         step.P_prior.column_mut(i).fill(0.0);

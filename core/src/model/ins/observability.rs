@@ -46,13 +46,14 @@
 //!
 //! The rule is on for a configuration whose sensors give neither a heading nor
 //! a horizontal position: at least one `[[sensor]]`, and each an imu,
-//! odometry, twist, barometer or attitude without its yaw
-//! ([`gives_no_heading`]).
+//! odometry, twist, barometer, attitude without its yaw, or pose fusing
+//! neither its yaw nor both `x` and `y` ([`gives_no_heading`]).
 
 use nalgebra::{SVector, UnitQuaternion, Vector3};
 
 use crate::frames::MountedSensor;
 use crate::measurement::attitude::settings::AttitudeConfig;
+use crate::measurement::pose::PoseConfig;
 use fusion_shared::SampleKind;
 
 /// The consider direction `c` of the world yaw at attitude `q`: world up in
@@ -68,6 +69,11 @@ pub fn gives_no_heading(m: &MountedSensor) -> bool {
     match m.kind {
         SampleKind::Imu | SampleKind::Odometry | SampleKind::Twist | SampleKind::Barometer => true,
         SampleKind::Attitude => !m.settings.get::<AttitudeConfig>().copied().unwrap_or_default().yaw,
+        // A pose of neither its yaw nor both horizontal coordinates (a sonar's height).
+        SampleKind::Pose => m.settings.get::<PoseConfig>().is_some_and(|c| {
+            let f = c.fuse.mask;
+            !(f[5] || (f[0] && f[1]))
+        }),
         _ => false,
     }
 }
@@ -125,6 +131,10 @@ mod tests {
         assert!(unobserved(&format!("{imu}{wheels}{tilt}")));
         assert!(!unobserved(&format!("{imu}{wheels}{ahrs}")));
         assert!(!unobserved(&format!("{imu}{wheels}{gnss}")));
+        let pose = "[[sensor]]\nname = \"slam\"\nid = 4\nkinds = [\"pose\"]\n";
+        assert!(!unobserved(&format!("{imu}{pose}")));
+        assert!(unobserved(&format!("{imu}{pose}[sensor.pose]\nfuse = [\"z\", \"roll\"]\n")));
+        assert!(!unobserved(&format!("{imu}{pose}[sensor.pose]\nfuse = [\"z\", \"yaw\"]\n")));
         assert!(!unobserved(""));
     }
 }
