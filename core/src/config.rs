@@ -204,6 +204,11 @@ max_readers = 8
 #   max_speed_mps = 0.3                    # estimated speed at most this (without recent odometry)
 #   odometry_speed_mps = 0.01              # odometry speed at most this (when odometry came)
 #   velocity_std_mps = 0.01                # sigma of the zero-velocity update
+#   [model.gravity]                        # where no sensor gives a position, velocity or attitude (imu,
+#   window_ns = 100_000_000                #   magnetometer, barometer alone): the accelerometer as gravity,
+#   max_deviation_mps2 = 0.5               #   fused each window whose mean force is within this of g,
+#   variance_threshold = 10.0              #   whose variance is <= this x the noise density's at rest,
+#   acceleration_std_mps2 = 0.005          #   with this sigma of unseen acceleration (+ what motion shows)
 #   [model.odometry_scale]                 # optional: the odometry's scale factor k as a state
 #   initial = 1.0                          #   (odometry speed = k x true speed), at start
 #   initial_std = 0.02                     # its sigma at start (2 %)

@@ -141,6 +141,7 @@ fn drive(model: InsModel, config: &Config, scenario: &Scenario, t0: u64) -> Run 
     let start_ns = scenario.start_ns;
     let mut sink = |e: &Entry<_>| {
         let t = e.key.t_ns.saturating_sub(t0) as f64 * 1e-9;
+        out.reinitialisations = <InsModel as Model>::diagnostics(&e.state).reinitialisations;
         if let Sample::Magnetometer(m) = &e.sample {
             let ts = (m.header.t_ns - start_ns) as f64 * 1e-9;
             let inside = (DISTURBANCE.at_s..DISTURBANCE.at_s + DISTURBANCE.duration_s).contains(&ts);
@@ -177,7 +178,7 @@ fn drive(model: InsModel, config: &Config, scenario: &Scenario, t0: u64) -> Run 
     }
     engine.flush(&mut sink);
     out.refused_counter = engine.totals(Some(SampleKind::Magnetometer)).refused;
-    out.reinitialisations = engine.latest().map_or(0, |e| <InsModel as Model>::diagnostics(&e.state).reinitialisations);
+    // The history is empty after the flush: the count is the last entry's (in the sink).
     out
 }
 

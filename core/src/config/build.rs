@@ -330,6 +330,17 @@ impl InsModel {
                 }
             }
         }
+        if let Some(c) = &p.gravity {
+            if !(c.window_ns >= 10_000_000 && c.window_ns <= 10_000_000_000) {
+                return Err(invalid(
+                    "model.gravity.window_ns",
+                    format!("must be in 10_000_000..=10_000_000_000 (10 ms to 10 s), got {}", c.window_ns),
+                ));
+            }
+            positive("model.gravity.max_deviation_mps2", c.max_deviation_mps2)?;
+            positive("model.gravity.variance_threshold", c.variance_threshold)?;
+            positive("model.gravity.acceleration_std_mps2", c.acceleration_std_mps2)?;
+        }
         let (x0, p0) = initial_values::<{ ins::NOMINAL }, { ins::N }>(config)?;
         let norm = x0[6..10].iter().map(|v| v * v).sum::<f64>().sqrt();
         if (norm - 1.0).abs() > 1e-3 {
@@ -363,7 +374,11 @@ impl InsModel {
             .map(|m| {
                 let m = m.with_nonholonomic(p.constraints).with_standstill(p.standstill).with_course_alignment(course);
                 let unobserved = ins::observability::yaw_unobserved(frames.sensors());
-                m.with_yaw_unobserved(unobserved).with_frames(frames).with_lockout(config.lockout)
+                let gravity = ins::observability::unaided(frames.sensors()).then(|| p.gravity.unwrap_or_default());
+                m.with_gravity_reference(gravity)
+                    .with_yaw_unobserved(unobserved)
+                    .with_frames(frames)
+                    .with_lockout(config.lockout)
             })
             .map_err(|e| invalid("filter.initial_state", e.to_string()))
     }

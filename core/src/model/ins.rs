@@ -74,6 +74,7 @@ pub mod aux;
 pub mod clock;
 pub mod course;
 mod error_state;
+pub mod gravity;
 mod inputs;
 mod linearised;
 pub mod nonholonomic;
@@ -95,6 +96,7 @@ use crate::model::held_imu::HeldImu;
 use crate::model::lockout::{KindRuns, Lockout, LockoutConfig};
 pub use aux::{AuxPrior, AuxStates};
 pub use course::CourseAlignment;
+pub use gravity::GravityReference;
 pub use nonholonomic::Nonholonomic;
 pub use odometry_scale::OdometryScale;
 pub use params::{AlignmentParams, ImuNoise, InsParams};
@@ -128,6 +130,9 @@ pub struct InsModel<const D: usize = N> {
     course: Option<CourseAlignment>,
     nonholonomic: Option<Nonholonomic>,
     standstill: Option<Standstill>,
+    /// The gravity reference and its gate, where nothing else keeps the tilt
+    /// observable ([`gravity`]).
+    gravity_reference: Option<(GravityReference, ChiSquareGate)>,
     /// Nothing configured observes the yaw: the observability constraint is on
     /// ([`observability`]).
     yaw_unobserved: bool,
@@ -163,6 +168,8 @@ pub struct InsState<const D: usize = N> {
     kind_runs: KindRuns,
     /// Standstill detection ([`standstill`]).
     still: standstill::Detector,
+    /// The gravity reference's window ([`gravity`]).
+    gravity: gravity::Window,
     /// The velocity sensors' time offset estimate ([`clock`]).
     clock: clock::ClockEstimate,
     /// Which auxiliary states follow the core ([`fusion_shared::snapshot::aux`] bits).
@@ -189,6 +196,7 @@ impl<const D: usize> InsState<D> {
             lockout: Lockout::default(),
             kind_runs: KindRuns::default(),
             still: standstill::Detector::default(),
+            gravity: gravity::Window::default(),
             clock: clock::ClockEstimate::default(),
             aux_bits,
             aux: aux::AuxProgress::default(),
@@ -352,6 +360,7 @@ impl InsModel {
             course: None,
             nonholonomic: None,
             standstill: None,
+            gravity_reference: None,
             yaw_unobserved: false,
             aux: AuxStates::default(),
             aux_noise: [0.0; MAX_AUX],
@@ -516,6 +525,7 @@ impl<const D: usize> Model for InsModel<D> {
             reinitialisations: s.lockout.count() + s.kind_runs.resets(),
             standing: s.standing(),
             standstill_updates: s.standstill_updates(),
+            gravity_updates: s.gravity.updates,
             velocity_time_offset: s.clock.estimate(),
         }
     }

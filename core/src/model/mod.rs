@@ -92,6 +92,9 @@ pub struct Diagnostics {
     pub standing: bool,
     /// The standstill updates fused up to this state.
     pub standstill_updates: u64,
+    /// The gravity reference's updates fused up to this state (`ins`:
+    /// [`ins::gravity`]).
+    pub gravity_updates: u64,
     /// How late the velocity sensors' stamps look beyond their configured
     /// offset, from the residuals up to this state: `(τ̂, σ_τ, samples)`, s
     /// (`ins`: [`ins::clock`]); `None` where the model has no estimate.

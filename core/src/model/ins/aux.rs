@@ -246,6 +246,7 @@ impl InsModel {
             course: self.course,
             nonholonomic: self.nonholonomic,
             standstill: self.standstill,
+            gravity_reference: self.gravity_reference,
             yaw_unobserved: self.yaw_unobserved,
             aux,
             aux_noise: q,

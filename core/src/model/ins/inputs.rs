@@ -5,7 +5,7 @@
 
 use nalgebra::{SVector, UnitQuaternion, Vector3};
 
-use super::{InsModel, InsState, N, nonholonomic, standstill};
+use super::{InsModel, InsState, N, gravity, nonholonomic, standstill};
 use crate::model::held_imu::Held;
 
 impl<const D: usize> InsModel<D> {
@@ -52,7 +52,8 @@ impl<const D: usize> InsModel<D> {
     /// The model's own pseudo-measurements after an IMU sample at `t_ns` whose
     /// body values `f`, `w` were held, once the state is ready, at most one
     /// update per sample: standstill detection and its updates
-    /// ([`standstill`]), else, while the vehicle does not stand, the motion
+    /// ([`standstill`]), else the gravity reference where it is on
+    /// ([`gravity`]), else, while the vehicle does not stand, the motion
     /// constraint when due (at most every `interval`: [`nonholonomic`]).
     /// Returns the correction injected, if any.
     pub(crate) fn pseudo_measurements(
@@ -68,6 +69,11 @@ impl<const D: usize> InsModel<D> {
         let mut injected = None;
         if let Some(c) = self.standstill() {
             injected = standstill::observe(c, self, s, t_ns, f, w);
+        }
+        if let Some((c, gate)) = self.gravity_reference()
+            && injected.is_none()
+        {
+            injected = gravity::observe(c, gate, self, s, t_ns, f);
         }
         if let Some(c) = self.nonholonomic()
             && injected.is_none()

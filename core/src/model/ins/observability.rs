@@ -78,6 +78,19 @@ pub fn gives_no_heading(m: &MountedSensor) -> bool {
     }
 }
 
+/// A sensor that gives neither a horizontal position nor a velocity nor its
+/// own attitude: an IMU, a magnetometer, a barometer.
+pub fn gives_no_position(m: &MountedSensor) -> bool {
+    matches!(m.kind, SampleKind::Imu | SampleKind::Magnetometer | SampleKind::Barometer)
+}
+
+/// Whether nothing configured keeps the tilt observable but the accelerometer
+/// (some sensors, none that gives a position, a velocity or an attitude): the
+/// gravity reference is then on ([`super::gravity`]).
+pub fn unaided(sensors: &[MountedSensor]) -> bool {
+    !sensors.is_empty() && sensors.iter().all(gives_no_position)
+}
+
 /// Whether a configuration's sensors leave the yaw unobserved: some, and none
 /// that gives a heading or a horizontal position.
 pub fn yaw_unobserved(sensors: &[MountedSensor]) -> bool {

@@ -2,7 +2,7 @@
 //! units), gravity, and the optional tables of `[model]`; the model's builders
 //! and accessors of them.
 
-use super::{AuxStates, InsModel, Nonholonomic, OdometryScale, Standstill};
+use super::{AuxStates, GravityReference, InsModel, Nonholonomic, OdometryScale, Standstill};
 use crate::filter::FilterError;
 use crate::frames::Frames;
 
@@ -43,6 +43,10 @@ pub struct InsParams {
     pub standstill: Option<Standstill>,
     /// The odometry scale factor as a state (`[model.odometry_scale]`), if any.
     pub odometry_scale: Option<OdometryScale>,
+    /// The gravity reference's parameters (`[model.gravity]`; the defaults
+    /// without it). It is on only where nothing else keeps the tilt
+    /// observable ([`super::gravity`]).
+    pub gravity: Option<GravityReference>,
 }
 
 impl InsParams {
@@ -112,6 +116,18 @@ impl<const D: usize> InsModel<D> {
     /// direction of every update ([`super::observability`]).
     pub fn yaw_unobserved(&self) -> bool {
         self.yaw_unobserved
+    }
+
+    /// The same model with the gravity reference on (`Some`) or off.
+    pub fn with_gravity_reference(mut self, reference: Option<GravityReference>) -> Self {
+        let gate = super::gravity::GATE_PROBABILITY;
+        self.gravity_reference = reference.and_then(|r| crate::filter::ChiSquareGate::new(gate).ok().map(|g| (r, g)));
+        self
+    }
+
+    /// The gravity reference and its gate, if on.
+    pub fn gravity_reference(&self) -> Option<&(GravityReference, crate::filter::ChiSquareGate)> {
+        self.gravity_reference.as_ref()
     }
 
     /// Standstill detection, if configured.
