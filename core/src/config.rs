@@ -332,6 +332,8 @@ macro_rules! model_config {
         /// The `[model]` table: the model named by `kind`, with its own parameters.
         #[derive(Debug, Clone, PartialEq, Deserialize)]
         #[serde(tag = "kind")]
+        // Read once at start-up: the variants' sizes cost nothing.
+        #[allow(clippy::large_enum_variant)]
         pub enum ModelConfig {
             $($(#[$doc])* #[serde(rename = $name)] $variant(crate::model::$module::$params),)*
         }
