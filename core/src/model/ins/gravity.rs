@@ -50,9 +50,9 @@ use crate::model::ins::{InsModel, InsState};
 /// The probability of the gravity update's own gate: χ²₃(1 − 10⁻⁶).
 pub const GATE_PROBABILITY: f64 = 1.0 - 1e-6;
 
-/// `[model.gravity]`: the gravity reference's parameters. On where no
-/// configured sensor gives a position or a velocity
-/// ([`super::observability::gives_no_position`]).
+/// `[model.gravity]`: the gravity reference's parameters. On where every
+/// configured sensor is an IMU, a magnetometer or a barometer (the
+/// observability module's `unaided`).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GravityReference {

@@ -53,7 +53,7 @@ use nalgebra::{SVector, UnitQuaternion, Vector3};
 
 use crate::frames::MountedSensor;
 use crate::measurement::attitude::settings::AttitudeConfig;
-use crate::measurement::pose::PoseConfig;
+use crate::measurement::pose::settings::PoseConfig;
 use fusion_shared::SampleKind;
 
 /// The consider direction `c` of the world yaw at attitude `q`: world up in
