@@ -55,7 +55,11 @@
 //!
 //! Validation: finite; |position| ≤ [`MAX_POSITION_M`]; the quaternion of unit
 //! norm within [`QUATERNION_NORM_TOLERANCE`]; covariance symmetric positive
-//! definite. Not required by the health; stale after 1 s once seen.
+//! definite; of a sensor with `fuse`, only what it selects (the quaternion
+//! only with an attitude component), a zero variance floored. With a
+//! selection, the first pose sets only the frame states it informs: `ψ` with
+//! the yaw, the horizontal origin with `x` and `y`, the height with `z`.
+//! Not required by the health; stale after 1 s once seen.
 
 #![allow(non_snake_case)]
 
