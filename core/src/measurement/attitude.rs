@@ -103,7 +103,7 @@ impl Measurement for AttitudeSample {
 
     /// A sensor of roll and pitch only (`[sensor.attitude] yaw = false`):
     /// the quaternion as always, and of the covariance only its roll and
-    /// pitch block ([`tilt_sigma`]): the yaw's variance and correlations (an
+    /// pitch block (`tilt_sigma`): the yaw's variance and correlations (an
     /// AHRS without a magnetometer sends 0 or −1 there) are never looked at.
     fn validate_as(&self, limits: &Limits, settings: Option<&AttitudeConfig>) -> Result<(), Rejection> {
         if settings.is_none_or(|c| c.yaw) {
