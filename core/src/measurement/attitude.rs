@@ -46,9 +46,9 @@
 //!
 //! Validation: finite; the quaternion of unit norm within
 //! [`QUATERNION_NORM_TOLERANCE`]; covariance symmetric positive definite, of
-//! a roll-and-pitch sensor only its roll and pitch block, a zero variance
-//! there floored (`tilt_sigma`). Not required by the health; stale after 1 s
-//! once seen.
+//! a roll-and-pitch sensor only its block across the measured up direction
+//! (the tilt's), a zero variance there floored (`tilt_sigma`). Not required by
+//! the health; stale after 1 s once seen.
 
 #![allow(non_snake_case)]
 
@@ -56,10 +56,10 @@ pub mod settings;
 pub use settings::AttitudeConfig;
 
 use fusion_shared::{AttitudeSample, SampleKind};
-use nalgebra::{Matrix3, Quaternion, Rotation3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix3, Quaternion, Rotation3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 
-use super::components::selected_covariance;
-use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance3, finite};
+use super::components::VARIANCE_FLOOR;
+use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, SYMMETRY_TOLERANCE, covariance3, finite};
 use crate::model::ins::course::{ALIGN_ABOVE_SD, heading_variance};
 use crate::model::ins::nonholonomic::{MAX_ATTITUDE_SD, tilt_variance};
 use crate::model::ins::{InsModel, InsState};
@@ -102,9 +102,9 @@ impl Measurement for AttitudeSample {
     const VALIDATES_AS_SELECTED: bool = true;
 
     /// A sensor of roll and pitch only (`[sensor.attitude] yaw = false`):
-    /// the quaternion as always, and of the covariance only its roll and
-    /// pitch block (`tilt_sigma`): the yaw's variance and correlations (an
-    /// AHRS without a magnetometer sends 0 or −1 there) are never looked at.
+    /// the quaternion as always, and of the covariance only its block across
+    /// the measured up direction, the tilt's (`tilt_sigma`): the yaw's variance
+    /// (an AHRS without a magnetometer sends 0 or −1 there) never counts.
     fn validate_as(&self, limits: &Limits, settings: Option<&AttitudeConfig>) -> Result<(), Rejection> {
         if settings.is_none_or(|c| c.yaw) {
             return self.validate(limits);
@@ -114,21 +114,36 @@ impl Measurement for AttitudeSample {
         if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
             return Err(Rejection::OutOfRange);
         }
-        tilt_sigma(&self.cov_rad2).map(drop)
+        tilt_sigma(&self.cov_rad2, &rotation_of(&self.orientation_wxyz)).map(drop)
     }
 }
 
-/// The covariance a roll-and-pitch sample is fused with: its roll and pitch
-/// block ([`selected_covariance`]: a zero variance floored), and about the
-/// sensor's `z` axis, uncorrelated, the larger of the two variances in place
-/// of what was sent. The tilt update projects across world up (`[u]×` in the
-/// module doc), which removes the error about `z` entirely only for a level
-/// sensor; for a tilted one, part of it counts as tilt error, and that part
-/// is then of the tilt's own size, never of a "yaw unknown" variance.
-fn tilt_sigma(cov: &[f64; 9]) -> Result<Matrix3<f64>, Rejection> {
-    let mut c = selected_covariance(cov, &[true, true, false])?;
-    c[(2, 2)] = c[(0, 0)].max(c[(1, 1)]);
-    Ok(c)
+/// The covariance a roll-and-pitch sample of rotation `Z` is fused with: of
+/// `Σ`, only its block across the measured up direction `u_z = Zᵀ e₃` (in the
+/// sensor's axes: the tilt's two axes, whatever the mount), `B = P Σ Pᵀ` with
+/// `P` an orthonormal basis across `u_z`: symmetric, its eigenvalues below
+/// [`VARIANCE_FLOOR`] raised to it (a driver's 0 about a world axis is not
+/// on `B`'s diagonal), a negative one refused; along `u_z`, uncorrelated, the
+/// larger eigenvalue in place of what was sent:
+/// `Σ' = Pᵀ B P + λ_max u_z u_zᵀ`. The update projects across the estimated
+/// up (`[u]×` in the module doc), which removes what lies along it: what a
+/// driver sends for the yaw (0, −1: "not given") never counts.
+fn tilt_sigma(cov: &[f64; 9], Z: &Matrix3<f64>) -> Result<Matrix3<f64>, Rejection> {
+    finite(cov)?;
+    let u = Z.transpose() * Vector3::z();
+    let P = across(&u);
+    let B = P * Matrix3::from_row_slice(cov) * P.transpose();
+    let scale = B.amax();
+    if (B - B.transpose()).amax() > SYMMETRY_TOLERANCE * scale {
+        return Err(Rejection::CovarianceNotSymmetric);
+    }
+    let eigen = ((B + B.transpose()) * 0.5).symmetric_eigen();
+    if !(eigen.eigenvalues.min() >= -SYMMETRY_TOLERANCE * scale) {
+        return Err(Rejection::CovarianceNotPositiveDefinite);
+    }
+    let values = eigen.eigenvalues.map(|l| l.max(VARIANCE_FLOOR));
+    let B = eigen.eigenvectors * Matrix2::from_diagonal(&values) * eigen.eigenvectors.transpose();
+    Ok(P.transpose() * B * P + u * u.transpose() * values.max())
 }
 
 /// A sample's rotation (sensor → world), normalised.
@@ -220,7 +235,7 @@ impl<const D: usize> Fuse<InsModel<D>> for AttitudeSample {
         let yaw = super::settings::<AttitudeSample>(frames, self.header.sensor).is_none_or(|c| c.yaw);
         let C = frames.mount(SampleKind::Attitude, self.header.sensor).rotation;
         let Z = rotation_of(&self.orientation_wxyz);
-        let sigma = if yaw { Ok(Matrix3::from_row_slice(&self.cov_rad2)) } else { tilt_sigma(&self.cov_rad2) };
+        let sigma = if yaw { Ok(Matrix3::from_row_slice(&self.cov_rad2)) } else { tilt_sigma(&self.cov_rad2, &Z) };
         let Ok(Sigma) = sigma else { return (StepOutcome::Refused, None) };
         if unknown(s, yaw) {
             return (StepOutcome::Propagated, Some(align(s, &C, &Z, &Sigma, yaw)));

@@ -146,10 +146,12 @@ fn an_unknown_attitude_is_aligned_from_the_sample() {
     assert!(tilt_variance(&s) < 5e-4, "{}", tilt_variance(&s));
 }
 
-/// Roll and pitch only, as an AHRS without a magnetometer sends them: the yaw's
-/// variance −1 ("not given") or 0, garbage in its correlations. Validated as
-/// selected, refused whole; fused bit for bit as the same sample with a valid
-/// yaw variance; a zero roll variance is floored, a negative one refused.
+/// Roll and pitch only, as an AHRS without a magnetometer sends them: about
+/// the world's axes, the yaw's variance −1 ("not given") or 0, taken to the
+/// sensor's axes as the ROS decoder does (`Zᵀ Σ Z`; the sensor is mounted
+/// turned, so world up is not its `z`). Validated as selected, refused whole;
+/// fused as with any valid yaw variance (to the rounding of that rotation); a
+/// zero tilt variance is floored, a negative one refused.
 #[test]
 fn roll_and_pitch_only_never_look_at_the_yaw_variance() {
     let limits = Limits { accel_range_mps2: 160.0, gyro_range_radps: 35.0 };
@@ -157,24 +159,36 @@ fn roll_and_pitch_only_never_look_at_the_yaw_variance() {
     let config = *crate::measurement::settings::<AttitudeSample>(m.frames(), 3).unwrap();
     let truth = UnitQuaternion::from_euler_angles(0.1, -0.05, 2.0);
     let q = reading(&m, &truth);
-    let mut sent = COV;
-    (sent[8], sent[2], sent[6], sent[0]) = (-1.0, 7.0, f64::NAN, 0.0);
-    let mut valid = COV;
-    (valid[8], valid[0]) = (0.3, 0.0);
+    let Z = rotation_of(&q);
+    let sensor_axes = |world: [f64; 3]| {
+        let c = Z.transpose() * Matrix3::from_diagonal(&Vector3::from(world)) * Z;
+        let mut out = [0.0; 9];
+        out.copy_from_slice(c.transpose().as_slice());
+        out
+    };
     let sample = |cov| AttitudeSample::new(1, 3, 0, q, cov);
-    assert_eq!(sample(sent).validate(&limits), Err(Rejection::NonFinite), "whole, it is refused");
+    let (sent, valid) = (sensor_axes([1e-4, 2e-4, -1.0]), sensor_axes([1e-4, 2e-4, 0.3]));
+    assert_eq!(sample(sent).validate(&limits), Err(Rejection::CovarianceNotPositiveDefinite), "whole, refused");
     assert_eq!(sample(sent).validate_as(&limits, Some(&config)), Ok(()));
     let start = known(&m, UnitQuaternion::from_euler_angles(0.12, -0.07, 2.3), 0.05);
-    let (mut a, mut b) = (start, start);
-    let (out, _) = sample(sent).fuse(&m, &mut a);
-    assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
-    assert_eq!(out, sample(valid).fuse(&m, &mut b).0);
-    assert_eq!((InsModel::x_of(&a), a.filter().P()), (InsModel::x_of(&b), b.filter().P()));
-    let mut floored = valid;
-    floored[0] = crate::measurement::components::VARIANCE_FLOOR;
-    let mut c = start;
-    sample(floored).fuse(&m, &mut c);
-    assert_eq!(c.filter().P(), a.filter().P(), "a zero roll variance is the floor");
-    sent[4] = -1e-4;
-    assert_eq!(sample(sent).validate_as(&limits, Some(&config)), Err(Rejection::CovarianceNotPositiveDefinite));
+    let fused = |cov| {
+        let mut s = start;
+        let (out, _) = sample(cov).fuse(&m, &mut s);
+        assert!(matches!(out, StepOutcome::Fused { .. }), "{out:?}");
+        (InsModel::x_of(&s).to_vec(), s.filter().P())
+    };
+    let sigma = |cov: &[f64; 9]| tilt_sigma(cov, &Z).unwrap();
+    // What was sent along up changes Σ' by the rounding of `Zᵀ Σ Z` alone.
+    assert!((sigma(&sent) - sigma(&valid)).amax() < 1e-15, "{} {}", sigma(&sent), sigma(&valid));
+    for other in [valid, sensor_axes([1e-4, 2e-4, 0.0])] {
+        let ((xa, pa), (xb, pb)) = (fused(sent), fused(other));
+        let dq = xa[6..10].iter().zip(&xb[6..10]).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!((pa - pb).amax() < 1e-15 && dq < 1e-12, "{dq} {}", (pa - pb).amax());
+    }
+    // The tilt's variances: a zero floored (as the floor itself), a negative refused.
+    let (zero, floor) = (sensor_axes([0.0, 2e-4, -1.0]), crate::measurement::components::VARIANCE_FLOOR);
+    assert!((sigma(&zero) - sigma(&sensor_axes([floor, 2e-4, -1.0]))).amax() < 1e-15);
+    assert!(sigma(&zero).symmetric_eigenvalues().min() > 0.5 * floor);
+    let negative = sensor_axes([-1e-4, 2e-4, -1.0]);
+    assert_eq!(sample(negative).validate_as(&limits, Some(&config)), Err(Rejection::CovarianceNotPositiveDefinite));
 }
