@@ -138,7 +138,8 @@ fn tilt_sigma(cov: &[f64; 9], Z: &Matrix3<f64>) -> Result<Matrix3<f64>, Rejectio
         return Err(Rejection::CovarianceNotSymmetric);
     }
     let eigen = ((B + B.transpose()) * 0.5).symmetric_eigen();
-    if !(eigen.eigenvalues.min() >= -SYMMETRY_TOLERANCE * scale) {
+    // Finite (checked above), so a plain comparison.
+    if eigen.eigenvalues.min() < -SYMMETRY_TOLERANCE * scale {
         return Err(Rejection::CovarianceNotPositiveDefinite);
     }
     let values = eigen.eigenvalues.map(|l| l.max(VARIANCE_FLOOR));
