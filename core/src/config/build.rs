@@ -313,12 +313,7 @@ impl InsModel {
             }
         }
         if let Some(c) = &p.standstill {
-            if !(c.window_ns >= 10_000_000 && c.window_ns <= 10_000_000_000) {
-                return Err(invalid(
-                    "model.standstill.window_ns",
-                    format!("must be in 10_000_000..=10_000_000_000 (10 ms to 10 s), got {}", c.window_ns),
-                ));
-            }
+            window("model.standstill.window_ns", c.window_ns)?;
             positive("model.standstill.imu_threshold", c.imu_threshold)?;
             positive("model.standstill.velocity_std_mps", c.velocity_std_mps)?;
             for (key, v) in [
@@ -331,12 +326,7 @@ impl InsModel {
             }
         }
         if let Some(c) = &p.gravity {
-            if !(c.window_ns >= 10_000_000 && c.window_ns <= 10_000_000_000) {
-                return Err(invalid(
-                    "model.gravity.window_ns",
-                    format!("must be in 10_000_000..=10_000_000_000 (10 ms to 10 s), got {}", c.window_ns),
-                ));
-            }
+            window("model.gravity.window_ns", c.window_ns)?;
             positive("model.gravity.max_deviation_mps2", c.max_deviation_mps2)?;
             positive("model.gravity.variance_threshold", c.variance_threshold)?;
             positive("model.gravity.acceleration_std_mps2", c.acceleration_std_mps2)?;
@@ -406,4 +396,12 @@ impl EngineConfig {
             limits: c.validation.limits(),
         }
     }
+}
+
+/// Checks a detection window's length: 10 ms to 10 s.
+fn window(key: &str, ns: u64) -> Result<(), ConfigError> {
+    if (10_000_000..=10_000_000_000).contains(&ns) {
+        return Ok(());
+    }
+    Err(invalid(key, format!("must be in 10_000_000..=10_000_000_000 (10 ms to 10 s), got {ns}")))
 }

@@ -137,6 +137,22 @@ fn standstill_is_opt_in_with_defaults_and_refuses_absurd_values() {
     assert!(bad("zupt = true\n").contains("zupt"), "unknown keys are errors");
 }
 
+/// `[model.gravity]`: its figures where the gravity reference is on (the
+/// defaults without the table), each absurd value refused by its key.
+#[test]
+fn the_gravity_reference_takes_its_figures_and_refuses_absurd_ones() {
+    use crate::model::ins::GravityReference;
+    let with = |table: &str| Config::parse(&INS.replace("[filter]", &format!("[model.gravity]\n{table}[filter]")));
+    let ModelConfig::Ins(p) = with("window_ns = 200_000_000\n").unwrap().model.clone() else { panic!() };
+    assert_eq!(p.gravity, Some(GravityReference { window_ns: 200_000_000, ..GravityReference::default() }));
+    let bad = |table: &str| with(table).unwrap_err().to_string();
+    assert!(bad("window_ns = 1000\n").contains("model.gravity.window_ns"));
+    assert!(bad("max_deviation_mps2 = 0\n").contains("model.gravity.max_deviation_mps2"));
+    assert!(bad("variance_threshold = nan\n").contains("model.gravity.variance_threshold"));
+    assert!(bad("acceleration_std_mps2 = -1\n").contains("model.gravity.acceleration_std_mps2"));
+    assert!(bad("enabled = true\n").contains("enabled"), "unknown keys are errors");
+}
+
 #[test]
 fn the_odometry_scale_state_is_opt_in_with_defaults_and_refuses_absurd_values() {
     use crate::config::InsBuilt;

@@ -120,15 +120,33 @@ mod tests {
         assert!((heading::<15>(&q).norm() - 1.0).abs() < 1e-15);
     }
 
-    fn unobserved(sensors: &str) -> bool {
+    fn sensors_of(sensors: &str) -> crate::frames::Frames {
         let model = "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.02\ngyroscope_noise_density = 0.001\n\
                      accelerometer_random_walk = 0.001\ngyroscope_random_walk = 1e-5\n[filter]\n\
                      initial_state = [0,0,0, 0,0,0, 1,0,0,0, 0,0,0, 0,0,0]\ninitial_covariance_diagonal = [1,1,1, 1,1,1, \
                      1,1,1, 1,1,1, 1,1,1]\n";
         let c = crate::config::Config::parse(&format!("{model}{sensors}")).unwrap();
-        let frames =
-            crate::frames::Frames::from_config(c.datum, &c.sensors, c.imu, &crate::measurement::Kinds).unwrap();
-        yaw_unobserved(frames.sensors())
+        crate::frames::Frames::from_config(c.datum, &c.sensors, c.imu, &crate::measurement::Kinds).unwrap()
+    }
+
+    fn unobserved(sensors: &str) -> bool {
+        yaw_unobserved(sensors_of(sensors).sensors())
+    }
+
+    /// The gravity reference is on for an IMU with a magnetometer or a
+    /// barometer, and off with anything that gives a position, a velocity or
+    /// an attitude (or with no sensors configured: any may come).
+    #[test]
+    fn unaided_only_without_a_position_a_velocity_or_an_attitude() {
+        let on = |s: &str| unaided(sensors_of(s).sensors());
+        let imu = "[[sensor]]\nname = \"imu\"\nid = 0\nkinds = [\"imu\"]\n";
+        let others = "[[sensor]]\nname = \"x\"\nid = 1\nkinds = [";
+        assert!(on(imu));
+        assert!(on(&format!("{imu}{others}\"barometer\"]\n")));
+        for kind in ["odometry", "twist", "attitude", "position", "velocity"] {
+            assert!(!on(&format!("{imu}{others}\"{kind}\"]\n")), "{kind}");
+        }
+        assert!(!on(""));
     }
 
     /// The rule is on for sensors that give neither a heading nor a position,
