@@ -66,6 +66,7 @@ use crate::model::ins::{InsModel, InsState};
 use crate::model::{Model, StepOutcome};
 use crate::setting::ConfigError;
 
+use super::pose::unit_quaternion;
 pub use super::pose::QUATERNION_NORM_TOLERANCE;
 
 impl Measurement for AttitudeSample {
@@ -91,11 +92,7 @@ impl Measurement for AttitudeSample {
     }
 
     fn validate(&self, _: &Limits) -> Result<(), Rejection> {
-        finite(&self.orientation_wxyz)?;
-        let norm = self.orientation_wxyz.iter().map(|v| v * v).sum::<f64>().sqrt();
-        if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
-            return Err(Rejection::OutOfRange);
-        }
+        unit_quaternion(&self.orientation_wxyz)?;
         covariance3(&self.cov_rad2)
     }
 
@@ -109,11 +106,7 @@ impl Measurement for AttitudeSample {
         if settings.is_none_or(|c| c.yaw) {
             return self.validate(limits);
         }
-        finite(&self.orientation_wxyz)?;
-        let norm = self.orientation_wxyz.iter().map(|v| v * v).sum::<f64>().sqrt();
-        if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
-            return Err(Rejection::OutOfRange);
-        }
+        unit_quaternion(&self.orientation_wxyz)?;
         tilt_sigma(&self.cov_rad2, &rotation_of(&self.orientation_wxyz)).map(drop)
     }
 }

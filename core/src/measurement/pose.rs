@@ -135,10 +135,7 @@ impl Measurement for PoseSample {
         if Vector3::from(self.position_m).norm() > MAX_POSITION_M {
             return Err(Rejection::OutOfRange);
         }
-        let norm = self.orientation_wxyz.iter().map(|v| v * v).sum::<f64>().sqrt();
-        if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
-            return Err(Rejection::OutOfRange);
-        }
+        unit_quaternion(&self.orientation_wxyz)?;
         covariance::<6>(&self.cov)
     }
 
@@ -162,14 +159,21 @@ impl Measurement for PoseSample {
             return Err(Rejection::OutOfRange);
         }
         if attitude_selected(&mask) {
-            finite(&self.orientation_wxyz)?;
-            let norm = self.orientation_wxyz.iter().map(|v| v * v).sum::<f64>().sqrt();
-            if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
-                return Err(Rejection::OutOfRange);
-            }
+            unit_quaternion(&self.orientation_wxyz)?;
         }
         selected_covariance(&self.cov, &mask).map(drop)
     }
+}
+
+/// A sample's quaternion `[w, x, y, z]`: finite, of unit norm within
+/// [`QUATERNION_NORM_TOLERANCE`] (else out of range).
+pub fn unit_quaternion(q: &[f64; 4]) -> Result<(), Rejection> {
+    finite(q)?;
+    let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+        return Err(Rejection::OutOfRange);
+    }
+    Ok(())
 }
 
 /// Whether a selection fuses any of the attitude's components.

@@ -154,7 +154,7 @@ pub fn observe<const D: usize>(
     let (y, R) = innovation(c, model, &window, imus)?;
     let Rot = s.q().to_rotation_matrix().into_inner();
     let mut H = SMatrix::<f64, 3, D>::zeros();
-    H.fixed_view_mut::<3, 3>(0, 6).copy_from(&((-model.g()).cross_matrix() * -Rot));
+    H.fixed_view_mut::<3, 3>(0, 6).copy_from(&(model.g().cross_matrix() * Rot));
     H.fixed_view_mut::<3, 3>(0, 9).copy_from(&(-Rot));
     let (outcome, injected) = model.update_residual_gated(s, &y, &H, &R, Some(gate));
     if matches!(outcome, StepOutcome::Fused { .. }) {
