@@ -18,6 +18,7 @@
 mod db3;
 pub mod messages;
 mod ros1;
+pub mod typehash;
 
 use std::collections::BTreeMap;
 use std::path::Path;
