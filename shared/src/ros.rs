@@ -18,6 +18,7 @@
 mod db3;
 pub mod messages;
 mod ros1;
+pub mod ros2;
 pub mod typehash;
 
 use std::collections::BTreeMap;
@@ -307,6 +308,12 @@ impl Decode for Ros2 {
     }
 }
 
+/// A ROS 2 message (CDR) of type `T`, checked as a bag's are ([`Ros2`]'s
+/// decoder: the encapsulation header, every length, no bytes left over).
+pub fn decode_cdr<T: DeserializeOwned>(data: &[u8]) -> Result<T, String> {
+    Ros2::decode(data)
+}
+
 /// The first bytes of a zstd frame.
 pub const ZSTD_MAGIC: &[u8] = &[0x28, 0xb5, 0x2f, 0xfd];
 
@@ -339,20 +346,27 @@ fn decode<D: Decode>(ty: MessageType, data: &[u8]) -> Result<Box<dyn Convert>, S
     })
 }
 
-/// The state of one read: topics seen, the summary, the message count.
-struct Reading<'r, F> {
-    routes: &'r [Route],
+/// What a read has seen so far: topics, the summary, the message count.
+#[derive(Default)]
+struct Topics {
     topics: BTreeMap<String, Topic>,
     summary: BagSummary,
     position: u64,
+}
+
+/// The state of one read of a bag: the topic map, what it has seen, and where
+/// its samples go.
+struct Reading<'r, F> {
+    routes: &'r [Route],
+    t: Topics,
     each: F,
 }
 
-impl<F: FnMut(BagItem)> Reading<'_, F> {
+impl Topics {
     /// Checks a topic (once) against the topic map.
-    fn topic(&mut self, topic: &str, ty: &str) -> Result<(), BagError> {
+    fn topic(&mut self, routes: &[Route], topic: &str, ty: &str) -> Result<(), BagError> {
         if !self.topics.contains_key(topic) {
-            let t = topic_for(self.routes, topic, ty)?;
+            let t = topic_for(routes, topic, ty)?;
             let s = self.summary.topics.entry(topic.into()).or_default();
             (s.ty, s.mapped) = (ty.into(), t.ty.is_some());
             self.topics.insert(topic.into(), t);
@@ -364,7 +378,7 @@ impl<F: FnMut(BagItem)> Reading<'_, F> {
     /// the same bytes (its stamp among them) as one of the topic's last
     /// [`DUPLICATE_WINDOW`] gives its samples again with the same sequence
     /// numbers, so that fusiond counts them as duplicates.
-    fn message<D: Decode>(&mut self, topic: &str, data: &[u8]) {
+    fn message<D: Decode>(&mut self, topic: &str, data: &[u8], each: &mut impl FnMut(BagItem)) {
         self.position += 1;
         let (Some(t), Some(s)) = (self.topics.get_mut(topic), self.summary.topics.get_mut(topic)) else { return };
         s.messages += 1;
@@ -386,7 +400,7 @@ impl<F: FnMut(BagItem)> Reading<'_, F> {
                 }
                 Err(why) => *s.refused.entry(format!("{} {why}", kind.name())).or_default() += 1,
             }
-            (self.each)(BagItem { position: self.position, sample });
+            each(BagItem { position: self.position, sample });
         }
         if earlier.is_none() {
             if t.recent.len() == DUPLICATE_WINDOW {
@@ -395,15 +409,66 @@ impl<F: FnMut(BagItem)> Reading<'_, F> {
             t.recent.push_back((data.to_vec(), seqs));
         }
     }
+}
 
-    fn finish(mut self, format: &'static str) -> BagSummary {
-        self.summary.format = format;
+impl<F: FnMut(BagItem)> Reading<'_, F> {
+    fn topic(&mut self, topic: &str, ty: &str) -> Result<(), BagError> {
+        self.t.topic(self.routes, topic, ty)
+    }
+
+    fn message<D: Decode>(&mut self, topic: &str, data: &[u8]) {
+        self.t.message::<D>(topic, data, &mut self.each);
+    }
+
+    fn finish(self, format: &'static str) -> BagSummary {
+        let mut summary = self.t.summary;
+        summary.format = format;
         for r in self.routes {
-            if !self.summary.topics.contains_key(&r.topic) && !self.summary.missing.contains(&r.topic) {
-                self.summary.missing.push(r.topic.clone());
+            if !summary.topics.contains_key(&r.topic) && !summary.missing.contains(&r.topic) {
+                summary.missing.push(r.topic.clone());
             }
         }
-        self.summary
+        summary
+    }
+}
+
+/// Live ROS 2 messages (CDR) read one at a time, with the topic map, the
+/// decoder, the refusals and the summary of a bag's read: one configuration
+/// for the bag and the live robot. A topic's type is the first one seen on it.
+pub struct LiveReader {
+    routes: Vec<Route>,
+    t: Topics,
+}
+
+impl LiveReader {
+    /// A reader of the topics `routes` maps.
+    pub fn new(routes: Vec<Route>) -> Self {
+        Self { routes, t: Topics::default() }
+    }
+
+    /// The topic map.
+    pub fn routes(&self) -> &[Route] {
+        &self.routes
+    }
+
+    /// A message of `topic` of the ROS type `ty` (`sensor_msgs/msg/Imu`):
+    /// `each` gets its samples (or why it gave none), numbered on from the
+    /// topic's earlier ones. `Err`: the whole message is refused for its
+    /// type: one fusiond does not read, one that gives no kind it is mapped
+    /// to, or a second type on a topic that had another.
+    pub fn message(&mut self, topic: &str, ty: &str, data: &[u8], mut each: impl FnMut(BagItem)) -> Result<(), String> {
+        match self.t.summary.topics.get(topic) {
+            Some(s) if s.ty != ty => return Err(format!("a {ty} on a topic of {} (two types on one topic)", s.ty)),
+            Some(_) => {}
+            None => self.t.topic(&self.routes, topic, ty).map_err(|e| e.to_string())?,
+        }
+        self.t.message::<Ros2>(topic, data, &mut each);
+        Ok(())
+    }
+
+    /// What each topic gave so far.
+    pub fn summary(&self) -> &BagSummary {
+        &self.t.summary
     }
 }
 
@@ -414,7 +479,7 @@ pub fn read_bag(path: &Path, routes: &[Route], each: impl FnMut(BagItem)) -> Res
     // SAFETY: the bag is read-only input; a file changed under the map gives
     // wrong samples or a decode error, not unsoundness in this reader.
     let map = unsafe { memmap2::Mmap::map(&file)? };
-    let mut reading = Reading { routes, topics: BTreeMap::new(), summary: BagSummary::default(), position: 0, each };
+    let mut reading = Reading { routes, t: Topics::default(), each };
     if is_ros1(&map) {
         ros1::read(path, &map, &mut reading)?;
         return Ok(reading.finish("ROS 1"));
@@ -437,7 +502,7 @@ pub fn read_bag(path: &Path, routes: &[Route], each: impl FnMut(BagItem)) -> Res
 fn read_ros2<F: FnMut(BagItem)>(bytes: &[u8], r: &mut Reading<'_, F>) -> Result<(), BagError> {
     let scan = crate::mcap_scan::scan(bytes);
     if let Some(d) = scan.damage {
-        r.summary.damage = Some(d.to_string());
+        r.t.summary.damage = Some(d.to_string());
     }
     let readable = &bytes[..scan.readable];
     // The summary (when written) lists every channel: the topic map is checked first.
@@ -451,12 +516,12 @@ fn read_ros2<F: FnMut(BagItem)>(bytes: &[u8], r: &mut Reading<'_, F>) -> Result<
         let m = match m {
             Ok(m) => m,
             Err(e) => {
-                r.summary.damage.get_or_insert(format!("after message {}: {e}", r.position));
+                r.t.summary.damage.get_or_insert(format!("after message {}: {e}", r.t.position));
                 return Ok(());
             }
         };
         let topic = &m.channel.topic;
-        if !r.topics.contains_key(topic) {
+        if !r.t.topics.contains_key(topic) {
             if m.channel.message_encoding == "cdr" {
                 r.topic(topic, m.channel.schema.as_ref().map_or("", |s| s.name.as_str()))?;
             } else {

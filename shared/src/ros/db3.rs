@@ -85,11 +85,11 @@ pub(super) fn read<F: FnMut(BagItem)>(path: &Path, r: &mut Reading<'_, F>) -> Re
         match message {
             Ok((id, data)) => match names.get(&id) {
                 Some(name) => r.message::<Ros2>(name, data),
-                None => r.position += 1,
+                None => r.t.position += 1,
             },
-            Err(e) if r.position == 0 => return Err(format(e)),
+            Err(e) if r.t.position == 0 => return Err(format(e)),
             Err(e) => {
-                r.summary.damage.get_or_insert(format!("after message {}: {}", r.position, format(e)));
+                r.t.summary.damage.get_or_insert(format!("after message {}: {}", r.t.position, format(e)));
                 return Ok(());
             }
         }

@@ -5,7 +5,7 @@
 //! `serde_rosmsg`) and ROS 2's CDR (read by `cdr`); only the header differs
 //! (ROS 1 has a sequence number and unsigned seconds).
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::sample::{
     AttitudeSample, BarometerSample, GeodeticSample, ImuSample, MagnetometerSample, OdometrySample, PoseSample, Sample,
@@ -26,7 +26,7 @@ pub struct Ros1Header {
 }
 
 /// A ROS 2 `std_msgs/msg/Header`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 pub struct Ros2Header {
     /// Seconds.
     pub sec: i32,
@@ -62,7 +62,7 @@ impl Stamp for Ros2Header {
 }
 
 /// `geometry_msgs/Vector3` (and `Point`).
-#[derive(Debug, Deserialize, Clone, Copy)]
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Serialize)]
 pub struct Vector3 {
     /// x.
     pub x: f64,
@@ -79,7 +79,7 @@ impl Vector3 {
 }
 
 /// `geometry_msgs/Quaternion`.
-#[derive(Debug, Deserialize, Clone, Copy)]
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Serialize)]
 pub struct Quaternion {
     /// x.
     pub x: f64,
@@ -131,7 +131,7 @@ pub struct Imu<H> {
 }
 
 /// `geometry_msgs/Pose`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Serialize)]
 pub struct Pose {
     /// Position.
     pub position: Vector3,
@@ -140,7 +140,7 @@ pub struct Pose {
 }
 
 /// `geometry_msgs/PoseWithCovariance`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Serialize)]
 pub struct PoseWithCovariance {
     /// Pose.
     pub pose: Pose,
@@ -149,7 +149,7 @@ pub struct PoseWithCovariance {
 }
 
 /// `geometry_msgs/Twist`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Serialize)]
 pub struct Twist {
     /// m/s.
     pub linear: Vector3,
@@ -158,7 +158,7 @@ pub struct Twist {
 }
 
 /// `geometry_msgs/TwistWithCovariance`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Serialize)]
 pub struct TwistWithCovariance {
     /// Twist.
     pub twist: Twist,
@@ -167,7 +167,7 @@ pub struct TwistWithCovariance {
 }
 
 /// `nav_msgs/Odometry`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Serialize)]
 pub struct Odometry<H> {
     /// Header (the pose's frame).
     pub header: H,

@@ -187,7 +187,7 @@ pub(super) fn read<F: FnMut(BagItem)>(path: &Path, bytes: &[u8], r: &mut Reading
     while at < section.len() {
         let offset = at;
         if let Err(what) = ros1_record(section, &mut at, &mut connections, r)? {
-            r.summary.damage = Some(format!("at byte {offset} (after message {}): {what}", r.position));
+            r.t.summary.damage = Some(format!("at byte {offset} (after message {}): {what}", r.t.position));
             return Ok(());
         }
     }
@@ -245,7 +245,7 @@ fn ros1_chunk<F: FnMut(BagItem)>(
                 let topic = match field_u32(m.header, "conn") {
                     Ok(id) => connections
                         .get(&id)
-                        .ok_or_else(|| format!("message {} is of an unknown connection {id}", r.position + 1)),
+                        .ok_or_else(|| format!("message {} is of an unknown connection {id}", r.t.position + 1)),
                     Err(e) => Err(e),
                 };
                 match topic {

@@ -1,0 +1,9 @@
+//! fusion-ros: fusiond as a node of a running ROS 2 robot, over rmw_zenoh,
+//! with no ROS installation (see the guide's "ROS 2" page).
+//!
+//! Sensor topics come in through the same `[[sensor]] topic = …` map and CDR
+//! decoder that bags use ([`fusion_shared::ros::LiveReader`]) and go to fusiond
+//! as samples; fusiond's snapshots go out as `nav_msgs/msg/Odometry` of
+//! `base_link`, TF `odom → base_link` and `diagnostic_msgs/msg/DiagnosticArray`.
+
+pub mod rmw_zenoh;

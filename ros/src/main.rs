@@ -1,0 +1,2 @@
+//! `fusion-ros`.
+fn main() {}
