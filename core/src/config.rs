@@ -423,6 +423,9 @@ struct RawConfig {
     imu: ImuConfig,
     #[serde(default)]
     ipc: IpcConfig,
+    /// fusion-ros's table (its ROS 2 node), which fusiond does not read.
+    #[allow(dead_code)]
+    ros: Option<toml::Value>,
     /// Moved to `[model.alignment]`; named only to say so.
     alignment: Option<toml::Value>,
     /// Moved to `[model.constraints]`; named only to say so.

@@ -6,4 +6,7 @@
 //! as samples; fusiond's snapshots go out as `nav_msgs/msg/Odometry` of
 //! `base_link`, TF `odom → base_link` and `diagnostic_msgs/msg/DiagnosticArray`.
 
+pub mod clock;
+pub mod odometry;
 pub mod rmw_zenoh;
+pub mod settings;
