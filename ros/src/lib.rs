@@ -7,6 +7,9 @@
 //! `base_link`, TF `odom → base_link` and `diagnostic_msgs/msg/DiagnosticArray`.
 
 pub mod clock;
+pub mod diagnostics;
+pub mod input;
+pub mod node;
 pub mod odometry;
 pub mod rmw_zenoh;
 pub mod settings;

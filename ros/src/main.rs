@@ -1,2 +1,249 @@
-//! `fusion-ros`.
-fn main() {}
+//! `fusion-ros --config robot.toml`: fusiond as a node of a running ROS 2
+//! robot over rmw_zenoh. The configuration's `[[sensor]] topic = …` entries
+//! say which topics go to fusiond as which kinds (as for its bags), its
+//! `[ros]` table where odometry, TF and diagnostics go. See the guide's
+//! "ROS 2" page.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::Ordering;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+use clap::Parser;
+use fusion_ros::clock::RosClock;
+use fusion_ros::input::{Bucket, InputTopic, admit, input_topics};
+use fusion_ros::node::RosNode;
+use fusion_ros::rmw_zenoh::{Qos, TopicType};
+use fusion_ros::settings::{ClockSource, NodeConfig};
+use fusion_shared::ros::ros2::Clock;
+use fusion_shared::service;
+use fusion_shared::time::now_ns;
+use zenoh::Wait;
+
+mod pump;
+
+use pump::{Inbound, Outputs, Shared};
+
+#[derive(Parser)]
+#[command(
+    name = "fusion-ros",
+    version,
+    about = "fusiond as a ROS 2 node (rmw_zenoh): sensor topics in; odometry, TF and diagnostics out"
+)]
+struct Cli {
+    /// fusiond's configuration: its `[[sensor]] topic` map and `[ros]` table.
+    #[arg(long)]
+    config: PathBuf,
+    /// Namespace of fusiond's services.
+    #[arg(long, default_value = service::DEFAULT_NAMESPACE, value_parser = service::namespace_arg)]
+    namespace: String,
+    /// Zenoh endpoint to connect to, in place of `[ros] connect` (repeatable).
+    #[arg(long)]
+    connect: Vec<String>,
+    /// Zenoh endpoint to listen on, in place of `[ros] listen` (repeatable).
+    #[arg(long)]
+    listen: Vec<String>,
+    /// Seconds between status lines (info level).
+    #[arg(long, default_value_t = 10.0)]
+    status_interval: f64,
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn")),
+        )
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
+        .init();
+    let cli = Cli::parse();
+    match run(&cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("fusion-ros: {}", fusion_shared::exit::error_line(e.as_ref()));
+            ExitCode::from(fusion_shared::exit::FAILURE)
+        }
+    }
+}
+
+/// The configuration with the command line's endpoints.
+fn config(cli: &Cli) -> anyhow::Result<NodeConfig> {
+    let text = std::fs::read_to_string(&cli.config).with_context(|| format!("cannot read {}", cli.config.display()))?;
+    let mut c = NodeConfig::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", cli.config.display()))?;
+    if !cli.connect.is_empty() {
+        c.ros.connect = cli.connect.clone();
+    }
+    if !cli.listen.is_empty() {
+        c.ros.listen = cli.listen.clone();
+    }
+    Ok(c)
+}
+
+fn run(cli: &Cli) -> anyhow::Result<()> {
+    let c = config(cli)?;
+    let status_interval = Duration::try_from_secs_f64(cli.status_interval)
+        .ok()
+        .filter(|d| !d.is_zero())
+        .context("--status-interval must be a positive number of seconds")?;
+    let domain = c.domain_id().map_err(|e| anyhow::anyhow!(e))?;
+    let topics = input_topics(&c.routes, &c.ros.topic_types).map_err(|e| anyhow::anyhow!(e))?;
+    let shared = pump::shared(RosClock::new(c.ros.clock));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        // SAFETY: the handler only stores to an atomic.
+        let s = Arc::clone(&shared);
+        unsafe { signal_hook::low_level::register(signal, move || s.stop.store(true, Ordering::Relaxed)) }
+            .context("cannot install signal handler")?;
+    }
+    let mut node = RosNode::open(&c.ros, domain)?;
+    let outputs = outputs(&mut node, &c)?;
+    let (tx, rx) = crossbeam::channel::bounded::<Inbound>(8192);
+    let mut subscribers = Vec::new();
+    for (i, t) in topics.iter().enumerate() {
+        subscribers.push(subscribe(&mut node, i, t, c.ros.max_topic_rate_hz, tx.clone(), &shared)?);
+    }
+    drop(tx);
+    if c.ros.clock == ClockSource::Sim {
+        subscribers.push(subscribe_clock(&mut node, &shared)?);
+    }
+    tracing::info!(
+        domain,
+        node = %c.ros.node,
+        zenoh_id = %node.session.zid(),
+        connect = ?c.ros.connect,
+        "fusion-ros running: {} topics in, odometry on {}",
+        topics.len(),
+        c.ros.odometry_topic
+    );
+    std::thread::scope(|scope| {
+        let (ns, routes, tops, sh) = (cli.namespace.as_str(), c.routes.clone(), topics.clone(), &*shared);
+        let input = scope.spawn(move || pump::input(ns, routes, tops, rx, sh));
+        let output = scope.spawn(|| pump::output(&cli.namespace, &c.ros, &c.routes, &outputs, &shared));
+        watch(&node, &c, &topics, &outputs, &shared, status_interval);
+        shared.stop.store(true, Ordering::Relaxed);
+        let _ = (input.join(), output.join());
+    });
+    status(&topics, &outputs, &shared);
+    drop(subscribers);
+    let _ = node.session.close().wait();
+    Ok(())
+}
+
+fn outputs(node: &mut RosNode, c: &NodeConfig) -> anyhow::Result<Outputs> {
+    let ty = |name: &str| TopicType::of(name).with_context(|| format!("no type description of {name}"));
+    let odometry = node.publisher(&c.ros.odometry_topic, &ty("nav_msgs/msg/Odometry")?, Qos::DEFAULT)?;
+    let tf = match c.ros.tf_topic.as_str() {
+        "" => None,
+        topic => Some(node.publisher(topic, &ty("tf2_msgs/msg/TFMessage")?, Qos::TF)?),
+    };
+    let diagnostics = match c.ros.diagnostics_topic.as_str() {
+        "" => None,
+        topic => Some(node.publisher(topic, &ty("diagnostic_msgs/msg/DiagnosticArray")?, Qos::DEFAULT)?),
+    };
+    Ok(Outputs { odometry, tf, diagnostics })
+}
+
+/// The subscription of input topic `index`: each message checked
+/// ([`admit`]) and handed to the input thread; a full queue is counted.
+fn subscribe(
+    node: &mut RosNode,
+    index: usize,
+    t: &InputTopic,
+    max_rate_hz: f64,
+    tx: crossbeam::channel::Sender<Inbound>,
+    shared: &Arc<Shared>,
+) -> anyhow::Result<zenoh::pubsub::Subscriber<()>> {
+    let (expected, topic, shared) = (t.ty.clone(), t.topic.clone(), Arc::clone(shared));
+    let bucket = Mutex::new(Bucket::new(max_rate_hz, now_ns()));
+    node.subscribe(&t.topic, &t.ty, Qos::SENSOR_DATA, move |sample| {
+        let attachment = sample.attachment().map(|a| a.to_bytes());
+        let key = sample.key_expr().as_str();
+        match admit(&expected, key, attachment.as_deref(), &bucket, now_ns()) {
+            Ok(_) => {
+                let data = sample.payload().to_bytes().into_owned();
+                if tx.try_send(Inbound { topic: index, data }).is_err() {
+                    shared.stats.refuse(&topic, "fusion-ros's queue is full (fusiond or this host too slow)");
+                }
+            }
+            Err(why) => {
+                shared.stats.message(&topic);
+                shared.stats.refuse(&topic, &why);
+            }
+        }
+    })
+}
+
+/// `/clock` (sim time): each message sets or checks the clock's offset.
+fn subscribe_clock(node: &mut RosNode, shared: &Arc<Shared>) -> anyhow::Result<zenoh::pubsub::Subscriber<()>> {
+    let ty = TopicType::of("rosgraph_msgs/msg/Clock").context("no type description of rosgraph_msgs/msg/Clock")?;
+    let (shared, expected) = (Arc::clone(shared), ty.clone());
+    node.subscribe("/clock", &ty, Qos::SENSOR_DATA, move |sample| {
+        let key = sample.key_expr().as_str();
+        if fusion_ros::rmw_zenoh::key_type(key).is_none_or(|(dds, hash)| dds != expected.dds || hash != expected.hash) {
+            shared.stats.refuse("/clock", &format!("key {key}: not a rosgraph_msgs/msg/Clock of this distribution"));
+            return;
+        }
+        match fusion_shared::ros::decode_cdr::<Clock>(&sample.payload().to_bytes()) {
+            Ok(c) => match c.clock.ns() {
+                Some(ns) => shared.clock.on_clock(ns, now_ns()),
+                None => shared.stats.refuse("/clock", "a negative time"),
+            },
+            Err(why) => shared.stats.refuse("/clock", &why),
+        }
+    })
+}
+
+/// Until stopped: the router's reachability, the wall clock's steps and a
+/// status line every `interval`.
+fn watch(node: &RosNode, c: &NodeConfig, topics: &[InputTopic], out: &Outputs, shared: &Shared, interval: Duration) {
+    let start = Instant::now();
+    let (mut next_status, mut next_clock) = (start + interval, start + Duration::from_secs(1));
+    let mut said_unreached = false;
+    while !shared.stop.load(Ordering::Relaxed) {
+        std::thread::sleep(Duration::from_millis(20));
+        let now = Instant::now();
+        if !said_unreached && now - start > Duration::from_secs(5) {
+            let routers = node.session.info().routers_zid().wait().count();
+            let peers = node.session.info().peers_zid().wait().count();
+            if routers + peers == 0 {
+                tracing::warn!(
+                    connect = ?c.ros.connect,
+                    "no Zenoh router reached after 5 s: start one (`ros2 run rmw_zenoh_cpp rmw_zenohd`, or zenohd) \
+                     at [ros] connect; retrying"
+                );
+            }
+            said_unreached = true;
+        }
+        if now >= next_clock {
+            next_clock += Duration::from_secs(1);
+            if let Some(step) = shared.clock.check_wall() {
+                tracing::warn!("the wall clock was set by {:.3} s: ROS stamps follow it", step as f64 * 1e-9);
+            }
+        }
+        if now >= next_status {
+            next_status += interval;
+            status(topics, out, shared);
+        }
+    }
+}
+
+/// One line of what came in and went out.
+fn status(topics: &[InputTopic], out: &Outputs, shared: &Shared) {
+    let counts = shared.stats.counts();
+    let mut parts = Vec::new();
+    for t in topics {
+        let c = counts.get(&t.topic).cloned().unwrap_or_default();
+        let refused: u64 = c.refused.values().sum();
+        parts.push(format!("{} {} messages, {} samples, {refused} refused", t.topic, c.messages, c.samples));
+    }
+    let tf = out.tf.as_ref().map_or(0, |p| p.sent());
+    let diagnostics = out.diagnostics.as_ref().map_or(0, |p| p.sent());
+    tracing::info!(
+        "in: {}; out: odometry {}, tf {tf}, diagnostics {diagnostics}",
+        parts.join("; "),
+        out.odometry.sent()
+    );
+}

@@ -61,6 +61,11 @@ pub struct RosSettings {
     /// Messages per second a topic may bring; more are dropped and counted
     /// (a flood on one topic leaves the others alone).
     pub max_topic_rate_hz: f64,
+    /// A topic's message type where its kinds do not say it
+    /// (`"/wheel/twist" = "geometry_msgs/msg/TwistWithCovarianceStamped"`):
+    /// by default a topic is read as the first type of the bag table that
+    /// gives all its kinds (`odometry` or `twist` alone: `nav_msgs/msg/Odometry`).
+    pub topic_types: std::collections::BTreeMap<String, String>,
 }
 
 impl Default for RosSettings {
@@ -83,6 +88,7 @@ impl Default for RosSettings {
             rate_hz: 50.0,
             diagnostics_period_s: 1.0,
             max_topic_rate_hz: 5000.0,
+            topic_types: Default::default(),
         }
     }
 }
