@@ -12,4 +12,13 @@ pub mod input;
 pub mod node;
 pub mod odometry;
 pub mod rmw_zenoh;
+
+/// A publisher of messages of type `M`, on either middleware.
+pub trait Sink<M>: Send + Sync {
+    /// Publishes `message`.
+    fn put(&self, message: &M) -> anyhow::Result<()>;
+    /// Messages published.
+    fn sent(&self) -> u64;
+}
+pub mod dds;
 pub mod settings;

@@ -7,23 +7,23 @@
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::sync::atomic::Ordering;
-use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::Parser;
 use fusion_ros::clock::RosClock;
-use fusion_ros::input::{Bucket, InputTopic, admit, input_topics};
+use fusion_ros::dds::DdsNode;
+use fusion_ros::input::{InputTopic, input_topics};
 use fusion_ros::node::RosNode;
-use fusion_ros::rmw_zenoh::{Qos, TopicType};
-use fusion_ros::settings::{ClockSource, NodeConfig};
-use fusion_shared::ros::ros2::Clock;
+use fusion_ros::settings::{ClockSource, NodeConfig, Transport};
 use fusion_shared::service;
-use fusion_shared::time::now_ns;
 use zenoh::Wait;
 
+mod dds_io;
 mod pump;
+mod zenoh_io;
 
 use pump::{Inbound, Outputs, Shared};
 
@@ -93,119 +93,103 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
     let topics = input_topics(&c.routes, &c.ros.topic_types).map_err(|e| anyhow::anyhow!(e))?;
     let shared = pump::shared(RosClock::new(c.ros.clock));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        // SAFETY: the handler only stores to an atomic.
         let s = Arc::clone(&shared);
+        // SAFETY: the handler only stores to an atomic.
         unsafe { signal_hook::low_level::register(signal, move || s.stop.store(true, Ordering::Relaxed)) }
             .context("cannot install signal handler")?;
     }
-    let mut node = RosNode::open(&c.ros, domain)?;
-    let outputs = outputs(&mut node, &c)?;
-    let (tx, rx) = crossbeam::channel::bounded::<Inbound>(8192);
-    let mut subscribers = Vec::new();
-    for (i, t) in topics.iter().enumerate() {
-        subscribers.push(subscribe(&mut node, i, t, c.ros.max_topic_rate_hz, tx.clone(), &shared)?);
+    let (tx, rx) = crossbeam::channel::bounded::<Inbound>(INPUT_QUEUE);
+    match c.ros.transport {
+        Transport::Zenoh => {
+            let mut node = RosNode::open(&c.ros, domain)?;
+            let outputs = zenoh_io::outputs(&mut node, &c)?;
+            let mut subscribers = Vec::new();
+            for (i, t) in topics.iter().enumerate() {
+                subscribers.push(zenoh_io::subscribe(&mut node, i, t, c.ros.max_topic_rate_hz, tx.clone(), &shared)?);
+            }
+            drop(tx);
+            if c.ros.clock == ClockSource::Sim {
+                subscribers.push(zenoh_io::subscribe_clock(&mut node, &shared)?);
+            }
+            announce(&c, domain, &format!("rmw_zenoh, zenoh id {}", node.session.zid()), &topics);
+            pump(cli, &c, &topics, rx, &outputs, &shared, status_interval, Some(&node), |_| Ok(()));
+            drop(subscribers);
+            let _ = node.session.close().wait();
+        }
+        Transport::Dds => {
+            let mut node = DdsNode::open(&c.ros.namespace, &c.ros.node, domain)?;
+            let outputs = dds_io::outputs(&mut node, &c)?;
+            let (subs, clock) = dds_io::subscriptions(&mut node, &topics, c.ros.clock == ClockSource::Sim)?;
+            announce(&c, domain, "DDS", &topics);
+            let (rate, tops) = (c.ros.max_topic_rate_hz, topics.clone());
+            let receive = move |sh: &Shared| dds_io::receive(subs, clock, &tops, rate, tx, sh);
+            pump(cli, &c, &topics, rx, &outputs, &shared, status_interval, None, receive);
+        }
     }
-    drop(tx);
-    if c.ros.clock == ClockSource::Sim {
-        subscribers.push(subscribe_clock(&mut node, &shared)?);
-    }
-    tracing::info!(
-        domain,
-        node = %c.ros.node,
-        zenoh_id = %node.session.zid(),
-        connect = ?c.ros.connect,
-        "fusion-ros running: {} topics in, odometry on {}",
-        topics.len(),
-        c.ros.odometry_topic
-    );
-    std::thread::scope(|scope| {
-        let (ns, routes, tops, sh) = (cli.namespace.as_str(), c.routes.clone(), topics.clone(), &*shared);
-        let input = scope.spawn(move || pump::input(ns, routes, tops, rx, sh));
-        let output = scope.spawn(|| pump::output(&cli.namespace, &c.ros, &c.routes, &outputs, &shared));
-        watch(&node, &c, &topics, &outputs, &shared, status_interval);
-        shared.stop.store(true, Ordering::Relaxed);
-        let _ = (input.join(), output.join());
-    });
-    status(&topics, &outputs, &shared);
-    drop(subscribers);
-    let _ = node.session.close().wait();
     Ok(())
 }
 
-fn outputs(node: &mut RosNode, c: &NodeConfig) -> anyhow::Result<Outputs> {
-    let ty = |name: &str| TopicType::of(name).with_context(|| format!("no type description of {name}"));
-    let odometry = node.publisher(&c.ros.odometry_topic, &ty("nav_msgs/msg/Odometry")?, Qos::DEFAULT)?;
-    let tf = match c.ros.tf_topic.as_str() {
-        "" => None,
-        topic => Some(node.publisher(topic, &ty("tf2_msgs/msg/TFMessage")?, Qos::TF)?),
-    };
-    let diagnostics = match c.ros.diagnostics_topic.as_str() {
-        "" => None,
-        topic => Some(node.publisher(topic, &ty("diagnostic_msgs/msg/DiagnosticArray")?, Qos::DEFAULT)?),
-    };
-    Ok(Outputs { odometry, tf, diagnostics })
+/// Messages queued for the input thread at most.
+const INPUT_QUEUE: usize = 8192;
+
+fn announce(c: &NodeConfig, domain: u32, middleware: &str, topics: &[InputTopic]) {
+    tracing::info!(
+        domain,
+        node = %c.ros.node,
+        "fusion-ros running ({middleware}): {} topics in, odometry on {}",
+        topics.len(),
+        c.ros.odometry_topic
+    );
 }
 
-/// The subscription of input topic `index`: each message checked
-/// ([`admit`]) and handed to the input thread; a full queue is counted.
-fn subscribe(
-    node: &mut RosNode,
-    index: usize,
-    t: &InputTopic,
-    max_rate_hz: f64,
-    tx: crossbeam::channel::Sender<Inbound>,
+/// The input and output threads, and a receiving thread of the middleware's
+/// where it needs one, until stopped; then the last status line.
+#[allow(clippy::too_many_arguments)]
+fn pump(
+    cli: &Cli,
+    c: &NodeConfig,
+    topics: &[InputTopic],
+    rx: crossbeam::channel::Receiver<Inbound>,
+    outputs: &Outputs,
     shared: &Arc<Shared>,
-) -> anyhow::Result<zenoh::pubsub::Subscriber<()>> {
-    let (expected, topic, shared) = (t.ty.clone(), t.topic.clone(), Arc::clone(shared));
-    let bucket = Mutex::new(Bucket::new(max_rate_hz, now_ns()));
-    node.subscribe(&t.topic, &t.ty, Qos::SENSOR_DATA, move |sample| {
-        let attachment = sample.attachment().map(|a| a.to_bytes());
-        let key = sample.key_expr().as_str();
-        match admit(&expected, key, attachment.as_deref(), &bucket, now_ns()) {
-            Ok(_) => {
-                let data = sample.payload().to_bytes().into_owned();
-                if tx.try_send(Inbound { topic: index, data }).is_err() {
-                    shared.stats.refuse(&topic, "fusion-ros's queue is full (fusiond or this host too slow)");
-                }
+    status_interval: Duration,
+    zenoh: Option<&RosNode>,
+    receive: impl FnOnce(&Shared) -> anyhow::Result<()> + Send,
+) {
+    std::thread::scope(|scope| {
+        let (ns, routes, tops, sh) = (cli.namespace.as_str(), c.routes.clone(), topics.to_vec(), &**shared);
+        let input = scope.spawn(move || pump::input(ns, routes, tops, rx, sh));
+        let output = scope.spawn(|| pump::output(&cli.namespace, &c.ros, &c.routes, outputs, shared));
+        let receiver = scope.spawn(|| {
+            if let Err(e) = receive(shared) {
+                tracing::error!("receiving: {e:#}");
+                shared.stop.store(true, Ordering::Relaxed);
             }
-            Err(why) => {
-                shared.stats.message(&topic);
-                shared.stats.refuse(&topic, &why);
-            }
-        }
-    })
-}
-
-/// `/clock` (sim time): each message sets or checks the clock's offset.
-fn subscribe_clock(node: &mut RosNode, shared: &Arc<Shared>) -> anyhow::Result<zenoh::pubsub::Subscriber<()>> {
-    let ty = TopicType::of("rosgraph_msgs/msg/Clock").context("no type description of rosgraph_msgs/msg/Clock")?;
-    let (shared, expected) = (Arc::clone(shared), ty.clone());
-    node.subscribe("/clock", &ty, Qos::SENSOR_DATA, move |sample| {
-        let key = sample.key_expr().as_str();
-        if fusion_ros::rmw_zenoh::key_type(key).is_none_or(|(dds, hash)| dds != expected.dds || hash != expected.hash) {
-            shared.stats.refuse("/clock", &format!("key {key}: not a rosgraph_msgs/msg/Clock of this distribution"));
-            return;
-        }
-        match fusion_shared::ros::decode_cdr::<Clock>(&sample.payload().to_bytes()) {
-            Ok(c) => match c.clock.ns() {
-                Some(ns) => shared.clock.on_clock(ns, now_ns()),
-                None => shared.stats.refuse("/clock", "a negative time"),
-            },
-            Err(why) => shared.stats.refuse("/clock", &why),
-        }
-    })
+        });
+        watch(zenoh, c, topics, outputs, shared, status_interval);
+        shared.stop.store(true, Ordering::Relaxed);
+        let _ = (input.join(), output.join(), receiver.join());
+    });
+    status(topics, outputs, shared);
 }
 
 /// Until stopped: the router's reachability, the wall clock's steps and a
 /// status line every `interval`.
-fn watch(node: &RosNode, c: &NodeConfig, topics: &[InputTopic], out: &Outputs, shared: &Shared, interval: Duration) {
+fn watch(
+    zenoh: Option<&RosNode>,
+    c: &NodeConfig,
+    topics: &[InputTopic],
+    out: &Outputs,
+    shared: &Shared,
+    interval: Duration,
+) {
     let start = Instant::now();
     let (mut next_status, mut next_clock) = (start + interval, start + Duration::from_secs(1));
     let mut said_unreached = false;
     while !shared.stop.load(Ordering::Relaxed) {
         std::thread::sleep(Duration::from_millis(20));
         let now = Instant::now();
-        if !said_unreached && now - start > Duration::from_secs(5) {
+        if let Some(node) = zenoh.filter(|_| !said_unreached && now - start > Duration::from_secs(5)) {
             let routers = node.session.info().routers_zid().wait().count();
             let peers = node.session.info().peers_zid().wait().count();
             if routers + peers == 0 {

@@ -140,9 +140,9 @@ pub struct RosPublisher {
     sequence: AtomicU64,
 }
 
-impl RosPublisher {
+impl<T: Serialize> crate::Sink<T> for RosPublisher {
     /// Publishes `message` in CDR.
-    pub fn put<T: Serialize>(&self, message: &T) -> anyhow::Result<()> {
+    fn put(&self, message: &T) -> anyhow::Result<()> {
         let sequence_number = self.sequence.fetch_add(1, Ordering::Relaxed) as i64 + 1;
         let wall = fusion_shared::time::now_ns() + fusion_shared::time::wall_minus_monotonic_ns();
         let attachment = Attachment { sequence_number, source_timestamp_ns: wall as i64, gid: self.gid };
@@ -153,8 +153,7 @@ impl RosPublisher {
             .map_err(|e| anyhow::anyhow!("publishing on {}: {e}", self.publisher.key_expr()))
     }
 
-    /// Messages published.
-    pub fn sent(&self) -> u64 {
+    fn sent(&self) -> u64 {
         self.sequence.load(Ordering::Relaxed)
     }
 }

@@ -9,14 +9,14 @@ use std::time::{Duration, Instant};
 
 use crossbeam::channel::{Receiver, RecvTimeoutError};
 use fusion_client::{Client, SensorPublishers, StateSubscriber};
+use fusion_ros::Sink;
 use fusion_ros::clock::RosClock;
 use fusion_ros::diagnostics::{Report, diagnostics};
 use fusion_ros::input::{InputStats, InputTopic};
-use fusion_ros::node::RosPublisher;
 use fusion_ros::odometry::{BaseLink, Rate, odometry};
 use fusion_ros::settings::RosSettings;
-use fusion_shared::ros::messages::{Imu, Ros2Header};
-use fusion_shared::ros::ros2::TfMessage;
+use fusion_shared::ros::messages::{Imu, Odometry, Ros2Header};
+use fusion_shared::ros::ros2::{DiagnosticArray, TfMessage};
 use fusion_shared::ros::{LiveReader, Route, decode_cdr};
 use fusion_shared::{Sample, StateSnapshot};
 
@@ -105,11 +105,11 @@ pub fn input(namespace: &str, routes: Vec<Route>, topics: Vec<InputTopic>, rx: R
 /// What the output thread publishes on.
 pub struct Outputs {
     /// `[ros] odometry_topic`.
-    pub odometry: RosPublisher,
+    pub odometry: Box<dyn Sink<Odometry<Ros2Header>>>,
     /// `[ros] tf_topic`, if any.
-    pub tf: Option<RosPublisher>,
+    pub tf: Option<Box<dyn Sink<TfMessage>>>,
     /// `[ros] diagnostics_topic`, if any.
-    pub diagnostics: Option<RosPublisher>,
+    pub diagnostics: Option<Box<dyn Sink<DiagnosticArray>>>,
 }
 
 /// One odometry (and TF) per `period_ns` of estimate time at most; every one

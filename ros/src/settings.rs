@@ -17,23 +17,35 @@ pub enum ClockSource {
     Sim,
 }
 
+/// Which ROS 2 middleware the node speaks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Transport {
+    /// DDS (`rmw_fastrtps_cpp`, `rmw_cyclonedds_cpp`: ROS 2's default).
+    Dds,
+    /// rmw_zenoh (`rmw_zenoh_cpp`), through a Zenoh router.
+    Zenoh,
+}
+
 /// `[ros]`.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RosSettings {
+    /// The middleware: DDS (ROS 2's default) or rmw_zenoh.
+    pub transport: Transport,
     /// ROS domain id; `None`: `ROS_DOMAIN_ID` from the environment, else 0.
     pub domain_id: Option<u32>,
     /// The node's name.
     pub node: String,
     /// The node's namespace.
     pub namespace: String,
-    /// Zenoh endpoints to connect to: rmw_zenoh's router
+    /// rmw_zenoh: Zenoh endpoints to connect to: rmw_zenoh's router
     /// (`ros2 run rmw_zenoh_cpp rmw_zenohd`) by default.
     pub connect: Vec<String>,
-    /// Zenoh endpoints to listen on (rmw_zenoh's default: any free port on
+    /// rmw_zenoh: Zenoh endpoints to listen on (rmw_zenoh's default: any free port on
     /// localhost, for peers the router tells of).
     pub listen: Vec<String>,
-    /// Zenoh's multicast scouting (rmw_zenoh's default: off; the router
+    /// rmw_zenoh: Zenoh's multicast scouting (rmw_zenoh's default: off; the router
     /// finds the peers).
     pub multicast_scouting: bool,
     /// Where header stamps come from.
@@ -71,6 +83,7 @@ pub struct RosSettings {
 impl Default for RosSettings {
     fn default() -> Self {
         Self {
+            transport: Transport::Dds,
             domain_id: None,
             node: "fusiond".into(),
             namespace: "/".into(),
@@ -161,7 +174,7 @@ impl NodeConfig {
                 return Err(format!("[ros] {what} {v}: must be > 0"));
             }
         }
-        if r.connect.is_empty() && r.listen.is_empty() && !r.multicast_scouting {
+        if r.transport == Transport::Zenoh && r.connect.is_empty() && r.listen.is_empty() && !r.multicast_scouting {
             return Err("[ros] no Zenoh peers: give connect (the router) or listen endpoints".into());
         }
         let routes: Vec<Route> = file
@@ -216,7 +229,7 @@ mod tests {
         assert!(bad("node = \"a/b\"").contains("no /"));
         assert!(bad("rate_hz = -1").contains("rate_hz"));
         assert!(bad("colour = 1").contains("colour"));
-        assert!(bad("connect = []\nlisten = []").contains("no Zenoh peers"));
+        assert!(bad("transport = \"zenoh\"\nconnect = []\nlisten = []").contains("no Zenoh peers"));
         assert!(NodeConfig::parse("[ros]\n").unwrap_err().contains("no [[sensor]] has a topic"));
     }
 }

@@ -61,6 +61,7 @@ kinds = [\"barometer\"]
 topic = \"/flood/pressure\"
 
 [ros]
+transport = \"zenoh\"
 clock = \"sim\"
 rate_hz = 0.0
 base_link_position_m = [0.0, 0.3, -0.52]
@@ -215,8 +216,11 @@ fn no_router_is_said() {
     let domain = TestDomain::new("ros-norouter");
     let dir = tempfile::tempdir().unwrap();
     let config_path = dir.path().join("c.toml");
-    std::fs::write(&config_path, "[[sensor]]\nname = \"imu\"\nid = 0\nkinds = [\"imu\"]\ntopic = \"/imu/data\"\n")
-        .unwrap();
+    std::fs::write(
+        &config_path,
+        "[ros]\ntransport = \"zenoh\"\n[[sensor]]\nname = \"imu\"\nid = 0\nkinds = [\"imu\"]\ntopic = \"/imu/data\"\n",
+    )
+    .unwrap();
     let log = dir.path().join("log");
     let mut node = fusion_ros(&domain, &config_path, free_port(), &log);
     let deadline = Instant::now() + Duration::from_secs(30);

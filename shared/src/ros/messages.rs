@@ -112,7 +112,7 @@ impl Quaternion {
 pub type Cov6 = [[f64; 6]; 6];
 
 /// `sensor_msgs/Imu`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Clone, Serialize)]
 pub struct Imu<H> {
     /// Header.
     pub header: H,
@@ -131,7 +131,7 @@ pub struct Imu<H> {
 }
 
 /// `geometry_msgs/Pose`.
-#[derive(Debug, Deserialize, Serialize)]
+#[derive(Debug, Deserialize, Serialize, Clone)]
 pub struct Pose {
     /// Position.
     pub position: Vector3,
@@ -140,7 +140,7 @@ pub struct Pose {
 }
 
 /// `geometry_msgs/PoseWithCovariance`.
-#[derive(Debug, Deserialize, Serialize)]
+#[derive(Debug, Deserialize, Serialize, Clone)]
 pub struct PoseWithCovariance {
     /// Pose.
     pub pose: Pose,
@@ -149,7 +149,7 @@ pub struct PoseWithCovariance {
 }
 
 /// `geometry_msgs/Twist`.
-#[derive(Debug, Deserialize, Serialize)]
+#[derive(Debug, Deserialize, Serialize, Clone)]
 pub struct Twist {
     /// m/s.
     pub linear: Vector3,
@@ -158,7 +158,7 @@ pub struct Twist {
 }
 
 /// `geometry_msgs/TwistWithCovariance`.
-#[derive(Debug, Deserialize, Serialize)]
+#[derive(Debug, Deserialize, Serialize, Clone)]
 pub struct TwistWithCovariance {
     /// Twist.
     pub twist: Twist,
@@ -167,7 +167,7 @@ pub struct TwistWithCovariance {
 }
 
 /// `nav_msgs/Odometry`.
-#[derive(Debug, Deserialize, Serialize)]
+#[derive(Debug, Deserialize, Serialize, Clone)]
 pub struct Odometry<H> {
     /// Header (the pose's frame).
     pub header: H,
@@ -180,7 +180,7 @@ pub struct Odometry<H> {
 }
 
 /// `sensor_msgs/NavSatStatus`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Clone, Serialize)]
 pub struct NavSatStatus {
     /// −1 no fix, 0 fix, 1 SBAS, 2 GBAS.
     pub status: i8,
@@ -189,7 +189,7 @@ pub struct NavSatStatus {
 }
 
 /// `sensor_msgs/NavSatFix`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Clone, Serialize)]
 pub struct NavSatFix<H> {
     /// Header.
     pub header: H,
@@ -208,7 +208,7 @@ pub struct NavSatFix<H> {
 }
 
 /// `geometry_msgs/TwistWithCovarianceStamped`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Clone, Serialize)]
 pub struct TwistWithCovarianceStamped<H> {
     /// Header (the twist's frame).
     pub header: H,
@@ -217,7 +217,7 @@ pub struct TwistWithCovarianceStamped<H> {
 }
 
 /// `geometry_msgs/PoseWithCovarianceStamped`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Clone, Serialize)]
 pub struct PoseWithCovarianceStamped<H> {
     /// Header (the map frame).
     pub header: H,
@@ -226,7 +226,7 @@ pub struct PoseWithCovarianceStamped<H> {
 }
 
 /// `sensor_msgs/FluidPressure`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Clone, Serialize)]
 pub struct FluidPressure<H> {
     /// Header.
     pub header: H,
@@ -237,7 +237,7 @@ pub struct FluidPressure<H> {
 }
 
 /// `sensor_msgs/MagneticField`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Clone, Serialize)]
 pub struct MagneticField<H> {
     /// Header.
     pub header: H,
