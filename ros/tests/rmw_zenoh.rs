@@ -10,65 +10,20 @@
 
 #[path = "../../daemon/tests/common/mod.rs"]
 mod common;
+mod ros_common;
 
 use std::net::TcpListener;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::live::{Daemon, Running, TestDomain};
-use fusion_daemon::replay::OutputLine;
 use fusion_shared::service::DOMAIN_ENV;
-use nalgebra::{UnitQuaternion, Vector3};
+use ros_common::{config, husky_bag, off_replay, replay};
 use zenoh::Wait;
 
 fn free_port() -> u16 {
     TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
-}
-
-/// robot_localization's husky bag as ROS 2 (MCAP), or `None` with where it
-/// comes from (a failure where `FUSION_REQUIRE_RL_DATA` is set).
-fn husky_bag() -> Option<PathBuf> {
-    let root = std::env::var_os("FUSION_RL_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/robot_localization"));
-    let path = root.join("ros2/test1.mcap");
-    if path.exists() {
-        return Some(path);
-    }
-    let said = format!(
-        "{} is absent: robot_localization's test bags (BSD; the ROS 2 copies made with rosbags-convert) are read \
-         from ../shared/data/robot_localization or the folder FUSION_RL_DATA names",
-        path.display()
-    );
-    assert!(std::env::var_os("FUSION_REQUIRE_RL_DATA").is_none(), "{said}");
-    eprintln!("skipped: {said}");
-    None
-}
-
-/// The guide's husky configuration (docs/ground-robots.md), with a topic of
-/// barometer messages for the flood, and the `[ros]` table of the test.
-fn config() -> String {
-    let page = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/ground-robots.md")).unwrap();
-    let start = page.find("```toml\n# husky.toml").unwrap() + "```toml\n".len();
-    let husky = &page[start..start + page[start..].find("```").unwrap()];
-    format!(
-        "{husky}
-[[sensor]]
-name = \"pressure\"
-id = 5
-kinds = [\"barometer\"]
-topic = \"/flood/pressure\"
-
-[ros]
-transport = \"zenoh\"
-clock = \"sim\"
-rate_hz = 0.0
-base_link_position_m = [0.0, 0.3, -0.52]
-max_topic_rate_hz = 200.0
-diagnostics_period_s = 0.5
-"
-    )
 }
 
 /// A Zenoh router on 127.0.0.1:`port`, as `rmw_zenohd` is one.
@@ -95,37 +50,16 @@ fn fusion_ros(domain: &TestDomain, config: &Path, port: u16, log: &Path) -> Runn
     )
 }
 
-fn replay(config: &Path, bag: &Path, output: &Path) {
-    let out = Command::new(common::live::fusiond())
-        .args(["replay", "--config"])
-        .arg(config)
-        .arg("--input")
-        .arg(bag)
-        .arg("--output")
-        .arg(output)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-}
-
-/// base_link's position and attitude of a replayed estimate (the IMU's pose
-/// moved by `[ros] base_link_position_m`).
-fn base_link(line: &OutputLine) -> (Vector3<f64>, UnitQuaternion<f64>) {
-    let x = &line.x;
-    let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]));
-    (Vector3::new(x[0], x[1], x[2]) + q * Vector3::new(0.0, 0.3, -0.52), q)
-}
-
 #[test]
 fn a_ros_node_on_rmw_zenoh_gets_fusionds_odometry_of_its_bag() {
     let Some(bag) = husky_bag() else { return };
     let domain = TestDomain::new("ros-zenoh");
     let dir = tempfile::tempdir().unwrap();
     let config_path = dir.path().join("husky.toml");
-    std::fs::write(&config_path, config()).unwrap();
+    std::fs::write(&config_path, config("zenoh")).unwrap();
     let port = free_port();
     let router = router(port);
-    let mut daemon = Daemon::start_with(&domain, &config(), &[]);
+    let mut daemon = Daemon::start_with(&domain, &config("zenoh"), &[]);
     let log = dir.path().join("fusion-ros.log");
     let mut node = fusion_ros(&domain, &config_path, port, &log);
     let (segment, result) = (dir.path().join("segment"), dir.path().join("result.json"));
@@ -175,19 +109,10 @@ fn a_ros_node_on_rmw_zenoh_gets_fusionds_odometry_of_its_bag() {
     assert_eq!(r["tf"]["last"]["translation"], last["position"]);
 
     // The same messages replayed: the same estimate at the same stamp.
-    let replayed = dir.path().join("replay.jsonl");
-    replay(&config_path, &segment.join("segment.mcap"), &replayed);
-    let lines: Vec<OutputLine> =
-        std::fs::read_to_string(&replayed).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
-    let at = lines.iter().rev().find(|l| l.t_ns == stamp).expect("replay has the stamp");
-    let (p, q) = base_link(at);
-    let got: Vec<f64> = last["position"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
-    let off = (Vector3::new(got[0], got[1], got[2]) - p).norm();
-    eprintln!("live vs replay at {stamp}: {off:e} m ({} odometry messages)", r["odometry"]["count"]);
-    assert!(off < 1e-9, "live {got:?} vs replay {p:?}: {off} m");
-    let o: Vec<f64> = last["orientation"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
-    let live_q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(o[0], o[1], o[2], o[3]));
-    assert!(live_q.angle_to(&q) < 1e-9);
+    let lines = replay(&config_path, &segment.join("segment.mcap"), dir.path());
+    let (off_m, off_rad) = off_replay(last, &lines);
+    eprintln!("live vs replay at {stamp}: {off_m:e} m, {off_rad:e} rad ({} odometry messages)", r["odometry"]["count"]);
+    assert!(off_m < 1e-9 && off_rad < 1e-9, "live {last} vs replay: {off_m} m, {off_rad} rad");
 
     // Hostile input: each counted and named once; nothing of it reached fusiond.
     for why in [
