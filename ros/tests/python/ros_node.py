@@ -164,6 +164,8 @@ def main():
     conf.insert_json5("connect/endpoints", json.dumps([a.router]))
     conf.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
     conf.insert_json5("scouting/multicast/enabled", "false")
+    # As rmw_zenoh's default session configuration: no shared memory.
+    conf.insert_json5("transport/shared_memory/enabled", "false")
     session = zenoh.open(conf)
     node = Node(session, a.domain, "bag_player")
     for topic, ty in {(m[0], m[1]) for m in messages} | {("/clock", "rosgraph_msgs/msg/Clock")}:
