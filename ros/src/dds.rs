@@ -12,6 +12,7 @@
 
 use std::sync::Mutex;
 
+use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::{
     Context, ContextOptions, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Subscription,
     qos::{Durability, History, WhenFull},
@@ -50,11 +51,22 @@ pub struct DdsNode {
 }
 
 impl DdsNode {
-    /// A node `namespace`/`name` in ROS domain `domain`.
-    pub fn open(namespace: &str, node: &str, domain: u32) -> anyhow::Result<Self> {
+    /// A node `namespace`/`name` in ROS domain `domain`, on the interfaces of
+    /// `interfaces` (empty: every one).
+    pub fn open(namespace: &str, node: &str, domain: u32, interfaces: &[std::net::IpAddr]) -> anyhow::Result<Self> {
         let domain = u16::try_from(domain).map_err(|_| anyhow::anyhow!("domain id {domain} is over 232"))?;
-        let context = Context::with_options(ContextOptions::new().domain_id(domain))
-            .map_err(|e| anyhow::anyhow!("cannot start DDS (domain {domain}): {e:?}"))?;
+        fn cannot(domain: u16, e: impl std::fmt::Debug) -> anyhow::Error {
+            anyhow::anyhow!("cannot start DDS (domain {domain}): {e:?}")
+        }
+        let context = if interfaces.is_empty() {
+            Context::with_options(ContextOptions::new().domain_id(domain)).map_err(|e| cannot(domain, e))?
+        } else {
+            let participant = DomainParticipantBuilder::new(domain)
+                .with_only_networks(interfaces.iter().copied())
+                .build()
+                .map_err(|e| cannot(domain, e))?;
+            Context::from_domain_participant(participant).map_err(|e| cannot(domain, e))?
+        };
         let node_name = NodeName::new(namespace, node).map_err(|e| anyhow::anyhow!("node name {node:?}: {e:?}"))?;
         let node = context
             .new_node(node_name, NodeOptions::new().enable_rosout(false))

@@ -117,7 +117,7 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
             let _ = node.session.close().wait();
         }
         Transport::Dds => {
-            let mut node = DdsNode::open(&c.ros.namespace, &c.ros.node, domain)?;
+            let mut node = DdsNode::open(&c.ros.namespace, &c.ros.node, domain, &c.ros.dds_interfaces)?;
             let outputs = dds_io::outputs(&mut node, &c)?;
             let (subs, clock) = dds_io::subscriptions(&mut node, &topics, c.ros.clock == ClockSource::Sim)?;
             announce(&c, domain, "DDS", &topics);

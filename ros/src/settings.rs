@@ -48,6 +48,11 @@ pub struct RosSettings {
     /// rmw_zenoh: Zenoh's multicast scouting (rmw_zenoh's default: off; the router
     /// finds the peers).
     pub multicast_scouting: bool,
+    /// DDS: the addresses of the interfaces DDS uses (multicast joins and
+    /// sends, advertised locators); empty: every interface, ROS 2's default.
+    /// `["127.0.0.1"]` keeps DDS on this host (discovery by unicast to the
+    /// well-known ports on 127.0.0.1).
+    pub dds_interfaces: Vec<std::net::IpAddr>,
     /// Where header stamps come from.
     pub clock: ClockSource,
     /// `nav_msgs/msg/Odometry` out.
@@ -90,6 +95,7 @@ impl Default for RosSettings {
             connect: vec!["tcp/localhost:7447".into()],
             listen: vec!["tcp/localhost:0".into()],
             multicast_scouting: false,
+            dds_interfaces: Vec::new(),
             clock: ClockSource::Wall,
             odometry_topic: "/odometry/filtered".into(),
             tf_topic: "/tf".into(),
