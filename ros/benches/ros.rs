@@ -108,7 +108,6 @@ fn fusiond_leg(domain: String, ns: String, until: Instant) -> Histogram<u64> {
 }
 
 /// What the stand-in sent (stamp → when) and took back.
-#[derive(Default)]
 struct Book {
     sent: HashMap<u64, u64>,
     odometry: Histogram<u64>,
@@ -119,7 +118,7 @@ fn book() -> Arc<Mutex<Book>> {
     Arc::new(Mutex::new(Book {
         odometry: Histogram::new(3).unwrap(),
         raw: Histogram::new(3).unwrap(),
-        ..Default::default()
+        sent: HashMap::new(),
     }))
 }
 

@@ -91,12 +91,11 @@ fn typed(node: &mut DdsNode, t: &InputTopic) -> anyhow::Result<Box<dyn Drain>> {
     }
 }
 
+/// The input topics' subscriptions, and `/clock`'s under sim time.
+pub type Subscriptions = (Vec<Box<dyn Drain>>, Option<Subscription<Clock>>);
+
 /// Every input topic's subscription, and `/clock`'s under sim time.
-pub fn subscriptions(
-    node: &mut DdsNode,
-    topics: &[InputTopic],
-    sim: bool,
-) -> anyhow::Result<(Vec<Box<dyn Drain>>, Option<Subscription<Clock>>)> {
+pub fn subscriptions(node: &mut DdsNode, topics: &[InputTopic], sim: bool) -> anyhow::Result<Subscriptions> {
     let subs = topics.iter().map(|t| typed(node, t)).collect::<anyhow::Result<_>>()?;
     let clock = if sim {
         Some(node.subscription::<Clock>("/clock", "rosgraph_msgs/msg/Clock", Qos::SENSOR_DATA)?)
