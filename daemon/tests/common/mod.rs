@@ -274,7 +274,7 @@ pub fn python_venv() -> PathBuf {
     let python = venv.join("bin/python");
     let installed = |python: &Path| {
         Command::new(python)
-            .args(["-c", "import mcap.reader, iceoryx2, numpy, zenoh, rosbags"])
+            .args(["-c", "import mcap.reader, iceoryx2, numpy, zenoh, rosbags, cyclonedds.domain"])
             .output()
             .is_ok_and(|o| o.status.success())
     };
