@@ -49,7 +49,7 @@ impl Drop for Proc {
 
 fn config(transport: &str) -> String {
     format!(
-        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.1\ngyroscope_noise_density = 0.004\naccelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-4\n\n[[sensor]]\nname = \"imu\"\nid = 0\nkinds = [\"imu\"]\ntopic = \"/imu/data\"\n\n\
+        "[model]\nkind = \"ins\"\naccelerometer_noise_density = 0.1\ngyroscope_noise_density = 0.004\naccelerometer_random_walk = 0.001\ngyroscope_random_walk = 1.0e-4\n\n[filter]\ninitial_state = [0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0]\ninitial_covariance_diagonal = [1e-6, 1e-6, 1e-6, 0.01, 0.01, 0.01, 0.01, 0.01, 1.0, 0.01, 0.01, 0.01, 1e-4, 1e-4, 1e-4]\n\n[[sensor]]\nname = \"imu\"\nid = 0\nkinds = [\"imu\"]\ntopic = \"/imu/data\"\n\n\
          [ros]\ntransport = \"{transport}\"\nrate_hz = 0.0\ndiagnostics_topic = \"\"\ndds_interfaces = [\"127.0.0.1\"]\n"
     )
 }
