@@ -16,10 +16,11 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use fusion_benches::alloc::{Counting, Scenario, Window, steady_state};
+use fusion_benches::latency::pingpong::RawRelay;
 use fusion_benches::latency::{
     ChildGuard, EndToEnd, INS_CONFIG, LINEAR_CONFIG, LateCost, Mode, Pinger, Prober, PublisherPlan, Trial,
     VEHICLE_CONFIG, VEHICLE_IMUS_AT_REST, VEHICLE_LATE_CONFIG, VEHICLE21_CONFIG, fan_out_reader, histogram, late_data,
-    ping, pong, publisher, start_daemon, throughput,
+    ping, pong, publisher, raw_throughput, start_daemon, throughput,
 };
 use fusion_client::{Client, ImuSample, StateSnapshot};
 use fusion_daemon::ipc::WaitMode;
@@ -95,10 +96,16 @@ fn start_rig_with(fusiond: &std::path::Path, namespace: &str, config: &str, mode
 /// Starts this binary as the pong side of a raw ping-pong on `base`, answering with
 /// an `ImuSample` or (`snapshot`) a `StateSnapshot`.
 fn spawn_pong(base: &str, mode: Mode, snapshot: bool) -> anyhow::Result<ChildGuard> {
+    spawn_pong_as(base, mode, if snapshot { "snapshot" } else { "imu" })
+}
+
+/// [`spawn_pong`] with its payload named: `imu`, `snapshot`, or `relay` (a
+/// snapshot, with fusiond's buffers: the throughput floor).
+fn spawn_pong_as(base: &str, mode: Mode, payload: &str) -> anyhow::Result<ChildGuard> {
     let child = Command::new(std::env::current_exe()?)
         .env("FUSION_BENCH_PONG", base)
         .env("FUSION_BENCH_MODE", mode.name())
-        .env("FUSION_BENCH_PONG_PAYLOAD", if snapshot { "snapshot" } else { "imu" })
+        .env("FUSION_BENCH_PONG_PAYLOAD", payload)
         .stdout(Stdio::null())
         .spawn()?;
     Ok(ChildGuard(child))
@@ -147,8 +154,10 @@ fn main() -> anyhow::Result<()> {
     if let Ok(base) = std::env::var("FUSION_BENCH_PONG") {
         let mode = Mode::parse(&std::env::var("FUSION_BENCH_MODE")?).context("mode")?;
         return match std::env::var("FUSION_BENCH_PONG_PAYLOAD").as_deref() {
-            Ok("snapshot") => pong::<StateSnapshot>(&base, mode),
-            _ => pong::<ImuSample>(&base, mode),
+            Ok("snapshot") => pong::<StateSnapshot>(&base, mode, false),
+            // The throughput floor's relay: fusiond's buffers.
+            Ok("relay") => pong::<StateSnapshot>(&base, mode, true),
+            _ => pong::<ImuSample>(&base, mode, false),
         };
     }
     if let Ok(namespace) = std::env::var("FUSION_BENCH_PUBLISHER") {
@@ -421,8 +430,20 @@ fn late_and_throughput(run: &Run) -> anyhow::Result<(LateRows, ThroughputRows)> 
     let late_count = if quick { 1_000 } else { 5_000 };
     let mut late_rows = Vec::new();
     let mut throughput_rows = Vec::new();
-    let rates: &[f64] =
-        if quick { &[100e3, 300e3, 600e3] } else { &[100e3, 200e3, 300e3, 400e3, 600e3, 800e3, 1000e3] };
+    // 4. The floor first: raw iceoryx2's highest clean rate through a relay
+    // (doubling from 100 k/s, then halfway to the first rate that lost).
+    // fusiond's trials are at fractions of it, so that a row reads the same
+    // on a slower machine.
+    let raw_best = if only("throughput") {
+        let best = raw_best_rate(&format!("fusion-bench-{pid}-relay"), &mut throughput_rows)?;
+        anyhow::ensure!(best > 0.0, "raw iceoryx2 lost samples even at 100 k/s: no floor to measure against");
+        best
+    } else {
+        0.0
+    };
+    let fractions: &[f64] =
+        if quick { &[0.1, 0.25, 0.5, 0.75, 1.0] } else { &[0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0] };
+    let rates: Vec<f64> = fractions.iter().map(|f| (f * raw_best / 1000.0).round() * 1000.0).collect();
     for model in ["linear", "ins"] {
         for mode in [Mode::Spin, Mode::Event].into_iter().filter(|_| only("late")) {
             let namespace = format!("fusion-bench-{pid}-{model}-late-{}", mode.name());
@@ -453,6 +474,36 @@ fn late_and_throughput(run: &Run) -> anyhow::Result<(LateRows, ThroughputRows)> 
     }
 
     Ok((late_rows, throughput_rows))
+}
+
+/// Raw iceoryx2's highest clean rate through a relay process (its trials go
+/// to `rows` as model `raw`, the best as rate −1), samples/s.
+fn raw_best_rate(base: &str, rows: &mut ThroughputRows) -> anyhow::Result<f64> {
+    let _relay = spawn_pong_as(base, Mode::Spin, "relay")?;
+    let mut relay = RawRelay::connect(base)?;
+    let (mut best, mut failed) = (0.0f64, None);
+    let mut rate = 100e3;
+    while rate <= 12.8e6 {
+        let trial = raw_throughput(&mut relay, rate, (rate * 0.5) as u64)?;
+        rows.push(("raw", rate, trial));
+        if !trial.clean() {
+            failed = Some(rate);
+            break;
+        }
+        best = rate;
+        rate *= 2.0;
+    }
+    if let Some(failed) = failed.filter(|_| best > 0.0) {
+        let rate = (best + failed) / 2.0;
+        let trial = raw_throughput(&mut relay, rate, (rate * 0.5) as u64)?;
+        rows.push(("raw", rate, trial));
+        if trial.clean() {
+            best = rate;
+        }
+    }
+    relay.finish()?;
+    rows.push(("raw", -1.0, Trial { published: best as u64, ..Trial::default() }));
+    Ok(best)
 }
 
 /// 6. Allocations of the daemon loop per processed sample, in this process.

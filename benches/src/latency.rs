@@ -12,7 +12,7 @@ use hdrhistogram::Histogram;
 mod late;
 mod throughput;
 pub use late::{LateCost, late_data};
-pub use throughput::{Trial, throughput};
+pub use throughput::{Trial, raw_throughput, throughput};
 
 mod pacer;
 pub mod pingpong;

@@ -246,7 +246,17 @@ fn dds_rows(seconds: f64, start: &dyn Fn(&str, &[&str]) -> Proc, domain: &str, n
     let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
     let (b2, s2) = (Arc::clone(&b), Arc::clone(&stop));
     let taker = std::thread::spawn(move || {
+        // Blocks on the readers (a mio poll), as fusion-ros's own receiver
+        // does: a spinning taker would take a core from fusiond.
+        use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
+        let (mut echo_in, mut odom, mut pong) = (echo_in, odom, pong);
+        let mut poll = Poll::new().unwrap();
+        poll.registry().register(&mut echo_in, Token(0), Interest::READABLE).unwrap();
+        poll.registry().register(&mut odom, Token(1), Interest::READABLE).unwrap();
+        poll.registry().register(&mut pong, Token(2), Interest::READABLE).unwrap();
+        let mut events = Events::with_capacity(16);
         while !s2.load(std::sync::atomic::Ordering::Relaxed) {
+            poll.poll(&mut events, Some(Duration::from_millis(50))).unwrap();
             while let Ok(Some((m, _))) = echo_in.take() {
                 let mut o = odometry_like();
                 o.header = m.header;
@@ -259,7 +269,6 @@ fn dds_rows(seconds: f64, start: &dyn Fn(&str, &[&str]) -> Proc, domain: &str, n
                 let sent = o.header.sec as u64 * 1_000_000_000 + u64::from(o.header.nanosec);
                 let _ = b2.lock().unwrap().raw.record(now_ns() - sent);
             }
-            std::hint::spin_loop();
         }
     });
     std::thread::sleep(Duration::from_secs(3));
@@ -311,7 +320,8 @@ fn main() {
                 Command::new(bin)
                     .args(args)
                     .env(DOMAIN_ENV, &domain)
-                    .env("RUST_LOG", "warn")
+                    // RustDDS warns of its own shutdown (locators, multicast groups).
+                    .env("RUST_LOG", "warn,rustdds=off")
                     .stdout(Stdio::null())
                     .spawn()
                     .unwrap(),

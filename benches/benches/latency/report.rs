@@ -243,28 +243,43 @@ fn late_legs_table(late_rows: &[(&str, Mode, LateCost)]) {
     }
 }
 
-/// The throughput trials.
+/// The throughput trials, each rate also as a fraction of raw iceoryx2's
+/// highest clean rate through a relay, measured in the same run.
 fn throughput_table(throughput_rows: &[(&str, f64, Trial)], json: &mut Vec<Value>) {
     println!(
-        "\nthroughput (spin daemon; one bench thread publishes in 100 us slices and busy-polls every snapshot in between)"
+        "\nthroughput (spin daemon; one bench thread publishes in 100 us slices and busy-polls every snapshot in between; \
+         raw: the same through a relay process that answers each sample with a 4.2 KB message, fusiond's buffers)"
     );
     println!(
-        "{:<8} {:>12} {:>10} {:>10} {:>8} {:>13}",
-        "model", "rate", "published", "received", "lost", "reader missed"
+        "{:<8} {:>12} {:>7} {:>10} {:>10} {:>8} {:>13}",
+        "model", "rate", "× raw", "published", "received", "lost", "reader missed"
     );
+    let raw = throughput_rows.iter().find(|(m, r, _)| *m == "raw" && *r < 0.0).map(|(_, _, t)| t.published as f64);
+    let of_raw = |rate: f64| raw.filter(|r| *r > 0.0).map(|r| rate / r);
     for (model, rate, t) in throughput_rows {
         if *rate < 0.0 {
-            println!("{model}: highest clean rate {} samples/s", t.published);
-            json.push(serde_json::json!({"name": format!("max sustained IMU rate, {model}"), "rate_hz": t.published}));
+            let best = t.published as f64;
+            match (model, of_raw(best)) {
+                (&"raw", _) | (_, None) => println!("{model}: highest clean rate {best} samples/s"),
+                (_, Some(f)) => println!(
+                    "{model}: highest clean rate {best} samples/s = {f:.2} × raw iceoryx2's {} samples/s",
+                    raw.unwrap_or(0.0)
+                ),
+            }
+            json.push(serde_json::json!({
+                "name": format!("max sustained IMU rate, {model}"), "rate_hz": best, "of_raw": of_raw(best),
+            }));
             continue;
         }
+        let f = of_raw(*rate).map_or("-".to_string(), |f| format!("{f:.2}"));
         println!(
-            "{:<8} {:>10.0}/s {:>10} {:>10} {:>8} {:>13}",
-            model, rate, t.published, t.received, t.lost, t.reader_missed
+            "{:<8} {:>10.0}/s {:>7} {:>10} {:>10} {:>8} {:>13}",
+            model, rate, f, t.published, t.received, t.lost, t.reader_missed
         );
         json.push(serde_json::json!({
-            "name": format!("throughput trial, {model}"), "rate_hz": rate, "published": t.published,
-            "received": t.received, "lost": t.lost, "reader_missed": t.reader_missed, "clean": t.clean(),
+            "name": format!("throughput trial, {model}"), "rate_hz": rate, "of_raw": of_raw(*rate),
+            "published": t.published, "received": t.received, "lost": t.lost, "reader_missed": t.reader_missed,
+            "clean": t.clean(),
         }));
     }
 }

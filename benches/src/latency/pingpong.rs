@@ -73,7 +73,10 @@ struct PingPongEnd<S: Payload, R: Payload> {
 
 impl<S: Payload, R: Payload> PingPongEnd<S, R> {
     /// `send_to`/`receive_from`: the two directions, `<base>/ping` and `<base>/pong`.
-    fn open(base: &str, send_to: &str, receive_from: &str) -> anyhow::Result<Self> {
+    /// `buffered`: with fusiond's own buffers (a subscriber's queue of
+    /// [`service::SAMPLE_BUFFER`] pings, [`service::STATE_BUFFER`] pongs), for
+    /// the throughput floor; else iceoryx2's defaults, for the latency floor.
+    fn open(base: &str, send_to: &str, receive_from: &str, buffered: bool) -> anyhow::Result<Self> {
         // Plain `ipc::Service`, as an application using iceoryx2 directly would (fusiond's
         // ports use `fusion_shared::transport::Ipc`, the same with pooled loan state).
         let node = NodeBuilder::new()
@@ -85,18 +88,39 @@ impl<S: Payload, R: Payload> PingPongEnd<S, R> {
         let event = |dir: &str| -> anyhow::Result<_> {
             Ok(node.service_builder(&name(&format!("{dir}-event"))?).event().open_or_create()?)
         };
-        let publisher = node
-            .service_builder(&name(send_to)?)
-            .publish_subscribe::<S>()
-            .open_or_create()?
-            .publisher_builder()
-            .create()?;
-        let subscriber = node
-            .service_builder(&name(receive_from)?)
-            .publish_subscribe::<R>()
-            .open_or_create()?
-            .subscriber_builder()
-            .create()?;
+        let buffer = |dir: &str| match (buffered, dir) {
+            (false, _) => None,
+            (true, "ping") => Some(service::SAMPLE_BUFFER),
+            (true, _) => Some(service::STATE_BUFFER),
+        };
+        let publisher = match buffer(send_to) {
+            None => node.service_builder(&name(send_to)?).publish_subscribe::<S>().open_or_create()?,
+            Some(n) => node
+                .service_builder(&name(send_to)?)
+                .publish_subscribe::<S>()
+                .subscriber_max_buffer_size(n)
+                .history_size(0)
+                .open_or_create()?,
+        }
+        .publisher_builder()
+        .create()?;
+        let subscriber = match buffer(receive_from) {
+            None => node
+                .service_builder(&name(receive_from)?)
+                .publish_subscribe::<R>()
+                .open_or_create()?
+                .subscriber_builder()
+                .create()?,
+            Some(n) => node
+                .service_builder(&name(receive_from)?)
+                .publish_subscribe::<R>()
+                .subscriber_max_buffer_size(n)
+                .history_size(0)
+                .open_or_create()?
+                .subscriber_builder()
+                .buffer_size(n)
+                .create()?,
+        };
         let notifier = event(send_to)?.notifier_builder().create()?;
         let listener = event(receive_from)?.listener_builder().create()?;
         Ok(Self { _node: node, publisher, subscriber, notifier, listener })
@@ -108,6 +132,11 @@ impl<S: Payload, R: Payload> PingPongEnd<S, R> {
             self.notifier.notify()?;
         }
         Ok(())
+    }
+
+    /// The next sample's sequence number, if one is there.
+    fn try_receive(&self) -> anyhow::Result<Option<u64>> {
+        Ok(self.subscriber.receive()?.map(|s| s.seq()))
     }
 
     /// Waits for the next sample (up to 1 s): its sequence number, time stamp
@@ -136,9 +165,10 @@ impl<S: Payload, R: Payload> PingPongEnd<S, R> {
 }
 
 /// The pong side: answers every ping with an `R` of the same sequence number until
-/// one with `seq == u64::MAX`; gives up after 30 s without a ping.
-pub fn pong<R: Payload>(base: &str, mode: Mode) -> anyhow::Result<()> {
-    let end = PingPongEnd::<R, ImuSample>::open(base, "pong", "ping")?;
+/// one with `seq == u64::MAX`; gives up after 30 s without a ping. `buffered`:
+/// with fusiond's buffers (the throughput floor's relay).
+pub fn pong<R: Payload>(base: &str, mode: Mode, buffered: bool) -> anyhow::Result<()> {
+    let end = PingPongEnd::<R, ImuSample>::open(base, "pong", "ping", buffered)?;
     let mut last_ping = Instant::now();
     loop {
         match end.receive(mode)? {
@@ -166,7 +196,7 @@ pub struct Pinger<R: Payload = ImuSample> {
 impl<R: Payload> Pinger<R> {
     /// Connects to the pong side: retries a first ping until it answers.
     pub fn connect(base: &str, mode: Mode) -> anyhow::Result<Self> {
-        let end = PingPongEnd::open(base, "ping", "pong")?;
+        let end = PingPongEnd::open(base, "ping", "pong", false)?;
         let started = Instant::now();
         loop {
             end.send(ImuSample::new(0, 0, u64::MAX - 1, [0.0; 3], [0.0; 3]), mode)?;
@@ -223,6 +253,56 @@ impl<R: Payload> Pinger<R> {
     /// Tells the pong side to exit.
     pub fn finish(self) -> anyhow::Result<()> {
         self.end.send(ImuSample::new(0, 0, u64::MAX, [0.0; 3], [0.0; 3]), self.mode)
+    }
+}
+
+/// The throughput floor: raw iceoryx2 through a relay process (a pong side
+/// started `buffered` on `base`, answering each `ImuSample` with a 4.2 KB
+/// `StateSnapshot`), with fusiond's own buffers: the path of fusiond's
+/// throughput trials without the filter.
+pub struct RawRelay {
+    end: PingPongEnd<ImuSample, StateSnapshot>,
+    seq: u64,
+}
+
+impl RawRelay {
+    /// Connects to the relay: retries a first ping until it answers.
+    pub fn connect(base: &str) -> anyhow::Result<Self> {
+        let end = PingPongEnd::open(base, "ping", "pong", true)?;
+        let started = Instant::now();
+        loop {
+            end.send(ImuSample::new(0, 0, u64::MAX - 1, [0.0; 3], [0.0; 3]), Mode::Spin)?;
+            if end.receive(Mode::Spin)?.is_some() {
+                break;
+            }
+            anyhow::ensure!(started.elapsed() < Duration::from_secs(20), "the relay did not answer");
+        }
+        Ok(Self { end, seq: 0 })
+    }
+
+    /// The sequence number of the next ping.
+    pub fn next_seq(&self) -> u64 {
+        self.seq
+    }
+
+    /// Sends the next ping.
+    pub fn send(&mut self) -> anyhow::Result<()> {
+        self.end.send(ImuSample::new(now_ns(), 0, self.seq, [0.0; 3], [0.0; 3]), Mode::Spin)?;
+        self.seq += 1;
+        Ok(())
+    }
+
+    /// Every answer there: `each(seq)`.
+    pub fn read(&mut self, mut each: impl FnMut(u64)) -> anyhow::Result<()> {
+        while let Some(seq) = self.end.try_receive()? {
+            each(seq);
+        }
+        Ok(())
+    }
+
+    /// Tells the relay to exit.
+    pub fn finish(self) -> anyhow::Result<()> {
+        self.end.send(ImuSample::new(0, 0, u64::MAX, [0.0; 3], [0.0; 3]), Mode::Spin)
     }
 }
 

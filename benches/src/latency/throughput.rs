@@ -5,6 +5,7 @@ use std::time::{Duration, Instant};
 use fusion_client::{Client, now_ns};
 
 use super::*;
+use crate::latency::pingpong::RawRelay;
 
 /// One throughput trial's result.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -47,7 +48,7 @@ pub fn throughput(
     }
     let mut last_seq: Option<u64> = None;
     let mut trial = Trial { published, received: 0, lost: 0, reader_missed: 0 };
-    let mut read = |state: &mut fusion_client::StateSubscriber, trial: &mut Trial| -> anyhow::Result<()> {
+    let read = |trial: &mut Trial| -> anyhow::Result<()> {
         while let Some(s) = state.try_next()? {
             if let Some(prev) = last_seq {
                 trial.reader_missed += s.seq.saturating_sub(prev + 1);
@@ -64,6 +65,51 @@ pub fn throughput(
         }
         Ok(())
     };
+    let publish = || -> anyhow::Result<()> {
+        imu.publish(now_ns(), imu_value.0, imu_value.1)?;
+        Ok(())
+    };
+    paced(&mut trial, rate_hz, publish, read)?;
+    Ok(trial)
+}
+
+/// The same trial through raw iceoryx2 ([`RawRelay`]: a relay process that
+/// answers each sample with a snapshot-sized message, with fusiond's
+/// buffers): the floor of [`throughput`], measured in the same run.
+/// `received` counts the answers, `reader_missed` the gaps in their
+/// sequence numbers (the relay keeps no count of its own).
+pub fn raw_throughput(relay: &mut RawRelay, rate_hz: f64, published: u64) -> anyhow::Result<Trial> {
+    // Answers to a previous trial's pings are not this one's.
+    let first = relay.next_seq();
+    let mut trial = Trial { published, ..Trial::default() };
+    let mut last_seq: Option<u64> = None;
+    let relay = std::cell::RefCell::new(relay);
+    let read = |trial: &mut Trial| -> anyhow::Result<()> {
+        relay.borrow_mut().read(|seq| {
+            if seq < first {
+                return;
+            }
+            if let Some(prev) = last_seq {
+                trial.reader_missed += seq.saturating_sub(prev + 1);
+            }
+            last_seq = Some(seq);
+            trial.received += 1;
+        })
+    };
+    paced(&mut trial, rate_hz, || relay.borrow_mut().send(), read)?;
+    Ok(trial)
+}
+
+/// `trial.published` calls of `publish` at `rate_hz`, in slices of 100 µs
+/// sent back to back, with `read` busy-polled between slices and after the
+/// last until `trial.received` reaches `trial.published` (or 3 s have passed).
+fn paced(
+    trial: &mut Trial,
+    rate_hz: f64,
+    mut publish: impl FnMut() -> anyhow::Result<()>,
+    mut read: impl FnMut(&mut Trial) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let published = trial.published;
     let slice_ns = 100_000u64;
     let per_slice = rate_hz * slice_ns as f64 * 1e-9;
     let start = now_ns();
@@ -72,19 +118,18 @@ pub fn throughput(
     while sent < published {
         let due = ((slice + 1) as f64 * per_slice).round() as u64;
         while sent < due.min(published) {
-            imu.publish(now_ns(), imu_value.0, imu_value.1)?;
+            publish()?;
             sent += 1;
         }
         slice += 1;
         let next = start + slice * slice_ns;
         while now_ns() < next {
-            read(&mut state, &mut trial)?;
+            read(trial)?;
         }
     }
     let deadline = Instant::now() + Duration::from_secs(3);
     while trial.received < published && Instant::now() < deadline {
-        read(&mut state, &mut trial)?;
+        read(trial)?;
     }
-    read(&mut state, &mut trial)?;
-    Ok(trial)
+    read(trial)
 }
