@@ -12,6 +12,7 @@ use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
+use iceoryx2::service::builder::publish_subscribe;
 
 use super::{Mode, Pacer, histogram};
 
@@ -93,34 +94,17 @@ impl<S: Payload, R: Payload> PingPongEnd<S, R> {
             (true, "ping") => Some(service::SAMPLE_BUFFER),
             (true, _) => Some(service::STATE_BUFFER),
         };
-        let publisher = match buffer(send_to) {
-            None => node.service_builder(&name(send_to)?).publish_subscribe::<S>().open_or_create()?,
-            Some(n) => node
-                .service_builder(&name(send_to)?)
-                .publish_subscribe::<S>()
-                .subscriber_max_buffer_size(n)
-                .history_size(0)
-                .open_or_create()?,
-        }
-        .publisher_builder()
-        .create()?;
+        let publisher = sized(node.service_builder(&name(send_to)?).publish_subscribe::<S>(), buffer(send_to))
+            .open_or_create()?
+            .publisher_builder()
+            .create()?;
+        let incoming = sized(node.service_builder(&name(receive_from)?).publish_subscribe::<R>(), buffer(receive_from))
+            .open_or_create()?;
         let subscriber = match buffer(receive_from) {
-            None => node
-                .service_builder(&name(receive_from)?)
-                .publish_subscribe::<R>()
-                .open_or_create()?
-                .subscriber_builder()
-                .create()?,
-            Some(n) => node
-                .service_builder(&name(receive_from)?)
-                .publish_subscribe::<R>()
-                .subscriber_max_buffer_size(n)
-                .history_size(0)
-                .open_or_create()?
-                .subscriber_builder()
-                .buffer_size(n)
-                .create()?,
-        };
+            Some(n) => incoming.subscriber_builder().buffer_size(n),
+            None => incoming.subscriber_builder(),
+        }
+        .create()?;
         let notifier = event(send_to)?.notifier_builder().create()?;
         let listener = event(receive_from)?.listener_builder().create()?;
         Ok(Self { _node: node, publisher, subscriber, notifier, listener })
@@ -161,6 +145,18 @@ impl<S: Payload, R: Payload> PingPongEnd<S, R> {
                 },
             }
         }
+    }
+}
+
+/// A service of subscriber queues of `buffer` samples and no history (else
+/// iceoryx2's defaults).
+fn sized<P: Payload>(
+    builder: publish_subscribe::Builder<P, (), ipc::Service>,
+    buffer: Option<usize>,
+) -> publish_subscribe::Builder<P, (), ipc::Service> {
+    match buffer {
+        Some(n) => builder.subscriber_max_buffer_size(n).history_size(0),
+        None => builder,
     }
 }
 
