@@ -77,6 +77,42 @@ pub trait KindCatalog {
         table: Option<&toml::Value>,
         key: &dyn Fn(&str) -> String,
     ) -> Result<Settings, ConfigError>;
+
+    /// What a sensor of `kind` with `settings` observes ([`Observes`]).
+    fn observes(&self, kind: SampleKind, settings: &Settings) -> Observes;
+
+    /// The check of the whole configuration that `kind` makes of its
+    /// sensors (`sensors`, every configured stream), if it makes one (one
+    /// relative pose sensor per fusiond): the error names the sensor and says
+    /// why.
+    fn check_sensors(&self, kind: SampleKind, sensors: &[MountedSensor]) -> Result<(), ConfigError>;
+}
+
+/// What a sensor's samples let the `ins` model observe, as its kind declares
+/// it (`Measurement::observes`, from the sensor's settings): what turns the
+/// yaw rule ([`crate::model::ins::observability`]) and the gravity reference
+/// ([`crate::model::ins::gravity`]) on or off. A kind that declares nothing
+/// observes nothing: it gives no heading, so the yaw is never learnt from it
+/// (the safe side; a test over the kind list checks each declaration against
+/// the kind's observation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Observes {
+    /// The heading: a change of the yaw alone changes what the sensor reads
+    /// (a compass, a world velocity as the vehicle moves, a map frame's yaw).
+    pub heading: bool,
+    /// The horizontal position (east and north).
+    pub horizontal_position: bool,
+    /// The tilt through a position, a velocity or an attitude, so the
+    /// accelerometer's specific force is checked against them (what keeps
+    /// roll and pitch without the gravity reference).
+    pub tilt: bool,
+}
+
+impl Observes {
+    /// Nothing: the default of a kind that declares nothing.
+    pub const NOTHING: Self = Self { heading: false, horizontal_position: false, tilt: false };
+    /// Heading, horizontal position and tilt (a position fix, a full pose).
+    pub const ALL: Self = Self { heading: true, horizontal_position: true, tilt: true };
 }
 
 /// A sensor's settings of its kind, of the type its kind's module declares
@@ -293,6 +329,8 @@ pub struct MountedSensor {
     pub time_offset_ns: i64,
     /// Its settings of its kind (the kind's table, checked; [`Settings::get`]).
     pub settings: Settings,
+    /// What it observes, as its kind declares from its settings.
+    pub observes: Observes,
 }
 
 /// The datum of the world frame (set once) and the sensors' mounts.
@@ -319,7 +357,8 @@ impl Frames {
     /// Frames with the configured datum, sensors and IMU combination, checked:
     /// known kinds, no (kind, id) twice, finite angles and lever arms, a rotation
     /// or axis convention only for a rotated kind, no lever arm for an IMU, at
-    /// most [`MAX_IMUS`] IMUs, and each table read by its kind (`kinds`).
+    /// most [`MAX_IMUS`] IMUs, each table read by its kind (`kinds`), and each
+    /// kind's check of its sensors together ([`KindCatalog::check_sensors`]).
     pub fn from_config(
         datum: Option<Datum>,
         sensors: &[SensorConfig],
@@ -338,6 +377,9 @@ impl Frames {
             for (name, &kind) in s.kinds.iter().zip(&own) {
                 frames.add_stream(s, name, kind, kinds, &key)?;
             }
+        }
+        for &kind in SampleKind::ALL {
+            kinds.check_sensors(kind, &frames.sensors)?;
         }
         Ok(frames)
     }
@@ -384,6 +426,7 @@ impl Frames {
             (t, f) => key(&format!("{}.{f}", t.unwrap_or("settings"))),
         };
         let settings = kinds.settings(kind, table, &table_key)?;
+        let observes = kinds.observes(kind, &settings);
         self.sensors.push(MountedSensor {
             kind,
             id: s.id,
@@ -391,6 +434,7 @@ impl Frames {
             mount: Mount::new(s.axes, s.rotation_rpy_deg.map(f64::to_radians), s.lever_arm_m),
             time_offset_ns: s.time_offset_ns,
             settings,
+            observes,
         });
         Ok(())
     }

@@ -231,7 +231,7 @@ impl<M: Steps> LiveCore<M> {
         let reinitialisations = self.engine.latest().map_or(0, |e| M::diagnostics(&e.state).reinitialisations);
         if reinitialisations > self.reinitialisations_logged {
             let (t_ns, kind) = self.engine.latest().map_or((0, SampleKind::Imu), |e| (e.key.t_ns, e.key.kind));
-            if crate::model::lockout::KindRuns::tracked(kind) {
+            if measurement::lockout_rule(kind) == crate::model::lockout::LockoutRule::Resets {
                 tracing::warn!(
                     reinitialisations,
                     t_ns,

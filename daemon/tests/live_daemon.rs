@@ -440,8 +440,8 @@ fn lasting_refusals_are_warned_about_once_per_sensor() {
             "refused-ins",
             common::ins_config_at_truth(1),
             vec![
-                "magnetometer 3: magnetometer 3 has no Earth field",
-                "barometer 5: no barometer 5 is configured",
+                "magnetometer 3: no magnetometer sensor 3 is configured",
+                "barometer 5: no barometer sensor 5 is configured",
                 "pose 6: no pose sensor 6 is configured",
             ],
         ),

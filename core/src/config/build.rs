@@ -6,11 +6,9 @@ use super::{Config, ConfigError, ModelConfig, Tables, invalid, positive};
 use crate::engine::EngineConfig;
 use crate::frames::{Frames, MountedSensor};
 use crate::measurement::Steps;
-use crate::measurement::pose::PoseConfig;
 use crate::model::Model;
 use crate::model::ins::{self, AlignmentParams, CourseAlignment, ImuNoise, InsModel, OdometryScale};
 use crate::model::linear::{self, LinearModel};
-use fusion_shared::SampleKind;
 
 /// Runs something generic over the model type with the configured model.
 pub trait WithModel {
@@ -124,21 +122,28 @@ fn aux_states(scale: Option<OdometryScale>, frames: &Frames) -> Result<ins::AuxS
             "sensor",
             format!(
                 "{culprit:?}: the configuration brings {} auxiliary states ({}), and a snapshot carries at most {}; \
-                 configure fewer (a pose sensor's frame may be given: [sensor.pose] frame_yaw_deg, frame_origin_m)",
+                 configure fewer{}",
                 aux.wanted(),
                 aux.describe(),
-                ins::MAX_AUX
+                ins::MAX_AUX,
+                fewer_aux(frames)
             ),
         ));
     }
-    let relative = frames.sensors().iter().filter(|m| m.kind == SampleKind::Pose);
-    if let Some(second) = relative.filter(|m| m.settings.get::<PoseConfig>().is_some_and(|p| p.relative)).nth(1) {
-        return Err(invalid(
-            "sensor",
-            format!("{:?}: one relative pose sensor per fusiond (its last pose is kept in the state)", second.name),
-        ));
-    }
     Ok(aux)
+}
+
+/// How the configured sensors' kinds say a configuration may bring fewer
+/// auxiliary states (`Measurement::FEWER_AUX`), as a clause: `""` if none says.
+fn fewer_aux(frames: &Frames) -> String {
+    let mut ways: Vec<&str> = Vec::new();
+    for m in frames.sensors() {
+        let way = crate::measurement::fewer_aux(m.kind);
+        if !way.is_empty() && !ways.contains(&way) {
+            ways.push(way);
+        }
+    }
+    if ways.is_empty() { String::new() } else { format!(" ({})", ways.join("; ")) }
 }
 
 /// `[model.odometry_scale]`'s values: `initial` in (0.5, 2), `initial_std` in
@@ -279,7 +284,7 @@ impl InsModel {
             InsBuilt::Core(m) => Ok(m),
             _ => Err(invalid(
                 "model",
-                "the model has auxiliary states (odometry scale, barometer bias, pose frame): build it with \
+                "the configuration brings auxiliary states (its sensors' or the model's): build the model with \
                  InsBuilt::from_config",
             )),
         }

@@ -71,6 +71,12 @@ pub use super::pose::QUATERNION_NORM_TOLERANCE;
 
 impl Measurement for AttitudeSample {
     const RANK: u8 = 2;
+    /// The tilt, and the heading when its yaw is fused (`[sensor.attitude] yaw`).
+    fn observes(settings: Option<&AttitudeConfig>) -> super::Observes {
+        let yaw = settings.copied().unwrap_or_default().yaw;
+        super::Observes { heading: yaw, tilt: true, ..super::Observes::NOTHING }
+    }
+    const LOCKOUT: super::LockoutRule = super::LockoutRule::Resets;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
     /// An AHRS's orientation: its own filter's estimate.

@@ -53,6 +53,10 @@ const UNSET_BIAS_STD_M: f64 = 100.0;
 
 impl Measurement for BarometerSample {
     const RANK: u8 = 2;
+    /// A height: neither the heading, nor the horizontal position, nor the
+    /// tilt.
+    const LOCKOUT: super::LockoutRule = super::LockoutRule::Resets;
+    const NEEDS_ENTRY: Option<&'static str> = Some("its entry makes its bias state at start-up");
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
     type Settings = BarometerConfig;

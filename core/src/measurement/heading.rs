@@ -41,6 +41,11 @@ const MIN_HORIZONTAL: f64 = 1e-6;
 
 impl Measurement for HeadingSample {
     const RANK: u8 = 2;
+    /// The yaw, and (as an attitude) the tilt.
+    fn observes(_: Option<&()>) -> super::Observes {
+        super::Observes { heading: true, tilt: true, ..super::Observes::NOTHING }
+    }
+    const LOCKOUT: super::LockoutRule = super::LockoutRule::Resets;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
     type Settings = ();

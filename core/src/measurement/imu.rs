@@ -26,6 +26,9 @@ fn body_values<M: Model>(imu: &ImuSample, model: &M) -> (Vector3<f64>, Vector3<f
 
 impl Measurement for ImuSample {
     const RANK: u8 = 0;
+    /// Drives the propagation; observes nothing by itself (the gravity
+    /// reference is the model's).
+    const LOCKOUT: super::LockoutRule = super::LockoutRule::None;
     const TIMEOUT_NS: u64 = 100_000_000;
     const NEEDED: Option<Needed> = Some(Needed::Propagation);
     const ROTATED: bool = true;

@@ -56,6 +56,16 @@ pub const MAX_FIELD_UT: f64 = 1000.0;
 
 impl Measurement for MagnetometerSample {
     const RANK: u8 = 2;
+    /// The heading (the field's horizontal part); the tilt only weakly, so
+    /// the gravity reference stays on for an IMU with a magnetometer.
+    fn observes(_: Option<&EarthField>) -> super::Observes {
+        super::Observes { heading: true, ..super::Observes::NOTHING }
+    }
+    const LOCKOUT: super::LockoutRule = super::LockoutRule::Resets;
+    const NEEDS_ENTRY: Option<&'static str> = Some(
+        "its entry's `[sensor.magnetic]` gives the Earth field it is compared with (declination_deg, \
+         inclination_deg, strength_ut)",
+    );
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
     const ROTATED: bool = true;

@@ -32,9 +32,11 @@ mod observations;
 use fusion_shared::{Sample, SampleKind, WireSample};
 use nalgebra::{SMatrix, SVector};
 
+pub use crate::frames::Observes;
 use crate::frames::{Frames, KindCatalog, MountedSensor, Settings, SettingsValue};
 use crate::model::ins::aux::{AuxPrior, AuxStates};
 use crate::model::ins::{InsModel, InsState};
+pub use crate::model::lockout::LockoutRule;
 use crate::model::{Model, StepOutcome};
 use crate::setting::ConfigError;
 pub use crate::validate::{Limits, Rejection};
@@ -123,6 +125,45 @@ pub trait Measurement: WireSample {
     /// A valid sample about to be processed may set what the frames still lack
     /// (a geodetic fix: the datum). Nothing by default.
     fn admit(&self, _frames: &Frames) {}
+
+    /// What a sensor with `settings` (`None`: not configured) observes of the
+    /// `ins` state: the heading, the horizontal position, the tilt
+    /// ([`Observes`]). Nothing by default, the safe side: a kind gives no
+    /// heading until it says so (the yaw rule then holds the yaw for it). A
+    /// test over the kind list checks the heading and the horizontal position
+    /// against the kind's observation ([`Observe`]): a kind whose `H` sees the
+    /// turn about world up must declare one of them, and one that declares
+    /// them must see it.
+    fn observes(_settings: Option<&Self::Settings>) -> Observes {
+        Observes::NOTHING
+    }
+
+    /// Whether this sample is an exact reading, without the noise its variance
+    /// says (an encoder that counts no tick reads exactly 0): fused as any
+    /// other, left out of the health's NIS test. None is, by default.
+    fn exact(&self) -> bool {
+        false
+    }
+
+    /// What a run of gated samples of this kind does ([`LockoutRule`]).
+    const LOCKOUT: LockoutRule;
+
+    /// What a sensor of this kind needs its `[[sensor]]` entry for, when
+    /// samples of an unconfigured one are refused for good ("its bias state is
+    /// made at start-up"): the daemon's warning says it with the entry to
+    /// add. `None`: an unconfigured sensor is fused with the kind's defaults.
+    const NEEDS_ENTRY: Option<&'static str> = None;
+
+    /// How a configuration whose auxiliary states do not fit may bring fewer
+    /// of this kind's (`""`: it brings none, or cannot).
+    const FEWER_AUX: &'static str = "";
+
+    /// The check this kind makes of the whole configuration (`sensors`: every
+    /// configured stream, of every kind), beyond each sensor's own table: an
+    /// error names the sensor and says why. None by default.
+    fn check_sensors(_sensors: &[MountedSensor]) -> Result<(), ConfigError> {
+        Ok(())
+    }
 }
 
 /// How model `M` fuses a sample of this kind. The state has already been
@@ -334,6 +375,53 @@ macro_rules! registry {
                     })*
                 })
             }
+
+            fn observes(&self, kind: SampleKind, settings: &Settings) -> Observes {
+                match kind {
+                    $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::observes(
+                        settings.get::<<fusion_shared::$ty as Measurement>::Settings>(),
+                    ),)*
+                }
+            }
+
+            fn check_sensors(&self, kind: SampleKind, sensors: &[MountedSensor]) -> Result<(), ConfigError> {
+                match kind {
+                    $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::check_sensors(sensors),)*
+                }
+            }
+        }
+
+        /// Whether `sample` is an exact reading ([`Measurement::exact`]):
+        /// fused as any other; the health leaves it out of the NIS test.
+        #[inline]
+        pub fn exact(sample: &Sample) -> bool {
+            match sample {
+                $(Sample::$variant(s) => s.exact(),)*
+            }
+        }
+
+        /// What a run of gated samples of `kind` does ([`Measurement::LOCKOUT`]).
+        #[inline]
+        pub const fn lockout_rule(kind: SampleKind) -> LockoutRule {
+            match kind {
+                $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::LOCKOUT,)*
+            }
+        }
+
+        /// What an unconfigured sensor of `kind` lacks, if its samples are
+        /// refused for good ([`Measurement::NEEDS_ENTRY`]).
+        pub const fn needs_entry(kind: SampleKind) -> Option<&'static str> {
+            match kind {
+                $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::NEEDS_ENTRY,)*
+            }
+        }
+
+        /// How a configuration may bring fewer of `kind`'s auxiliary states
+        /// ([`Measurement::FEWER_AUX`]).
+        pub const fn fewer_aux(kind: SampleKind) -> &'static str {
+            match kind {
+                $(SampleKind::$variant => <fusion_shared::$ty as Measurement>::FEWER_AUX,)*
+            }
         }
 
         /// Every kind's settings table as `fusiond print-config` prints it, in
@@ -508,7 +596,8 @@ macro_rules! registry {
 
         /// Fuses a sample into a state of model `M` (propagated to its time already).
         pub fn fuse<M: Fusion>(sample: &Sample, model: &M, state: &mut M::State) -> (StepOutcome, M::Correction) {
-            model.fuse_kind(state, sample.kind(), sample.t_ns(), |model, state| match sample {
+            let kind = sample.kind();
+            model.fuse_kind(state, kind, lockout_rule(kind), sample.t_ns(), |model, state| match sample {
                 $(Sample::$variant(s) => model.$variant(state, s),)*
             })
         }
@@ -519,13 +608,6 @@ fusion_shared::for_each_sample_kind!(registry);
 
 /// The largest innovation dimension of any kind (the health's NIS bands).
 pub const MAX_INNOVATION_DIM: usize = 6;
-
-/// Whether `sample` is an exact reading, without the noise its variance says:
-/// wheels that stand (an encoder that counts no tick reads exactly 0). Fused as
-/// any other; the health leaves it out of the NIS test.
-pub fn exact(sample: &Sample) -> bool {
-    matches!(sample, Sample::Odometry(o) if o.speed_mps == 0.0)
-}
 
 const _: () = {
     let mut i = 0;

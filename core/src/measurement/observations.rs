@@ -16,10 +16,11 @@ use fusion_shared::{
 };
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
-use super::{Observe, attitude, pose};
+use super::{Measurement, Observe, attitude, pose};
 use crate::frames::{Frames, SensorConfig};
 use crate::model::Model;
 use crate::model::StepOutcome;
+use crate::model::ins::observability::heading;
 use crate::model::ins::tests_support::{model, moving, numeric_jacobian, set_aux_value};
 use crate::model::ins::{AuxStates, InsModel, InsState, N, OdometryScale};
 
@@ -141,8 +142,15 @@ impl Checker {
     }
 
     /// Checks kind `T` (`name`): an observation with `H = −∂y/∂δx`; none
-    /// for the IMU alone.
-    pub(super) fn kind<T: Observe<M, E> + Example + Into<fusion_shared::Sample> + Copy, const M: usize>(
+    /// for the IMU alone; and what it declares it observes
+    /// ([`Measurement::observes`]) against its `H`: it sees the turn of the
+    /// whole trajectory about world up, `N` of [`crate::model::ins::observability`],
+    /// exactly when it declares a heading or a horizontal position (a kind
+    /// that gives one and does not say so fails here).
+    pub(super) fn kind<
+        T: Observe<M, E> + Measurement + Example + Into<fusion_shared::Sample> + Copy,
+        const M: usize,
+    >(
         &mut self,
         name: &'static str,
     ) {
@@ -158,6 +166,16 @@ impl Checker {
         assert!(o.H.amax() > 0.0, "{name}: H is zero");
         assert!((o.H + numeric).amax() < 1e-6 * scale, "{name}: H + ∂y/∂δx =\n{}", o.H + numeric);
         assert!(nalgebra::Cholesky::new(o.R).is_some(), "{name}: R is not a covariance");
+        let mut turn = heading::<E>(&s.q());
+        turn.fixed_rows_mut::<3>(0).copy_from(&Vector3::z().cross(&s.p()));
+        turn.fixed_rows_mut::<3>(3).copy_from(&Vector3::z().cross(&s.v()));
+        let sees_turn = (o.H * turn).amax() > 1e-9 * scale * turn.amax();
+        let mounted = m.frames().sensors().iter().find(|x| x.kind == T::KIND).expect("every kind has its sensor");
+        let declared = mounted.observes.heading || mounted.observes.horizontal_position;
+        assert_eq!(
+            declared, sees_turn,
+            "{name}: declares a heading or a horizontal position: {declared}; its H sees the turn about up: {sees_turn}"
+        );
         self.checked.push(name);
     }
 }

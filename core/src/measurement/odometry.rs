@@ -55,6 +55,16 @@ pub const MAX_SPEED_MPS: f64 = 150.0;
 
 impl Measurement for OdometrySample {
     const RANK: u8 = 2;
+    /// A body-frame speed: the tilt, neither the heading nor the position.
+    fn observes(_: Option<&()>) -> super::Observes {
+        super::Observes { tilt: true, ..super::Observes::NOTHING }
+    }
+    const LOCKOUT: super::LockoutRule = super::LockoutRule::Resets;
+
+    /// Wheels that stand: an encoder that counts no tick reads exactly 0.
+    fn exact(&self) -> bool {
+        self.speed_mps == 0.0
+    }
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
     type Settings = ();

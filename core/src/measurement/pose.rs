@@ -74,7 +74,7 @@ use nalgebra::{Matrix3, Quaternion, Rotation3, SMatrix, SVector, UnitQuaternion,
 
 use super::components::selected_covariance;
 use super::{Fuse, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance, finite};
-use crate::frames::Mount;
+use crate::frames::{Mount, MountedSensor};
 use crate::model::ins::aux::{AuxPrior, augment_some};
 
 /// Standard deviation given the map frame's origin before the first pose
@@ -93,6 +93,27 @@ pub const MAX_RELATIVE_GAP_NS: u64 = 1_000_000_000;
 
 impl Measurement for PoseSample {
     const RANK: u8 = 2;
+    /// The tilt; the heading if it fuses its yaw, the horizontal position if
+    /// it fuses both `x` and `y` (`[sensor.pose] fuse`; all of them by default).
+    fn observes(settings: Option<&PoseConfig>) -> super::Observes {
+        let Some(f) = settings.map(|c| c.fuse.mask) else { return super::Observes::ALL };
+        super::Observes { heading: f[5], horizontal_position: f[0] && f[1], tilt: true }
+    }
+    const LOCKOUT: super::LockoutRule = super::LockoutRule::Resets;
+    const NEEDS_ENTRY: Option<&'static str> = Some("its entry makes its map frame at start-up");
+    const FEWER_AUX: &'static str = "a pose sensor's frame may be given: [sensor.pose] frame_yaw_deg, frame_origin_m";
+
+    /// One relative pose sensor per fusiond: its last pose is kept in the state.
+    fn check_sensors(sensors: &[MountedSensor]) -> Result<(), ConfigError> {
+        let relative = |m: &&MountedSensor| m.settings.get::<PoseConfig>().is_some_and(|p| p.relative);
+        match sensors.iter().filter(|m| m.kind == SampleKind::Pose).filter(relative).nth(1) {
+            Some(second) => Err(crate::setting::invalid(
+                "sensor",
+                format!("{:?}: one relative pose sensor per fusiond (its last pose is kept in the state)", second.name),
+            )),
+            None => Ok(()),
+        }
+    }
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
     const ROTATED: bool = true;

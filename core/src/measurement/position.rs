@@ -22,6 +22,11 @@ use crate::model::{Model, StepOutcome};
 
 impl Measurement for PositionSample {
     const RANK: u8 = 1;
+    /// The horizontal position, and the tilt through the accelerometer.
+    fn observes(_: Option<&()>) -> super::Observes {
+        super::Observes { horizontal_position: true, tilt: true, ..super::Observes::NOTHING }
+    }
+    const LOCKOUT: super::LockoutRule = super::LockoutRule::Reinitialises;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = Some(Needed::Position);
     type Settings = ();

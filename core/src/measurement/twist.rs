@@ -56,6 +56,12 @@ use crate::setting::ConfigError;
 
 impl Measurement for TwistSample {
     const RANK: u8 = 2;
+    /// A body-frame velocity and rate: the tilt, neither the heading nor the
+    /// position.
+    fn observes(_: Option<&TwistConfig>) -> super::Observes {
+        super::Observes { tilt: true, ..super::Observes::NOTHING }
+    }
+    const LOCKOUT: super::LockoutRule = super::LockoutRule::Resets;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
     const ROTATED: bool = true;

@@ -25,6 +25,11 @@ use crate::model::{Model, StepOutcome};
 
 impl Measurement for VelocitySample {
     const RANK: u8 = 2;
+    /// A world velocity: the heading as the vehicle moves, and the tilt.
+    fn observes(_: Option<&()>) -> super::Observes {
+        super::Observes { heading: true, tilt: true, ..super::Observes::NOTHING }
+    }
+    const LOCKOUT: super::LockoutRule = super::LockoutRule::None;
     const TIMEOUT_NS: u64 = 1_000_000_000;
     const NEEDED: Option<Needed> = None;
     type Settings = ();

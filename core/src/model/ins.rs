@@ -510,12 +510,13 @@ impl<const D: usize> Model for InsModel<D> {
         &self,
         s: &mut InsState<D>,
         kind: fusion_shared::SampleKind,
+        lockout: crate::model::lockout::LockoutRule,
         t_ns: u64,
         fuse: impl FnOnce(&Self, &mut InsState<D>) -> (crate::model::StepOutcome, Option<SVector<f64, D>>),
     ) -> (crate::model::StepOutcome, Option<SVector<f64, D>>) {
         s.kind_runs.before(kind);
         let out = fuse(self, s);
-        s.kind_runs.after(self.lockout.as_ref(), kind, t_ns, &out.0);
+        s.kind_runs.after(self.lockout.as_ref(), kind, lockout, t_ns, &out.0);
         out
     }
 

@@ -97,6 +97,22 @@ pub struct Lockout {
     count: u64,
 }
 
+/// What a run of gated samples of a kind does: each kind declares its own
+/// (`Measurement::LOCKOUT`), and the model follows it without naming kinds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LockoutRule {
+    /// Nothing: the kind is never gated (the IMU drives the propagation), or
+    /// a run of it is no sign of a wrong state by itself (a world velocity).
+    None,
+    /// The run re-initialises the position and velocity from the fixes
+    /// ([`Lockout::observe`], which the kind's fusion calls): the position
+    /// and geodetic fixes.
+    Reinitialises,
+    /// The run resets what the kind observes ([`KindRuns`]): the kinds fused
+    /// through a residual.
+    Resets,
+}
+
 /// The runs of gated samples of each kind fused through a residual (every
 /// kind but the IMU and the fixes, which re-initialise instead), and the
 /// resets they made (see the module doc). Compact (it is copied with the
@@ -131,11 +147,6 @@ impl Default for KindRuns {
 }
 
 impl KindRuns {
-    /// Whether `kind` has a run of its own (the fixes' is [`Lockout::observe`]'s).
-    pub const fn tracked(kind: SampleKind) -> bool {
-        !matches!(kind, SampleKind::Imu | SampleKind::Position | SampleKind::Velocity | SampleKind::Geodetic)
-    }
-
     /// Before a sample of `kind` is fused: whether its run is due, in which
     /// case the sample resets ([`resetting`](Self::resetting)).
     pub fn before(&mut self, kind: SampleKind) {
@@ -161,11 +172,20 @@ impl KindRuns {
         self.handled = true;
     }
 
-    /// After a sample of `kind` at `t_ns` was fused with `outcome`.
-    pub fn after(&mut self, config: Option<&LockoutConfig>, kind: SampleKind, t_ns: u64, outcome: &StepOutcome) {
+    /// After a sample of `kind` at `t_ns` was fused with `outcome`, under the
+    /// kind's rule: only a kind that [`LockoutRule::Resets`] has a run here
+    /// (the fixes' is [`Lockout::observe`]'s).
+    pub fn after(
+        &mut self,
+        config: Option<&LockoutConfig>,
+        kind: SampleKind,
+        rule: LockoutRule,
+        t_ns: u64,
+        outcome: &StepOutcome,
+    ) {
         let reset = std::mem::take(&mut self.resetting);
         self.handled = false;
-        let Some(c) = config.filter(|_| Self::tracked(kind)) else { return };
+        let Some(c) = config.filter(|_| rule == LockoutRule::Resets) else { return };
         let i = kind.index();
         match outcome {
             StepOutcome::Fused { .. } => {
@@ -317,31 +337,35 @@ mod tests {
         for t in [0, 500_000_000, 900_000_000] {
             k.before(wheels);
             assert!(!k.resetting());
-            k.after(Some(&config), wheels, t, &GATED);
+            k.after(Some(&config), wheels, LockoutRule::Resets, t, &GATED);
         }
         // 3 gated over 0.9 s: not yet; a fourth at 1.0 s makes the run due.
         k.before(wheels);
         assert!(!k.resetting());
-        k.after(Some(&config), wheels, 1_000_000_000, &GATED);
+        k.after(Some(&config), wheels, LockoutRule::Resets, 1_000_000_000, &GATED);
         // Another kind's run is its own.
         k.before(SampleKind::Heading);
         assert!(!k.resetting());
-        k.after(Some(&config), SampleKind::Heading, 1_010_000_000, &fused);
+        k.after(Some(&config), SampleKind::Heading, LockoutRule::Resets, 1_010_000_000, &fused);
         k.before(wheels);
         assert!(k.resetting(), "due");
-        k.after(Some(&config), wheels, 1_100_000_000, &fused);
+        k.after(Some(&config), wheels, LockoutRule::Resets, 1_100_000_000, &fused);
         assert_eq!((k.resetting(), k.resets()), (false, 1));
         k.before(wheels);
         assert!(!k.resetting(), "the run ended with the reset");
-        // The fixes re-initialise instead; without a config nothing happens.
-        for kind in [SampleKind::Position, SampleKind::Geodetic, SampleKind::Velocity, SampleKind::Imu] {
-            assert!(!KindRuns::tracked(kind));
+        // A kind of another rule has no run here (the fixes re-initialise
+        // instead); without a config nothing happens.
+        let mut fixes = KindRuns::default();
+        for t in 0..20u64 {
+            fixes.before(SampleKind::Position);
+            assert!(!fixes.resetting());
+            fixes.after(Some(&config), SampleKind::Position, LockoutRule::Reinitialises, t * 1_000_000_000, &GATED);
         }
         let mut off = KindRuns::default();
         for t in 0..20u64 {
             off.before(wheels);
             assert!(!off.resetting());
-            off.after(None, wheels, t * 1_000_000_000, &GATED);
+            off.after(None, wheels, LockoutRule::Resets, t * 1_000_000_000, &GATED);
         }
     }
 

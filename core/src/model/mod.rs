@@ -144,13 +144,15 @@ pub trait Model {
     fn finish_record(log: Self::Log, state: &Self::State, correction: Self::Correction) -> Self::Record;
 
     /// Fuses a measurement of `kind` at `t_ns` by `fuse` (the kind's fusion
-    /// into this model): a model that keeps account of each kind's outcomes
-    /// (the `ins` model: its lock-out runs, [`lockout::KindRuns`]) wraps it.
+    /// into this model), under the kind's lock-out rule: a model that keeps
+    /// account of each kind's outcomes (the `ins` model: its lock-out runs,
+    /// [`lockout::KindRuns`]) wraps it.
     #[inline]
     fn fuse_kind(
         &self,
         state: &mut Self::State,
         _kind: fusion_shared::SampleKind,
+        _lockout: lockout::LockoutRule,
         _t_ns: u64,
         fuse: impl FnOnce(&Self, &mut Self::State) -> (StepOutcome, Self::Correction),
     ) -> (StepOutcome, Self::Correction) {

@@ -1,6 +1,6 @@
 //! One warning per sensor and reason when samples are refused in validation,
 //! and one per sensor whose samples the model refuses for good as configured
-//! (a kind it does not use, a barometer or pose sensor without its entry): the
+//! (a kind it does not use, a sensor without the entry its kind needs): the
 //! first refusal is logged with what to change; the rest are counted
 //! (snapshot, summary line, `fusionctl state`), never logged per sample.
 //!
@@ -9,9 +9,9 @@
 //! beyond that, one warning per reason for all the others.
 
 use fusion_shared::snapshot::rejection;
-use fusion_shared::{BarometerSample, MagnetometerSample, PoseSample, Sample, SampleKind};
+use fusion_shared::{Sample, SampleKind};
 
-use crate::measurement::{Steps, settings};
+use crate::measurement::{self, Steps};
 use crate::reorder::key_of;
 use crate::validate::Rejection;
 
@@ -82,12 +82,10 @@ impl RefusalWarnings {
 pub enum ConfigRefusal {
     /// The model does not use this kind at all.
     NotUsed,
-    /// A barometer without a `[[sensor]]` entry: it has no bias state.
-    NoBarometer,
-    /// A pose sensor without a `[[sensor]]` entry: it has no map frame.
-    NoPoseFrame,
-    /// A magnetometer without `[sensor.magnetic]`: no Earth field to compare with.
-    NoMagneticField,
+    /// The sensor has no `[[sensor]]` entry, and its kind needs one: what for,
+    /// as the kind says ([`measurement::needs_entry`]: a barometer's bias
+    /// state, a pose sensor's map frame, a magnetometer's Earth field).
+    NoEntry(&'static str),
 }
 
 impl ConfigRefusal {
@@ -97,15 +95,9 @@ impl ConfigRefusal {
         if !M::accepts(kind) {
             return Some(Self::NotUsed);
         }
-        let frames = model.frames();
-        match kind {
-            SampleKind::Barometer if settings::<BarometerSample>(frames, sensor).is_none() => Some(Self::NoBarometer),
-            SampleKind::Pose if settings::<PoseSample>(frames, sensor).is_none() => Some(Self::NoPoseFrame),
-            SampleKind::Magnetometer if settings::<MagnetometerSample>(frames, sensor).is_none() => {
-                Some(Self::NoMagneticField)
-            }
-            _ => None,
-        }
+        let needs = measurement::needs_entry(kind)?;
+        let configured = model.frames().sensors().iter().any(|m| m.kind == kind && m.id == sensor);
+        (!configured).then_some(Self::NoEntry(needs))
     }
 
     /// The reason and what to set, for `kind` `sensor` under model `model`.
@@ -116,16 +108,7 @@ impl ConfigRefusal {
                 "the {model} model does not use {} samples (see docs/sensor-kinds.md for the models that do)",
                 kind.name()
             ),
-            Self::NoBarometer => {
-                format!("no barometer {sensor} is configured: its bias state is made at start-up for `{entry}`")
-            }
-            Self::NoPoseFrame => {
-                format!("no pose sensor {sensor} is configured: its map frame is made at start-up for `{entry}`")
-            }
-            Self::NoMagneticField => format!(
-                "magnetometer {sensor} has no Earth field to be compared with: set `[sensor.magnetic]` (declination_deg, \
-                 inclination_deg, strength_ut) in `{entry}`"
-            ),
+            Self::NoEntry(why) => format!("no {} sensor {sensor} is configured ({why}): add `{entry}`", kind.name()),
         }
     }
 }

@@ -45,16 +45,15 @@
 //! diverged.)
 //!
 //! The rule is on for a configuration whose sensors give neither a heading nor
-//! a horizontal position: at least one `[[sensor]]`, and each an imu,
-//! odometry, twist, barometer, attitude without its yaw, or pose fusing
-//! neither its yaw nor both `x` and `y` ([`gives_no_heading`]).
+//! a horizontal position: at least one `[[sensor]]`, and none that observes
+//! either, as each kind declares it for its sensor's settings
+//! ([`crate::frames::Observes`]; today an imu, odometry, twist, barometer,
+//! attitude without its yaw, or pose fusing neither its yaw nor both `x` and
+//! `y`). A kind that declares nothing gives no heading ([`gives_no_heading`]).
 
 use nalgebra::{SVector, UnitQuaternion, Vector3};
 
 use crate::frames::MountedSensor;
-use crate::measurement::attitude::settings::AttitudeConfig;
-use crate::measurement::pose::settings::PoseConfig;
-use fusion_shared::SampleKind;
 
 /// The consider direction `c` of the world yaw at attitude `q`: world up in
 /// the body frame, in the attitude's rows of the error state (unit).
@@ -64,24 +63,17 @@ pub(crate) fn heading<const D: usize>(q: &UnitQuaternion<f64>) -> SVector<f64, D
     c
 }
 
-/// A sensor that observes neither the heading nor the horizontal position.
+/// A sensor that observes neither the heading nor the horizontal position
+/// (as its kind declares).
 pub fn gives_no_heading(m: &MountedSensor) -> bool {
-    match m.kind {
-        SampleKind::Imu | SampleKind::Odometry | SampleKind::Twist | SampleKind::Barometer => true,
-        SampleKind::Attitude => !m.settings.get::<AttitudeConfig>().copied().unwrap_or_default().yaw,
-        // A pose of neither its yaw nor both horizontal coordinates (a sonar's height).
-        SampleKind::Pose => m.settings.get::<PoseConfig>().is_some_and(|c| {
-            let f = c.fuse.mask;
-            !(f[5] || (f[0] && f[1]))
-        }),
-        _ => false,
-    }
+    !(m.observes.heading || m.observes.horizontal_position)
 }
 
 /// A sensor that gives neither a horizontal position nor a velocity nor its
-/// own attitude: an IMU, a magnetometer, a barometer.
+/// own attitude (as its kind declares: today an IMU, a magnetometer, a
+/// barometer).
 pub fn gives_no_position(m: &MountedSensor) -> bool {
-    matches!(m.kind, SampleKind::Imu | SampleKind::Magnetometer | SampleKind::Barometer)
+    !m.observes.tilt
 }
 
 /// Whether nothing configured keeps the tilt observable but the accelerometer
