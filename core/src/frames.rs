@@ -90,8 +90,8 @@ pub trait KindCatalog {
 
 /// What a sensor's samples let the `ins` model observe, as its kind declares
 /// it (`Measurement::observes`, from the sensor's settings): what turns the
-/// yaw rule ([`crate::model::ins::observability`]) and the gravity reference
-/// ([`crate::model::ins::gravity`]) on or off. A kind that declares nothing
+/// `ins` model's yaw rule (its `observability` module) and its gravity
+/// reference on or off. A kind that declares nothing
 /// observes nothing: it gives no heading, so the yaw is never learnt from it
 /// (the safe side; a test over the kind list checks each declaration against
 /// the kind's observation).

@@ -44,6 +44,17 @@ impl SampleHeader {
     }
 }
 
+/// What the fusion keeps of one kind between its samples, inside the filter
+/// state (a rewind restores it with the rest): each kind's file declares it
+/// (`()`: nothing; a pose sensor's map frame alignment and last pose). The
+/// state holds every kind's in one [`KindsProgress`], generated from the
+/// kind list, so the model that holds it names no kind.
+pub trait KindProgress {
+    /// The kind's bookkeeping (compact and `Copy`: it is copied with the
+    /// filter state into the history at every sample).
+    type Progress: Copy + Default + PartialEq + std::fmt::Debug;
+}
+
 /// A wire type of one sample kind.
 pub trait WireSample: Copy + Default + PartialEq + std::fmt::Debug + ZeroCopySend + 'static {
     /// The kind of the payload.
@@ -203,6 +214,7 @@ mod magnetometer;
 pub use magnetometer::earth_field_enu;
 mod odometry;
 mod pose;
+pub use pose::progress as pose_progress;
 mod position;
 mod twist;
 mod velocity;
@@ -280,6 +292,13 @@ macro_rules! sample_kinds {
                     $(SampleKind::$variant => f.call::<$ty>(),)*
                 }
             }
+        }
+
+        /// Every kind's [`KindProgress`], each under its kind's module name
+        /// (`pose`): what the fusion keeps between samples, in the filter state.
+        #[derive(Debug, Clone, Copy, PartialEq, Default)]
+        pub struct KindsProgress {
+            $(#[doc = concat!("The ", $name, " kind's.")] pub $module: <$ty as KindProgress>::Progress,)*
         }
 
         /// A sample of any kind (not a wire type: each kind has its own service).

@@ -137,7 +137,7 @@ impl Checker {
         for (k, v) in [0.3, 10.0, -5.0, 1.0].into_iter().enumerate() {
             set_aux_value(&mut state, N + 2 + k, v);
         }
-        state.aux_progress_mut().pose.aligned(0);
+        state.aux_progress_mut().kinds.pose.aligned(0);
         Self { model, state, checked: Vec::new(), samples: Vec::new() }
     }
 

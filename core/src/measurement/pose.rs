@@ -63,9 +63,8 @@
 
 #![allow(non_snake_case)]
 
-pub mod progress;
 pub mod settings;
-pub use progress::{PoseProgress, PreviousPose};
+pub use fusion_shared::sample::pose_progress::{PoseProgress, PreviousPose};
 pub use settings::PoseConfig;
 
 use fusion_shared::snapshot::aux;
@@ -405,8 +404,8 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
         if config.relative {
             // Disjoint pairs: a pose that ends a pair does not start the next.
             let this = previous(self);
-            let Some((z, cov)) = s.aux_progress_mut().pose.last.take().and_then(|a| relative_twist(&a, &this)) else {
-                s.aux_progress_mut().pose.last = Some(this);
+            let Some((z, cov)) = s.aux_progress_mut().kinds.pose.last.take().and_then(|a| relative_twist(&a, &this)) else {
+                s.aux_progress_mut().kinds.pose.last = Some(this);
                 return (StepOutcome::Propagated, None);
             };
             if !nonholonomic::attitude_known(s) {
@@ -419,12 +418,12 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
         let estimated = config.configured_frame().is_none();
         if estimated {
             let Some(i) = s.aux_index(aux::POSE_FRAME_YAW) else { return (StepOutcome::Refused, None) };
-            if s.aux_progress().pose.due(self.reset_counter, config.realign_after_gated) {
+            if s.aux_progress().kinds.pose.due(self.reset_counter, config.realign_after_gated) {
                 let Ok(R) = selected_covariance(&self.cov, &config.fuse.mask) else { return (StepOutcome::Refused, None) };
                 if !set_frame(s, mount, i, self, &R, &config.fuse.mask) {
                     return (StepOutcome::Refused, None);
                 }
-                s.aux_progress_mut().pose.aligned(self.reset_counter);
+                s.aux_progress_mut().kinds.pose.aligned(self.reset_counter);
                 return (StepOutcome::Propagated, None);
             }
         }
@@ -432,7 +431,7 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
         let out = model.update_residual_selected(s, &o.y, &o.H, &o.R, &config.fuse.mask);
         if estimated {
             // The estimated frame's sensor: its run of gated poses.
-            s.aux_progress_mut().pose.fused(matches!(out.0, StepOutcome::Gated { .. }));
+            s.aux_progress_mut().kinds.pose.fused(matches!(out.0, StepOutcome::Gated { .. }));
         }
         out
     }
@@ -452,7 +451,7 @@ impl<const D: usize> Observe<6, D> for PoseSample {
             Some((yaw, origin)) => MapFrame { yaw, origin: Vector3::from(origin), states: None },
             None => {
                 let i = s.aux_index(aux::POSE_FRAME_YAW)?;
-                if s.aux_progress().pose.due(self.reset_counter, config.realign_after_gated) {
+                if s.aux_progress().kinds.pose.due(self.reset_counter, config.realign_after_gated) {
                     return None;
                 }
                 MapFrame::estimated_at(s, i)

@@ -85,3 +85,8 @@ mod tests {
         assert_eq!(parse_sample(&line).unwrap(), s);
     }
 }
+
+/// Nothing is kept between its samples.
+impl crate::sample::KindProgress for AttitudeSample {
+    type Progress = ();
+}

@@ -89,6 +89,11 @@ const _: () = {
     assert!(core::mem::align_of::<BarometerSample>() == 8);
 };
 
+/// Nothing is kept between its samples.
+impl crate::sample::KindProgress for BarometerSample {
+    type Progress = ();
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -159,3 +159,8 @@ const _: () = {
     assert!(core::mem::size_of::<GeodeticSample>() == 152);
     assert!(core::mem::align_of::<GeodeticSample>() == 8);
 };
+
+/// Nothing is kept between its samples.
+impl crate::sample::KindProgress for GeodeticSample {
+    type Progress = ();
+}

@@ -67,6 +67,11 @@ const _: () = {
     assert!(core::mem::align_of::<HeadingSample>() == 8);
 };
 
+/// Nothing is kept between its samples.
+impl crate::sample::KindProgress for HeadingSample {
+    type Progress = ();
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -56,3 +56,8 @@ const _: () = {
     assert!(core::mem::size_of::<ImuSample>() == 80);
     assert!(core::mem::align_of::<ImuSample>() == 8);
 };
+
+/// Nothing is kept between its samples.
+impl crate::sample::KindProgress for ImuSample {
+    type Progress = ();
+}

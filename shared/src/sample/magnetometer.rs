@@ -64,3 +64,8 @@ const _: () = {
     assert!(core::mem::size_of::<MagnetometerSample>() == 128);
     assert!(core::mem::align_of::<MagnetometerSample>() == 8);
 };
+
+/// Nothing is kept between its samples.
+impl crate::sample::KindProgress for MagnetometerSample {
+    type Progress = ();
+}

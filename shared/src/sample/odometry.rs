@@ -56,3 +56,8 @@ const _: () = {
     assert!(core::mem::size_of::<OdometrySample>() == 48);
     assert!(core::mem::align_of::<OdometrySample>() == 8);
 };
+
+/// Nothing is kept between its samples.
+impl crate::sample::KindProgress for OdometrySample {
+    type Progress = ();
+}

@@ -1,6 +1,8 @@
 //! Pose: the position and attitude a localiser (lidar SLAM, visual-inertial
 //! odometry, a map matcher) gives in a map frame of its own.
 
+pub mod progress;
+
 use iceoryx2::prelude::ZeroCopySend;
 
 use super::{SampleHeader, SampleKind};
@@ -125,4 +127,10 @@ mod tests {
         assert!(line.contains("\"reset_counter\":2") && !line.contains("reserved"), "{line}");
         assert_eq!(parse_sample(&line).unwrap(), s);
     }
+}
+
+/// A pose sensor keeps where its estimated map frame stands, and a relative
+/// one its last pose ([`progress`]).
+impl crate::sample::KindProgress for PoseSample {
+    type Progress = progress::PoseProgress;
 }

@@ -51,3 +51,8 @@ const _: () = {
     assert!(core::mem::size_of::<PositionSample>() == 128);
     assert!(core::mem::align_of::<PositionSample>() == 8);
 };
+
+/// Nothing is kept between its samples.
+impl crate::sample::KindProgress for PositionSample {
+    type Progress = ();
+}

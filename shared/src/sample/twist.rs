@@ -120,3 +120,8 @@ mod tests {
         assert!(e.contains("36 numbers"), "{e}");
     }
 }
+
+/// Nothing is kept between its samples.
+impl crate::sample::KindProgress for TwistSample {
+    type Progress = ();
+}

@@ -53,3 +53,8 @@ const _: () = {
     assert!(core::mem::size_of::<VelocitySample>() == 128);
     assert!(core::mem::align_of::<VelocitySample>() == 8);
 };
+
+/// Nothing is kept between its samples.
+impl crate::sample::KindProgress for VelocitySample {
+    type Progress = ();
+}

@@ -100,7 +100,7 @@ fn the_first_pose_and_a_reset_set_the_frame_without_a_jump() {
     assert_eq!(&InsModel::x_of(&s)[..16], &InsModel::x_of(&before)[..16], "the estimate does not move");
     let frame = MapFrame::estimated(&s).unwrap();
     assert!((frame.yaw - 0.9).abs() < 1e-9 && (frame.origin - truth.origin).norm() < 1e-9, "{frame:?}");
-    assert_eq!((s.aux_progress().pose.counter, s.aux_progress().pose.alignments), (Some(0), 1));
+    assert_eq!((s.aux_progress().kinds.pose.counter, s.aux_progress().kinds.pose.alignments), (Some(0), 1));
     // The frame's variance: at least the yaw's uncertainty (1 rad in this state).
     let P = s.filter().P();
     assert!(P[(N, N)] > 0.5, "{}", P[(N, N)]);
@@ -117,7 +117,7 @@ fn the_first_pose_and_a_reset_set_the_frame_without_a_jump() {
     assert_eq!(&InsModel::x_of(&s)[..16], &InsModel::x_of(&x)[..16]);
     let frame = MapFrame::estimated(&s).unwrap();
     assert!((frame.yaw + 2.0).abs() < 1e-9 && (frame.origin - moved.origin).norm() < 1e-9, "{frame:?}");
-    assert_eq!((s.aux_progress().pose.counter, s.aux_progress().pose.alignments), (Some(1), 2));
+    assert_eq!((s.aux_progress().kinds.pose.counter, s.aux_progress().kinds.pose.alignments), (Some(1), 2));
 }
 
 /// A jump the localiser does not announce: poses are gated, and after

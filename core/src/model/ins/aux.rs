@@ -36,7 +36,6 @@ use nalgebra::{SMatrix, SVector};
 use super::OdometryScale;
 use super::{InsModel, InsState, MAX_AUX, N, NOMINAL};
 use crate::filter::{FilterError, KalmanFilter};
-pub use crate::measurement::pose::progress::{PoseProgress, PreviousPose};
 
 /// The error-state index of auxiliary state `bit` among the states `present`
 /// (bits of [`fusion_shared::snapshot::aux`]): [`N`] plus the number of lower
@@ -187,15 +186,15 @@ impl AuxStates {
 
 /// Where the auxiliary states that are set from a sample stand (part of the
 /// filter state: a rewind restores it with the rest): which have been set
-/// (`augment` records it for every kind), and the pose sensor's own
-/// bookkeeping.
+/// (`augment` records it for every kind), and each kind's own bookkeeping, as
+/// its file declares it ([`fusion_shared::sample::KindProgress`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AuxProgress {
     /// The [`fusion_shared::snapshot::aux`] bits of the states set from a
     /// sample.
     set: u32,
-    /// The pose sensor's ([`PoseProgress`]).
-    pub pose: PoseProgress,
+    /// Each kind's bookkeeping, under its module's name.
+    pub kinds: fusion_shared::sample::KindsProgress,
     /// Times states were set from a sample (`augment`), and the error-state
     /// indices of the last ones set (the first of their block, and a bit for
     /// each one set of it): the smoother's record of that step (`smoother_record`).

@@ -1,4 +1,5 @@
-//! What a pose sensor keeps between its samples, in the filter state (a
+//! What a pose sensor keeps between its samples, in the filter state (its
+//! kind's [`KindProgress`](crate::sample::KindProgress); a
 //! rewind restores it with the rest): where its estimated map frame stands, and
 //! a relative sensor's last pose.
 
