@@ -12,39 +12,6 @@
 #include <stdint.h>
 #include <stdlib.h>
 
-// `FusionSampleHeader.kind` and [`fusion_publisher_new`]'s `kind`: an IMU sample.
-#define FUSION_KIND_IMU 1
-
-// A position fix (`FusionPositionSample`).
-#define FUSION_KIND_POSITION 2
-
-// A velocity (`FusionVelocitySample`).
-#define FUSION_KIND_VELOCITY 3
-
-// A geodetic GNSS fix (`FusionGeodeticSample`).
-#define FUSION_KIND_GEODETIC 4
-
-// A wheel-odometry speed (`FusionOdometrySample`).
-#define FUSION_KIND_ODOMETRY 5
-
-// A heading (`FusionHeadingSample`).
-#define FUSION_KIND_HEADING 6
-
-// A magnetometer's field (`FusionMagnetometerSample`).
-#define FUSION_KIND_MAGNETOMETER 7
-
-// A twist from visual or lidar odometry (`FusionTwistSample`).
-#define FUSION_KIND_TWIST 8
-
-// A barometer's static pressure (`FusionBarometerSample`).
-#define FUSION_KIND_BAROMETER 9
-
-// A pose from a localiser in its map frame (`FusionPoseSample`).
-#define FUSION_KIND_POSE 10
-
-// An AHRS's orientation in the world frame (`FusionAttitudeSample`).
-#define FUSION_KIND_ATTITUDE 11
-
 // `FusionGeodeticSample.fix_type`: not reported.
 #define FUSION_FIX_UNKNOWN 0
 
@@ -152,6 +119,61 @@
 
 // Entries of `FusionStateSnapshot.sensors` (the first `sensor_count` are in use).
 #define FUSION_MAX_SENSORS 16
+
+// An imu sample (`FusionImuSample`): specific force (`ins`) or world acceleration (`linear`), m/s²; angular
+// rate, rad/s. Its code in `FusionSampleHeader.kind`, and the `kind` of `fusion_publisher_new` and
+// `fusion_publish`.
+#define FUSION_KIND_IMU 1
+
+// A position sample (`FusionPositionSample`): a position fix, m ENU, with its covariance (m², row-major 3×3).
+// Its code in `FusionSampleHeader.kind`, and the `kind` of `fusion_publisher_new` and `fusion_publish`.
+#define FUSION_KIND_POSITION 2
+
+// A velocity sample (`FusionVelocitySample`): a velocity, m/s ENU, with its covariance (m²/s², row-major 3×3).
+// Its code in `FusionSampleHeader.kind`, and the `kind` of `fusion_publisher_new` and `fusion_publish`.
+#define FUSION_KIND_VELOCITY 3
+
+// A geodetic sample (`FusionGeodeticSample`): a GNSS fix: WGS-84 latitude, longitude (deg), ellipsoidal height
+// (m); ENU covariance m²; the receiver's fix type (`FIX_*`), satellites used, HDOP and VDOP (0: not reported).
+// Its code in `FusionSampleHeader.kind`, and the `kind` of `fusion_publisher_new` and `fusion_publish`.
+#define FUSION_KIND_GEODETIC 4
+
+// An odometry sample (`FusionOdometrySample`): forward speed from wheel odometry, m/s, with its variance. Its
+// code in `FusionSampleHeader.kind`, and the `kind` of `fusion_publisher_new` and `fusion_publish`.
+#define FUSION_KIND_ODOMETRY 5
+
+// A heading sample (`FusionHeadingSample`): yaw, rad ENU (from east, counter-clockwise), with its variance. Its
+// code in `FusionSampleHeader.kind`, and the `kind` of `fusion_publisher_new` and `fusion_publish`.
+#define FUSION_KIND_HEADING 6
+
+// A magnetometer sample (`FusionMagnetometerSample`): a magnetometer's field, µT in the sensor's axes
+// (calibrated), with its covariance (µT², row-major 3×3). Its code in `FusionSampleHeader.kind`, and the `kind`
+// of `fusion_publisher_new` and `fusion_publish`.
+#define FUSION_KIND_MAGNETOMETER 7
+
+// A twist sample (`FusionTwistSample`): linear (m/s) and angular (rad/s) velocity in the sensor's axes, with
+// their covariance (row-major 6×6, linear then angular): visual or lidar odometry. Its code in
+// `FusionSampleHeader.kind`, and the `kind` of `fusion_publisher_new` and `fusion_publish`.
+#define FUSION_KIND_TWIST 8
+
+// A barometer sample (`FusionBarometerSample`): static air pressure, Pa, with its variance (Pa²). Its code in
+// `FusionSampleHeader.kind`, and the `kind` of `fusion_publisher_new` and `fusion_publish`.
+#define FUSION_KIND_BAROMETER 9
+
+// A pose sample (`FusionPoseSample`): a localiser's pose in its map frame: position (m), unit quaternion `[w, x,
+// y, z]` of the sensor's axes into the map, covariance (row-major 6×6, position then attitude about the sensor's
+// axes) and the localiser's reset counter. Its code in `FusionSampleHeader.kind`, and the `kind` of
+// `fusion_publisher_new` and `fusion_publish`.
+#define FUSION_KIND_POSE 10
+
+// An attitude sample (`FusionAttitudeSample`): an AHRS's orientation: unit quaternion `[w, x, y, z]` of the
+// sensor's axes into the world frame (ENU), with the covariance of its error about the sensor's axes (rad²,
+// row-major 3×3). Its code in `FusionSampleHeader.kind`, and the `kind` of `fusion_publisher_new` and
+// `fusion_publish`.
+#define FUSION_KIND_ATTITUDE 11
+
+// Kind codes in use: `1..=FUSION_KIND_COUNT` (a larger code is no kind).
+#define FUSION_KIND_COUNT 11
 
 // Braking to a stop, and pulling away after it, each take this long, s.
 #define STOP_RAMP_S 4.0
@@ -716,6 +738,119 @@ enum FusionStatus fusion_state_wait_next(struct FusionStateReader *reader,
                                          uint64_t timeout_ns,
                                          struct FusionStateSnapshot *out);
 
+// Publishes an imu sample: specific force (`ins`) or world acceleration (`linear`), m/s²; angular rate, rad/s.
+// `*reached` (if not NULL) is the number of readers it reached: 0 when no fusiond runs. The same as
+// `fusion_publish` with `FUSION_KIND_IMU`.
+//
+// # Safety
+// `publisher` null or live; `sample` null or valid; `reached` null or writable.
+enum FusionStatus fusion_publish_imu(struct FusionPublisher *publisher,
+                                     const struct FusionImuSample *sample,
+                                     size_t *reached);
+
+// Publishes a position sample: a position fix, m ENU, with its covariance (m², row-major 3×3). `*reached` (if
+// not NULL) is the number of readers it reached: 0 when no fusiond runs. The same as `fusion_publish` with
+// `FUSION_KIND_POSITION`.
+//
+// # Safety
+// `publisher` null or live; `sample` null or valid; `reached` null or writable.
+enum FusionStatus fusion_publish_position(struct FusionPublisher *publisher,
+                                          const struct FusionPositionSample *sample,
+                                          size_t *reached);
+
+// Publishes a velocity sample: a velocity, m/s ENU, with its covariance (m²/s², row-major 3×3). `*reached` (if
+// not NULL) is the number of readers it reached: 0 when no fusiond runs. The same as `fusion_publish` with
+// `FUSION_KIND_VELOCITY`.
+//
+// # Safety
+// `publisher` null or live; `sample` null or valid; `reached` null or writable.
+enum FusionStatus fusion_publish_velocity(struct FusionPublisher *publisher,
+                                          const struct FusionVelocitySample *sample,
+                                          size_t *reached);
+
+// Publishes a geodetic sample: a GNSS fix: WGS-84 latitude, longitude (deg), ellipsoidal height (m); ENU
+// covariance m²; the receiver's fix type (`FIX_*`), satellites used, HDOP and VDOP (0: not reported). `*reached`
+// (if not NULL) is the number of readers it reached: 0 when no fusiond runs. The same as `fusion_publish` with
+// `FUSION_KIND_GEODETIC`.
+//
+// # Safety
+// `publisher` null or live; `sample` null or valid; `reached` null or writable.
+enum FusionStatus fusion_publish_geodetic(struct FusionPublisher *publisher,
+                                          const struct FusionGeodeticSample *sample,
+                                          size_t *reached);
+
+// Publishes an odometry sample: forward speed from wheel odometry, m/s, with its variance. `*reached` (if not
+// NULL) is the number of readers it reached: 0 when no fusiond runs. The same as `fusion_publish` with
+// `FUSION_KIND_ODOMETRY`.
+//
+// # Safety
+// `publisher` null or live; `sample` null or valid; `reached` null or writable.
+enum FusionStatus fusion_publish_odometry(struct FusionPublisher *publisher,
+                                          const struct FusionOdometrySample *sample,
+                                          size_t *reached);
+
+// Publishes a heading sample: yaw, rad ENU (from east, counter-clockwise), with its variance. `*reached` (if not
+// NULL) is the number of readers it reached: 0 when no fusiond runs. The same as `fusion_publish` with
+// `FUSION_KIND_HEADING`.
+//
+// # Safety
+// `publisher` null or live; `sample` null or valid; `reached` null or writable.
+enum FusionStatus fusion_publish_heading(struct FusionPublisher *publisher,
+                                         const struct FusionHeadingSample *sample,
+                                         size_t *reached);
+
+// Publishes a magnetometer sample: a magnetometer's field, µT in the sensor's axes (calibrated), with its
+// covariance (µT², row-major 3×3). `*reached` (if not NULL) is the number of readers it reached: 0 when no
+// fusiond runs. The same as `fusion_publish` with `FUSION_KIND_MAGNETOMETER`.
+//
+// # Safety
+// `publisher` null or live; `sample` null or valid; `reached` null or writable.
+enum FusionStatus fusion_publish_magnetometer(struct FusionPublisher *publisher,
+                                              const struct FusionMagnetometerSample *sample,
+                                              size_t *reached);
+
+// Publishes a twist sample: linear (m/s) and angular (rad/s) velocity in the sensor's axes, with their
+// covariance (row-major 6×6, linear then angular): visual or lidar odometry. `*reached` (if not NULL) is the
+// number of readers it reached: 0 when no fusiond runs. The same as `fusion_publish` with `FUSION_KIND_TWIST`.
+//
+// # Safety
+// `publisher` null or live; `sample` null or valid; `reached` null or writable.
+enum FusionStatus fusion_publish_twist(struct FusionPublisher *publisher,
+                                       const struct FusionTwistSample *sample,
+                                       size_t *reached);
+
+// Publishes a barometer sample: static air pressure, Pa, with its variance (Pa²). `*reached` (if not NULL) is
+// the number of readers it reached: 0 when no fusiond runs. The same as `fusion_publish` with
+// `FUSION_KIND_BAROMETER`.
+//
+// # Safety
+// `publisher` null or live; `sample` null or valid; `reached` null or writable.
+enum FusionStatus fusion_publish_barometer(struct FusionPublisher *publisher,
+                                           const struct FusionBarometerSample *sample,
+                                           size_t *reached);
+
+// Publishes a pose sample: a localiser's pose in its map frame: position (m), unit quaternion `[w, x, y, z]` of
+// the sensor's axes into the map, covariance (row-major 6×6, position then attitude about the sensor's axes) and
+// the localiser's reset counter. `*reached` (if not NULL) is the number of readers it reached: 0 when no fusiond
+// runs. The same as `fusion_publish` with `FUSION_KIND_POSE`.
+//
+// # Safety
+// `publisher` null or live; `sample` null or valid; `reached` null or writable.
+enum FusionStatus fusion_publish_pose(struct FusionPublisher *publisher,
+                                      const struct FusionPoseSample *sample,
+                                      size_t *reached);
+
+// Publishes an attitude sample: an AHRS's orientation: unit quaternion `[w, x, y, z]` of the sensor's axes into
+// the world frame (ENU), with the covariance of its error about the sensor's axes (rad², row-major 3×3).
+// `*reached` (if not NULL) is the number of readers it reached: 0 when no fusiond runs. The same as
+// `fusion_publish` with `FUSION_KIND_ATTITUDE`.
+//
+// # Safety
+// `publisher` null or live; `sample` null or valid; `reached` null or writable.
+enum FusionStatus fusion_publish_attitude(struct FusionPublisher *publisher,
+                                          const struct FusionAttitudeSample *sample,
+                                          size_t *reached);
+
 // The name of a `FusionStateSnapshot.health` value ("ok", "degraded", ...), a
 // static string.
 const char *fusion_health_name(uint32_t health);
@@ -729,100 +864,22 @@ const char *fusion_rejection_name(uint32_t code);
 // string; NULL when none does (the publisher's values are to fix).
 const char *fusion_rejection_setting(uint32_t code);
 
-// Publishes an IMU sample (see the type for what `accel_mps2` is per model).
-// `*reached` (if not NULL) is the number of readers it reached: 0 when no
-// fusiond runs.
+// Publishes the sample at `sample`, of kind `kind` (`FUSION_KIND_*`): its
+// wire struct (`FusionImuSample` for `FUSION_KIND_IMU`, …), `size` bytes
+// (`sizeof` of that struct). The kind must be one (`1..=FUSION_KIND_COUNT`),
+// the size its struct's and the publisher's kind the same
+// (`FUSION_ERROR_INVALID_ARGUMENT`, `FUSION_ERROR_WRONG_KIND`); then it is
+// published as by `fusion_publish_<kind>`. `*reached` (if not NULL) is the
+// number of readers it reached: 0 when no fusiond runs.
 //
 // # Safety
-// `publisher` null or live; `sample` null or valid; `reached` null or writable.
-enum FusionStatus fusion_publish_imu(struct FusionPublisher *publisher,
-                                     const struct FusionImuSample *sample,
-                                     size_t *reached);
-
-// Publishes a position fix (m ENU, covariance m² row-major).
-//
-// # Safety
-// As [`fusion_publish_imu`].
-enum FusionStatus fusion_publish_position(struct FusionPublisher *publisher,
-                                          const struct FusionPositionSample *sample,
-                                          size_t *reached);
-
-// Publishes a velocity (m/s ENU, covariance m²/s² row-major).
-//
-// # Safety
-// As [`fusion_publish_imu`].
-enum FusionStatus fusion_publish_velocity(struct FusionPublisher *publisher,
-                                          const struct FusionVelocitySample *sample,
-                                          size_t *reached);
-
-// Publishes a geodetic GNSS fix (WGS-84 degrees, height m; ENU covariance m²).
-//
-// # Safety
-// As [`fusion_publish_imu`].
-enum FusionStatus fusion_publish_geodetic(struct FusionPublisher *publisher,
-                                          const struct FusionGeodeticSample *sample,
-                                          size_t *reached);
-
-// Publishes a wheel-odometry forward speed (m/s, variance m²/s²).
-//
-// # Safety
-// As [`fusion_publish_imu`].
-enum FusionStatus fusion_publish_odometry(struct FusionPublisher *publisher,
-                                          const struct FusionOdometrySample *sample,
-                                          size_t *reached);
-
-// Publishes a heading (yaw rad ENU, variance rad²).
-//
-// # Safety
-// As [`fusion_publish_imu`].
-enum FusionStatus fusion_publish_heading(struct FusionPublisher *publisher,
-                                         const struct FusionHeadingSample *sample,
-                                         size_t *reached);
-
-// Publishes a magnetometer's field (µT in the sensor's axes, covariance µT²).
-//
-// # Safety
-// As [`fusion_publish_imu`].
-enum FusionStatus fusion_publish_magnetometer(struct FusionPublisher *publisher,
-                                              const struct FusionMagnetometerSample *sample,
-                                              size_t *reached);
-
-// Publishes a twist (linear m/s and angular rad/s velocity in the sensor's
-// axes, row-major 6×6 covariance).
-//
-// # Safety
-// As [`fusion_publish_imu`].
-enum FusionStatus fusion_publish_twist(struct FusionPublisher *publisher,
-                                       const struct FusionTwistSample *sample,
-                                       size_t *reached);
-
-// Publishes a barometer's static pressure (Pa, variance Pa²).
-//
-// # Safety
-// As [`fusion_publish_imu`].
-enum FusionStatus fusion_publish_barometer(struct FusionPublisher *publisher,
-                                           const struct FusionBarometerSample *sample,
-                                           size_t *reached);
-
-// Publishes a pose in the localiser's map frame (position m, unit quaternion
-// `[w, x, y, z]` of the sensor's axes into the map, row-major 6×6 covariance,
-// reset counter).
-//
-// # Safety
-// As [`fusion_publish_imu`].
-enum FusionStatus fusion_publish_pose(struct FusionPublisher *publisher,
-                                      const struct FusionPoseSample *sample,
-                                      size_t *reached);
-
-// Publishes an AHRS's orientation (unit quaternion `[w, x, y, z]` of the
-// sensor's axes into the world frame, ENU; row-major 3×3 covariance, rad²,
-// about the sensor's axes).
-//
-// # Safety
-// As [`fusion_publish_imu`].
-enum FusionStatus fusion_publish_attitude(struct FusionPublisher *publisher,
-                                          const struct FusionAttitudeSample *sample,
-                                          size_t *reached);
+// `publisher` null or live; `sample` null or valid for `size` bytes;
+// `reached` null or writable.
+enum FusionStatus fusion_publish(struct FusionPublisher *publisher,
+                                 uint32_t kind,
+                                 const void *sample,
+                                 size_t size,
+                                 size_t *reached);
 
 // Position, m, world frame (ENU about the datum), into `out[0..3]`; every model.
 //

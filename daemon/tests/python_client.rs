@@ -12,123 +12,36 @@ use std::time::Duration;
 
 use common::live::{Daemon, Running, TestDomain, publish_in_lockstep, wait_for_state_readers, workspace_bin};
 use fusion_client::sim::{Scenario, ScenarioConfig};
+use fusion_shared::sample::layout::WireLayout;
 use fusion_shared::snapshot::{Counters, SensorCounters};
-use fusion_shared::{
-    AttitudeSample, BarometerSample, GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample,
-    PoseSample, PositionSample, SampleHeader, SampleKind, StateSnapshot, TwistSample, VelocitySample,
-};
+use fusion_shared::{SampleHeader, SampleKind, StateSnapshot};
 use iceoryx2::prelude::ZeroCopySend;
 use serde_json::{Value, json};
 
 /// The layout of a wire type as the Python check reads it: its iceoryx2 type
-/// name, size, alignment, and every field (name, offset, size). The listed
-/// fields must fill the type exactly, so a field added in Rust and not here
-/// fails this test before the Python side is asked.
-macro_rules! layout {
-    ($t:ident { $($f:ident),* $(,)? }) => {{
-        let v = <$t>::default();
-        let fields: Vec<(&str, usize, usize)> =
-            vec![$((stringify!($f), std::mem::offset_of!($t, $f), std::mem::size_of_val(&v.$f))),*];
-        let total: usize = fields.iter().map(|f| f.2).sum();
-        assert_eq!(total, std::mem::size_of::<$t>(), "{}: the fields listed do not fill the type", stringify!($t));
-        // SAFETY: only reads the name the type declares.
-        let type_name = unsafe { <$t as ZeroCopySend>::type_name() };
-        (stringify!($t), json!({
-            "type_name": type_name,
-            "size": std::mem::size_of::<$t>(),
-            "align": std::mem::align_of::<$t>(),
-            "fields": fields.iter().map(|(n, o, s)| json!([n, o, s])).collect::<Vec<_>>(),
-        }))
-    }};
+/// name, size, alignment, and every field (name, offset, size), as the type
+/// declares them beside it (`fusion_shared::sample::layout`, which checks that
+/// they fill it exactly).
+fn layout<T: WireLayout + ZeroCopySend>() -> (&'static str, Value) {
+    T::check().unwrap();
+    // SAFETY: only reads the name the type declares.
+    let type_name = unsafe { <T as ZeroCopySend>::type_name() };
+    let fields: Vec<Value> = T::fields().iter().map(|f| json!([f.name, f.offset, f.size])).collect();
+    let rust = std::any::type_name::<T>().rsplit("::").next().unwrap();
+    (rust, json!({ "type_name": type_name, "size": size_of::<T>(), "align": align_of::<T>(), "fields": fields }))
 }
 
 fn rust_layout() -> Value {
-    let types = [
-        layout!(SampleHeader { t_ns, sent_ns, seq, sensor, kind }),
-        layout!(ImuSample { header, accel_mps2, gyro_radps }),
-        layout!(PositionSample { header, pos_m, cov_m2 }),
-        layout!(VelocitySample { header, vel_mps, cov_m2ps2 }),
-        layout!(GeodeticSample { header, lat_deg, lon_deg, height_m, cov_enu_m2, fix_type, satellites, hdop, vdop }),
-        layout!(OdometrySample { header, speed_mps, var_m2ps2 }),
-        layout!(HeadingSample { header, yaw_rad, var_rad2 }),
-        layout!(MagnetometerSample { header, field_ut, cov_ut2 }),
-        layout!(TwistSample { header, linear_mps, angular_radps, cov }),
-        layout!(BarometerSample { header, pressure_pa, var_pa2 }),
-        layout!(PoseSample { header, position_m, orientation_wxyz, cov, reset_counter, reserved }),
-        layout!(AttitudeSample { header, orientation_wxyz, cov_rad2 }),
-        layout!(Counters {
-            received,
-            processed,
-            fused,
-            gated,
-            refused,
-            late,
-            too_late,
-            duplicate,
-            invalid,
-            lost,
-            rate_limited,
-            restarts
-        }),
-        layout!(SensorCounters {
-            kind,
-            sensor,
-            counts,
-            last_nis,
-            last_t_ns,
-            last_arrival_ns,
-            rejection_reasons,
-            last_rejection
-        }),
-        layout!(StateSnapshot {
-            seq,
-            publish_ns,
-            t_ns,
-            sample_seq,
-            sample_sensor,
-            sample_kind,
-            outcome,
-            model,
-            nis,
-            input_t_ns,
-            input_sent_ns,
-            input_received_ns,
-            input_seq,
-            input_sensor,
-            input_kind,
-            input_replayed,
-            health,
-            health_reasons,
-            state_len,
-            cov_dim,
-            sensor_count,
-            x,
-            cov,
-            sensors,
-            rewinds,
-            replayed,
-            unknown_sensor,
-            datum_lat_deg,
-            datum_lon_deg,
-            datum_height_m,
-            datum_set,
-            stale_sensors,
-            nis_sensors,
-            reserved,
-            reinitialisations,
-            readers_refused,
-            pending_steps,
-            pending_since_t_ns,
-            background_steps,
-            standstill_updates,
-            standing,
-            aux_states,
-            velocity_offset_ns,
-            velocity_offset_std_ns,
-            velocity_offset_samples,
-            rejections
-        }),
-    ];
+    struct Kinds(Vec<(&'static str, Value)>);
+    impl fusion_shared::KindVisitor for Kinds {
+        fn visit<T: fusion_shared::WireSample>(&mut self) {
+            self.0.push(layout::<T>());
+        }
+    }
+    let mut kinds = Kinds(vec![layout::<SampleHeader>()]);
+    SampleKind::visit_all(&mut kinds);
+    let mut types = kinds.0;
+    types.extend([layout::<Counters>(), layout::<SensorCounters>(), layout::<StateSnapshot>()]);
     assert_eq!(types.len(), 4 + SampleKind::COUNT, "a new kind needs its layout here and a Python mirror");
     use fusion_shared::service as s;
     use fusion_shared::snapshot as snap;
@@ -151,6 +64,7 @@ fn rust_layout() -> Value {
     for &kind in SampleKind::ALL {
         constants[format!("KIND_{}", kind.name().to_uppercase())] = json!(kind as u32);
     }
+    constants["KIND_COUNT"] = json!(SampleKind::COUNT);
     // The code -> name tables of kinds and models, whole.
     let kinds: serde_json::Map<_, _> =
         SampleKind::ALL.iter().map(|&k| ((k as u32).to_string(), json!(k.name()))).collect();
@@ -203,19 +117,6 @@ fn rust_layout() -> Value {
     ] {
         constants[name] = json!(code);
     }
-    // Every kind's wire type is in the list above (and so checked against its
-    // Python mirror).
-    struct Listed<'a>(&'a [(&'a str, Value)]);
-    impl fusion_shared::KindVisitor for Listed<'_> {
-        fn visit<T: fusion_shared::WireSample>(&mut self) {
-            let rust = std::any::type_name::<T>().rsplit("::").next().unwrap();
-            assert!(
-                self.0.iter().any(|(name, _)| *name == rust),
-                "{rust} is not in rust_layout's list: add it, and its mirror to client/python/fusion_client/wire.py"
-            );
-        }
-    }
-    SampleKind::visit_all(&mut Listed(&types));
     json!({ "types": types.into_iter().map(|(n, l)| (n.to_string(), l)).collect::<serde_json::Map<_, _>>(), "constants": constants })
 }
 
@@ -227,7 +128,7 @@ fn the_python_mirrors_have_the_rust_layout() {
     let out = common::python_command("unused", "tests/check_layout.py", &[path.to_str().unwrap()]).output().unwrap();
     let said = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{said}");
-    assert!(said.contains("15 types, 52 constants: 0 differences"), "{said}");
+    assert!(said.contains("15 types, 53 constants: 0 differences"), "{said}");
 
     // The check sees a difference: a layout with one offset moved fails it.
     let mut broken = rust_layout();

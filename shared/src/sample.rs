@@ -44,6 +44,8 @@ impl SampleHeader {
     }
 }
 
+crate::wire_layout!(SampleHeader, "What every sample starts with.", { t_ns, sent_ns, seq, sensor, kind });
+
 /// What the fusion keeps of one kind between its samples, inside the filter
 /// state (a rewind restores it with the rest): each kind's file declares it
 /// (`()`: nothing; a pose sensor's map frame alignment and last pose). The
@@ -56,7 +58,9 @@ pub trait KindProgress {
 }
 
 /// A wire type of one sample kind.
-pub trait WireSample: Copy + Default + PartialEq + std::fmt::Debug + ZeroCopySend + 'static {
+pub trait WireSample:
+    Copy + Default + PartialEq + std::fmt::Debug + ZeroCopySend + layout::WireLayout + 'static
+{
     /// The kind of the payload.
     const KIND: SampleKind;
     /// Values one sample gives a measurement update: the χ² degrees of freedom
@@ -203,6 +207,8 @@ macro_rules! for_each_sample_kind {
 // Each kind's file. Declared here rather than by the macro below, so that tools
 // that read the source without expanding macros (cbindgen, for the C header)
 // find the wire types; a kind missing here fails to compile.
+pub mod layout;
+
 mod attitude;
 mod barometer;
 pub use barometer::{ISA_SEA_LEVEL_PA, MAX_PRESSURE_PA, pressure_altitude_m, pressure_altitude_slope};

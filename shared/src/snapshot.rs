@@ -578,3 +578,20 @@ const _: () = {
                 + 8 * MAX_REJECTIONS
     );
 };
+
+crate::wire_layout!(Counters, "What became of a sensor's samples.", {
+    received, processed, fused, gated, refused, late, too_late, duplicate, invalid, lost, rate_limited, restarts
+});
+
+crate::wire_layout!(SensorCounters, "One sensor's row of the snapshot.", {
+    kind, sensor, counts, last_nis, last_t_ns, last_arrival_ns, rejection_reasons, last_rejection
+});
+
+crate::wire_layout!(StateSnapshot, "The fusion state after one processed sample.", {
+    seq, publish_ns, t_ns, sample_seq, sample_sensor, sample_kind, outcome, model, nis, input_t_ns, input_sent_ns,
+    input_received_ns, input_seq, input_sensor, input_kind, input_replayed, health, health_reasons, state_len, cov_dim,
+    sensor_count, x, cov, sensors, rewinds, replayed, unknown_sensor, datum_lat_deg, datum_lon_deg, datum_height_m,
+    datum_set, stale_sensors, nis_sensors, reserved, reinitialisations, readers_refused, pending_steps,
+    pending_since_t_ns, background_steps, standstill_updates, standing, aux_states, velocity_offset_ns,
+    velocity_offset_std_ns, velocity_offset_samples, rejections
+});

@@ -1,5 +1,7 @@
-"""ctypes mirrors of fusiond's wire types (crate ``fusion-shared``).
+"""ctypes mirrors of fusiond's wire types (crate ``fusion-shared``), and its constants.
 
+Generated from the Rust declarations by
+``FUSION_UPDATE_MIRRORS=1 cargo test -p fusion-client --test mirrors``: do not edit.
 Same fields, same layout, same versioned type names as the Rust types, so that
 iceoryx2 opens fusiond's services with them. ``tests/check_layout.py`` checks
 every size, offset and type name against the Rust build.
@@ -13,45 +15,108 @@ MAX_COV_LEN = MAX_COV * MAX_COV
 MAX_SENSORS = 16
 
 #: Sample kind codes (``SampleHeader.kind``), and their service names.
-KIND_IMU, KIND_POSITION, KIND_VELOCITY, KIND_GEODETIC, KIND_ODOMETRY, KIND_HEADING = 1, 2, 3, 4, 5, 6
-KIND_MAGNETOMETER, KIND_TWIST, KIND_BAROMETER, KIND_POSE, KIND_ATTITUDE = 7, 8, 9, 10, 11
+KIND_IMU = 1
+KIND_POSITION = 2
+KIND_VELOCITY = 3
+KIND_GEODETIC = 4
+KIND_ODOMETRY = 5
+KIND_HEADING = 6
+KIND_MAGNETOMETER = 7
+KIND_TWIST = 8
+KIND_BAROMETER = 9
+KIND_POSE = 10
+KIND_ATTITUDE = 11
+#: Kind codes in use: ``1..=KIND_COUNT``.
+KIND_COUNT = 11
 KIND_NAMES = {
-    1: "imu", 2: "position", 3: "velocity", 4: "geodetic", 5: "odometry", 6: "heading", 7: "magnetometer",
-    8: "twist", 9: "barometer", 10: "pose", 11: "attitude",
+    1: "imu",
+    2: "position",
+    3: "velocity",
+    4: "geodetic",
+    5: "odometry",
+    6: "heading",
+    7: "magnetometer",
+    8: "twist",
+    9: "barometer",
+    10: "pose",
+    11: "attitude",
 }
 #: ``StateSnapshot.input_kind`` of a snapshot sent because the health changed.
 INPUT_NONE = 0
 
-HEALTH_NAMES = {0: "initialising", 1: "ok", 2: "degraded"}
+HEALTH_NAMES = {
+    0: "initialising",
+    1: "ok",
+    2: "degraded",
+}
 #: ``GeodeticSample.fix_type`` codes and their names.
-FIX_UNKNOWN, FIX_NONE, FIX_2D, FIX_3D, FIX_DGNSS, FIX_RTK_FLOAT, FIX_RTK_FIXED = 0, 1, 2, 3, 4, 5, 6
-FIX_NAMES = {0: "unknown", 1: "none", 2: "2d", 3: "3d", 4: "dgnss", 5: "rtk_float", 6: "rtk_fixed"}
-MODEL_NAMES = {1: "linear", 2: "ins"}
+FIX_UNKNOWN = 0
+FIX_NONE = 1
+FIX_2D = 2
+FIX_3D = 3
+FIX_DGNSS = 4
+FIX_RTK_FLOAT = 5
+FIX_RTK_FIXED = 6
+FIX_NAMES = {
+    0: "unknown",
+    1: "none",
+    2: "2d",
+    3: "3d",
+    4: "dgnss",
+    5: "rtk_float",
+    6: "rtk_fixed",
+}
+MODEL_NAMES = {
+    1: "linear",
+    2: "ins",
+}
 #: Each model's own state length and covariance side (before auxiliary states).
 MODEL_DIMS = {1: [6, 6], 2: [16, 15]}
 #: ``StateSnapshot.aux_states`` bits: auxiliary states after the model's own, in bit order.
-AUX_ODOMETRY_SCALE, AUX_BARO_BIAS, AUX_POSE_FRAME = 1, 2, 60
+AUX_ODOMETRY_SCALE = 1
+AUX_BARO_BIAS = 2
+AUX_POSE_FRAME = 60
+#: The bits of the auxiliary states each sample kind brings (0: none).
+AUX_KIND_BITS = {
+    KIND_IMU: 0,
+    KIND_POSITION: 0,
+    KIND_VELOCITY: 0,
+    KIND_GEODETIC: 0,
+    KIND_ODOMETRY: 0,
+    KIND_HEADING: 0,
+    KIND_MAGNETOMETER: 0,
+    KIND_TWIST: 0,
+    KIND_BAROMETER: 1986,
+    KIND_POSE: 60,
+    KIND_ATTITUDE: 0,
+}
 AUX_NAMES = {
-    1: "odometry_scale", 2: "baro_bias_m", 4: "pose_frame_yaw_rad", 8: "pose_frame_east_m",
-    16: "pose_frame_north_m", 32: "pose_frame_up_m", 64: "baro_bias_2_m", 128: "baro_bias_3_m",
-    256: "baro_bias_4_m", 512: "baro_bias_5_m", 1024: "baro_bias_6_m",
+    1: "odometry_scale",
+    2: "baro_bias_m",
+    4: "pose_frame_yaw_rad",
+    8: "pose_frame_east_m",
+    16: "pose_frame_north_m",
+    32: "pose_frame_up_m",
+    64: "baro_bias_2_m",
+    128: "baro_bias_3_m",
+    256: "baro_bias_4_m",
+    512: "baro_bias_5_m",
+    1024: "baro_bias_6_m",
 }
 #: Why a sample was refused in validation: the index of ``StateSnapshot.rejections``
 #: and ``SensorCounters.last_rejection`` (entry 0 unused).
 MAX_REJECTIONS = 16
-(
-    REJECTION_NON_FINITE,
-    REJECTION_COVARIANCE_NOT_SYMMETRIC,
-    REJECTION_COVARIANCE_NOT_POSITIVE_DEFINITE,
-    REJECTION_FUTURE_TIMESTAMP,
-    REJECTION_PAST_TIMESTAMP,
-    REJECTION_TIME_JUMP,
-    REJECTION_TOO_MANY_SENSORS,
-    REJECTION_OUT_OF_RANGE,
-    REJECTION_VARIANCE_NOT_POSITIVE,
-    REJECTION_WRONG_KIND,
-    REJECTION_TIME_STEP_BACK,
-) = range(1, 12)
+REJECTION_NON_FINITE = 1
+REJECTION_COVARIANCE_NOT_SYMMETRIC = 2
+REJECTION_COVARIANCE_NOT_POSITIVE_DEFINITE = 3
+REJECTION_FUTURE_TIMESTAMP = 4
+REJECTION_PAST_TIMESTAMP = 5
+REJECTION_TIME_JUMP = 6
+REJECTION_TOO_MANY_SENSORS = 7
+REJECTION_OUT_OF_RANGE = 8
+REJECTION_VARIANCE_NOT_POSITIVE = 9
+REJECTION_WRONG_KIND = 10
+REJECTION_TIME_STEP_BACK = 11
 REJECTION_NAMES = {
     1: "non-finite value",
     2: "covariance not symmetric",
@@ -65,9 +130,6 @@ REJECTION_NAMES = {
     10: "header kind does not match the payload",
     11: "timestamp steps too far back behind the others",
 }
-
-f64x3 = ctypes.c_double * 3
-f64x9 = ctypes.c_double * 9
 
 
 class _Wire(ctypes.Structure):
@@ -85,11 +147,11 @@ class SampleHeader(_Wire):
 
     TYPE_NAME = "fusion.SampleHeader.v2"
     _fields_ = [
-        ("t_ns", ctypes.c_uint64),  # time of validity, ns of CLOCK_MONOTONIC
-        ("sent_ns", ctypes.c_uint64),  # when published (stamped by the publisher)
-        ("seq", ctypes.c_uint64),  # sequence number of this sensor
-        ("sensor", ctypes.c_uint32),  # sensor id
-        ("kind", ctypes.c_uint32),  # kind code
+        ("t_ns", ctypes.c_uint64),
+        ("sent_ns", ctypes.c_uint64),
+        ("seq", ctypes.c_uint64),
+        ("sensor", ctypes.c_uint32),
+        ("kind", ctypes.c_uint32),
     ]
 
 
@@ -98,32 +160,46 @@ class _Sample(_Wire):
 
 
 class ImuSample(_Sample):
-    """Specific force (``ins``) or world acceleration (``linear``), m/s²; angular rate, rad/s."""
+    """Specific force (``ins``) or world acceleration (``linear``), m/s²; angular rate, rad/s
+    (``fusion.ImuSample.v2``)."""
 
     TYPE_NAME = "fusion.ImuSample.v2"
     KIND = KIND_IMU
-    _fields_ = [("header", SampleHeader), ("accel_mps2", f64x3), ("gyro_radps", f64x3)]
+    _fields_ = [
+        ("header", SampleHeader),
+        ("accel_mps2", ctypes.c_double * 3),
+        ("gyro_radps", ctypes.c_double * 3),
+    ]
 
 
 class PositionSample(_Sample):
-    """A position fix, m ENU, with its covariance (m², row-major 3×3)."""
+    """A position fix, m ENU, with its covariance (m², row-major 3×3) (``fusion.PositionSample.v2``)."""
 
     TYPE_NAME = "fusion.PositionSample.v2"
     KIND = KIND_POSITION
-    _fields_ = [("header", SampleHeader), ("pos_m", f64x3), ("cov_m2", f64x9)]
+    _fields_ = [
+        ("header", SampleHeader),
+        ("pos_m", ctypes.c_double * 3),
+        ("cov_m2", ctypes.c_double * 9),
+    ]
 
 
 class VelocitySample(_Sample):
-    """A velocity, m/s ENU, with its covariance (m²/s², row-major 3×3)."""
+    """A velocity, m/s ENU, with its covariance (m²/s², row-major 3×3) (``fusion.VelocitySample.v2``)."""
 
     TYPE_NAME = "fusion.VelocitySample.v2"
     KIND = KIND_VELOCITY
-    _fields_ = [("header", SampleHeader), ("vel_mps", f64x3), ("cov_m2ps2", f64x9)]
+    _fields_ = [
+        ("header", SampleHeader),
+        ("vel_mps", ctypes.c_double * 3),
+        ("cov_m2ps2", ctypes.c_double * 9),
+    ]
 
 
 class GeodeticSample(_Sample):
-    """A GNSS fix: WGS-84 latitude, longitude (deg), ellipsoidal height (m); ENU covariance m²;
-    the receiver's fix type (``FIX_*``), satellites used, HDOP and VDOP (0: not reported)."""
+    """A GNSS fix: WGS-84 latitude, longitude (deg), ellipsoidal height (m); ENU covariance m²; the
+    receiver's fix type (``FIX_*``), satellites used, HDOP and VDOP (0: not reported)
+    (``fusion.GeodeticSample.v3``)."""
 
     TYPE_NAME = "fusion.GeodeticSample.v3"
     KIND = KIND_GEODETIC
@@ -132,7 +208,7 @@ class GeodeticSample(_Sample):
         ("lat_deg", ctypes.c_double),
         ("lon_deg", ctypes.c_double),
         ("height_m", ctypes.c_double),
-        ("cov_enu_m2", f64x9),
+        ("cov_enu_m2", ctypes.c_double * 9),
         ("fix_type", ctypes.c_uint32),
         ("satellites", ctypes.c_int32),
         ("hdop", ctypes.c_double),
@@ -141,56 +217,78 @@ class GeodeticSample(_Sample):
 
 
 class OdometrySample(_Sample):
-    """Forward speed from wheel odometry, m/s, with its variance."""
+    """Forward speed from wheel odometry, m/s, with its variance (``fusion.OdometrySample.v2``)."""
 
     TYPE_NAME = "fusion.OdometrySample.v2"
     KIND = KIND_ODOMETRY
-    _fields_ = [("header", SampleHeader), ("speed_mps", ctypes.c_double), ("var_m2ps2", ctypes.c_double)]
+    _fields_ = [
+        ("header", SampleHeader),
+        ("speed_mps", ctypes.c_double),
+        ("var_m2ps2", ctypes.c_double),
+    ]
 
 
 class HeadingSample(_Sample):
-    """Yaw, rad ENU (from east, counter-clockwise), with its variance."""
+    """Yaw, rad ENU (from east, counter-clockwise), with its variance (``fusion.HeadingSample.v2``)."""
 
     TYPE_NAME = "fusion.HeadingSample.v2"
     KIND = KIND_HEADING
-    _fields_ = [("header", SampleHeader), ("yaw_rad", ctypes.c_double), ("var_rad2", ctypes.c_double)]
+    _fields_ = [
+        ("header", SampleHeader),
+        ("yaw_rad", ctypes.c_double),
+        ("var_rad2", ctypes.c_double),
+    ]
 
 
 class MagnetometerSample(_Sample):
-    """A magnetometer's field, µT in the sensor's axes (calibrated), with its covariance (µT², row-major 3×3)."""
+    """A magnetometer's field, µT in the sensor's axes (calibrated), with its covariance (µT², row-major
+    3×3) (``fusion.MagnetometerSample.v2``)."""
 
     TYPE_NAME = "fusion.MagnetometerSample.v2"
     KIND = KIND_MAGNETOMETER
-    _fields_ = [("header", SampleHeader), ("field_ut", f64x3), ("cov_ut2", f64x9)]
+    _fields_ = [
+        ("header", SampleHeader),
+        ("field_ut", ctypes.c_double * 3),
+        ("cov_ut2", ctypes.c_double * 9),
+    ]
 
 
 class TwistSample(_Sample):
-    """Linear (m/s) and angular (rad/s) velocity in the sensor's axes, with their covariance
-    (row-major 6×6, linear then angular): visual or lidar odometry."""
+    """Linear (m/s) and angular (rad/s) velocity in the sensor's axes, with their covariance (row-major
+    6×6, linear then angular): visual or lidar odometry (``fusion.TwistSample.v2``)."""
 
     TYPE_NAME = "fusion.TwistSample.v2"
     KIND = KIND_TWIST
-    _fields_ = [("header", SampleHeader), ("linear_mps", f64x3), ("angular_radps", f64x3), ("cov", ctypes.c_double * 36)]
+    _fields_ = [
+        ("header", SampleHeader),
+        ("linear_mps", ctypes.c_double * 3),
+        ("angular_radps", ctypes.c_double * 3),
+        ("cov", ctypes.c_double * 36),
+    ]
 
 
 class BarometerSample(_Sample):
-    """Static air pressure, Pa, with its variance (Pa²)."""
+    """Static air pressure, Pa, with its variance (Pa²) (``fusion.BarometerSample.v1``)."""
 
     TYPE_NAME = "fusion.BarometerSample.v1"
     KIND = KIND_BAROMETER
-    _fields_ = [("header", SampleHeader), ("pressure_pa", ctypes.c_double), ("var_pa2", ctypes.c_double)]
+    _fields_ = [
+        ("header", SampleHeader),
+        ("pressure_pa", ctypes.c_double),
+        ("var_pa2", ctypes.c_double),
+    ]
 
 
 class PoseSample(_Sample):
-    """A localiser's pose in its map frame: position (m), unit quaternion ``[w, x, y, z]`` of the
-    sensor's axes into the map, covariance (row-major 6×6, position then attitude about the sensor's
-    axes) and the localiser's reset counter."""
+    """A localiser's pose in its map frame: position (m), unit quaternion ``[w, x, y, z]`` of the sensor's
+    axes into the map, covariance (row-major 6×6, position then attitude about the sensor's axes) and
+    the localiser's reset counter (``fusion.PoseSample.v1``)."""
 
     TYPE_NAME = "fusion.PoseSample.v1"
     KIND = KIND_POSE
     _fields_ = [
         ("header", SampleHeader),
-        ("position_m", f64x3),
+        ("position_m", ctypes.c_double * 3),
         ("orientation_wxyz", ctypes.c_double * 4),
         ("cov", ctypes.c_double * 36),
         ("reset_counter", ctypes.c_uint32),
@@ -199,35 +297,56 @@ class PoseSample(_Sample):
 
 
 class AttitudeSample(_Sample):
-    """An AHRS's orientation: unit quaternion ``[w, x, y, z]`` of the sensor's axes into the world
-    frame (ENU), with the covariance of its error about the sensor's axes (rad², row-major 3×3)."""
+    """An AHRS's orientation: unit quaternion ``[w, x, y, z]`` of the sensor's axes into the world frame
+    (ENU), with the covariance of its error about the sensor's axes (rad², row-major 3×3)
+    (``fusion.AttitudeSample.v1``)."""
 
     TYPE_NAME = "fusion.AttitudeSample.v1"
     KIND = KIND_ATTITUDE
-    _fields_ = [("header", SampleHeader), ("orientation_wxyz", ctypes.c_double * 4), ("cov_rad2", f64x9)]
+    _fields_ = [
+        ("header", SampleHeader),
+        ("orientation_wxyz", ctypes.c_double * 4),
+        ("cov_rad2", ctypes.c_double * 9),
+    ]
 
 
 SAMPLE_TYPES = (
-    ImuSample, PositionSample, VelocitySample, GeodeticSample, OdometrySample, HeadingSample, MagnetometerSample,
-    TwistSample, BarometerSample, PoseSample, AttitudeSample,
+    ImuSample,
+    PositionSample,
+    VelocitySample,
+    GeodeticSample,
+    OdometrySample,
+    HeadingSample,
+    MagnetometerSample,
+    TwistSample,
+    BarometerSample,
+    PoseSample,
+    AttitudeSample,
 )
 
 
 class Counters(_Wire):
-    """What became of a sensor's samples."""
+    """What became of a sensor's samples (``fusion.Counters.v3``)."""
 
     TYPE_NAME = "fusion.Counters.v3"
     _fields_ = [
-        (name, ctypes.c_uint64)
-        for name in (
-            "received", "processed", "fused", "gated", "refused", "late", "too_late",
-            "duplicate", "invalid", "lost", "rate_limited", "restarts",
-        )
+        ("received", ctypes.c_uint64),
+        ("processed", ctypes.c_uint64),
+        ("fused", ctypes.c_uint64),
+        ("gated", ctypes.c_uint64),
+        ("refused", ctypes.c_uint64),
+        ("late", ctypes.c_uint64),
+        ("too_late", ctypes.c_uint64),
+        ("duplicate", ctypes.c_uint64),
+        ("invalid", ctypes.c_uint64),
+        ("lost", ctypes.c_uint64),
+        ("rate_limited", ctypes.c_uint64),
+        ("restarts", ctypes.c_uint64),
     ]
 
 
 class SensorCounters(_Wire):
-    """One sensor's row of the snapshot."""
+    """One sensor's row of the snapshot (``fusion.SensorCounters.v4``)."""
 
     TYPE_NAME = "fusion.SensorCounters.v4"
     _fields_ = [

@@ -1,27 +1,35 @@
-//! Publishing samples from C: one `fusion_publish_<kind>` per sample kind, each
-//! checking its pointers, the publisher's kind and that every value is finite.
+//! Publishing samples from C: one entry point for every kind, `fusion_publish`
+//! (the kind, a pointer to its wire struct and the struct's size, all
+//! checked), and the per-kind `fusion_publish_<kind>` generated beside it
+//! (`kinds.rs`). Each checks its pointers, the publisher's kind and that every
+//! value is finite.
 
-use fusion_shared::{
-    AttitudeSample, BarometerSample, GeodeticSample, HeadingSample, ImuSample, MagnetometerSample, OdometrySample,
-    PoseSample, PositionSample, TwistSample, VelocitySample, WireSample,
-};
+use std::sync::OnceLock;
+
+use fusion_shared::sample::layout::Scalar;
+use fusion_shared::{KindFn, SampleKind, WireSample};
 
 use super::{Failure, FusionPublisher, FusionStatus, guard, null};
 use crate::SamplePublisher;
 
 /// The words (8 bytes each, after the header) of a payload that hold integers
-/// rather than an `f64`: geodetic's fix type and satellites, pose's reset
-/// counter. Every other word is an `f64` (checked in the tests).
-pub(super) fn integer_words(kind: fusion_shared::SampleKind) -> &'static [usize] {
-    use fusion_shared::SampleHeader;
-    use std::mem::{offset_of, size_of};
-    const GEODETIC: [usize; 1] = [(offset_of!(GeodeticSample, fix_type) - size_of::<SampleHeader>()) / 8];
-    const POSE: [usize; 1] = [(offset_of!(PoseSample, reset_counter) - size_of::<SampleHeader>()) / 8];
-    match kind {
-        fusion_shared::SampleKind::Geodetic => &GEODETIC,
-        fusion_shared::SampleKind::Pose => &POSE,
-        _ => &[],
+/// rather than an `f64` (geodetic's fix type and satellites, pose's reset
+/// counter), from the kind's declared layout; computed once per kind.
+pub(super) fn integer_words(kind: SampleKind) -> &'static [usize] {
+    struct Integers;
+    impl KindFn for Integers {
+        type Output = Vec<usize>;
+        fn call<T: WireSample>(self) -> Vec<usize> {
+            let header = std::mem::size_of::<fusion_shared::SampleHeader>();
+            let fields = <T as fusion_shared::sample::layout::WireLayout>::fields();
+            let integers = fields.iter().filter(|f| !matches!(f.scalar, Scalar::F64 | Scalar::Struct(_)));
+            let mut words: Vec<usize> = integers.map(|f| (f.offset - header) / 8).collect();
+            words.dedup();
+            words
+        }
     }
+    static WORDS: [OnceLock<Vec<usize>>; SampleKind::COUNT] = [const { OnceLock::new() }; SampleKind::COUNT];
+    WORDS[kind.index()].get_or_init(|| kind.with_wire_type(Integers))
 }
 
 /// Every `f64` of the payload of `sample` (the words after the header that
@@ -62,7 +70,7 @@ pub(super) fn integers_out_of_range<T: WireSample>(sample: &T) -> Option<String>
 ///
 /// # Safety
 /// Pointers null or valid.
-unsafe fn publish<T: WireSample>(
+pub(super) unsafe fn publish<T: WireSample>(
     publisher: *mut FusionPublisher,
     sample: *const T,
     reached: *mut usize,
@@ -97,163 +105,55 @@ unsafe fn publish<T: WireSample>(
     })
 }
 
-/// Publishes an IMU sample (see the type for what `accel_mps2` is per model).
-/// `*reached` (if not NULL) is the number of readers it reached: 0 when no
-/// fusiond runs.
+/// Publishes the sample at `sample`, of kind `kind` (`FUSION_KIND_*`): its
+/// wire struct (`FusionImuSample` for `FUSION_KIND_IMU`, …), `size` bytes
+/// (`sizeof` of that struct). The kind must be one (`1..=FUSION_KIND_COUNT`),
+/// the size its struct's and the publisher's kind the same
+/// (`FUSION_ERROR_INVALID_ARGUMENT`, `FUSION_ERROR_WRONG_KIND`); then it is
+/// published as by `fusion_publish_<kind>`. `*reached` (if not NULL) is the
+/// number of readers it reached: 0 when no fusiond runs.
 ///
 /// # Safety
-/// `publisher` null or live; `sample` null or valid; `reached` null or writable.
+/// `publisher` null or live; `sample` null or valid for `size` bytes;
+/// `reached` null or writable.
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn fusion_publish_imu(
+pub unsafe extern "C" fn fusion_publish(
     publisher: *mut FusionPublisher,
-    sample: *const ImuSample,
+    kind: u32,
+    sample: *const std::ffi::c_void,
+    size: usize,
     reached: *mut usize,
 ) -> FusionStatus {
-    // SAFETY: forwarded contract.
-    unsafe { publish(publisher, sample, reached) }
-}
-
-/// Publishes a position fix (m ENU, covariance m² row-major).
-///
-/// # Safety
-/// As [`fusion_publish_imu`].
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fusion_publish_position(
-    publisher: *mut FusionPublisher,
-    sample: *const PositionSample,
-    reached: *mut usize,
-) -> FusionStatus {
-    // SAFETY: forwarded contract.
-    unsafe { publish(publisher, sample, reached) }
-}
-
-/// Publishes a velocity (m/s ENU, covariance m²/s² row-major).
-///
-/// # Safety
-/// As [`fusion_publish_imu`].
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fusion_publish_velocity(
-    publisher: *mut FusionPublisher,
-    sample: *const VelocitySample,
-    reached: *mut usize,
-) -> FusionStatus {
-    // SAFETY: forwarded contract.
-    unsafe { publish(publisher, sample, reached) }
-}
-
-/// Publishes a geodetic GNSS fix (WGS-84 degrees, height m; ENU covariance m²).
-///
-/// # Safety
-/// As [`fusion_publish_imu`].
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fusion_publish_geodetic(
-    publisher: *mut FusionPublisher,
-    sample: *const GeodeticSample,
-    reached: *mut usize,
-) -> FusionStatus {
-    // SAFETY: forwarded contract.
-    unsafe { publish(publisher, sample, reached) }
-}
-
-/// Publishes a wheel-odometry forward speed (m/s, variance m²/s²).
-///
-/// # Safety
-/// As [`fusion_publish_imu`].
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fusion_publish_odometry(
-    publisher: *mut FusionPublisher,
-    sample: *const OdometrySample,
-    reached: *mut usize,
-) -> FusionStatus {
-    // SAFETY: forwarded contract.
-    unsafe { publish(publisher, sample, reached) }
-}
-
-/// Publishes a heading (yaw rad ENU, variance rad²).
-///
-/// # Safety
-/// As [`fusion_publish_imu`].
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fusion_publish_heading(
-    publisher: *mut FusionPublisher,
-    sample: *const HeadingSample,
-    reached: *mut usize,
-) -> FusionStatus {
-    // SAFETY: forwarded contract.
-    unsafe { publish(publisher, sample, reached) }
-}
-
-/// Publishes a magnetometer's field (µT in the sensor's axes, covariance µT²).
-///
-/// # Safety
-/// As [`fusion_publish_imu`].
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fusion_publish_magnetometer(
-    publisher: *mut FusionPublisher,
-    sample: *const MagnetometerSample,
-    reached: *mut usize,
-) -> FusionStatus {
-    // SAFETY: forwarded contract.
-    unsafe { publish(publisher, sample, reached) }
-}
-
-/// Publishes a twist (linear m/s and angular rad/s velocity in the sensor's
-/// axes, row-major 6×6 covariance).
-///
-/// # Safety
-/// As [`fusion_publish_imu`].
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fusion_publish_twist(
-    publisher: *mut FusionPublisher,
-    sample: *const TwistSample,
-    reached: *mut usize,
-) -> FusionStatus {
-    // SAFETY: forwarded contract.
-    unsafe { publish(publisher, sample, reached) }
-}
-
-/// Publishes a barometer's static pressure (Pa, variance Pa²).
-///
-/// # Safety
-/// As [`fusion_publish_imu`].
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fusion_publish_barometer(
-    publisher: *mut FusionPublisher,
-    sample: *const BarometerSample,
-    reached: *mut usize,
-) -> FusionStatus {
-    // SAFETY: forwarded contract.
-    unsafe { publish(publisher, sample, reached) }
-}
-
-/// Publishes a pose in the localiser's map frame (position m, unit quaternion
-/// `[w, x, y, z]` of the sensor's axes into the map, row-major 6×6 covariance,
-/// reset counter).
-///
-/// # Safety
-/// As [`fusion_publish_imu`].
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fusion_publish_pose(
-    publisher: *mut FusionPublisher,
-    sample: *const PoseSample,
-    reached: *mut usize,
-) -> FusionStatus {
-    // SAFETY: forwarded contract.
-    unsafe { publish(publisher, sample, reached) }
-}
-
-/// Publishes an AHRS's orientation (unit quaternion `[w, x, y, z]` of the
-/// sensor's axes into the world frame, ENU; row-major 3×3 covariance, rad²,
-/// about the sensor's axes).
-///
-/// # Safety
-/// As [`fusion_publish_imu`].
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fusion_publish_attitude(
-    publisher: *mut FusionPublisher,
-    sample: *const AttitudeSample,
-    reached: *mut usize,
-) -> FusionStatus {
-    // SAFETY: forwarded contract.
-    unsafe { publish(publisher, sample, reached) }
+    struct Typed {
+        publisher: *mut FusionPublisher,
+        sample: *const std::ffi::c_void,
+        size: usize,
+        reached: *mut usize,
+    }
+    impl KindFn for Typed {
+        type Output = FusionStatus;
+        fn call<T: WireSample>(self) -> FusionStatus {
+            if self.size != std::mem::size_of::<T>() {
+                let why = format!(
+                    "a {} sample is {} bytes (sizeof(Fusion{})), not {}",
+                    T::KIND.name(),
+                    std::mem::size_of::<T>(),
+                    std::any::type_name::<T>().rsplit("::").next().unwrap_or(""),
+                    self.size
+                );
+                return guard(|| Err(Failure(FusionStatus::FusionErrorInvalidArgument, why)));
+            }
+            // SAFETY: the caller's contract, the size checked to be the type's.
+            unsafe { publish(self.publisher, self.sample.cast::<T>(), self.reached) }
+        }
+    }
+    match SampleKind::from_code(kind) {
+        Some(k) => k.with_wire_type(Typed { publisher, sample, size, reached }),
+        None => guard(|| {
+            Err(Failure(
+                FusionStatus::FusionErrorInvalidArgument,
+                format!("kind {kind} is no sample kind (1 to FUSION_KIND_COUNT, {})", SampleKind::COUNT),
+            ))
+        }),
+    }
 }

@@ -20,6 +20,7 @@ int main(int argc, char **argv) {
     const char *unknown = argc > 1 ? argv[1] : "nobody-here";
     FusionClient *client = NULL;
     FusionPublisher *imu = NULL;
+    FusionPublisher *beyond = NULL;
     FusionStateReader *state = NULL;
     FusionStateSnapshot snapshot;
     FusionImuSample sample = {.header.t_ns = fusion_now_ns()};
@@ -47,6 +48,24 @@ int main(int argc, char **argv) {
         printf("  reached %zu readers, expected 0\n", reached);
         failed = 1;
     }
+    /* The generic entry point checks the kind, the size and the publisher's kind. */
+    expect("publish any, no such kind", fusion_publish(imu, FUSION_KIND_COUNT + 1, &sample, sizeof sample, NULL),
+           FUSION_ERROR_INVALID_ARGUMENT);
+    expect("publish any, kind 0", fusion_publish(imu, 0, &sample, sizeof sample, NULL), FUSION_ERROR_INVALID_ARGUMENT);
+    expect("publish any, short struct", fusion_publish(imu, FUSION_KIND_IMU, &sample, sizeof sample - 8, NULL),
+           FUSION_ERROR_INVALID_ARGUMENT);
+    expect("publish any, wrong kind", fusion_publish(imu, FUSION_KIND_POSITION, &fix, sizeof fix, NULL),
+           FUSION_ERROR_WRONG_KIND);
+    expect("publish any, null sample", fusion_publish(imu, FUSION_KIND_IMU, NULL, sizeof sample, NULL),
+           FUSION_ERROR_NULL);
+    reached = 7;
+    expect("publish any", fusion_publish(imu, FUSION_KIND_IMU, &sample, sizeof sample, &reached), FUSION_OK);
+    if (reached != 0) {
+        printf("  reached %zu readers, expected 0\n", reached);
+        failed = 1;
+    }
+    expect("publisher, first kind beyond the count", fusion_publisher_new(client, FUSION_KIND_COUNT + 1, 0, &beyond),
+           FUSION_ERROR_INVALID_ARGUMENT);
     expect("latest, null reader", fusion_state_latest(NULL, &snapshot), FUSION_ERROR_NULL);
     fusion_publisher_free(imu);
     fusion_publisher_free(NULL);

@@ -73,7 +73,8 @@ int main(int argc, char **argv) {
         if (k % 10 == 5) {
             p.header.t_ns = t;
             q.header.t_ns = t;
-            if (fusion_publish_barometer(baro, &p, NULL) != FUSION_OK) return fail("barometer");
+            /* The one entry point for every kind: the kind, the struct, its size. */
+            if (fusion_publish(baro, FUSION_KIND_BAROMETER, &p, sizeof p, NULL) != FUSION_OK) return fail("barometer");
             if (fusion_publish_pose(pose, &q, NULL) != FUSION_OK) return fail("pose");
         }
         nanosleep(&pause, NULL);

@@ -90,3 +90,5 @@ mod tests {
 impl crate::sample::KindProgress for AttitudeSample {
     type Progress = ();
 }
+
+crate::wire_layout!(AttitudeSample, "An AHRS's orientation: unit quaternion `[w, x, y, z]` of the sensor's axes into the world frame (ENU), with the covariance of its error about the sensor's axes (rad², row-major 3×3).", { header, orientation_wxyz, cov_rad2 });

@@ -94,6 +94,8 @@ impl crate::sample::KindProgress for BarometerSample {
     type Progress = ();
 }
 
+crate::wire_layout!(BarometerSample, "Static air pressure, Pa, with its variance (Pa²).", { header, pressure_pa, var_pa2 });
+
 #[cfg(test)]
 mod tests {
     use super::*;

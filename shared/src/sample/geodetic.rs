@@ -164,3 +164,5 @@ const _: () = {
 impl crate::sample::KindProgress for GeodeticSample {
     type Progress = ();
 }
+
+crate::wire_layout!(GeodeticSample, "A GNSS fix: WGS-84 latitude, longitude (deg), ellipsoidal height (m); ENU covariance m²; the receiver's fix type (`FIX_*`), satellites used, HDOP and VDOP (0: not reported).", { header, lat_deg, lon_deg, height_m, cov_enu_m2, fix_type, satellites, hdop, vdop });

@@ -72,6 +72,8 @@ impl crate::sample::KindProgress for HeadingSample {
     type Progress = ();
 }
 
+crate::wire_layout!(HeadingSample, "Yaw, rad ENU (from east, counter-clockwise), with its variance.", { header, yaw_rad, var_rad2 });
+
 #[cfg(test)]
 mod tests {
     use super::*;

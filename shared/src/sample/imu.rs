@@ -61,3 +61,5 @@ const _: () = {
 impl crate::sample::KindProgress for ImuSample {
     type Progress = ();
 }
+
+crate::wire_layout!(ImuSample, "Specific force (`ins`) or world acceleration (`linear`), m/s²; angular rate, rad/s.", { header, accel_mps2, gyro_radps });

@@ -69,3 +69,5 @@ const _: () = {
 impl crate::sample::KindProgress for MagnetometerSample {
     type Progress = ();
 }
+
+crate::wire_layout!(MagnetometerSample, "A magnetometer's field, µT in the sensor's axes (calibrated), with its covariance (µT², row-major 3×3).", { header, field_ut, cov_ut2 });

@@ -61,3 +61,5 @@ const _: () = {
 impl crate::sample::KindProgress for OdometrySample {
     type Progress = ();
 }
+
+crate::wire_layout!(OdometrySample, "Forward speed from wheel odometry, m/s, with its variance.", { header, speed_mps, var_m2ps2 });

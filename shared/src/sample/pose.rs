@@ -134,3 +134,5 @@ mod tests {
 impl crate::sample::KindProgress for PoseSample {
     type Progress = progress::PoseProgress;
 }
+
+crate::wire_layout!(PoseSample, "A localiser's pose in its map frame: position (m), unit quaternion `[w, x, y, z]` of the sensor's axes into the map, covariance (row-major 6×6, position then attitude about the sensor's axes) and the localiser's reset counter.", { header, position_m, orientation_wxyz, cov, reset_counter, reserved });

@@ -56,3 +56,5 @@ const _: () = {
 impl crate::sample::KindProgress for PositionSample {
     type Progress = ();
 }
+
+crate::wire_layout!(PositionSample, "A position fix, m ENU, with its covariance (m², row-major 3×3).", { header, pos_m, cov_m2 });

@@ -125,3 +125,5 @@ mod tests {
 impl crate::sample::KindProgress for TwistSample {
     type Progress = ();
 }
+
+crate::wire_layout!(TwistSample, "Linear (m/s) and angular (rad/s) velocity in the sensor's axes, with their covariance (row-major 6×6, linear then angular): visual or lidar odometry.", { header, linear_mps, angular_radps, cov });

@@ -58,3 +58,5 @@ const _: () = {
 impl crate::sample::KindProgress for VelocitySample {
     type Progress = ();
 }
+
+crate::wire_layout!(VelocitySample, "A velocity, m/s ENU, with its covariance (m²/s², row-major 3×3).", { header, vel_mps, cov_m2ps2 });

@@ -59,6 +59,22 @@ pub const ALL: [(u32, &str); COUNT] = [
     (TIME_STEP_BACK, "timestamp steps too far back behind the others"),
 ];
 
+/// Every code under its constant's name (without a prefix), in code order:
+/// the C and Python mirrors' `REJECTION_<NAME>`.
+pub const CONSTANTS: [(&str, u32); COUNT] = [
+    ("NON_FINITE", NON_FINITE),
+    ("COVARIANCE_NOT_SYMMETRIC", COVARIANCE_NOT_SYMMETRIC),
+    ("COVARIANCE_NOT_POSITIVE_DEFINITE", COVARIANCE_NOT_POSITIVE_DEFINITE),
+    ("FUTURE_TIMESTAMP", FUTURE_TIMESTAMP),
+    ("PAST_TIMESTAMP", PAST_TIMESTAMP),
+    ("TIME_JUMP", TIME_JUMP),
+    ("TOO_MANY_SENSORS", TOO_MANY_SENSORS),
+    ("OUT_OF_RANGE", OUT_OF_RANGE),
+    ("VARIANCE_NOT_POSITIVE", VARIANCE_NOT_POSITIVE),
+    ("WRONG_KIND", WRONG_KIND),
+    ("TIME_STEP_BACK", TIME_STEP_BACK),
+];
+
 /// The name of a code ("unknown" for none).
 pub const fn name(code: u32) -> &'static str {
     if code >= 1 && code as usize <= COUNT { ALL[code as usize - 1].1 } else { "unknown" }
