@@ -287,37 +287,8 @@ fn replay_bag(
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Run { config, namespace, wait, summary_interval, cpu, fault_stall_after } => {
-            let (text, config) = match config {
-                Some(path) => {
-                    let text =
-                        std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
-                    (text, Config::load(&path)?)
-                }
-                None => {
-                    tracing::info!("no --config: running on the built-in defaults (`fusiond print-config` shows them)");
-                    let text = default_config_text();
-                    let config = Config::parse(&text).context("the built-in defaults")?;
-                    (text, config)
-                }
-            };
-            let shutdown = Arc::new(AtomicBool::new(false));
-            for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-                signal_hook::flag::register(signal, Arc::clone(&shutdown)).context("cannot install signal handler")?;
-            }
-            let options = RunOptions {
-                namespace,
-                wait: match wait {
-                    Wait::Spin => WaitMode::Spin,
-                    Wait::Event => WaitMode::Event,
-                },
-                summary_interval: Duration::try_from_secs_f64(summary_interval)
-                    .context("--summary-interval must be a positive number of seconds")?,
-                cpu,
-                stall: fault_stall_after.map(|after_samples| StallFault { after_samples }),
-                config_text: Some(text),
-            };
-            fusion_daemon::ipc::run(&config, &options, &shutdown)?;
-            Ok(())
+            let options = RunFlags { namespace, wait, summary_interval, cpu, fault_stall_after };
+            run_daemon(config.as_deref(), options)
         }
         Command::CheckConfig { config: path } => {
             let config = Config::load(&path)?;
@@ -329,108 +300,178 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Replay { config, input, output, smooth, compare } => {
-            let mut file = File::open(&input).with_context(|| format!("cannot open {}", input.display()))?;
-            let mut magic = [0u8; 16];
-            let n = file.read(&mut magic).with_context(|| format!("cannot read {}", input.display()))?;
-            if fusion_shared::ros::is_bag(&input) {
-                return replay_bag(config.as_deref(), &input, output, smooth, compare);
-            }
-            // rosbag2's file compression (`--compression-mode file`) makes
-            // `bag.db3.zstd` or `bag.mcap.zstd`: whole files, not read here.
-            anyhow::ensure!(
-                !magic[..n].starts_with(fusion_shared::ros::ZSTD_MAGIC),
-                "{}: a zstd-compressed file (as rosbag2's --compression-mode file writes a bag): decompress it \
-                 first (`zstd -d {}`) and replay what it holds",
-                input.display(),
-                input.display()
-            );
-            let named_mcap = input.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
-            anyhow::ensure!(
-                !named_mcap || Recording::is_mcap(&magic[..n]),
-                "{}: named .mcap but not an MCAP file (it does not start with the MCAP magic bytes)",
-                input.display()
-            );
-            let recording = Recording::is_mcap(&magic[..n])
-                .then(|| Recording::open(&input).with_context(|| format!("cannot map {}", input.display())))
-                .transpose()?;
-            if let Some(damage) = recording.as_ref().and_then(Recording::damage) {
-                // Nothing before the damage: nothing to replay.
-                if damage.offset <= mcap::MAGIC.len() as u64 {
-                    return Err(nothing_before(&input, damage).into());
-                }
-                eprintln!("replay: {} is {damage}: what comes after it is not read", input.display());
-            }
-            let config = replay_config(config.as_deref(), recording.as_ref(), &input)?;
-            eprintln!("replay: model {}, form {}", config.model.kind(), config.filter.form.name());
-            let writer = output
-                .map(|o| File::create(&o).map(BufWriter::new).with_context(|| format!("cannot create {}", o.display())))
-                .transpose()?;
-            if let Some(recording) = recording {
-                let bar = progress_bar(recording.sample_count(), false);
-                let mut since = 0u64;
-                let tick = || {
-                    since += 1;
-                    if since == PROGRESS_STEP {
-                        bar.inc(since);
-                        since = 0;
-                    }
-                };
-                let replayed = replay::recording::replay_recording(&config, &recording, writer, smooth, compare, tick);
-                let (summary, comparison) = match (replayed, recording.damage()) {
-                    (Ok(replayed), _) => replayed,
-                    // The damage is why nothing could be replayed: say so, as damage.
-                    (Err(replay::ReplayError::NothingProcessed(_)), Some(damage)) => {
-                        return Err(nothing_before(&input, damage).into());
-                    }
-                    (Err(replay::ReplayError::NothingProcessed(s)), None) if s.read == 0 => {
-                        let why = if recording.was_cut_off() {
-                            "it was cut off before its first sample (the recorder was killed or lost its power at \
-                             its start)"
-                        } else {
-                            "it holds no sample message (a recording of a run that had no input)"
-                        };
-                        anyhow::bail!("{}: nothing to replay: {why}", input.display());
-                    }
-                    (Err(e), _) => return Err(say_why(e).into()),
-                };
-                bar.finish_and_clear();
-                eprint!("{summary}");
-                if recording.was_cut_off() && recording.damage().is_none() {
-                    eprintln!(
-                        "replay: {} was cut off (no summary: the recorder was killed or lost its power): replayed \
-                         what its complete chunks hold ({} samples); what the recorder had not yet written is lost",
-                        input.display(),
-                        summary.read
-                    );
-                }
-                if let Some(c) = comparison {
-                    eprint!("{c}");
-                    anyhow::ensure!(c.equal(), "the replay differs from the live run");
-                }
-                if let (Some(damage), Some(loss)) = (recording.damage(), recording.loss(summary.read)) {
-                    return Err(fusion_shared::exit::InputDamaged(format!(
-                        "{} is {damage}: replayed what comes before it ({} samples); {loss}",
-                        input.display(),
-                        summary.read
-                    ))
-                    .into());
-                }
-                return Ok(());
-            }
-            anyhow::ensure!(!compare, "--compare needs an MCAP recording (fusionctl record)");
-            anyhow::ensure!(
-                is_text(&mut file)?,
-                "{}: not a text file: fusiond replay reads JSON lines, an MCAP recording (fusionctl record) or a ROS \
-                 bag (ROS 1, or ROS 2 in MCAP or .db3)",
-                input.display()
-            );
-            file.seek(std::io::SeekFrom::Start(0))?;
-            let bar = progress_bar(file.metadata().ok().map(|m| m.len()), true);
-            let summary = replay::replay(&config, BufReader::new(bar.wrap_read(file)), writer, smooth);
-            bar.finish_and_clear();
-            let summary = summary.map_err(say_why)?;
-            eprint!("{summary}");
-            Ok(())
+            replay_command(config.as_deref(), &input, output, smooth, compare)
         }
     }
+}
+
+/// `fusiond run`'s flags besides its configuration.
+struct RunFlags {
+    namespace: String,
+    wait: Wait,
+    summary_interval: f64,
+    cpu: Option<usize>,
+    fault_stall_after: Option<u64>,
+}
+
+/// `fusiond run`: the daemon on `config` (the built-in defaults without one),
+/// until SIGINT or SIGTERM.
+fn run_daemon(config: Option<&std::path::Path>, flags: RunFlags) -> anyhow::Result<()> {
+    let RunFlags { namespace, wait, summary_interval, cpu, fault_stall_after } = flags;
+    let (text, config) = match config {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+            (text, Config::load(path)?)
+        }
+        None => {
+            tracing::info!("no --config: running on the built-in defaults (`fusiond print-config` shows them)");
+            let text = default_config_text();
+            let config = Config::parse(&text).context("the built-in defaults")?;
+            (text, config)
+        }
+    };
+    let shutdown = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&shutdown)).context("cannot install signal handler")?;
+    }
+    let options = RunOptions {
+        namespace,
+        wait: match wait {
+            Wait::Spin => WaitMode::Spin,
+            Wait::Event => WaitMode::Event,
+        },
+        summary_interval: Duration::try_from_secs_f64(summary_interval)
+            .context("--summary-interval must be a positive number of seconds")?,
+        cpu,
+        stall: fault_stall_after.map(|after_samples| StallFault { after_samples }),
+        config_text: Some(text),
+    };
+    fusion_daemon::ipc::run(&config, &options, &shutdown)?;
+    Ok(())
+}
+
+/// `fusiond replay`: a ROS bag, an MCAP recording or JSON lines, by what the
+/// file is.
+fn replay_command(
+    config: Option<&std::path::Path>,
+    input: &std::path::Path,
+    output: Option<PathBuf>,
+    smooth: bool,
+    compare: bool,
+) -> anyhow::Result<()> {
+    let mut file = File::open(input).with_context(|| format!("cannot open {}", input.display()))?;
+    let mut magic = [0u8; 16];
+    let n = file.read(&mut magic).with_context(|| format!("cannot read {}", input.display()))?;
+    if fusion_shared::ros::is_bag(input) {
+        return replay_bag(config, input, output, smooth, compare);
+    }
+    // rosbag2's file compression (`--compression-mode file`) makes
+    // `bag.db3.zstd` or `bag.mcap.zstd`: whole files, not read here.
+    anyhow::ensure!(
+        !magic[..n].starts_with(fusion_shared::ros::ZSTD_MAGIC),
+        "{}: a zstd-compressed file (as rosbag2's --compression-mode file writes a bag): decompress it \
+         first (`zstd -d {}`) and replay what it holds",
+        input.display(),
+        input.display()
+    );
+    let named_mcap = input.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
+    anyhow::ensure!(
+        !named_mcap || Recording::is_mcap(&magic[..n]),
+        "{}: named .mcap but not an MCAP file (it does not start with the MCAP magic bytes)",
+        input.display()
+    );
+    let recording = Recording::is_mcap(&magic[..n])
+        .then(|| Recording::open(input).with_context(|| format!("cannot map {}", input.display())))
+        .transpose()?;
+    if let Some(damage) = recording.as_ref().and_then(Recording::damage) {
+        // Nothing before the damage: nothing to replay.
+        if damage.offset <= mcap::MAGIC.len() as u64 {
+            return Err(nothing_before(input, damage).into());
+        }
+        eprintln!("replay: {} is {damage}: what comes after it is not read", input.display());
+    }
+    let config = replay_config(config, recording.as_ref(), input)?;
+    eprintln!("replay: model {}, form {}", config.model.kind(), config.filter.form.name());
+    let writer = output
+        .map(|o| File::create(&o).map(BufWriter::new).with_context(|| format!("cannot create {}", o.display())))
+        .transpose()?;
+    if let Some(recording) = recording {
+        return replay_recording_file(&config, &recording, input, writer, smooth, compare);
+    }
+    anyhow::ensure!(!compare, "--compare needs an MCAP recording (fusionctl record)");
+    anyhow::ensure!(
+        is_text(&mut file)?,
+        "{}: not a text file: fusiond replay reads JSON lines, an MCAP recording (fusionctl record) or a ROS \
+         bag (ROS 1, or ROS 2 in MCAP or .db3)",
+        input.display()
+    );
+    file.seek(std::io::SeekFrom::Start(0))?;
+    let bar = progress_bar(file.metadata().ok().map(|m| m.len()), true);
+    let summary = replay::replay(&config, BufReader::new(bar.wrap_read(file)), writer, smooth);
+    bar.finish_and_clear();
+    let summary = summary.map_err(say_why)?;
+    eprint!("{summary}");
+    Ok(())
+}
+
+/// `fusiond replay` of an MCAP recording (`fusionctl record`), with a
+/// progress bar; `compare`: against the live run it recorded.
+fn replay_recording_file(
+    config: &Config,
+    recording: &Recording,
+    input: &std::path::Path,
+    writer: Option<BufWriter<File>>,
+    smooth: bool,
+    compare: bool,
+) -> anyhow::Result<()> {
+    let bar = progress_bar(recording.sample_count(), false);
+    let mut since = 0u64;
+    let tick = || {
+        since += 1;
+        if since == PROGRESS_STEP {
+            bar.inc(since);
+            since = 0;
+        }
+    };
+    let replayed = replay::recording::replay_recording(config, recording, writer, smooth, compare, tick);
+    let (summary, comparison) = match (replayed, recording.damage()) {
+        (Ok(replayed), _) => replayed,
+        // The damage is why nothing could be replayed: say so, as damage.
+        (Err(replay::ReplayError::NothingProcessed(_)), Some(damage)) => {
+            return Err(nothing_before(input, damage).into());
+        }
+        (Err(replay::ReplayError::NothingProcessed(s)), None) if s.read == 0 => {
+            let why = if recording.was_cut_off() {
+                "it was cut off before its first sample (the recorder was killed or lost its power at \
+                 its start)"
+            } else {
+                "it holds no sample message (a recording of a run that had no input)"
+            };
+            anyhow::bail!("{}: nothing to replay: {why}", input.display());
+        }
+        (Err(e), _) => return Err(say_why(e).into()),
+    };
+    bar.finish_and_clear();
+    eprint!("{summary}");
+    if recording.was_cut_off() && recording.damage().is_none() {
+        eprintln!(
+            "replay: {} was cut off (no summary: the recorder was killed or lost its power): replayed \
+             what its complete chunks hold ({} samples); what the recorder had not yet written is lost",
+            input.display(),
+            summary.read
+        );
+    }
+    if let Some(c) = comparison {
+        eprint!("{c}");
+        anyhow::ensure!(c.equal(), "the replay differs from the live run");
+    }
+    if let (Some(damage), Some(loss)) = (recording.damage(), recording.loss(summary.read)) {
+        return Err(fusion_shared::exit::InputDamaged(format!(
+            "{} is {damage}: replayed what comes before it ({} samples); {loss}",
+            input.display(),
+            summary.read
+        ))
+        .into());
+    }
+    Ok(())
 }

@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use clap::Args;
+use fusion_client::sim::AidingSim;
 use fusion_client::sim::{
     AttitudeConfig, BarometerConfig, FixPhase, GeodeticConfig, HeadingConfig, ImuConfig, ImuOutput, LocaliserReset,
     MagneticDisturbance, MagnetometerConfig, MapFrame, OdometryConfig, Outage, PoseConfig, PositionConfig,
@@ -221,7 +222,12 @@ pub(crate) enum ImuKind {
     Body,
 }
 
+/// One aiding sensor's simulation, if its rate asks for one.
+type Aiding = anyhow::Result<Option<Arc<dyn AidingSim>>>;
+
 impl SimArgs {
+    /// The drive as the flags give it: the trajectory, the IMUs, the
+    /// position fixes and each aiding sensor whose rate is above 0.
     pub(crate) fn scenario(&self) -> anyhow::Result<ScenarioConfig> {
         let mut c = ScenarioConfig {
             seed: self.seed,
@@ -232,6 +238,27 @@ impl SimArgs {
             ..Default::default()
         };
         c.trajectory().map_err(|e| anyhow::anyhow!("--stop: {e}"))?;
+        self.imus(&mut c)?;
+        self.position(&mut c)?;
+        let aiding = [
+            self.velocity(&c.position),
+            self.odometry(),
+            self.magnetometer(),
+            self.twist(),
+            self.barometer(),
+            self.pose(),
+            self.attitude(),
+            self.heading(),
+            self.geodetic(&c.position),
+        ];
+        for sim in aiding {
+            c.aiding.extend(sim?);
+        }
+        Ok(c)
+    }
+
+    /// The IMU's noise and output, one per `--imu-mount`.
+    fn imus(&self, c: &mut ScenarioConfig) -> anyhow::Result<()> {
         c.imu.rate_hz = self.imu_rate;
         c.imu.jitter_ns = self.imu_jitter_us * 1000;
         c.imu.accel_noise_std = self.accel_noise;
@@ -244,17 +271,6 @@ impl SimArgs {
             ImuKind::World => ImuOutput::WorldAcceleration,
             ImuKind::Body => ImuOutput::BodySpecificForce,
         };
-        c.position.rate_hz = self.position_rate;
-        c.position.noise_std_m = self.position_noise;
-        c.position.vertical_noise_std_m = 1.6 * self.position_noise;
-        c.position.delay_min_ns = self.position_delay_min_ms * 1_000_000;
-        c.position.delay_max_ns = self.position_delay_max_ms * 1_000_000;
-        c.position.dropout_probability = self.dropouts;
-        c.position.outlier_probability = self.outliers;
-        let arm = triple("--lever-arm", self.lever_arm.as_deref())?.unwrap_or([0.0; 3]);
-        let odometry_arm = triple("--odometry-lever-arm", self.odometry_lever_arm.as_deref())?;
-        c.position.lever_arm_m = arm;
-        c.position.clock_lag_ns = self.fix_clock_lag_ms.saturating_mul(1_000_000);
         let mounts = if self.imu_mount.is_empty() { vec!["flu:0,0,0".to_string()] } else { self.imu_mount.clone() };
         for (i, mount) in mounts.iter().enumerate() {
             let imu = ImuConfig { sensor: i as u32, rotation: parse_mount("--imu-mount", mount)?, ..c.imu.clone() };
@@ -264,135 +280,183 @@ impl SimArgs {
                 c.extra_imus.push(imu);
             }
         }
-        // One GNSS receiver: its velocities carry the id of its geodetic fixes.
+        Ok(())
+    }
+
+    /// The position fixes (at the GNSS antenna's lever arm).
+    fn position(&self, c: &mut ScenarioConfig) -> anyhow::Result<()> {
+        c.position.rate_hz = self.position_rate;
+        c.position.noise_std_m = self.position_noise;
+        c.position.vertical_noise_std_m = 1.6 * self.position_noise;
+        c.position.delay_min_ns = self.position_delay_min_ms * 1_000_000;
+        c.position.delay_max_ns = self.position_delay_max_ms * 1_000_000;
+        c.position.dropout_probability = self.dropouts;
+        c.position.outlier_probability = self.outliers;
+        c.position.lever_arm_m = triple("--lever-arm", self.lever_arm.as_deref())?.unwrap_or([0.0; 3]);
+        c.position.clock_lag_ns = self.fix_clock_lag_ms.saturating_mul(1_000_000);
+        Ok(())
+    }
+
+    /// The GNSS velocities: the position fixes' receiver (its delays, its
+    /// antenna, its clock), with the geodetic fixes' id when there are some.
+    fn velocity(&self, fix: &PositionConfig) -> Aiding {
+        if self.velocity_rate <= 0.0 {
+            return Ok(None);
+        }
+        let defaults = VelocityConfig::default();
         let gnss_id = GeodeticConfig::default().fix.sensor;
-        if self.velocity_rate > 0.0 {
-            let defaults = VelocityConfig::default();
-            c.aiding.push(Arc::new(VelocityConfig {
-                rate_hz: self.velocity_rate,
-                noise_std_mps: self.velocity_noise,
-                vertical_noise_std_mps: 2.0 * self.velocity_noise,
-                delay_min_ns: c.position.delay_min_ns,
-                delay_max_ns: c.position.delay_max_ns,
-                sensor: if self.geodetic_rate > 0.0 { gnss_id } else { defaults.sensor },
-                lever_arm_m: arm,
-                // One receiver, one clock.
-                clock_lag_ns: c.position.clock_lag_ns,
-            }));
+        Ok(Some(Arc::new(VelocityConfig {
+            rate_hz: self.velocity_rate,
+            noise_std_mps: self.velocity_noise,
+            vertical_noise_std_mps: 2.0 * self.velocity_noise,
+            delay_min_ns: fix.delay_min_ns,
+            delay_max_ns: fix.delay_max_ns,
+            sensor: if self.geodetic_rate > 0.0 { gnss_id } else { defaults.sensor },
+            lever_arm_m: fix.lever_arm_m,
+            clock_lag_ns: fix.clock_lag_ns,
+        })))
+    }
+
+    fn odometry(&self) -> Aiding {
+        if self.odometry_rate <= 0.0 {
+            return Ok(None);
         }
-        if self.odometry_rate > 0.0 {
-            let defaults = OdometryConfig::default();
-            c.aiding.push(Arc::new(OdometryConfig {
-                rate_hz: self.odometry_rate,
-                noise_std_mps: self.odometry_noise,
-                scale_error: self.odometry_scale_error,
-                scale_in_variance: !self.odometry_noise_only_variance,
-                lever_arm_m: odometry_arm.unwrap_or(defaults.lever_arm_m),
-                ..defaults
-            }));
+        let defaults = OdometryConfig::default();
+        let arm = triple("--odometry-lever-arm", self.odometry_lever_arm.as_deref())?;
+        Ok(Some(Arc::new(OdometryConfig {
+            rate_hz: self.odometry_rate,
+            noise_std_mps: self.odometry_noise,
+            scale_error: self.odometry_scale_error,
+            scale_in_variance: !self.odometry_noise_only_variance,
+            lever_arm_m: arm.unwrap_or(defaults.lever_arm_m),
+            ..defaults
+        })))
+    }
+
+    fn magnetometer(&self) -> Aiding {
+        if self.magnetometer_rate <= 0.0 {
+            return Ok(None);
         }
-        if self.magnetometer_rate > 0.0 {
-            let defaults = MagnetometerConfig::default();
-            let field = triple("--magnetic-field", self.magnetic_field.as_deref())?.unwrap_or([
-                defaults.declination_deg,
-                defaults.inclination_deg,
-                defaults.strength_ut,
-            ]);
-            let disturbances =
-                self.magnetic_disturbance.iter().map(|d| parse_disturbance(d)).collect::<Result<_, _>>()?;
-            c.aiding.push(Arc::new(MagnetometerConfig {
-                rate_hz: self.magnetometer_rate,
-                noise_std_ut: self.magnetometer_noise_ut,
-                declination_deg: field[0],
-                inclination_deg: field[1],
-                strength_ut: field[2],
-                rotation: parse_mount("--magnetometer-mount", &self.magnetometer_mount)?,
-                dropout_probability: self.dropouts,
-                disturbances,
-                ..defaults
-            }));
+        let defaults = MagnetometerConfig::default();
+        let field = triple("--magnetic-field", self.magnetic_field.as_deref())?.unwrap_or([
+            defaults.declination_deg,
+            defaults.inclination_deg,
+            defaults.strength_ut,
+        ]);
+        let disturbances = self.magnetic_disturbance.iter().map(|d| parse_disturbance(d)).collect::<Result<_, _>>()?;
+        Ok(Some(Arc::new(MagnetometerConfig {
+            rate_hz: self.magnetometer_rate,
+            noise_std_ut: self.magnetometer_noise_ut,
+            declination_deg: field[0],
+            inclination_deg: field[1],
+            strength_ut: field[2],
+            rotation: parse_mount("--magnetometer-mount", &self.magnetometer_mount)?,
+            dropout_probability: self.dropouts,
+            disturbances,
+            ..defaults
+        })))
+    }
+
+    fn twist(&self) -> Aiding {
+        if self.twist_rate <= 0.0 {
+            return Ok(None);
         }
-        if self.twist_rate > 0.0 {
-            let [linear, angular] = <[f64; 2]>::try_from(self.twist_noise.clone())
-                .map_err(|_| anyhow::anyhow!("--twist-noise: expected LINEAR,ANGULAR, e.g. 0.05,0.01"))?;
-            let arm = triple("--twist-lever-arm", self.twist_lever_arm.as_deref())?.unwrap_or([0.0; 3]);
-            c.aiding.push(Arc::new(TwistConfig {
-                rate_hz: self.twist_rate,
-                linear_noise_mps: linear,
-                angular_noise_radps: angular,
-                rotation: parse_mount("--twist-mount", &self.twist_mount)?,
-                lever_arm_m: arm,
-                dropout_probability: self.dropouts,
-                ..Default::default()
-            }));
+        let [linear, angular] = <[f64; 2]>::try_from(self.twist_noise.clone())
+            .map_err(|_| anyhow::anyhow!("--twist-noise: expected LINEAR,ANGULAR, e.g. 0.05,0.01"))?;
+        Ok(Some(Arc::new(TwistConfig {
+            rate_hz: self.twist_rate,
+            linear_noise_mps: linear,
+            angular_noise_radps: angular,
+            rotation: parse_mount("--twist-mount", &self.twist_mount)?,
+            lever_arm_m: triple("--twist-lever-arm", self.twist_lever_arm.as_deref())?.unwrap_or([0.0; 3]),
+            dropout_probability: self.dropouts,
+            ..Default::default()
+        })))
+    }
+
+    fn barometer(&self) -> Aiding {
+        if self.barometer_rate <= 0.0 {
+            return Ok(None);
         }
-        if self.barometer_rate > 0.0 {
-            let arm = triple("--barometer-lever-arm", self.barometer_lever_arm.as_deref())?.unwrap_or([0.0; 3]);
-            c.aiding.push(Arc::new(BarometerConfig {
-                rate_hz: self.barometer_rate,
-                noise_pa: self.barometer_noise_pa,
-                lever_arm_m: arm,
-                dropout_probability: self.dropouts,
-                ..Default::default()
-            }));
+        Ok(Some(Arc::new(BarometerConfig {
+            rate_hz: self.barometer_rate,
+            noise_pa: self.barometer_noise_pa,
+            lever_arm_m: triple("--barometer-lever-arm", self.barometer_lever_arm.as_deref())?.unwrap_or([0.0; 3]),
+            dropout_probability: self.dropouts,
+            ..Default::default()
+        })))
+    }
+
+    fn pose(&self) -> Aiding {
+        if self.pose_rate <= 0.0 {
+            return Ok(None);
         }
-        if self.pose_rate > 0.0 {
-            let [position, attitude] = <[f64; 2]>::try_from(self.pose_noise.clone())
-                .map_err(|_| anyhow::anyhow!("--pose-noise: expected POSITION,ATTITUDE, e.g. 0.05,0.005"))?;
-            let arm = triple("--pose-lever-arm", self.pose_lever_arm.as_deref())?.unwrap_or([0.0; 3]);
-            let reset = self.localiser_reset.as_deref().map(parse_localiser_reset).transpose()?;
-            c.aiding.push(Arc::new(PoseConfig {
-                rate_hz: self.pose_rate,
-                position_noise_m: position,
-                attitude_noise_rad: attitude,
-                frame: parse_map_frame("--pose-frame", &self.pose_frame)?,
-                reset,
-                rotation: parse_mount("--pose-mount", &self.pose_mount)?,
-                lever_arm_m: arm,
-                dropout_probability: self.dropouts,
-                ..Default::default()
-            }));
+        let [position, attitude] = <[f64; 2]>::try_from(self.pose_noise.clone())
+            .map_err(|_| anyhow::anyhow!("--pose-noise: expected POSITION,ATTITUDE, e.g. 0.05,0.005"))?;
+        Ok(Some(Arc::new(PoseConfig {
+            rate_hz: self.pose_rate,
+            position_noise_m: position,
+            attitude_noise_rad: attitude,
+            frame: parse_map_frame("--pose-frame", &self.pose_frame)?,
+            reset: self.localiser_reset.as_deref().map(parse_localiser_reset).transpose()?,
+            rotation: parse_mount("--pose-mount", &self.pose_mount)?,
+            lever_arm_m: triple("--pose-lever-arm", self.pose_lever_arm.as_deref())?.unwrap_or([0.0; 3]),
+            dropout_probability: self.dropouts,
+            ..Default::default()
+        })))
+    }
+
+    fn attitude(&self) -> Aiding {
+        if self.attitude_rate <= 0.0 {
+            return Ok(None);
         }
-        if self.attitude_rate > 0.0 {
-            c.aiding.push(Arc::new(AttitudeConfig {
-                rate_hz: self.attitude_rate,
-                noise_std_rad: self.attitude_noise_deg.to_radians(),
-                yaw_error_rad: self.attitude_yaw_error_deg.to_radians(),
-                rotation: parse_mount("--attitude-mount", &self.attitude_mount)?,
-                ..Default::default()
-            }));
+        Ok(Some(Arc::new(AttitudeConfig {
+            rate_hz: self.attitude_rate,
+            noise_std_rad: self.attitude_noise_deg.to_radians(),
+            yaw_error_rad: self.attitude_yaw_error_deg.to_radians(),
+            rotation: parse_mount("--attitude-mount", &self.attitude_mount)?,
+            ..Default::default()
+        })))
+    }
+
+    fn heading(&self) -> Aiding {
+        if self.heading_rate <= 0.0 {
+            return Ok(None);
         }
-        if self.heading_rate > 0.0 {
-            c.aiding.push(Arc::new(HeadingConfig {
-                rate_hz: self.heading_rate,
-                noise_std_rad: self.heading_noise_deg.to_radians(),
-                ..Default::default()
-            }));
+        Ok(Some(Arc::new(HeadingConfig {
+            rate_hz: self.heading_rate,
+            noise_std_rad: self.heading_noise_deg.to_radians(),
+            ..Default::default()
+        })))
+    }
+
+    /// The geodetic fixes: the position fixes' receiver, its datum and its
+    /// fix phases.
+    fn geodetic(&self, fix: &PositionConfig) -> Aiding {
+        if self.geodetic_rate <= 0.0 {
+            return Ok(None);
         }
-        if self.geodetic_rate > 0.0 {
-            let mut g = GeodeticConfig::default();
-            g.fix = PositionConfig {
-                rate_hz: self.geodetic_rate,
-                noise_std_m: self.geodetic_noise,
-                vertical_noise_std_m: 1.6 * self.geodetic_noise,
-                delay_min_ns: c.position.delay_min_ns,
-                delay_max_ns: c.position.delay_max_ns,
-                dropout_probability: self.dropouts,
-                outlier_probability: self.outliers,
-                lever_arm_m: arm,
-                clock_lag_ns: c.position.clock_lag_ns,
-                ..g.fix
-            };
-            if let Some([lat, lon, h]) = triple("--datum", self.datum.as_deref())? {
-                g.datum = Datum::new(lat, lon, h).context("--datum")?;
-            }
-            if self.fix_phase.windows(2).any(|w| w[1].at_s < w[0].at_s) {
-                anyhow::bail!("--fix-phase: give the phases in order of their start");
-            }
-            g.phases = self.fix_phase.clone();
-            c.aiding.push(Arc::new(g));
+        let mut g = GeodeticConfig::default();
+        g.fix = PositionConfig {
+            rate_hz: self.geodetic_rate,
+            noise_std_m: self.geodetic_noise,
+            vertical_noise_std_m: 1.6 * self.geodetic_noise,
+            delay_min_ns: fix.delay_min_ns,
+            delay_max_ns: fix.delay_max_ns,
+            dropout_probability: self.dropouts,
+            outlier_probability: self.outliers,
+            lever_arm_m: fix.lever_arm_m,
+            clock_lag_ns: fix.clock_lag_ns,
+            ..g.fix
+        };
+        if let Some([lat, lon, h]) = triple("--datum", self.datum.as_deref())? {
+            g.datum = Datum::new(lat, lon, h).context("--datum")?;
         }
-        Ok(c)
+        if self.fix_phase.windows(2).any(|w| w[1].at_s < w[0].at_s) {
+            anyhow::bail!("--fix-phase: give the phases in order of their start");
+        }
+        g.phases = self.fix_phase.clone();
+        Ok(Some(Arc::new(g)))
     }
 }
 
