@@ -154,75 +154,11 @@ fn run(cli: Cli) -> anyhow::Result<u8> {
         signal_hook::flag::register(signal, Arc::clone(&stop))?;
     }
     match cli.command {
-        Command::Echo { namespace, count, idle_timeout } => {
-            let client = Client::connect(&namespace)?;
-            let mut state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER)?;
-            let stdout = std::io::stdout();
-            let mut out = std::io::BufWriter::new(stdout.lock());
-            let mut printed = 0u64;
-            let mut last = Instant::now();
-            let idle = idle_timeout.map(Duration::from_secs_f64);
-            // While fusiond has published nothing, say so once (it waited in silence).
-            let started = Instant::now();
-            let mut said = false;
-            while !stop.load(Ordering::Relaxed) && count.is_none_or(|n| printed < n) {
-                match state.wait_next(Duration::from_millis(100))? {
-                    Some(s) => {
-                        // A closed pipe (e.g. `| head`) ends the echo quietly.
-                        if serde_json::to_writer(&mut out, &SnapshotJson::from(s)).is_err() || writeln!(out).is_err() {
-                            break;
-                        }
-                        printed += 1;
-                        last = Instant::now();
-                    }
-                    None => {
-                        let _ = out.flush();
-                        if printed == 0 && !said && started.elapsed() >= ECHO_SILENCE {
-                            eprintln!(
-                                "fusionctl echo: fusiond runs in namespace {namespace:?} but has published no \
-                                 snapshot yet (no sample has reached it: are the sensors publishing in this \
-                                 namespace?); waiting"
-                            );
-                            said = true;
-                        }
-                        if let Some(idle) = idle.filter(|&d| last.elapsed() >= d) {
-                            let _ = out.flush();
-                            if printed == 0 {
-                                // As `fusionctl state` says it: fusiond runs, nothing yet.
-                                eprintln!(
-                                    "fusionctl echo: fusiond runs in namespace {namespace:?} but published no \
-                                     snapshot in {:.1} s of --idle-timeout (no sample has reached it)",
-                                    idle.as_secs_f64()
-                                );
-                                return Ok(fusion_shared::exit::NO_STATE_YET);
-                            }
-                            break;
-                        }
-                    }
-                }
-            }
-            let _ = out.flush();
-            Ok(fusion_shared::exit::SUCCESS)
-        }
+        Command::Echo { namespace, count, idle_timeout } => echo(&namespace, count, idle_timeout, &stop),
         Command::Record { output, namespace, duration, no_compression, flush_interval } => {
             let duration = duration.map(Duration::from_secs_f64);
             let flush_interval = Duration::from_secs_f64(flush_interval);
-            let c = record::run(&namespace, &output, duration, !no_compression, flush_interval, &stop)?;
-            eprintln!(
-                "fusionctl: recorded {} samples ({} not processed by fusiond) and {} snapshots to {}",
-                c.samples,
-                c.unreported,
-                c.snapshots,
-                output.display()
-            );
-            if !c.complete() {
-                eprintln!(
-                    "fusionctl: the recording is incomplete: {} samples lost, {} snapshots lost, {} processed samples \
-                     missed; a replay will not equal the live run everywhere",
-                    c.samples_lost, c.snapshots_lost, c.missed
-                );
-            }
-            Ok(fusion_shared::exit::SUCCESS)
+            record_command(&namespace, &output, duration, !no_compression, flush_interval, &stop)
         }
         Command::Plot { input, samples, truth, output_dir } => {
             let (files, damage) = plot::run(&input, samples.as_deref(), truth.as_deref(), &output_dir)?;
@@ -238,31 +174,115 @@ fn run(cli: Cli) -> anyhow::Result<u8> {
         Command::Foxglove { namespace, host, port } => {
             foxglove::run(&namespace, &host, port, &stop).map(|()| fusion_shared::exit::SUCCESS)
         }
-        Command::State { namespace, wait } => {
-            let client = Client::connect(&namespace)?;
-            let mut state = client.state_subscriber()?;
-            anyhow::ensure!(
-                state.fusiond_publishes(),
-                "fusiond is not running in namespace {namespace:?}: it stopped (its state service stays while \
-                 readers such as a fusionctl top hold it open)"
-            );
-            let s = match state.latest()? {
-                Some(s) => *s,
-                None => match state.wait_next(Duration::from_secs_f64(wait))? {
-                    Some(s) => *s,
-                    None => {
+        Command::State { namespace, wait } => state(&namespace, wait),
+    }
+}
+
+/// `fusionctl echo`: each snapshot as a JSON line, until `count`, the idle
+/// timeout or a signal.
+fn echo(namespace: &str, count: Option<u64>, idle_timeout: Option<f64>, stop: &AtomicBool) -> anyhow::Result<u8> {
+    let client = Client::connect(namespace)?;
+    let mut state = client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER)?;
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    let mut printed = 0u64;
+    let mut last = Instant::now();
+    let idle = idle_timeout.map(Duration::from_secs_f64);
+    // While fusiond has published nothing, say so once (it waited in silence).
+    let started = Instant::now();
+    let mut said = false;
+    while !stop.load(Ordering::Relaxed) && count.is_none_or(|n| printed < n) {
+        match state.wait_next(Duration::from_millis(100))? {
+            Some(s) => {
+                // A closed pipe (e.g. `| head`) ends the echo quietly.
+                if serde_json::to_writer(&mut out, &SnapshotJson::from(s)).is_err() || writeln!(out).is_err() {
+                    break;
+                }
+                printed += 1;
+                last = Instant::now();
+            }
+            None => {
+                let _ = out.flush();
+                if printed == 0 && !said && started.elapsed() >= ECHO_SILENCE {
+                    eprintln!(
+                        "fusionctl echo: fusiond runs in namespace {namespace:?} but has published no \
+                         snapshot yet (no sample has reached it: are the sensors publishing in this \
+                         namespace?); waiting"
+                    );
+                    said = true;
+                }
+                if let Some(idle) = idle.filter(|&d| last.elapsed() >= d) {
+                    let _ = out.flush();
+                    if printed == 0 {
+                        // As `fusionctl state` says it: fusiond runs, nothing yet.
                         eprintln!(
-                            "fusionctl: fusiond runs in namespace {namespace:?} but has published no snapshot yet \
-                             (no sample has reached it)"
+                            "fusionctl echo: fusiond runs in namespace {namespace:?} but published no \
+                             snapshot in {:.1} s of --idle-timeout (no sample has reached it)",
+                            idle.as_secs_f64()
                         );
                         return Ok(fusion_shared::exit::NO_STATE_YET);
                     }
-                },
-            };
-            print!("{}", describe(&s));
-            Ok(fusion_shared::exit::SUCCESS)
+                    break;
+                }
+            }
         }
     }
+    let _ = out.flush();
+    Ok(fusion_shared::exit::SUCCESS)
+}
+
+/// `fusionctl record`, and what it recorded on stderr.
+fn record_command(
+    namespace: &str,
+    output: &std::path::Path,
+    duration: Option<Duration>,
+    compress: bool,
+    flush_interval: Duration,
+    stop: &AtomicBool,
+) -> anyhow::Result<u8> {
+    let c = record::run(namespace, output, duration, compress, flush_interval, stop)?;
+    eprintln!(
+        "fusionctl: recorded {} samples ({} not processed by fusiond) and {} snapshots to {}",
+        c.samples,
+        c.unreported,
+        c.snapshots,
+        output.display()
+    );
+    if !c.complete() {
+        eprintln!(
+            "fusionctl: the recording is incomplete: {} samples lost, {} snapshots lost, {} processed samples \
+             missed; a replay will not equal the live run everywhere",
+            c.samples_lost, c.snapshots_lost, c.missed
+        );
+    }
+    Ok(fusion_shared::exit::SUCCESS)
+}
+
+/// `fusionctl state`: the latest snapshot, described (waiting up to `wait` s
+/// for a first one).
+fn state(namespace: &str, wait: f64) -> anyhow::Result<u8> {
+    let client = Client::connect(namespace)?;
+    let mut state = client.state_subscriber()?;
+    anyhow::ensure!(
+        state.fusiond_publishes(),
+        "fusiond is not running in namespace {namespace:?}: it stopped (its state service stays while \
+         readers such as a fusionctl top hold it open)"
+    );
+    let s = match state.latest()? {
+        Some(s) => *s,
+        None => match state.wait_next(Duration::from_secs_f64(wait))? {
+            Some(s) => *s,
+            None => {
+                eprintln!(
+                    "fusionctl: fusiond runs in namespace {namespace:?} but has published no snapshot yet \
+                     (no sample has reached it)"
+                );
+                return Ok(fusion_shared::exit::NO_STATE_YET);
+            }
+        },
+    };
+    print!("{}", describe(&s));
+    Ok(fusion_shared::exit::SUCCESS)
 }
 
 /// How long `fusionctl echo` waits for a first snapshot before it says so.

@@ -380,26 +380,19 @@ impl<W: Write + std::io::Seek> Recorder<W> {
     }
 }
 
-/// Records namespace `namespace` to `output` until `stop` is set or `duration`
-/// passes, with a progress line on stderr. Every `flush_interval` what was
-/// gathered is written as complete chunks and synced to the disk: a recorder
-/// killed or without power loses at most that (a reader uses every complete
-/// chunk of a cut-off file).
-pub fn run(
+/// The state service of fusiond in `namespace`, waiting for one to run (said
+/// once on stderr) until `duration` or a signal.
+fn wait_for_fusiond(
+    client: &Client,
     namespace: &str,
-    output: &Path,
     duration: Option<Duration>,
-    compress: bool,
-    flush_interval: Duration,
     stop: &AtomicBool,
-) -> anyhow::Result<Counts> {
-    let client = Client::connect(namespace)?;
-    let mut samples = client.sample_subscriber()?;
+) -> anyhow::Result<fusion_client::StateSubscriber> {
     let mut waited = false;
     let waiting_since = Instant::now();
-    let mut state = loop {
+    loop {
         match client.state_subscriber_with_buffer(fusion_shared::service::STATE_BUFFER) {
-            Ok(s) => break s,
+            Ok(s) => return Ok(s),
             Err(ClientError::DaemonNotRunning { .. }) if !stop.load(Ordering::Relaxed) => {
                 if let Some(d) = duration
                     && waiting_since.elapsed() >= d
@@ -418,7 +411,50 @@ pub fn run(
             }
             Err(e) => return Err(e.into()),
         }
-    };
+    }
+}
+
+/// The progress line: what was recorded, at what rate since `last` (then now).
+fn progress<W: std::io::Write + std::io::Seek>(
+    recorder: &Recorder<W>,
+    output: &Path,
+    last: &mut (Instant, u64),
+    terminal: bool,
+) {
+    let c = recorder.counts();
+    let rate = (c.samples - last.1) as f64 / last.0.elapsed().as_secs_f64();
+    *last = (Instant::now(), c.samples);
+    let line = format!(
+        "recording {}: {} samples, {} snapshots, {:.1} MB, {rate:.0} samples/s, lost {}",
+        output.display(),
+        c.samples,
+        c.snapshots,
+        std::fs::metadata(output).map_or(0, |m| m.len()) as f64 / 1e6,
+        c.samples_lost + c.snapshots_lost + c.missed
+    );
+    if terminal {
+        eprint!("\r{line}\x1b[K");
+    } else {
+        eprintln!("{line}");
+    }
+}
+
+/// Records namespace `namespace` to `output` until `stop` is set or `duration`
+/// passes, with a progress line on stderr. Every `flush_interval` what was
+/// gathered is written as complete chunks and synced to the disk: a recorder
+/// killed or without power loses at most that (a reader uses every complete
+/// chunk of a cut-off file).
+pub fn run(
+    namespace: &str,
+    output: &Path,
+    duration: Option<Duration>,
+    compress: bool,
+    flush_interval: Duration,
+    stop: &AtomicBool,
+) -> anyhow::Result<Counts> {
+    let client = Client::connect(namespace)?;
+    let mut samples = client.sample_subscriber()?;
+    let mut state = wait_for_fusiond(&client, namespace, duration, stop)?;
     let file = File::create(output).with_context(|| format!("cannot create {}", output.display()))?;
     // The same open file, for syncing what was written to the disk.
     let sync = file.try_clone()?;
@@ -453,22 +489,7 @@ pub fn run(
             next_flush = Instant::now() + flush_interval;
         }
         if Instant::now() >= next_progress {
-            let c = recorder.counts();
-            let rate = (c.samples - last.1) as f64 / last.0.elapsed().as_secs_f64();
-            last = (Instant::now(), c.samples);
-            let line = format!(
-                "recording {}: {} samples, {} snapshots, {:.1} MB, {rate:.0} samples/s, lost {}",
-                output.display(),
-                c.samples,
-                c.snapshots,
-                std::fs::metadata(output).map_or(0, |m| m.len()) as f64 / 1e6,
-                c.samples_lost + c.snapshots_lost + c.missed
-            );
-            if terminal {
-                eprint!("\r{line}\x1b[K");
-            } else {
-                eprintln!("{line}");
-            }
+            progress(&recorder, output, &mut last, terminal);
             next_progress += Duration::from_secs(if terminal { 1 } else { 5 });
         }
         if !busy {

@@ -14,7 +14,7 @@ use fusion_client::{Client, StateSnapshot, now_ns};
 use fusion_shared::snapshot::{INPUT_NONE, health, model, rejection};
 use ratatui::Frame;
 use ratatui::crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
-use ratatui::layout::{Constraint, Layout};
+use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Borders, Cell, Paragraph, Row, Table, Wrap};
@@ -217,18 +217,7 @@ pub fn draw(frame: &mut Frame, view: &View) {
         (Some(_), Some(false)) => format!(" fusiond · namespace {} · STOPPED: its last snapshot ", view.namespace),
         _ => format!(" fusiond · namespace {} ", view.namespace),
     };
-    let lines = match &view.latest {
-        Some(s) => header_lines(view, s),
-        None if view.daemon_running == Some(false) => vec![Line::from(format!(
-            "no fusiond runs in namespace {:?}: waiting for one (is the namespace right? `fusionctl state \
-             --namespace NS` asks one)",
-            view.namespace
-        ))],
-        None => vec![Line::from(format!(
-            "fusiond runs in namespace {:?}: waiting for its first snapshot (no sample has reached it yet) …",
-            view.namespace
-        ))],
-    };
+    let lines = status_lines(view);
     // The header's lines wrap between words: as tall as they need.
     let header_height = 1 + lines.iter().map(|l| wrapped_rows(&line_text(l), area.width)).sum::<u16>();
     let [header, sensors, lower, footer] = Layout::vertical([
@@ -244,8 +233,37 @@ pub fn draw(frame: &mut Frame, view: &View) {
         frame.render_widget(Paragraph::new(" q: quit"), footer);
         return;
     };
+    frame.render_widget(sensor_table(view, s, sensors.height, area.width >= WIDE), sensors);
+    draw_estimate(frame, s, lower, columns);
+    let latency = match view.latency_us() {
+        Some([p50, p90, p99, max]) => format!(
+            "latency sent → published: p50 {p50:.1} p90 {p90:.1} p99 {p99:.1} max {max:.1} µs (last {})",
+            view.latencies.len()
+        ),
+        None => "latency: no sample with a send time yet".into(),
+    };
+    frame.render_widget(Paragraph::new(format!(" q: quit · {} snapshots · {latency}", view.snapshots)), footer);
+}
 
-    let wide = area.width >= WIDE;
+/// The header's lines: the latest snapshot's, or what the dashboard waits for.
+fn status_lines(view: &View) -> Vec<Line<'static>> {
+    match &view.latest {
+        Some(s) => header_lines(view, s),
+        None if view.daemon_running == Some(false) => vec![Line::from(format!(
+            "no fusiond runs in namespace {:?}: waiting for one (is the namespace right? `fusionctl state \
+             --namespace NS` asks one)",
+            view.namespace
+        ))],
+        None => vec![Line::from(format!(
+            "fusiond runs in namespace {:?}: waiting for its first snapshot (no sample has reached it yet) …",
+            view.namespace
+        ))],
+    }
+}
+
+/// One row per sensor of `s`, in `height` rows (the rest said, not dropped);
+/// `wide`: every counter in its own column.
+fn sensor_table(view: &View, s: &StateSnapshot, height: u16, wide: bool) -> Table<'static> {
     let head: &[&str] = if wide {
         &[
             "sensor", "rate Hz", "received", "fused", "gated", "refused", "late", "too late", "dup", "invalid", "lost",
@@ -259,33 +277,10 @@ pub fn draw(frame: &mut Frame, view: &View) {
     let mut rows: Vec<Row> = s
         .sensor_counters()
         .iter()
-        .map(|c| {
-            let n = &c.counts;
-            let rate = view.rates.get(&(c.kind, c.sensor)).map_or("-".into(), |r| format!("{r:.1}"));
-            let nis = if c.last_nis.is_finite() { nis_text(c.last_nis) } else { "-".into() };
-            let style = if stale_rows.contains(&(c.kind, c.sensor)) {
-                Style::default().fg(Color::Red)
-            } else {
-                Style::default()
-            };
-            let name = format!("{} {}", crate::kind_name(c.kind), c.sensor);
-            let [received, fused, gated, refused, late, too_late, invalid, lost] =
-                [n.received, n.fused, n.gated, n.refused, n.late, n.too_late, n.invalid, n.lost].map(|v| v.to_string());
-            let cells = if wide {
-                let [dup, limited, restarts] = [n.duplicate, n.rate_limited, n.restarts].map(|v| v.to_string());
-                vec![
-                    name, rate, received, fused, gated, refused, late, too_late, dup, invalid, lost, limited, restarts,
-                    nis,
-                ]
-            } else {
-                let other = (n.duplicate + n.rate_limited + n.restarts).to_string();
-                vec![name, rate, received, fused, gated, refused, late, too_late, invalid, lost, other, nis]
-            };
-            Row::new(cells.into_iter().map(Cell::from)).style(style)
-        })
+        .map(|c| sensor_row(view, c, stale_rows.contains(&(c.kind, c.sensor)), wide))
         .collect();
     // Rows below the area's bottom are said, not dropped in silence.
-    let room = usize::from(sensors.height.saturating_sub(2));
+    let room = usize::from(height.saturating_sub(2));
     let count = rows.len();
     let mut title = " sensors ".to_string();
     if count > room {
@@ -302,15 +297,35 @@ pub fn draw(frame: &mut Frame, view: &View) {
         let fixed = [15, 5, 6, 6, 5, 5, 4, 5, 5, 4, 5].map(Constraint::Length);
         fixed.into_iter().chain([Constraint::Fill(1)]).collect()
     };
-    let table = Table::new(rows, widths)
+    Table::new(rows, widths)
         .header(Row::new(head.to_vec()).style(Style::default().add_modifier(Modifier::BOLD)))
-        .block(Block::new().borders(Borders::TOP).title(title));
-    frame.render_widget(table, sensors);
+        .block(Block::new().borders(Borders::TOP).title(title))
+}
 
-    // The estimate in as many columns as fit, filled top to bottom.
+/// One sensor's row (red while its stream is stale).
+fn sensor_row(view: &View, c: &fusion_shared::snapshot::SensorCounters, stale: bool, wide: bool) -> Row<'static> {
+    let n = &c.counts;
+    let rate = view.rates.get(&(c.kind, c.sensor)).map_or("-".into(), |r| format!("{r:.1}"));
+    let nis = if c.last_nis.is_finite() { nis_text(c.last_nis) } else { "-".into() };
+    let style = if stale { Style::default().fg(Color::Red) } else { Style::default() };
+    let name = format!("{} {}", crate::kind_name(c.kind), c.sensor);
+    let [received, fused, gated, refused, late, too_late, invalid, lost] =
+        [n.received, n.fused, n.gated, n.refused, n.late, n.too_late, n.invalid, n.lost].map(|v| v.to_string());
+    let cells = if wide {
+        let [dup, limited, restarts] = [n.duplicate, n.rate_limited, n.restarts].map(|v| v.to_string());
+        vec![name, rate, received, fused, gated, refused, late, too_late, dup, invalid, lost, limited, restarts, nis]
+    } else {
+        let other = (n.duplicate + n.rate_limited + n.restarts).to_string();
+        vec![name, rate, received, fused, gated, refused, late, too_late, invalid, lost, other, nis]
+    };
+    Row::new(cells.into_iter().map(Cell::from)).style(style)
+}
+
+/// The estimate in as many columns as fit, filled top to bottom.
+fn draw_estimate(frame: &mut Frame, s: &StateSnapshot, area: Rect, columns: usize) {
     let rows = estimate_rows(s);
     let per_column = rows.len().div_ceil(columns).max(1);
-    let parts = Layout::horizontal(vec![Constraint::Length(ESTIMATE_COLUMN); columns]).split(lower);
+    let parts = Layout::horizontal(vec![Constraint::Length(ESTIMATE_COLUMN); columns]).split(area);
     for (i, chunk) in rows.chunks(per_column).enumerate() {
         let table =
             Table::new(chunk.iter().map(|r| Row::new(r.clone().map(Cell::from))), [18, 11, 9].map(Constraint::Length))
@@ -319,15 +334,6 @@ pub fn draw(frame: &mut Frame, view: &View) {
         let block = if i == 0 { block.title(" estimate ") } else { block };
         frame.render_widget(table.block(block), parts[i]);
     }
-
-    let latency = match view.latency_us() {
-        Some([p50, p90, p99, max]) => format!(
-            "latency sent → published: p50 {p50:.1} p90 {p90:.1} p99 {p99:.1} max {max:.1} µs (last {})",
-            view.latencies.len()
-        ),
-        None => "latency: no sample with a send time yet".into(),
-    };
-    frame.render_widget(Paragraph::new(format!(" q: quit · {} snapshots · {latency}", view.snapshots)), footer);
 }
 
 /// Runs the dashboard on the terminal until `q` or `stop`; without a terminal
