@@ -7,7 +7,7 @@ use crate::engine::EngineConfig;
 use crate::frames::{Frames, MountedSensor};
 use crate::measurement::Steps;
 use crate::model::Model;
-use crate::model::ins::{self, AlignmentParams, CourseAlignment, ImuNoise, InsModel, OdometryScale};
+use crate::model::ins::{self, AlignmentParams, CourseAlignment, ImuNoise, InsModel, InsParams, OdometryScale};
 use crate::model::linear::{self, LinearModel};
 
 /// Runs something generic over the model type with the configured model.
@@ -302,40 +302,7 @@ impl InsModel {
             gyroscope_random_walk: positive("model.gyroscope_random_walk", p.gyroscope_random_walk)?,
         };
         let gravity = positive("model.gravity_mps2", p.gravity_mps2)?;
-        if let Some(c) = &p.constraints {
-            positive("model.constraints.nonholonomic_std_mps", c.std_mps)?;
-            if !(c.min_speed_mps.is_finite() && c.min_speed_mps >= 0.0) {
-                return Err(invalid(
-                    "model.constraints.nonholonomic_min_speed_mps",
-                    format!("must be a finite number >= 0, got {}", c.min_speed_mps),
-                ));
-            }
-            if !c.lever_arm_m.iter().all(|v| v.is_finite() && v.abs() <= 100.0) {
-                return Err(invalid(
-                    "model.constraints.nonholonomic_lever_arm_m",
-                    format!("must be finite and within 100 m of the IMU, got {:?}", c.lever_arm_m),
-                ));
-            }
-        }
-        if let Some(c) = &p.standstill {
-            window("model.standstill.window_ns", c.window_ns)?;
-            positive("model.standstill.imu_threshold", c.imu_threshold)?;
-            positive("model.standstill.velocity_std_mps", c.velocity_std_mps)?;
-            for (key, v) in [
-                ("model.standstill.max_speed_mps", c.max_speed_mps),
-                ("model.standstill.odometry_speed_mps", c.odometry_speed_mps),
-            ] {
-                if !(v.is_finite() && v >= 0.0) {
-                    return Err(invalid(key, format!("must be a finite number >= 0, got {v}")));
-                }
-            }
-        }
-        if let Some(c) = &p.gravity {
-            window("model.gravity.window_ns", c.window_ns)?;
-            positive("model.gravity.max_deviation_mps2", c.max_deviation_mps2)?;
-            positive("model.gravity.variance_threshold", c.variance_threshold)?;
-            positive("model.gravity.acceleration_std_mps2", c.acceleration_std_mps2)?;
-        }
+        check_ins_tables(p)?;
         let (x0, p0) = initial_values::<{ ins::NOMINAL }, { ins::N }>(config)?;
         let norm = x0[6..10].iter().map(|v| v * v).sum::<f64>().sqrt();
         if (norm - 1.0).abs() > 1e-3 {
@@ -345,22 +312,7 @@ impl InsModel {
             ));
         }
         let alignment = p.alignment.map_or(0, |a| a.static_samples);
-        let course = match p.alignment {
-            Some(AlignmentParams {
-                heading_from_velocity_mps: Some(speed), heading_sideslip_std_deg: slip, ..
-            }) => {
-                if !(speed.is_finite() && speed > 0.0) {
-                    let why = format!("must be a finite speed > 0 m/s, got {speed}");
-                    return Err(invalid("model.alignment.heading_from_velocity_mps", why));
-                }
-                if !(slip.is_finite() && (0.0..90.0).contains(&slip)) {
-                    let why = format!("must be a finite angle in [0, 90) degrees, got {slip}");
-                    return Err(invalid("model.alignment.heading_sideslip_std_deg", why));
-                }
-                Some(CourseAlignment { min_speed_mps: speed, sideslip_std_rad: slip.to_radians() })
-            }
-            _ => None,
-        };
+        let course = course_alignment(p.alignment)?;
         let frames = Frames::from_config(config.datum, &config.sensors, config.imu, &crate::measurement::Kinds)?;
         if let Some(m) = frames.sensors().iter().find(|m| !<InsModel as Steps>::accepts(m.kind)) {
             return Err(invalid("sensor", format!("{:?}: the ins model cannot fuse {}", m.name, m.kind.name())));
@@ -377,6 +329,65 @@ impl InsModel {
             })
             .map_err(|e| invalid("filter.initial_state", e.to_string()))
     }
+}
+
+/// The `ins` model's optional tables, checked: the motion constraint, the
+/// standstill detector and the gravity reference.
+fn check_ins_tables(p: &InsParams) -> Result<(), ConfigError> {
+    if let Some(c) = &p.constraints {
+        positive("model.constraints.nonholonomic_std_mps", c.std_mps)?;
+        if !(c.min_speed_mps.is_finite() && c.min_speed_mps >= 0.0) {
+            return Err(invalid(
+                "model.constraints.nonholonomic_min_speed_mps",
+                format!("must be a finite number >= 0, got {}", c.min_speed_mps),
+            ));
+        }
+        if !c.lever_arm_m.iter().all(|v| v.is_finite() && v.abs() <= 100.0) {
+            return Err(invalid(
+                "model.constraints.nonholonomic_lever_arm_m",
+                format!("must be finite and within 100 m of the IMU, got {:?}", c.lever_arm_m),
+            ));
+        }
+    }
+    if let Some(c) = &p.standstill {
+        window("model.standstill.window_ns", c.window_ns)?;
+        positive("model.standstill.imu_threshold", c.imu_threshold)?;
+        positive("model.standstill.velocity_std_mps", c.velocity_std_mps)?;
+        for (key, v) in [
+            ("model.standstill.max_speed_mps", c.max_speed_mps),
+            ("model.standstill.odometry_speed_mps", c.odometry_speed_mps),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(invalid(key, format!("must be a finite number >= 0, got {v}")));
+            }
+        }
+    }
+    if let Some(c) = &p.gravity {
+        window("model.gravity.window_ns", c.window_ns)?;
+        positive("model.gravity.max_deviation_mps2", c.max_deviation_mps2)?;
+        positive("model.gravity.variance_threshold", c.variance_threshold)?;
+        positive("model.gravity.acceleration_std_mps2", c.acceleration_std_mps2)?;
+    }
+    Ok(())
+}
+
+/// The heading from the course (`[model.alignment] heading_from_velocity_mps`),
+/// checked; `None` without it.
+fn course_alignment(alignment: Option<AlignmentParams>) -> Result<Option<CourseAlignment>, ConfigError> {
+    Ok(match alignment {
+        Some(AlignmentParams { heading_from_velocity_mps: Some(speed), heading_sideslip_std_deg: slip, .. }) => {
+            if !(speed.is_finite() && speed > 0.0) {
+                let why = format!("must be a finite speed > 0 m/s, got {speed}");
+                return Err(invalid("model.alignment.heading_from_velocity_mps", why));
+            }
+            if !(slip.is_finite() && (0.0..90.0).contains(&slip)) {
+                let why = format!("must be a finite angle in [0, 90) degrees, got {slip}");
+                return Err(invalid("model.alignment.heading_sideslip_std_deg", why));
+            }
+            Some(CourseAlignment { min_speed_mps: speed, sideslip_std_rad: slip.to_radians() })
+        }
+        _ => None,
+    })
 }
 
 impl Default for EngineConfig {

@@ -347,6 +347,8 @@ fn refusals(s: &StateSnapshot) -> String {
     o
 }
 
+/// What `fusionctl state` prints of a snapshot: the health and its reasons,
+/// the estimate and the sensors' counters.
 fn describe(s: &StateSnapshot) -> String {
     let mut o = String::new();
     let age_ms = now_ns().saturating_sub(s.publish_ns) as f64 * 1e-6;
@@ -384,6 +386,18 @@ fn describe(s: &StateSnapshot) -> String {
             format!("velocity stamps vs their time_offset_ns: {ms:+.1} ± {sd_ms:.1} ms ({n} samples)\n")
         };
     }
+    o += &estimate_table(s);
+    o += &sensor_table(s);
+    o += &format!(
+        "\n  samples of no sensor row: {}; filter re-initialisations: {}; readers refused: {}\n",
+        s.unknown_sensor, s.reinitialisations, s.readers_refused
+    );
+    o
+}
+
+/// The estimate, a state a line with its 1-sigma, and the attitude in degrees.
+fn estimate_table(s: &StateSnapshot) -> String {
+    let mut o = String::new();
     o += "\n";
     let layout = state_layout(s);
     let sd: Vec<f64> = s.std_devs().collect();
@@ -402,6 +416,12 @@ fn describe(s: &StateSnapshot) -> String {
              counter-clockwise)\n"
         );
     }
+    o
+}
+
+/// The sensors' counters, a sensor a line.
+fn sensor_table(s: &StateSnapshot) -> String {
+    let mut o = String::new();
     o += &format!(
         "\n  {:<14} {:>9} {:>9} {:>7} {:>7} {:>6} {:>8} {:>9} {:>7} {:>6} {:>12} {:>8} {:>9}\n",
         "sensor",
@@ -436,10 +456,6 @@ fn describe(s: &StateSnapshot) -> String {
             finite(c.last_nis).map_or("-".into(), |v| format!("{v:.2}")),
         );
     }
-    o += &format!(
-        "\n  samples of no sensor row: {}; filter re-initialisations: {}; readers refused: {}\n",
-        s.unknown_sensor, s.reinitialisations, s.readers_refused
-    );
     o
 }
 

@@ -474,26 +474,7 @@ pub fn run(
     }
     if let Some(path) = truth {
         data.truth = read_truth(path)?;
-        let covered = data.estimates.iter().filter(|e| truth_at(&data.truth, e.t).is_some()).count();
-        let span = |t: &mut dyn Iterator<Item = f64>| {
-            t.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)))
-        };
-        let (e0, e1) = span(&mut data.estimates.iter().map(|e| e.t));
-        let (t0, t1) = span(&mut data.truth.iter().map(|t| t.0));
-        anyhow::ensure!(
-            covered > 0,
-            "{}: the truth covers t = {t0:.3}..{t1:.3} s and the estimates t = {e0:.3}..{e1:.3} s (CLOCK_MONOTONIC): \
-             no estimate falls within it, so there is no error to plot (is it this run's truth?)",
-            path.display()
-        );
-        if covered * 2 < data.estimates.len() {
-            eprintln!(
-                "fusionctl: {} covers {covered} of the {} estimates (t = {t0:.3}..{t1:.3} s of the estimates' \
-                 {e0:.3}..{e1:.3} s): the error panels show those",
-                path.display(),
-                data.estimates.len()
-            );
-        }
+        check_truth_covers(&data, path)?;
     }
     // Times since the first estimate (CLOCK_MONOTONIC seconds say nothing).
     data.t0 = data.estimates.iter().map(|e| e.t).fold(f64::INFINITY, f64::min);
@@ -501,6 +482,38 @@ pub fn run(
     data.estimates.iter_mut().for_each(|e| e.t -= t0);
     data.truth.iter_mut().for_each(|t| t.0 -= t0);
     data.nis.values_mut().flat_map(|(_, v)| v.iter_mut()).for_each(|v| v.t -= t0);
+    let files = write_pages(input, &data, dir)?;
+    Ok((files, data.damage))
+}
+
+/// Whether the truth at `path` covers the estimates: an error if it covers
+/// none, a word on stderr if less than half.
+fn check_truth_covers(data: &Data, path: &Path) -> anyhow::Result<()> {
+    let covered = data.estimates.iter().filter(|e| truth_at(&data.truth, e.t).is_some()).count();
+    let span = |t: &mut dyn Iterator<Item = f64>| {
+        t.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)))
+    };
+    let (e0, e1) = span(&mut data.estimates.iter().map(|e| e.t));
+    let (t0, t1) = span(&mut data.truth.iter().map(|t| t.0));
+    anyhow::ensure!(
+        covered > 0,
+        "{}: the truth covers t = {t0:.3}..{t1:.3} s and the estimates t = {e0:.3}..{e1:.3} s (CLOCK_MONOTONIC): \
+         no estimate falls within it, so there is no error to plot (is it this run's truth?)",
+        path.display()
+    );
+    if covered * 2 < data.estimates.len() {
+        eprintln!(
+            "fusionctl: {} covers {covered} of the {} estimates (t = {t0:.3}..{t1:.3} s of the estimates' \
+             {e0:.3}..{e1:.3} s): the error panels show those",
+            path.display(),
+            data.estimates.len()
+        );
+    }
+    Ok(())
+}
+
+/// Writes each page (SVG and PNG) and `report.json` into `dir`; the files written.
+fn write_pages(input: &Path, data: &Data, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut pages = vec![Page::Trajectory, Page::Errors, Page::Nis];
     if data.estimates.iter().any(|e| e.ins.is_some()) {
@@ -513,11 +526,11 @@ pub fn run(
     let mut files = Vec::new();
     for page in pages {
         let path = dir.join(format!("{}.svg", page.name()));
-        page.draw(&SVGBackend::new(&path, SIZE).into_drawing_area(), &data, &mut counts)
+        page.draw(&SVGBackend::new(&path, SIZE).into_drawing_area(), data, &mut counts)
             .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         files.push(path);
         let path = dir.join(format!("{}.png", page.name()));
-        page.draw(&BitMapBackend::new(&path, SIZE).into_drawing_area(), &data, &mut counts)
+        page.draw(&BitMapBackend::new(&path, SIZE).into_drawing_area(), data, &mut counts)
             .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         files.push(path);
     }
@@ -534,7 +547,7 @@ pub fn run(
     });
     std::fs::write(&report, serde_json::to_string_pretty(&json)?)?;
     files.push(report);
-    Ok((files, data.damage))
+    Ok(files)
 }
 
 #[cfg(test)]

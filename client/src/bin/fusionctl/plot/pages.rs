@@ -162,6 +162,28 @@ where
         .draw_series(LineSeries::new(est.iter().map(|e| (e.pv[0], e.pv[1])), BLUE.stroke_width(2)))?
         .label(if ins { "estimate (IMU)" } else { "estimate" })
         .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLUE));
+    let [fused, gated, not_fused] = draw_fixes(&mut chart, d, ins)?;
+    draw_ends(&mut chart, &path)?;
+    chart.configure_series_labels().position(corner).background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+    counts.insert("trajectory.estimate", est.len());
+    counts.insert("trajectory.truth", truth.len());
+    counts.insert("trajectory.fixes", fused);
+    counts.insert("trajectory.gated", gated);
+    counts.insert("trajectory.not_fused", not_fused);
+    root.present()?;
+    Ok(())
+}
+
+/// The trajectory's chart: east and north, m.
+type Plane<'a, DB> =
+    ChartContext<'a, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>>;
+
+/// The fixes on the trajectory, by what became of them (fused, gated, not
+/// fused), each in the legend only if drawn; their counts.
+fn draw_fixes<'a, DB: DrawingBackend + 'a>(chart: &mut Plane<'a, DB>, d: &Data, ins: bool) -> Result<[usize; 3]>
+where
+    DB::ErrorType: 'static,
+{
     let of = |fate| d.fixes.iter().filter(move |f: &&Fix| f.fate == fate).collect::<Vec<_>>();
     let (fused, gated, not_fused) = (of(Fate::Fused), of(Fate::Gated), of(Fate::NotFused));
     // The ins model fuses fixes at their antenna through the lever arm: drawn
@@ -188,7 +210,14 @@ where
             .label("fix, not fused (a reference)")
             .legend(move |(x, y)| Circle::new((x + 10, y), 3, ring));
     }
-    // Where the drive began and where it ended.
+    Ok([fused.len(), gated.len(), not_fused.len()])
+}
+
+/// Where the drive began and where it ended.
+fn draw_ends<'a, DB: DrawingBackend + 'a>(chart: &mut Plane<'a, DB>, path: &[(f64, f64)]) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
     if let (Some(&first), Some(&last)) = (path.first(), path.last()) {
         chart
             .draw_series([TriangleMarker::new(first, 9, GREEN.mix(0.9).filled())])?
@@ -201,13 +230,6 @@ where
             .label("end")
             .legend(|(x, y)| Rectangle::new([(x + 6, y - 4), (x + 14, y + 4)], BLACK.filled()));
     }
-    chart.configure_series_labels().position(corner).background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
-    counts.insert("trajectory.estimate", est.len());
-    counts.insert("trajectory.truth", truth.len());
-    counts.insert("trajectory.fixes", fused.len());
-    counts.insert("trajectory.gated", gated.len());
-    counts.insert("trajectory.not_fused", not_fused.len());
-    root.present()?;
     Ok(())
 }
 
