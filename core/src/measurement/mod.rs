@@ -24,8 +24,11 @@
 //! pseudo-measurement without a wire type, belongs to the `ins` model
 //! ([`crate::model::ins::nonholonomic`]) and is fused after IMU samples.
 
+mod checks;
 pub mod components;
 pub mod lever_arm;
+pub use checks::{covariance, covariance3, finite, read_table, read_table_or_default};
+pub(crate) use checks::SYMMETRY_TOLERANCE;
 #[cfg(test)]
 mod observations;
 
@@ -272,51 +275,6 @@ pub trait Steps: Model {
     /// final samples through this after the fact, so the history stays compact.
     fn step_recorded(&self, state: &mut Self::State, sample: &Sample) -> (StepOutcome, Self::Record);
 }
-
-/// A kind's settings table as written (`[sensor.<table>]`), read into its type;
-/// an error names the table (`key("")`) and says what is wrong in it.
-pub fn read_table<T: serde::de::DeserializeOwned>(
-    table: &toml::Value,
-    key: &dyn Fn(&str) -> String,
-) -> Result<T, ConfigError> {
-    table.clone().try_into().map_err(|e: toml::de::Error| crate::setting::invalid(key(""), e.message()))
-}
-
-/// A kind's settings table as written, or its type's defaults without one
-/// ([`read_table`]).
-pub fn read_table_or_default<T: serde::de::DeserializeOwned + Default>(
-    table: Option<&toml::Value>,
-    key: &dyn Fn(&str) -> String,
-) -> Result<T, ConfigError> {
-    table.map_or_else(|| Ok(T::default()), |t| read_table(t, key))
-}
-
-/// Checks that every value is finite.
-pub fn finite(values: &[f64]) -> Result<(), Rejection> {
-    if values.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(Rejection::NonFinite) }
-}
-
-/// Checks a 3×3 row-major covariance: finite, symmetric to 1e-9 of its largest
-/// entry, with a Cholesky factor (positive definite).
-pub fn covariance3(cov: &[f64; 9]) -> Result<(), Rejection> {
-    covariance::<3>(cov)
-}
-
-/// Checks an `N`×`N` row-major covariance (`N²` values) as [`covariance3`].
-pub fn covariance<const N: usize>(cov: &[f64]) -> Result<(), Rejection> {
-    finite(cov)?;
-    let c = SMatrix::<f64, N, N>::from_row_slice(cov);
-    if (c - c.transpose()).amax() > SYMMETRY_TOLERANCE * c.amax() {
-        return Err(Rejection::CovarianceNotSymmetric);
-    }
-    if nalgebra::Cholesky::new(c).is_none() {
-        return Err(Rejection::CovarianceNotPositiveDefinite);
-    }
-    Ok(())
-}
-
-/// Relative tolerance of the symmetry check, against the largest entry.
-pub(crate) const SYMMETRY_TOLERANCE: f64 = 1e-9;
 
 /// The settings of sensor `sensor` of kind `T` (`None`: not configured, or
 /// without settings: the kind's defaults apply).
@@ -622,18 +580,6 @@ mod tests {
     use fusion_shared::PositionSample;
 
     use super::*;
-
-    #[test]
-    fn every_bad_covariance_has_its_reason() {
-        assert_eq!(covariance3(&[1.0, 0.1, 0.0, 0.1, 1.0, 0.0, 0.0, 0.0, 2.0]), Ok(()));
-        assert_eq!(covariance3(&[1.0, 0.5, 0.0, 0.1, 1.0, 0.0, 0.0, 0.0, 2.0]), Err(Rejection::CovarianceNotSymmetric));
-        assert_eq!(
-            covariance3(&[1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 2.0]),
-            Err(Rejection::CovarianceNotPositiveDefinite)
-        );
-        assert_eq!(covariance3(&[0.0; 9]), Err(Rejection::CovarianceNotPositiveDefinite));
-        assert_eq!(covariance3(&[f64::NAN; 9]), Err(Rejection::NonFinite));
-    }
 
     #[test]
     fn imu_goes_first_at_equal_time_and_the_header_must_name_the_payload() {
