@@ -42,3 +42,83 @@ pub(crate) fn schedule(
 pub(crate) fn to_ns(t_s: f64) -> u64 {
     (t_s * 1e9).round() as u64
 }
+
+/// A simulated sensor whose samples come at its rate, each published after
+/// a delay and drawn from the sensor's own noise stream: what one sample
+/// reads. [`SensorSim`] makes the endless stream of them.
+pub trait Sensor: Clone {
+    /// The salt of its noise stream (with its sensor id: adding a sensor
+    /// leaves every other's samples unchanged).
+    const SALT: u64;
+    /// What the sensor carries from one sample to the next (a barometer's
+    /// drifting offset); `()` for most.
+    type Memory: Clone + std::fmt::Debug;
+    /// Its sensor id.
+    fn sensor(&self) -> u32;
+    /// Its rate, Hz, and the least and most delay of its samples, ns.
+    fn timing(&self) -> (f64, u64, u64);
+    /// What it carries before its first sample.
+    fn memory(&self) -> Self::Memory;
+    /// The sample `r` is of (its draws after the schedule's), or `None` when
+    /// it is lost (dropped).
+    fn read(&self, r: Reading<'_, Self::Memory>) -> Option<Sample>;
+}
+
+/// One sample's moment: the truth then, the stream's draws, the sample's
+/// sequence number and stamp, and the sensor's memory.
+pub struct Reading<'a, M> {
+    /// The truth at the sample's time.
+    pub truth: &'a crate::sim::TruthState,
+    /// Its time, s of trajectory time.
+    pub t_s: f64,
+    /// Its stamp, ns.
+    pub t_ns: u64,
+    /// Its sequence number (lost ones included).
+    pub seq: u64,
+    /// The sensor's noise stream.
+    pub rng: &'a mut ChaCha8Rng,
+    /// What the sensor carries from sample to sample.
+    pub memory: &'a mut M,
+}
+
+/// The samples of a [`Sensor`] on a trajectory (an endless iterator; lost
+/// samples are skipped, their sequence numbers with them).
+#[derive(Debug, Clone)]
+pub struct SensorSim<C: Sensor> {
+    trajectory: crate::sim::CarTrajectory,
+    config: C,
+    memory: C::Memory,
+    start_ns: u64,
+    index: u64,
+    rng: ChaCha8Rng,
+}
+
+impl<C: Sensor> SensorSim<C> {
+    /// Samples on `trajectory`, the first at `start_ns` (trajectory time 0).
+    pub fn new(trajectory: crate::sim::CarTrajectory, config: C, start_ns: u64, seed: u64) -> Self {
+        use rand::SeedableRng;
+        let rng = ChaCha8Rng::seed_from_u64(seed ^ C::SALT ^ (u64::from(config.sensor()) << 40));
+        let memory = config.memory();
+        Self { trajectory, config, memory, start_ns, index: 0, rng }
+    }
+}
+
+impl<C: Sensor> Iterator for SensorSim<C> {
+    type Item = Arrival;
+
+    fn next(&mut self) -> Option<Arrival> {
+        let (rate_hz, delay_min_ns, delay_max_ns) = self.config.timing();
+        loop {
+            let (offset_ns, delay) = schedule(&mut self.rng, self.index, rate_hz, delay_min_ns, delay_max_ns);
+            let seq = self.index;
+            self.index += 1;
+            let t_s = offset_ns as f64 * 1e-9;
+            let truth = self.trajectory.at(t_s);
+            let t_ns = self.start_ns + offset_ns;
+            let r = Reading { truth: &truth, t_s, t_ns, seq, rng: &mut self.rng, memory: &mut self.memory };
+            if let Some(sample) = self.config.read(r) {
+                return Some(Arrival { arrival_ns: t_ns + delay, sample, outlier: false });
+            }
+        }
+    }
+}

@@ -5,12 +5,9 @@
 
 use fusion_shared::{AttitudeSample, Sample};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::arrival::{Arrival, schedule};
-use super::trajectory::CarTrajectory;
+use super::arrival::{Reading, Sensor, SensorSim};
 
 /// Attitude simulation settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,40 +45,32 @@ impl Default for AttitudeConfig {
 }
 
 /// Simulated attitude samples (an endless iterator).
-#[derive(Debug, Clone)]
-pub struct AttitudeSim {
-    trajectory: CarTrajectory,
-    config: AttitudeConfig,
-    start_ns: u64,
-    index: u64,
-    rng: ChaCha8Rng,
-}
+pub type AttitudeSim = SensorSim<AttitudeConfig>;
 
-impl AttitudeSim {
-    /// Samples on `trajectory`, the first at `start_ns` (trajectory time 0).
-    pub fn new(trajectory: CarTrajectory, config: AttitudeConfig, start_ns: u64, seed: u64) -> Self {
-        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6168_7273 ^ (u64::from(config.sensor) << 40));
-        Self { trajectory, config, start_ns, index: 0, rng }
+impl Sensor for AttitudeConfig {
+    const SALT: u64 = 0x6168_7273;
+    type Memory = ();
+
+    fn sensor(&self) -> u32 {
+        self.sensor
     }
-}
 
-impl Iterator for AttitudeSim {
-    type Item = Arrival;
+    fn timing(&self) -> (f64, u64, u64) {
+        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
+    }
 
-    fn next(&mut self) -> Option<Arrival> {
-        let c = &self.config;
-        let (offset_ns, delay) = schedule(&mut self.rng, self.index, c.rate_hz, c.delay_min_ns, c.delay_max_ns);
-        let noise = Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut self.rng)) * c.noise_std_rad;
-        let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
+    fn memory(&self) {}
+
+    fn read(&self, r: Reading<'_, ()>) -> Option<Sample> {
+        let c = self;
+        let noise = Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut *r.rng)) * c.noise_std_rad;
         let yaw_error = Rotation3::from_axis_angle(&Vector3::z_axis(), c.yaw_error_rad).into_inner();
-        let body = truth.attitude.to_rotation_matrix().into_inner();
+        let body = r.truth.attitude.to_rotation_matrix().into_inner();
         // Z = Z_true Exp(−ε): q_true = q ⊗ Exp(ε).
         let sensor = yaw_error * body * c.rotation * Rotation3::new(-noise).into_inner();
         let q = UnitQuaternion::from_matrix(&sensor);
-        let t_ns = self.start_ns + offset_ns;
-        let sample = AttitudeSample::with_std(t_ns, c.sensor, self.index, [q.w, q.i, q.j, q.k], c.noise_std_rad);
-        self.index += 1;
-        Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Attitude(sample), outlier: false })
+        let sample = AttitudeSample::with_std(r.t_ns, c.sensor, r.seq, [q.w, q.i, q.j, q.k], c.noise_std_rad);
+        Some(Sample::Attitude(sample))
     }
 }
 
@@ -90,6 +79,7 @@ super::aiding_sim!(AttitudeConfig, AttitudeSim, Attitude);
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::CarTrajectory;
 
     /// Without noise, the reading taken back through the mount is the true
     /// body attitude, turned by the configured yaw error about world up.

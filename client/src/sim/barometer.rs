@@ -4,12 +4,10 @@
 
 use fusion_shared::{BarometerSample, ISA_SEA_LEVEL_PA, Sample};
 use nalgebra::Vector3;
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::arrival::{Arrival, schedule};
-use super::trajectory::CarTrajectory;
+use super::arrival::{Reading, Sensor, SensorSim};
 
 /// Barometer simulation settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -57,49 +55,37 @@ pub fn isa_pressure_pa(h: f64) -> f64 {
     ISA_SEA_LEVEL_PA * (1.0 - h / 44_330.769_230_769_23).powf(1.0 / 0.190_263)
 }
 
-/// Simulated barometer samples (an endless iterator).
-#[derive(Debug, Clone)]
-pub struct BarometerSim {
-    trajectory: CarTrajectory,
-    config: BarometerConfig,
-    start_ns: u64,
-    index: u64,
-    offset_m: f64,
-    rng: ChaCha8Rng,
-}
+/// Simulated barometer samples (an endless iterator); the memory is the weather's offset, m.
+pub type BarometerSim = SensorSim<BarometerConfig>;
 
-impl BarometerSim {
-    /// Samples on `trajectory`, the first at `start_ns` (trajectory time 0).
-    pub fn new(trajectory: CarTrajectory, config: BarometerConfig, start_ns: u64, seed: u64) -> Self {
-        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6261_726f ^ (u64::from(config.sensor) << 40));
-        let offset_m = config.origin_altitude_m;
-        Self { trajectory, config, start_ns, index: 0, offset_m, rng }
+impl Sensor for BarometerConfig {
+    const SALT: u64 = 0x6261_726f;
+    type Memory = f64;
+
+    fn sensor(&self) -> u32 {
+        self.sensor
     }
-}
 
-impl Iterator for BarometerSim {
-    type Item = Arrival;
+    fn timing(&self) -> (f64, u64, u64) {
+        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
+    }
 
-    fn next(&mut self) -> Option<Arrival> {
-        loop {
-            let c = &self.config;
-            let (offset_ns, delay) = schedule(&mut self.rng, self.index, c.rate_hz, c.delay_min_ns, c.delay_max_ns);
-            let noise: f64 = StandardNormal.sample(&mut self.rng);
-            let walk: f64 = StandardNormal.sample(&mut self.rng);
-            self.offset_m += walk * c.drift_m / c.rate_hz.sqrt();
-            let lost = self.rng.random::<f64>() < c.dropout_probability;
-            let seq = self.index;
-            self.index += 1;
-            if lost {
-                continue;
-            }
-            let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
-            let port = truth.pos_m + truth.attitude * Vector3::from(c.lever_arm_m);
-            let pressure = isa_pressure_pa(self.offset_m + port.z) + noise * c.noise_pa;
-            let t_ns = self.start_ns + offset_ns;
-            let sample = BarometerSample::new(t_ns, c.sensor, seq, pressure, c.noise_pa * c.noise_pa);
-            return Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Barometer(sample), outlier: false });
+    fn memory(&self) -> f64 {
+        self.origin_altitude_m
+    }
+
+    fn read(&self, r: Reading<'_, f64>) -> Option<Sample> {
+        let c = self;
+        let noise: f64 = StandardNormal.sample(&mut *r.rng);
+        let walk: f64 = StandardNormal.sample(&mut *r.rng);
+        // The weather's offset, a random walk.
+        *r.memory += walk * c.drift_m / c.rate_hz.sqrt();
+        if r.rng.random::<f64>() < c.dropout_probability {
+            return None;
         }
+        let port = r.truth.pos_m + r.truth.attitude * Vector3::from(c.lever_arm_m);
+        let pressure = isa_pressure_pa(*r.memory + port.z) + noise * c.noise_pa;
+        Some(Sample::Barometer(BarometerSample::new(r.t_ns, c.sensor, r.seq, pressure, c.noise_pa * c.noise_pa)))
     }
 }
 
@@ -108,6 +94,7 @@ super::aiding_sim!(BarometerConfig, BarometerSim, Barometer);
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::CarTrajectory;
 
     /// Without noise the pressure altitude of a sample is the port's height
     /// plus the origin's altitude.

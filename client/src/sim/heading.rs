@@ -4,12 +4,9 @@
 use std::f64::consts::PI;
 
 use fusion_shared::{HeadingSample, Sample};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::arrival::{Arrival, schedule};
-use super::trajectory::CarTrajectory;
+use super::arrival::{Reading, Sensor, SensorSim};
 
 /// Heading simulation settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -39,41 +36,32 @@ impl Default for HeadingConfig {
 }
 
 /// Simulated headings (an endless iterator).
-#[derive(Debug, Clone)]
-pub struct HeadingSim {
-    trajectory: CarTrajectory,
-    config: HeadingConfig,
-    start_ns: u64,
-    index: u64,
-    rng: ChaCha8Rng,
-}
+pub type HeadingSim = SensorSim<HeadingConfig>;
 
-impl HeadingSim {
-    /// Headings on `trajectory`, the first at `start_ns` (trajectory time 0).
-    pub fn new(trajectory: CarTrajectory, config: HeadingConfig, start_ns: u64, seed: u64) -> Self {
-        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6864_6700 ^ (u64::from(config.sensor) << 40));
-        Self { trajectory, config, start_ns, index: 0, rng }
+impl Sensor for HeadingConfig {
+    const SALT: u64 = 0x6864_6700;
+    type Memory = ();
+
+    fn sensor(&self) -> u32 {
+        self.sensor
     }
-}
 
-impl Iterator for HeadingSim {
-    type Item = Arrival;
+    fn timing(&self) -> (f64, u64, u64) {
+        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
+    }
 
-    fn next(&mut self) -> Option<Arrival> {
-        let c = &self.config;
-        let (offset_ns, delay) = schedule(&mut self.rng, self.index, c.rate_hz, c.delay_min_ns, c.delay_max_ns);
-        let noise: f64 = StandardNormal.sample(&mut self.rng);
-        let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
-        let mut yaw = truth.yaw_rad() + noise * c.noise_std_rad;
+    fn memory(&self) {}
+
+    fn read(&self, r: Reading<'_, ()>) -> Option<Sample> {
+        let c = self;
+        let noise: f64 = StandardNormal.sample(&mut *r.rng);
+        let mut yaw = r.truth.yaw_rad() + noise * c.noise_std_rad;
         if yaw > PI {
             yaw -= 2.0 * PI;
         } else if yaw <= -PI {
             yaw += 2.0 * PI;
         }
-        let t_ns = self.start_ns + offset_ns;
-        let sample = HeadingSample::new(t_ns, c.sensor, self.index, yaw, c.noise_std_rad.powi(2));
-        self.index += 1;
-        Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Heading(sample), outlier: false })
+        Some(Sample::Heading(HeadingSample::new(r.t_ns, c.sensor, r.seq, yaw, c.noise_std_rad.powi(2))))
     }
 }
 

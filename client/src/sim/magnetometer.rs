@@ -4,12 +4,10 @@
 
 use fusion_shared::{MagnetometerSample, Sample, earth_field_enu};
 use nalgebra::{Matrix3, Vector3};
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::arrival::{Arrival, schedule};
-use super::trajectory::CarTrajectory;
+use super::arrival::{Reading, Sensor, SensorSim};
 
 /// A disturbance: from `at_s` into the drive for `duration_s`, `field_ut` (world
 /// frame, ENU) adds to the Earth's.
@@ -70,56 +68,43 @@ impl Default for MagnetometerConfig {
     }
 }
 
-/// Simulated magnetometer samples (an endless iterator).
-#[derive(Debug, Clone)]
-pub struct MagnetometerSim {
-    trajectory: CarTrajectory,
-    config: MagnetometerConfig,
-    earth: Vector3<f64>,
-    start_ns: u64,
-    index: u64,
-    rng: ChaCha8Rng,
-}
+/// Simulated magnetometer samples (an endless iterator); the memory is the Earth's field, µT ENU.
+pub type MagnetometerSim = SensorSim<MagnetometerConfig>;
 
-impl MagnetometerSim {
-    /// Samples on `trajectory`, the first at `start_ns` (trajectory time 0).
-    pub fn new(trajectory: CarTrajectory, config: MagnetometerConfig, start_ns: u64, seed: u64) -> Self {
-        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6d61_6700 ^ (u64::from(config.sensor) << 40));
-        let earth = Vector3::from(earth_field_enu(config.declination_deg, config.inclination_deg, config.strength_ut));
-        Self { trajectory, config, earth, start_ns, index: 0, rng }
+impl Sensor for MagnetometerConfig {
+    const SALT: u64 = 0x6d61_6700;
+    type Memory = Vector3<f64>;
+
+    fn sensor(&self) -> u32 {
+        self.sensor
     }
-}
 
-impl Iterator for MagnetometerSim {
-    type Item = Arrival;
+    fn timing(&self) -> (f64, u64, u64) {
+        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
+    }
 
-    fn next(&mut self) -> Option<Arrival> {
-        loop {
-            let c = &self.config;
-            let (offset_ns, delay) = schedule(&mut self.rng, self.index, c.rate_hz, c.delay_min_ns, c.delay_max_ns);
-            let noise = Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut self.rng)) * c.noise_std_ut;
-            let lost = self.rng.random::<f64>() < c.dropout_probability;
-            let seq = self.index;
-            self.index += 1;
-            if lost {
-                continue;
-            }
-            let t_s = offset_ns as f64 * 1e-9;
-            let truth = self.trajectory.at(t_s);
-            let added: Vector3<f64> = c
-                .disturbances
-                .iter()
-                .filter(|d| (d.at_s..d.at_s + d.duration_s).contains(&t_s))
-                .map(|d| Vector3::from(d.field_ut))
-                .sum();
-            let body = truth.attitude.inverse_transform_vector(&(self.earth + added));
-            let field = c.rotation.transpose() * body + noise;
-            let var = c.noise_std_ut * c.noise_std_ut;
-            let cov = [var, 0.0, 0.0, 0.0, var, 0.0, 0.0, 0.0, var];
-            let t_ns = self.start_ns + offset_ns;
-            let sample = MagnetometerSample::new(t_ns, c.sensor, seq, field.into(), cov);
-            return Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Magnetometer(sample), outlier: false });
+    fn memory(&self) -> Vector3<f64> {
+        Vector3::from(earth_field_enu(self.declination_deg, self.inclination_deg, self.strength_ut))
+    }
+
+    fn read(&self, r: Reading<'_, Vector3<f64>>) -> Option<Sample> {
+        let c = self;
+        let noise = Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut *r.rng)) * c.noise_std_ut;
+        if r.rng.random::<f64>() < c.dropout_probability {
+            return None;
         }
+        let t_s = r.t_s;
+        let added: Vector3<f64> = c
+            .disturbances
+            .iter()
+            .filter(|d| (d.at_s..d.at_s + d.duration_s).contains(&t_s))
+            .map(|d| Vector3::from(d.field_ut))
+            .sum();
+        let body = r.truth.attitude.inverse_transform_vector(&(*r.memory + added));
+        let field = c.rotation.transpose() * body + noise;
+        let var = c.noise_std_ut * c.noise_std_ut;
+        let cov = [var, 0.0, 0.0, 0.0, var, 0.0, 0.0, 0.0, var];
+        Some(Sample::Magnetometer(MagnetometerSample::new(r.t_ns, c.sensor, r.seq, field.into(), cov)))
     }
 }
 

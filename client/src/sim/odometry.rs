@@ -5,12 +5,9 @@
 
 use fusion_shared::{OdometrySample, Sample};
 use nalgebra::Vector3;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::arrival::{Arrival, schedule};
-use super::trajectory::CarTrajectory;
+use super::arrival::{Reading, Sensor, SensorSim};
 
 /// Wheel odometry simulation settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -53,31 +50,26 @@ impl Default for OdometryConfig {
 }
 
 /// Simulated odometry (an endless iterator).
-#[derive(Debug, Clone)]
-pub struct OdometrySim {
-    trajectory: CarTrajectory,
-    config: OdometryConfig,
-    start_ns: u64,
-    index: u64,
-    rng: ChaCha8Rng,
-}
+pub type OdometrySim = SensorSim<OdometryConfig>;
 
-impl OdometrySim {
-    /// Speeds on `trajectory`, the first at `start_ns` (trajectory time 0).
-    pub fn new(trajectory: CarTrajectory, config: OdometryConfig, start_ns: u64, seed: u64) -> Self {
-        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6f64_6f00 ^ (u64::from(config.sensor) << 40));
-        Self { trajectory, config, start_ns, index: 0, rng }
+impl Sensor for OdometryConfig {
+    const SALT: u64 = 0x6f64_6f00;
+    type Memory = ();
+
+    fn sensor(&self) -> u32 {
+        self.sensor
     }
-}
 
-impl Iterator for OdometrySim {
-    type Item = Arrival;
+    fn timing(&self) -> (f64, u64, u64) {
+        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
+    }
 
-    fn next(&mut self) -> Option<Arrival> {
-        let c = &self.config;
-        let (offset_ns, delay) = schedule(&mut self.rng, self.index, c.rate_hz, c.delay_min_ns, c.delay_max_ns);
-        let noise: f64 = StandardNormal.sample(&mut self.rng);
-        let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
+    fn memory(&self) {}
+
+    fn read(&self, r: Reading<'_, ()>) -> Option<Sample> {
+        let c = self;
+        let noise: f64 = StandardNormal.sample(&mut *r.rng);
+        let truth = r.truth;
         let true_speed = truth.body_velocity(&Vector3::from(c.lever_arm_m)).x;
         // A wheel that does not turn gives no encoder ticks: exactly 0.
         let standing = truth.vel_mps == Vector3::zeros() && truth.omega_body_radps == Vector3::zeros();
@@ -86,10 +78,7 @@ impl Iterator for OdometrySim {
         // estimates the scale, its scale uncertainty.
         let scale_var = if c.scale_in_variance { (c.scale_error * true_speed).powi(2) } else { 0.0 };
         let var = c.noise_std_mps.powi(2) + scale_var;
-        let t_ns = self.start_ns + offset_ns;
-        let sample = OdometrySample::new(t_ns, c.sensor, self.index, speed, var);
-        self.index += 1;
-        Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Odometry(sample), outlier: false })
+        Some(Sample::Odometry(OdometrySample::new(r.t_ns, c.sensor, r.seq, speed, var)))
     }
 }
 

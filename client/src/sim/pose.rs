@@ -7,12 +7,10 @@
 
 use fusion_shared::{PoseSample, Sample};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::arrival::{Arrival, schedule};
-use super::trajectory::CarTrajectory;
+use super::arrival::{Reading, Sensor, SensorSim};
 
 /// A map frame: its yaw in the world frame (rad) and its origin (ENU, m).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -80,57 +78,45 @@ impl Default for PoseConfig {
 }
 
 /// Simulated pose samples (an endless iterator).
-#[derive(Debug, Clone)]
-pub struct PoseSim {
-    trajectory: CarTrajectory,
-    config: PoseConfig,
-    start_ns: u64,
-    index: u64,
-    rng: ChaCha8Rng,
-}
+pub type PoseSim = SensorSim<PoseConfig>;
 
-impl PoseSim {
-    /// Samples on `trajectory`, the first at `start_ns` (trajectory time 0).
-    pub fn new(trajectory: CarTrajectory, config: PoseConfig, start_ns: u64, seed: u64) -> Self {
-        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x706f_7365 ^ (u64::from(config.sensor) << 40));
-        Self { trajectory, config, start_ns, index: 0, rng }
+impl Sensor for PoseConfig {
+    const SALT: u64 = 0x706f_7365;
+    type Memory = ();
+
+    fn sensor(&self) -> u32 {
+        self.sensor
     }
-}
 
-impl Iterator for PoseSim {
-    type Item = Arrival;
+    fn timing(&self) -> (f64, u64, u64) {
+        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
+    }
 
-    fn next(&mut self) -> Option<Arrival> {
-        loop {
-            let c = &self.config;
-            let (offset_ns, delay) = schedule(&mut self.rng, self.index, c.rate_hz, c.delay_min_ns, c.delay_max_ns);
-            let mut normal = || Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut self.rng));
-            let (n_p, n_a) = (normal() * c.position_noise_m, normal() * c.attitude_noise_rad);
-            let lost = self.rng.random::<f64>() < c.dropout_probability;
-            let seq = self.index;
-            self.index += 1;
-            if lost {
-                continue;
-            }
-            let t_s = offset_ns as f64 * 1e-9;
-            let truth = self.trajectory.at(t_s);
-            let (frame, counter) = match c.reset {
-                Some(r) if t_s >= r.at_s => (r.frame, u32::from(r.announced)),
-                _ => (c.frame, 0),
-            };
-            let map = Rotation3::from_axis_angle(&Vector3::z_axis(), frame.yaw_rad).into_inner();
-            let body = truth.attitude.to_rotation_matrix().into_inner();
-            let sensor = truth.pos_m + body * Vector3::from(c.lever_arm_m);
-            let p = map.transpose() * (sensor - Vector3::from(frame.origin_m)) + n_p;
-            let attitude = map.transpose() * body * c.rotation * Rotation3::new(n_a).into_inner();
-            let q = UnitQuaternion::from_matrix(&attitude);
-            let qc = q.quaternion().coords; // [x, y, z, w]
-            let (sp, sa) = (c.position_noise_m, c.attitude_noise_rad);
-            let cov = fusion_shared::TwistSample::diagonal_cov([sp; 3], [sa; 3]);
-            let t_ns = self.start_ns + offset_ns;
-            let sample = PoseSample::new(t_ns, c.sensor, seq, p.into(), [qc[3], qc[0], qc[1], qc[2]], cov, counter);
-            return Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Pose(sample), outlier: false });
+    fn memory(&self) {}
+
+    fn read(&self, r: Reading<'_, ()>) -> Option<Sample> {
+        let c = self;
+        let mut normal = || Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut *r.rng));
+        let (n_p, n_a) = (normal() * c.position_noise_m, normal() * c.attitude_noise_rad);
+        if r.rng.random::<f64>() < c.dropout_probability {
+            return None;
         }
+        let (t_s, truth) = (r.t_s, r.truth);
+        let (frame, counter) = match c.reset {
+            Some(r) if t_s >= r.at_s => (r.frame, u32::from(r.announced)),
+            _ => (c.frame, 0),
+        };
+        let map = Rotation3::from_axis_angle(&Vector3::z_axis(), frame.yaw_rad).into_inner();
+        let body = truth.attitude.to_rotation_matrix().into_inner();
+        let sensor = truth.pos_m + body * Vector3::from(c.lever_arm_m);
+        let p = map.transpose() * (sensor - Vector3::from(frame.origin_m)) + n_p;
+        let attitude = map.transpose() * body * c.rotation * Rotation3::new(n_a).into_inner();
+        let q = UnitQuaternion::from_matrix(&attitude);
+        let qc = q.quaternion().coords; // [x, y, z, w]
+        let (sp, sa) = (c.position_noise_m, c.attitude_noise_rad);
+        let cov = fusion_shared::TwistSample::diagonal_cov([sp; 3], [sa; 3]);
+        let sample = PoseSample::new(r.t_ns, c.sensor, r.seq, p.into(), [qc[3], qc[0], qc[1], qc[2]], cov, counter);
+        Some(Sample::Pose(sample))
     }
 }
 
@@ -139,6 +125,7 @@ super::aiding_sim!(PoseConfig, PoseSim, Pose);
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::CarTrajectory;
 
     /// Without noise the pose, taken back through the map frame, is the
     /// sensor's true position and attitude; after the reset the frame jumps

@@ -4,12 +4,10 @@
 
 use fusion_shared::{Sample, TwistSample};
 use nalgebra::{Matrix3, Vector3};
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::arrival::{Arrival, schedule};
-use super::trajectory::CarTrajectory;
+use super::arrival::{Reading, Sensor, SensorSim};
 
 /// Twist simulation settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -51,48 +49,36 @@ impl Default for TwistConfig {
 }
 
 /// Simulated twist samples (an endless iterator).
-#[derive(Debug, Clone)]
-pub struct TwistSim {
-    trajectory: CarTrajectory,
-    config: TwistConfig,
-    start_ns: u64,
-    index: u64,
-    rng: ChaCha8Rng,
-}
+pub type TwistSim = SensorSim<TwistConfig>;
 
-impl TwistSim {
-    /// Samples on `trajectory`, the first at `start_ns` (trajectory time 0).
-    pub fn new(trajectory: CarTrajectory, config: TwistConfig, start_ns: u64, seed: u64) -> Self {
-        let rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7477_6900 ^ (u64::from(config.sensor) << 40));
-        Self { trajectory, config, start_ns, index: 0, rng }
+impl Sensor for TwistConfig {
+    const SALT: u64 = 0x7477_6900;
+    type Memory = ();
+
+    fn sensor(&self) -> u32 {
+        self.sensor
     }
-}
 
-impl Iterator for TwistSim {
-    type Item = Arrival;
+    fn timing(&self) -> (f64, u64, u64) {
+        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
+    }
 
-    fn next(&mut self) -> Option<Arrival> {
-        loop {
-            let c = &self.config;
-            let (offset_ns, delay) = schedule(&mut self.rng, self.index, c.rate_hz, c.delay_min_ns, c.delay_max_ns);
-            let mut normal = || Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut self.rng));
-            let (n_lin, n_ang) = (normal() * c.linear_noise_mps, normal() * c.angular_noise_radps);
-            let lost = self.rng.random::<f64>() < c.dropout_probability;
-            let seq = self.index;
-            self.index += 1;
-            if lost {
-                continue;
-            }
-            let truth = self.trajectory.at(offset_ns as f64 * 1e-9);
-            let w = truth.omega_body_radps;
-            let v_b = truth.attitude.inverse_transform_vector(&truth.vel_mps) + w.cross(&Vector3::from(c.lever_arm_m));
-            let c_sb = c.rotation.transpose();
-            let (linear, angular) = (c_sb * v_b + n_lin, c_sb * w + n_ang);
-            let cov = TwistSample::diagonal_cov([c.linear_noise_mps; 3], [c.angular_noise_radps; 3]);
-            let t_ns = self.start_ns + offset_ns;
-            let sample = TwistSample::new(t_ns, c.sensor, seq, linear.into(), angular.into(), cov);
-            return Some(Arrival { arrival_ns: t_ns + delay, sample: Sample::Twist(sample), outlier: false });
+    fn memory(&self) {}
+
+    fn read(&self, r: Reading<'_, ()>) -> Option<Sample> {
+        let c = self;
+        let mut normal = || Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut *r.rng));
+        let (n_lin, n_ang) = (normal() * c.linear_noise_mps, normal() * c.angular_noise_radps);
+        if r.rng.random::<f64>() < c.dropout_probability {
+            return None;
         }
+        let truth = r.truth;
+        let w = truth.omega_body_radps;
+        let v_b = truth.attitude.inverse_transform_vector(&truth.vel_mps) + w.cross(&Vector3::from(c.lever_arm_m));
+        let c_sb = c.rotation.transpose();
+        let (linear, angular) = (c_sb * v_b + n_lin, c_sb * w + n_ang);
+        let cov = TwistSample::diagonal_cov([c.linear_noise_mps; 3], [c.angular_noise_radps; 3]);
+        Some(Sample::Twist(TwistSample::new(r.t_ns, c.sensor, r.seq, linear.into(), angular.into(), cov)))
     }
 }
 
@@ -101,6 +87,7 @@ super::aiding_sim!(TwistConfig, TwistSim, Twist);
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::CarTrajectory;
 
     /// Without noise the sensor reads the body's motion at its lever arm in its
     /// own axes.
