@@ -28,6 +28,7 @@ use fusion_shared::jsonl;
 use serde::{Deserialize, Serialize};
 
 use fusion_shared::Counters;
+use fusion_shared::recording::EstimateJson;
 
 use crate::config::{Config, ConfigError, WithModel, with_model};
 use crate::engine::{Engine, EngineConfig, Entry, Insert};
@@ -254,42 +255,33 @@ pub fn parse_line(line: &str) -> Result<Sample, String> {
     jsonl::parse_sample(line).map_err(|e| e.to_string())
 }
 
-/// One output line.
+/// One output line: the estimate after a sample ([`EstimateJson`], whose
+/// fields it gives as its own: `line.x`), and whether it is smoothed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct OutputLine {
-    /// Time of validity, ns.
-    pub t_ns: u64,
-    /// The sample's kind, as in JSON lines (`"imu"`, `"odometry"`, …).
-    pub kind: String,
-    /// Sensor id.
-    pub sensor: u32,
-    /// Sequence number.
-    pub seq: u64,
-    /// State vector after the sample.
-    pub x: Vec<f64>,
-    /// Covariance after the sample, row-major.
-    #[serde(rename = "P")]
-    pub p: Vec<f64>,
-    /// NIS of a measurement, `null` for IMU samples.
-    pub nis: Option<f64>,
-    /// Whether a measurement was fused, `null` for IMU samples.
-    pub accepted: Option<bool>,
+    /// The estimate: time of validity, the sample's kind, sensor and sequence
+    /// number, `x` and `P` after it, the NIS of a measurement and whether it
+    /// was fused (`null` for IMU samples).
+    #[serde(flatten)]
+    pub estimate: EstimateJson,
     /// `true` on the lines of a smoothed replay (`--smooth`); absent otherwise.
     #[serde(default)]
     pub smoothed: bool,
 }
 
+impl std::ops::Deref for OutputLine {
+    type Target = EstimateJson;
+
+    fn deref(&self) -> &EstimateJson {
+        &self.estimate
+    }
+}
+
+/// An output line as written: the estimate borrowed.
 #[derive(Serialize)]
 struct OutputRef<'a> {
-    t_ns: u64,
-    kind: &'static str,
-    sensor: u32,
-    seq: u64,
-    x: &'a [f64],
-    #[serde(rename = "P")]
-    p: &'a [f64],
-    nis: Option<f64>,
-    accepted: Option<bool>,
+    #[serde(flatten)]
+    estimate: EstimateJson<&'static str, &'a [f64]>,
     /// Only on smoothed lines (`true`): filtered output is as it was.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     smoothed: bool,
@@ -302,7 +294,7 @@ fn write_output(
     (x, p): (&[f64], &[f64]),
     smoothed: bool,
 ) -> std::io::Result<()> {
-    let line = OutputRef {
+    let estimate = EstimateJson {
         t_ns: key.t_ns,
         kind: key.kind.name(),
         sensor: key.sensor,
@@ -311,8 +303,8 @@ fn write_output(
         p,
         nis: outcome.nis(),
         accepted: outcome.accepted(),
-        smoothed,
     };
+    let line = OutputRef { estimate, smoothed };
     serde_json::to_writer(&mut *out, &line)?;
     out.write_all(b"\n")
 }

@@ -145,7 +145,7 @@ fn drive<const D: usize>(model: InsModel<D>, config: &Config, scenario: &Scenari
             (Sample::Pose(_), StepOutcome::Gated { .. }) => out.gated += 1,
             _ => {}
         }
-        out.alignments = out.alignments.max(e.state.aux_progress().pose.alignments);
+        out.alignments = out.alignments.max(e.state.aux_progress().kinds.pose.alignments);
         let t = e.key.t_ns.saturating_sub(t0) as f64 * 1e-9;
         let (x, cov) = (M::<D>::x_of(&e.state), <M<D> as Model>::covariance(&e.state));
         let n = D;

@@ -102,28 +102,40 @@ fn finite(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
 }
 
-/// A snapshot as JSON: the `/fusion/state` messages and `fusionctl echo`'s
-/// lines. The replay output's fields come first.
+/// The estimate after one sample, as JSON: what a `fusiond replay` output line
+/// holds, and what a snapshot's JSON ([`SnapshotJson`]) gives first. `K` and
+/// `V` are how the kind's name and the numbers are held (owned to read,
+/// borrowed to write without copying).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-#[schemars(title = "StateSnapshot")]
-pub struct SnapshotJson {
+pub struct EstimateJson<K = String, V = Vec<f64>> {
     /// Time of validity of the estimate, ns.
     pub t_ns: u64,
-    /// Kind of the newest processed sample.
-    pub kind: String,
+    /// Kind of the newest processed sample (`"imu"`, `"odometry"`, …).
+    pub kind: K,
     /// Its sensor id.
     pub sensor: u32,
     /// Its sequence number.
     pub seq: u64,
     /// State vector.
-    pub x: Vec<f64>,
+    pub x: V,
     /// Covariance, row-major.
     #[serde(rename = "P")]
-    pub p: Vec<f64>,
+    pub p: V,
     /// NIS of the newest sample if it was a measurement.
     pub nis: Option<f64>,
     /// Whether that measurement was fused.
     pub accepted: Option<bool>,
+}
+
+/// A snapshot as JSON: the `/fusion/state` messages and `fusionctl echo`'s
+/// lines. The replay output's fields come first ([`EstimateJson`], whose
+/// fields it gives as its own: `snapshot.t_ns`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[schemars(title = "StateSnapshot")]
+pub struct SnapshotJson {
+    /// The estimate.
+    #[serde(flatten)]
+    pub estimate: EstimateJson,
     /// Snapshot sequence number.
     pub snapshot_seq: u64,
     /// When fusiond published it, ns.
@@ -242,24 +254,17 @@ pub struct DatumJson {
     pub height_m: f64,
 }
 
-/// One sensor's counters (see [`crate::Counters`]).
+/// One sensor's counters (see [`crate::Counters`]), its kind and id first
+/// and its last NIS after them, in one flat object.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-#[allow(missing_docs)]
 pub struct CountersJson {
+    /// Its kind's name.
     pub kind: String,
+    /// Its sensor id.
     pub sensor: u32,
-    pub received: u64,
-    pub processed: u64,
-    pub fused: u64,
-    pub gated: u64,
-    pub refused: u64,
-    pub late: u64,
-    pub too_late: u64,
-    pub duplicate: u64,
-    pub invalid: u64,
-    pub lost: u64,
-    pub rate_limited: u64,
-    pub restarts: u64,
+    /// What became of its samples.
+    #[serde(flatten)]
+    pub counts: crate::Counters,
     /// NIS of the sensor's last measurement.
     pub last_nis: Option<f64>,
 }
@@ -272,22 +277,11 @@ impl From<&StateSnapshot> for SnapshotJson {
             .map(|c| CountersJson {
                 kind: kind_name(c.kind),
                 sensor: c.sensor,
-                received: c.counts.received,
-                processed: c.counts.processed,
-                fused: c.counts.fused,
-                gated: c.counts.gated,
-                refused: c.counts.refused,
-                late: c.counts.late,
-                too_late: c.counts.too_late,
-                duplicate: c.counts.duplicate,
-                invalid: c.counts.invalid,
-                lost: c.counts.lost,
-                rate_limited: c.counts.rate_limited,
-                restarts: c.counts.restarts,
+                counts: c.counts,
                 last_nis: finite(c.last_nis),
             })
             .collect();
-        Self {
+        let estimate = EstimateJson {
             t_ns: s.t_ns,
             kind: kind_name(s.sample_kind),
             sensor: s.sample_sensor,
@@ -296,6 +290,9 @@ impl From<&StateSnapshot> for SnapshotJson {
             p: s.covariance().to_vec(),
             nis: finite(s.nis),
             accepted: s.accepted(),
+        };
+        Self {
+            estimate,
             snapshot_seq: s.seq,
             publish_ns: s.publish_ns,
             model: model::name(s.model).to_string(),
@@ -343,6 +340,14 @@ impl From<&StateSnapshot> for SnapshotJson {
                 .collect(),
             velocity_offset: s.velocity_time_offset().map(|(ns, std_ns, samples)| OffsetJson { ns, std_ns, samples }),
         }
+    }
+}
+
+impl std::ops::Deref for SnapshotJson {
+    type Target = EstimateJson;
+
+    fn deref(&self) -> &EstimateJson {
+        &self.estimate
     }
 }
 

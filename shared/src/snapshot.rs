@@ -120,6 +120,7 @@ pub mod outcome {
 /// `fused`, `gated` and `refused` describe the current estimates: a rewind that
 /// changes a decision moves the count.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ZeroCopySend)]
+#[cfg_attr(feature = "json", derive(serde::Serialize, serde::Deserialize, schemars::JsonSchema))]
 #[type_name("fusion.Counters.v3")]
 #[repr(C)]
 pub struct Counters {

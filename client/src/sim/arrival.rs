@@ -47,18 +47,22 @@ pub(crate) fn to_ns(t_s: f64) -> u64 {
 /// a delay and drawn from the sensor's own noise stream: what one sample
 /// reads. [`SensorSim`] makes the endless stream of them.
 pub trait Sensor: Clone {
+    /// The kind of its samples.
+    const KIND: fusion_shared::SampleKind;
     /// The salt of its noise stream (with its sensor id: adding a sensor
     /// leaves every other's samples unchanged).
     const SALT: u64;
     /// What the sensor carries from one sample to the next (a barometer's
     /// drifting offset); `()` for most.
-    type Memory: Clone + std::fmt::Debug;
+    type Memory: Clone + std::fmt::Debug + Default;
     /// Its sensor id.
     fn sensor(&self) -> u32;
     /// Its rate, Hz, and the least and most delay of its samples, ns.
     fn timing(&self) -> (f64, u64, u64);
-    /// What it carries before its first sample.
-    fn memory(&self) -> Self::Memory;
+    /// What it carries before its first sample (the memory's default by default).
+    fn memory(&self) -> Self::Memory {
+        Self::Memory::default()
+    }
     /// The sample `r` is of (its draws after the schedule's), or `None` when
     /// it is lost (dropped).
     fn read(&self, r: Reading<'_, Self::Memory>) -> Option<Sample>;
@@ -79,6 +83,23 @@ pub struct Reading<'a, M> {
     pub rng: &'a mut ChaCha8Rng,
     /// What the sensor carries from sample to sample.
     pub memory: &'a mut M,
+}
+
+impl<M> Reading<'_, M> {
+    /// A standard normal 3-vector from the sensor's stream.
+    pub fn normal3(&mut self) -> Vector3<f64> {
+        Vector3::from_fn(|_, _| StandardNormal.sample(&mut *self.rng))
+    }
+
+    /// A standard normal number from the sensor's stream.
+    pub fn normal(&mut self) -> f64 {
+        StandardNormal.sample(&mut *self.rng)
+    }
+
+    /// Whether the sample is lost, with `probability` (one draw, lost or not).
+    pub fn lost(&mut self, probability: f64) -> bool {
+        self.rng.random::<f64>() < probability
+    }
 }
 
 /// The samples of a [`Sensor`] on a trajectory (an endless iterator; lost
@@ -122,3 +143,18 @@ impl<C: Sensor> Iterator for SensorSim<C> {
         }
     }
 }
+
+/// A [`Sensor`]'s `sensor` and `timing` from the usual fields of its settings
+/// (`sensor`, `rate_hz`, `delay_min_ns`, `delay_max_ns`).
+macro_rules! usual_timing {
+    () => {
+        fn sensor(&self) -> u32 {
+            self.sensor
+        }
+
+        fn timing(&self) -> (f64, u64, u64) {
+            (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
+        }
+    };
+}
+pub(crate) use usual_timing;

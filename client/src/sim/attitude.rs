@@ -3,9 +3,8 @@
 //! noise about the sensor's axes and a constant yaw error (a magnetic yaw
 //! disturbed indoors), arriving after a delay.
 
-use fusion_shared::{AttitudeSample, Sample};
+use fusion_shared::{SampleKind, AttitudeSample, Sample};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
-use rand_distr::{Distribution, StandardNormal};
 
 use super::arrival::{Reading, Sensor, SensorSim};
 
@@ -48,22 +47,15 @@ impl Default for AttitudeConfig {
 pub type AttitudeSim = SensorSim<AttitudeConfig>;
 
 impl Sensor for AttitudeConfig {
+    const KIND: SampleKind = SampleKind::Attitude;
     const SALT: u64 = 0x6168_7273;
     type Memory = ();
 
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
+    super::arrival::usual_timing!();
 
-    fn timing(&self) -> (f64, u64, u64) {
-        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
-    }
-
-    fn memory(&self) {}
-
-    fn read(&self, r: Reading<'_, ()>) -> Option<Sample> {
+    fn read(&self, mut r: Reading<'_, ()>) -> Option<Sample> {
         let c = self;
-        let noise = Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut *r.rng)) * c.noise_std_rad;
+        let noise = r.normal3() * c.noise_std_rad;
         let yaw_error = Rotation3::from_axis_angle(&Vector3::z_axis(), c.yaw_error_rad).into_inner();
         let body = r.truth.attitude.to_rotation_matrix().into_inner();
         // Z = Z_true Exp(−ε): q_true = q ⊗ Exp(ε).
@@ -74,7 +66,6 @@ impl Sensor for AttitudeConfig {
     }
 }
 
-super::aiding_sim!(AttitudeConfig, AttitudeSim, Attitude);
 
 #[cfg(test)]
 mod tests {

@@ -2,10 +2,8 @@
 //! true height of its port, with an offset (the weather's) that drifts as a
 //! random walk, white noise, random dropouts, arriving after a delay.
 
-use fusion_shared::{BarometerSample, ISA_SEA_LEVEL_PA, Sample};
+use fusion_shared::{SampleKind, BarometerSample, ISA_SEA_LEVEL_PA, Sample};
 use nalgebra::Vector3;
-use rand::RngExt;
-use rand_distr::{Distribution, StandardNormal};
 
 use super::arrival::{Reading, Sensor, SensorSim};
 
@@ -59,28 +57,23 @@ pub fn isa_pressure_pa(h: f64) -> f64 {
 pub type BarometerSim = SensorSim<BarometerConfig>;
 
 impl Sensor for BarometerConfig {
+    const KIND: SampleKind = SampleKind::Barometer;
     const SALT: u64 = 0x6261_726f;
     type Memory = f64;
 
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
-
-    fn timing(&self) -> (f64, u64, u64) {
-        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
-    }
+    super::arrival::usual_timing!();
 
     fn memory(&self) -> f64 {
         self.origin_altitude_m
     }
 
-    fn read(&self, r: Reading<'_, f64>) -> Option<Sample> {
+    fn read(&self, mut r: Reading<'_, f64>) -> Option<Sample> {
         let c = self;
-        let noise: f64 = StandardNormal.sample(&mut *r.rng);
-        let walk: f64 = StandardNormal.sample(&mut *r.rng);
+        let noise = r.normal();
+        let walk = r.normal();
         // The weather's offset, a random walk.
         *r.memory += walk * c.drift_m / c.rate_hz.sqrt();
-        if r.rng.random::<f64>() < c.dropout_probability {
+        if r.lost(c.dropout_probability) {
             return None;
         }
         let port = r.truth.pos_m + r.truth.attitude * Vector3::from(c.lever_arm_m);
@@ -89,7 +82,6 @@ impl Sensor for BarometerConfig {
     }
 }
 
-super::aiding_sim!(BarometerConfig, BarometerSim, Barometer);
 
 #[cfg(test)]
 mod tests {

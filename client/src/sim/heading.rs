@@ -3,8 +3,7 @@
 
 use std::f64::consts::PI;
 
-use fusion_shared::{HeadingSample, Sample};
-use rand_distr::{Distribution, StandardNormal};
+use fusion_shared::{SampleKind, HeadingSample, Sample};
 
 use super::arrival::{Reading, Sensor, SensorSim};
 
@@ -39,22 +38,15 @@ impl Default for HeadingConfig {
 pub type HeadingSim = SensorSim<HeadingConfig>;
 
 impl Sensor for HeadingConfig {
+    const KIND: SampleKind = SampleKind::Heading;
     const SALT: u64 = 0x6864_6700;
     type Memory = ();
 
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
+    super::arrival::usual_timing!();
 
-    fn timing(&self) -> (f64, u64, u64) {
-        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
-    }
-
-    fn memory(&self) {}
-
-    fn read(&self, r: Reading<'_, ()>) -> Option<Sample> {
+    fn read(&self, mut r: Reading<'_, ()>) -> Option<Sample> {
         let c = self;
-        let noise: f64 = StandardNormal.sample(&mut *r.rng);
+        let noise = r.normal();
         let mut yaw = r.truth.yaw_rad() + noise * c.noise_std_rad;
         if yaw > PI {
             yaw -= 2.0 * PI;
@@ -65,4 +57,3 @@ impl Sensor for HeadingConfig {
     }
 }
 
-super::aiding_sim!(HeadingConfig, HeadingSim, Heading);

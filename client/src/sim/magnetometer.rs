@@ -2,10 +2,8 @@
 //! noise, with its mounting, random dropouts and disturbances (a passing lorry, a
 //! steel bridge: a field added for a while).
 
-use fusion_shared::{MagnetometerSample, Sample, earth_field_enu};
+use fusion_shared::{SampleKind, MagnetometerSample, Sample, earth_field_enu};
 use nalgebra::{Matrix3, Vector3};
-use rand::RngExt;
-use rand_distr::{Distribution, StandardNormal};
 
 use super::arrival::{Reading, Sensor, SensorSim};
 
@@ -72,25 +70,20 @@ impl Default for MagnetometerConfig {
 pub type MagnetometerSim = SensorSim<MagnetometerConfig>;
 
 impl Sensor for MagnetometerConfig {
+    const KIND: SampleKind = SampleKind::Magnetometer;
     const SALT: u64 = 0x6d61_6700;
     type Memory = Vector3<f64>;
 
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
-
-    fn timing(&self) -> (f64, u64, u64) {
-        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
-    }
+    super::arrival::usual_timing!();
 
     fn memory(&self) -> Vector3<f64> {
         Vector3::from(earth_field_enu(self.declination_deg, self.inclination_deg, self.strength_ut))
     }
 
-    fn read(&self, r: Reading<'_, Vector3<f64>>) -> Option<Sample> {
+    fn read(&self, mut r: Reading<'_, Vector3<f64>>) -> Option<Sample> {
         let c = self;
-        let noise = Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut *r.rng)) * c.noise_std_ut;
-        if r.rng.random::<f64>() < c.dropout_probability {
+        let noise = r.normal3() * c.noise_std_ut;
+        if r.lost(c.dropout_probability) {
             return None;
         }
         let t_s = r.t_s;
@@ -108,7 +101,6 @@ impl Sensor for MagnetometerConfig {
     }
 }
 
-super::aiding_sim!(MagnetometerConfig, MagnetometerSim, Magnetometer);
 
 #[cfg(test)]
 mod tests {

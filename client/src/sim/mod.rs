@@ -56,6 +56,30 @@ macro_rules! aiding_sim {
 }
 use aiding_sim;
 
+/// Every [`arrival::Sensor`] is an aiding sensor: its samples are its
+/// [`arrival::SensorSim`]'s.
+impl<C: arrival::Sensor + Debug + Send + Sync + 'static> AidingSim for C
+where
+    C::Memory: Send,
+{
+    fn kind(&self) -> SampleKind {
+        C::KIND
+    }
+
+    fn sensor(&self) -> u32 {
+        arrival::Sensor::sensor(self)
+    }
+
+    fn arrivals(
+        &self,
+        trajectory: &CarTrajectory,
+        start_ns: u64,
+        seed: u64,
+    ) -> Box<dyn Iterator<Item = Arrival> + Send> {
+        Box::new(arrival::SensorSim::new(trajectory.clone(), self.clone(), start_ns, seed))
+    }
+}
+
 pub use arrival::Arrival;
 pub use scenario::{Outage, Scenario, ScenarioConfig, without_outages};
 pub use trajectory::{CarTrajectory, Stop, TruthState};

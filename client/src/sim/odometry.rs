@@ -3,9 +3,8 @@
 //! and white noise, arriving after a short delay; 0 while the car stands (no
 //! encoder ticks).
 
-use fusion_shared::{OdometrySample, Sample};
+use fusion_shared::{SampleKind, OdometrySample, Sample};
 use nalgebra::Vector3;
-use rand_distr::{Distribution, StandardNormal};
 
 use super::arrival::{Reading, Sensor, SensorSim};
 
@@ -53,22 +52,15 @@ impl Default for OdometryConfig {
 pub type OdometrySim = SensorSim<OdometryConfig>;
 
 impl Sensor for OdometryConfig {
+    const KIND: SampleKind = SampleKind::Odometry;
     const SALT: u64 = 0x6f64_6f00;
     type Memory = ();
 
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
+    super::arrival::usual_timing!();
 
-    fn timing(&self) -> (f64, u64, u64) {
-        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
-    }
-
-    fn memory(&self) {}
-
-    fn read(&self, r: Reading<'_, ()>) -> Option<Sample> {
+    fn read(&self, mut r: Reading<'_, ()>) -> Option<Sample> {
         let c = self;
-        let noise: f64 = StandardNormal.sample(&mut *r.rng);
+        let noise = r.normal();
         let truth = r.truth;
         let true_speed = truth.body_velocity(&Vector3::from(c.lever_arm_m)).x;
         // A wheel that does not turn gives no encoder ticks: exactly 0.
@@ -82,4 +74,3 @@ impl Sensor for OdometryConfig {
     }
 }
 
-super::aiding_sim!(OdometryConfig, OdometrySim, Odometry);

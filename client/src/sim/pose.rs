@@ -5,10 +5,8 @@
 //! of the localiser at a set time (its map frame jumps, announced by the reset
 //! counter or not).
 
-use fusion_shared::{PoseSample, Sample};
+use fusion_shared::{SampleKind, PoseSample, Sample};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
-use rand::RngExt;
-use rand_distr::{Distribution, StandardNormal};
 
 use super::arrival::{Reading, Sensor, SensorSim};
 
@@ -81,24 +79,16 @@ impl Default for PoseConfig {
 pub type PoseSim = SensorSim<PoseConfig>;
 
 impl Sensor for PoseConfig {
+    const KIND: SampleKind = SampleKind::Pose;
     const SALT: u64 = 0x706f_7365;
     type Memory = ();
 
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
+    super::arrival::usual_timing!();
 
-    fn timing(&self) -> (f64, u64, u64) {
-        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
-    }
-
-    fn memory(&self) {}
-
-    fn read(&self, r: Reading<'_, ()>) -> Option<Sample> {
+    fn read(&self, mut r: Reading<'_, ()>) -> Option<Sample> {
         let c = self;
-        let mut normal = || Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut *r.rng));
-        let (n_p, n_a) = (normal() * c.position_noise_m, normal() * c.attitude_noise_rad);
-        if r.rng.random::<f64>() < c.dropout_probability {
+        let (n_p, n_a) = (r.normal3() * c.position_noise_m, r.normal3() * c.attitude_noise_rad);
+        if r.lost(c.dropout_probability) {
             return None;
         }
         let (t_s, truth) = (r.t_s, r.truth);
@@ -120,7 +110,6 @@ impl Sensor for PoseConfig {
     }
 }
 
-super::aiding_sim!(PoseConfig, PoseSim, Pose);
 
 #[cfg(test)]
 mod tests {

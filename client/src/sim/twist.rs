@@ -2,10 +2,8 @@
 //! velocity of the sensor's frame in its own axes plus white noise, with its
 //! mounting (rotation and lever arm), random dropouts, arriving after a delay.
 
-use fusion_shared::{Sample, TwistSample};
+use fusion_shared::{SampleKind, Sample, TwistSample};
 use nalgebra::{Matrix3, Vector3};
-use rand::RngExt;
-use rand_distr::{Distribution, StandardNormal};
 
 use super::arrival::{Reading, Sensor, SensorSim};
 
@@ -52,24 +50,16 @@ impl Default for TwistConfig {
 pub type TwistSim = SensorSim<TwistConfig>;
 
 impl Sensor for TwistConfig {
+    const KIND: SampleKind = SampleKind::Twist;
     const SALT: u64 = 0x7477_6900;
     type Memory = ();
 
-    fn sensor(&self) -> u32 {
-        self.sensor
-    }
+    super::arrival::usual_timing!();
 
-    fn timing(&self) -> (f64, u64, u64) {
-        (self.rate_hz, self.delay_min_ns, self.delay_max_ns)
-    }
-
-    fn memory(&self) {}
-
-    fn read(&self, r: Reading<'_, ()>) -> Option<Sample> {
+    fn read(&self, mut r: Reading<'_, ()>) -> Option<Sample> {
         let c = self;
-        let mut normal = || Vector3::<f64>::from_fn(|_, _| StandardNormal.sample(&mut *r.rng));
-        let (n_lin, n_ang) = (normal() * c.linear_noise_mps, normal() * c.angular_noise_radps);
-        if r.rng.random::<f64>() < c.dropout_probability {
+        let (n_lin, n_ang) = (r.normal3() * c.linear_noise_mps, r.normal3() * c.angular_noise_radps);
+        if r.lost(c.dropout_probability) {
             return None;
         }
         let truth = r.truth;
@@ -82,7 +72,6 @@ impl Sensor for TwistConfig {
     }
 }
 
-super::aiding_sim!(TwistConfig, TwistSim, Twist);
 
 #[cfg(test)]
 mod tests {

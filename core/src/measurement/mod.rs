@@ -27,8 +27,8 @@
 mod checks;
 pub mod components;
 pub mod lever_arm;
-pub use checks::{covariance, covariance3, finite, read_table, read_table_or_default};
 pub(crate) use checks::SYMMETRY_TOLERANCE;
+pub use checks::{covariance, covariance3, finite, read_table, read_table_or_default};
 #[cfg(test)]
 mod observations;
 

@@ -197,11 +197,12 @@ impl Outcomes {
         for c in &s.counters {
             let Some(kind) = kind_of(&c.kind).filter(|k| *k != SampleKind::Imu) else { continue };
             let key = (c.kind.clone(), c.sensor);
-            let now = [c.fused, c.gated, c.refused];
+            let n = &c.counts;
+            let now = [n.fused, n.gated, n.refused];
             let [fused, gated, refused] = self.counts.insert(key.clone(), now).unwrap_or_default();
             // New outcomes (a changed decision moves none), and of them the gated.
-            let outcomes = (c.fused + c.gated + c.refused).saturating_sub(fused + gated + refused);
-            let mut new = (outcomes, c.gated.saturating_sub(gated).min(outcomes));
+            let outcomes = (n.fused + n.gated + n.refused).saturating_sub(fused + gated + refused);
+            let mut new = (outcomes, n.gated.saturating_sub(gated).min(outcomes));
             let mut outcome = |new: &mut (u64, u64), fix: Pending, nis| {
                 let gated = new.1 > 0;
                 *new = (new.0 - 1, new.1.saturating_sub(1));

@@ -252,7 +252,7 @@ impl<I: Iterator<Item = std::io::Result<SnapshotJson>>> ReplayCheck for LiveComp
                 if self.report.compared == 0 {
                     // The first snapshot the recording holds: had fusiond taken
                     // samples the replay has not?
-                    let taken: u64 = live.counters.iter().map(|c| c.received).sum();
+                    let taken: u64 = live.counters.iter().map(|c| c.counts.received).sum();
                     let replayed = engine.totals(None).received;
                     if taken > replayed {
                         self.report.began_mid_run = Some((live.snapshot_seq, taken - replayed));
