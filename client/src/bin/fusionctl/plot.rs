@@ -438,7 +438,9 @@ impl Page {
             Page::Attitude => pages::draw_attitude(&root, d, counts),
             Page::Nis => pages::draw_nis(&root, d, counts),
             Page::Latency => pages::draw_latency(&root, d, counts),
-        }
+        }?;
+        root.present()?;
+        Ok(())
     }
 }
 

@@ -170,7 +170,6 @@ where
     counts.insert("trajectory.fixes", fused);
     counts.insert("trajectory.gated", gated);
     counts.insert("trajectory.not_fused", not_fused);
-    root.present()?;
     Ok(())
 }
 
@@ -297,7 +296,6 @@ pub(super) fn draw_errors<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    root.fill(&WHITE)?;
     let est = thin(&d.estimates);
     let names = ["east", "north", "up", "v east", "v north", "v up"];
     let with_truth = !d.truth.is_empty();
@@ -321,7 +319,6 @@ where
         counts.insert(&format!("errors.{k}.error"), errors.len());
         counts.insert(&format!("errors.{k}.band"), band.len());
     }
-    root.present()?;
     Ok(())
 }
 
@@ -335,7 +332,6 @@ pub(super) fn draw_attitude<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    root.fill(&WHITE)?;
     let est: Vec<(f64, InsPart)> = thin(&d.estimates).iter().filter_map(|e| Some((e.t, e.ins?))).collect();
     let t = range(est.iter().map(|e| e.0));
     let panels = root.split_evenly((3, 3));
@@ -370,7 +366,6 @@ where
         draw_band_panel(&panels[3 + k], bias_names[k], unit, t.clone(), &values, "estimate", &band)?;
         counts.insert(&format!("attitude.bias{k}"), values.len());
     }
-    root.present()?;
     Ok(())
 }
 
@@ -378,7 +373,6 @@ pub(super) fn draw_nis<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, d: &Da
 where
     DB::ErrorType: 'static,
 {
-    root.fill(&WHITE)?;
     let n = d.nis.len().max(1);
     let t = range(d.estimates.iter().map(|e| e.t));
     // Room on the right for the legend (upper right): it covers no value.
@@ -433,7 +427,6 @@ where
         counts.insert(&format!("nis.{sensor}.beyond"), beyond.len());
         counts.scale(&format!("nis.{sensor}.top"), top);
     }
-    root.present()?;
     Ok(())
 }
 
@@ -445,7 +438,6 @@ pub(super) fn draw_latency<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    root.fill(&WHITE)?;
     let mut sorted = d.latency_us.clone();
     sorted.sort_by(f64::total_cmp);
     let q = |p: f64| sorted.get(((sorted.len() - 1) as f64 * p) as usize).copied().unwrap_or(0.0);
@@ -471,6 +463,5 @@ where
         }),
     )?;
     counts.insert("latency.samples", sorted.len());
-    root.present()?;
     Ok(())
 }
