@@ -42,14 +42,6 @@
 // `FusionStateSnapshot.health`: an estimate exists, see `health_reasons`.
 #define FUSION_HEALTH_DEGRADED 2
 
-// `FusionStateSnapshot.model`: the `linear` model (x = p, v; 6 states).
-#define FUSION_MODEL_LINEAR 1
-
-// `FusionStateSnapshot.model`: the INS (x = p, v, q (w, x, y, z), accel bias,
-// gyro bias; 16 states, 15×15 covariance, then the auxiliary states of
-// `aux_states`).
-#define FUSION_MODEL_INS 2
-
 // `FusionStateSnapshot.aux_states` bit: the odometry scale factor follows the
 // model's states (one more entry of `x` and one more row and column of `cov`).
 #define FUSION_AUX_ODOMETRY_SCALE 1
@@ -174,6 +166,14 @@
 
 // Kind codes in use: `1..=FUSION_KIND_COUNT` (a larger code is no kind).
 #define FUSION_KIND_COUNT 11
+
+// `FusionStateSnapshot.model`: the `linear` model (6 states, a 6×6 covariance, then the auxiliary states of
+// `aux_states`).
+#define FUSION_MODEL_LINEAR 1
+
+// `FusionStateSnapshot.model`: the `ins` model (16 states, a 15×15 covariance, then the auxiliary states of
+// `aux_states`).
+#define FUSION_MODEL_INS 2
 
 // Braking to a stop, and pulling away after it, each take this long, s.
 #define STOP_RAMP_S 4.0

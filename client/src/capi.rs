@@ -75,12 +75,6 @@ pub const FUSION_HEALTH_INITIALISING: u32 = 0;
 pub const FUSION_HEALTH_OK: u32 = 1;
 /// `FusionStateSnapshot.health`: an estimate exists, see `health_reasons`.
 pub const FUSION_HEALTH_DEGRADED: u32 = 2;
-/// `FusionStateSnapshot.model`: the `linear` model (x = p, v; 6 states).
-pub const FUSION_MODEL_LINEAR: u32 = 1;
-/// `FusionStateSnapshot.model`: the INS (x = p, v, q (w, x, y, z), accel bias,
-/// gyro bias; 16 states, 15×15 covariance, then the auxiliary states of
-/// `aux_states`).
-pub const FUSION_MODEL_INS: u32 = 2;
 /// `FusionStateSnapshot.aux_states` bit: the odometry scale factor follows the
 /// model's states (one more entry of `x` and one more row and column of `cov`).
 pub const FUSION_AUX_ODOMETRY_SCALE: u32 = 1;
@@ -148,8 +142,6 @@ const _: () = {
     assert!(FUSION_HEALTH_INITIALISING == health::INITIALISING);
     assert!(FUSION_HEALTH_OK == health::OK);
     assert!(FUSION_HEALTH_DEGRADED == health::DEGRADED);
-    assert!(FUSION_MODEL_LINEAR == model::LINEAR);
-    assert!(FUSION_MODEL_INS == model::INS);
     assert!(FUSION_AUX_ODOMETRY_SCALE == fusion_shared::snapshot::aux::ODOMETRY_SCALE);
     assert!(FUSION_AUX_BARO_BIAS == fusion_shared::snapshot::aux::BARO_BIAS);
     assert!(FUSION_AUX_BARO_BIAS_ANY == fusion_shared::snapshot::aux::BARO_BIAS_ANY);
@@ -449,10 +441,10 @@ pub unsafe extern "C" fn fusion_state_wait_next(
     })
 }
 
-mod kinds;
+mod generated;
 mod names;
 mod publish;
-pub use kinds::*;
+pub use generated::*;
 pub use names::{fusion_health_name, fusion_rejection_name, fusion_rejection_setting};
 pub use publish::*;
 mod typed;

@@ -4,8 +4,9 @@
 //! snapshot's constants. One generator writes
 //!
 //! - `client/python/fusion_client/wire.py`: the `ctypes` classes and every constant;
-//! - `client/src/capi/kinds.rs`: the C API's kind constants (`FUSION_KIND_*`,
-//!   `FUSION_KIND_COUNT`) and one `fusion_publish_<kind>` per kind;
+//! - `client/src/capi/generated.rs`: the C API's kind constants (`FUSION_KIND_*`,
+//!   `FUSION_KIND_COUNT`), one `fusion_publish_<kind>` per kind, and the model
+//!   codes (`FUSION_MODEL_*`);
 //! - `client/include/fusion_client.h`: cbindgen's header of the C API, with each
 //!   wire type under its C name (`FusionPoseSample`).
 //!
@@ -196,12 +197,13 @@ fn python() -> String {
     out
 }
 
-/// `client/src/capi/kinds.rs`, before rustfmt.
+/// `client/src/capi/generated.rs`, before rustfmt.
 fn c_kinds() -> String {
     let kinds = kinds();
     let mut out = String::from(
-        "//! The C API's sample kinds: each kind's code and its publish function.\n//!\n\
-         //! Generated from the kind list by `FUSION_UPDATE_MIRRORS=1 cargo test -p fusion-client --test mirrors`:\n\
+        "//! The C API's sample kinds (each kind's code and its publish function) and\n\
+         //! models (each model's code in a snapshot).\n//!\n\
+         //! Generated from the kind and model lists by `FUSION_UPDATE_MIRRORS=1 cargo test -p fusion-client --test mirrors`:\n\
          //! do not edit.\n\n\
          use super::FusionPublisher;\nuse super::FusionStatus;\nuse super::publish::publish;\n\n",
     );
@@ -220,6 +222,19 @@ fn c_kinds() -> String {
     }
     out.push_str("/// Kind codes in use: `1..=FUSION_KIND_COUNT` (a larger code is no kind).\n");
     writeln!(out, "pub const FUSION_KIND_COUNT: u32 = {};\n", SampleKind::COUNT).unwrap();
+    for m in snapshot::Model::ALL {
+        let doc = format!(
+            "`FusionStateSnapshot.model`: the `{}` model ({} states, a {}×{} covariance, then the auxiliary states of \
+             `aux_states`).",
+            m.name(),
+            m.state_len(),
+            m.cov_dim(),
+            m.cov_dim()
+        );
+        out.push_str(&rust_doc(&doc));
+        writeln!(out, "pub const FUSION_MODEL_{}: u32 = {};", upper(m.name()), m.code()).unwrap();
+    }
+    out.push('\n');
     for w in &kinds {
         let name = w.kind.unwrap().name();
         let doc = format!(
@@ -295,8 +310,8 @@ fn the_mirrors_are_generated_from_the_registry() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut stale = Vec::new();
     fresh(dir.join("python/fusion_client/wire.py"), &python(), &mut stale);
-    fresh(dir.join("src/capi/kinds.rs"), &rustfmt(&c_kinds()), &mut stale);
-    // The header after kinds.rs: cbindgen reads the sources as they are now.
+    fresh(dir.join("src/capi/generated.rs"), &rustfmt(&c_kinds()), &mut stale);
+    // The header after generated.rs: cbindgen reads the sources as they are now.
     let header = header();
     fresh(dir.join("include/fusion_client.h"), &header, &mut stale);
     assert!(

@@ -1,6 +1,7 @@
-//! The C API's sample kinds: each kind's code and its publish function.
+//! The C API's sample kinds (each kind's code and its publish function) and
+//! models (each model's code in a snapshot).
 //!
-//! Generated from the kind list by `FUSION_UPDATE_MIRRORS=1 cargo test -p fusion-client --test mirrors`:
+//! Generated from the kind and model lists by `FUSION_UPDATE_MIRRORS=1 cargo test -p fusion-client --test mirrors`:
 //! do not edit.
 
 use super::FusionPublisher;
@@ -50,6 +51,13 @@ pub const FUSION_KIND_POSE: u32 = 10;
 pub const FUSION_KIND_ATTITUDE: u32 = 11;
 /// Kind codes in use: `1..=FUSION_KIND_COUNT` (a larger code is no kind).
 pub const FUSION_KIND_COUNT: u32 = 11;
+
+/// `FusionStateSnapshot.model`: the `linear` model (6 states, a 6×6 covariance, then the auxiliary states of
+/// `aux_states`).
+pub const FUSION_MODEL_LINEAR: u32 = 1;
+/// `FusionStateSnapshot.model`: the `ins` model (16 states, a 15×15 covariance, then the auxiliary states of
+/// `aux_states`).
+pub const FUSION_MODEL_INS: u32 = 2;
 
 /// Publishes an imu sample: specific force (`ins`) or world acceleration (`linear`), m/s²; angular rate, rad/s.
 /// `*reached` (if not NULL) is the number of readers it reached: 0 when no fusiond runs. The same as
