@@ -8,7 +8,12 @@
 //!   [`WireSample::INNOVATION_DIM`], or fewer by a sensor's settings); whether
 //!   its samples are in the sensor's own axes; a sensor's settings of it (the
 //!   type of its `[sensor.<table>]` table, its reading and its checks, held in
-//!   a leaf module of the kind's), which [`settings`] looks up;
+//!   a leaf module of the kind's), which [`settings`] looks up; and every other
+//!   fact of the kind that a model, the daemon or the config builder acts on:
+//!   what a sensor of it observes ([`Measurement::observes`], nothing by
+//!   default: no heading until the kind says so), when a reading is exact, its
+//!   lock-out rule, what an unconfigured sensor lacks, how to bring fewer of its
+//!   auxiliary states and its check of the whole configuration;
 //! - [`Fuse`]: how a model that can fuses it, written for what the model can do
 //!   (a [`Kinematic`] model: a world position and velocity; the INS error state),
 //!   with [`Observe`], its observation of the INS state (residual, H, R), which

@@ -5,13 +5,16 @@
 //!
 //! A model owns its filter state type; the engine only stores, copies and replays
 //! it, so a model may keep anything it needs for time handling (the filter time,
-//! held IMU values) inside that state. A model fuses no sample kind: it
+//! held IMU values) inside that state. A model names no sample kind: it
 //! propagates to a time ([`Model::propagate_to`]) and says what it can do for
 //! the kinds ([`Kinematic`]: fuse a world position or velocity); each kind's
 //! module above it fuses its samples into the model's state, and
-//! `measurement::Steps` composes the two into one step. (The `ins` model's
-//! auxiliary states know the settings and bookkeeping types of the kinds that
-//! bring them, leaf modules of those kinds: [`ins::aux`].)
+//! `measurement::Steps` composes the two into one step. What a model does by
+//! kind it takes from the kinds' declarations: what each sensor observes
+//! ([`crate::frames::Observes`], for the `ins` model's yaw rule and gravity
+//! reference), each kind's lock-out rule ([`lockout::LockoutRule`]), what each
+//! kind keeps between samples (`fusion_shared::sample::KindsProgress`, in
+//! [`ins::aux`]).
 
 pub mod held_imu;
 pub mod ins;
