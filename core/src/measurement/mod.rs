@@ -135,13 +135,10 @@ pub trait Measurement: WireSample {
     fn admit(&self, _frames: &Frames) {}
 
     /// What a sensor with `settings` (`None`: not configured) observes of the
-    /// `ins` state: the heading, the horizontal position, the tilt
-    /// ([`Observes`]). Nothing by default, the safe side: a kind gives no
-    /// heading until it says so (the yaw rule then holds the yaw for it). A
-    /// test over the kind list checks the heading and the horizontal position
-    /// against the kind's observation ([`Observe`]): a kind whose `H` sees the
-    /// turn about world up must declare one of them, and one that declares
-    /// them must see it.
+    /// `ins` state ([`Observes`]). Nothing by default, the safe side: a kind
+    /// gives no heading until it says so. A test over the kind list checks it
+    /// against the kind's `H` ([`Observe`]): it sees the turn about world up
+    /// exactly when it declares a heading or a horizontal position.
     fn observes(_settings: Option<&Self::Settings>) -> Observes {
         Observes::NOTHING
     }
