@@ -131,7 +131,7 @@ const _: () = {
     use fusion_shared::snapshot as s;
     assert!(MAX_STATE == s::MAX_STATE && MAX_COV == s::MAX_COV);
     assert!(MAX_COV_LEN == s::MAX_COV_LEN && MAX_SENSORS == s::MAX_SENSORS);
-    use fusion_shared::snapshot::{health, model};
+    use fusion_shared::snapshot::health;
     {
         use fusion_shared::fix;
         assert!(FUSION_FIX_UNKNOWN == fix::UNKNOWN && FUSION_FIX_NONE == fix::NONE && FUSION_FIX_2D == fix::TWO_D);

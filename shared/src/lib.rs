@@ -33,6 +33,8 @@ pub mod permissions;
 pub mod recording;
 #[cfg(feature = "ros")]
 pub mod ros;
+#[cfg(feature = "ros")]
+pub mod ros_msgs;
 pub mod sample;
 pub mod service;
 pub mod snapshot;

@@ -1,368 +1,38 @@
-//! The ROS messages a bag's topics are read as, and what fusiond's kinds take
-//! from each (REP-103 axes, REP-105 frames, REP-145 covariances).
-//!
-//! One set of types serves both encodings: ROS 1's serialisation (read by
-//! `serde_rosmsg`) and ROS 2's CDR (read by `cdr`); only the header differs
-//! (ROS 1 has a sequence number and unsigned seconds).
+//! The ROS messages fusiond reads ([`crate::ros_msgs`], re-exported here) and
+//! the samples each gives: a message is read as a kind by that kind's own
+//! declaration (`FromRos`, beside its wire type), dispatched from the kind
+//! list; which kinds a message type gives ([`MessageType::kinds`]) is what the
+//! kinds declare of it.
 
-use serde::{Deserialize, Serialize};
+pub use crate::ros_msgs::*;
+use crate::sample::{Sample, SampleKind};
 
-use crate::sample::{
-    AttitudeSample, BarometerSample, GeodeticSample, ImuSample, MagnetometerSample, OdometrySample, PoseSample, Sample,
-    SampleKind, TwistSample, fix,
-};
+/// Generates the dispatch from a kind to its [`FromRos`] from the kind list.
+macro_rules! ros_kinds {
+    ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident;)*) => {
+        /// The sample of `kind` in `message`, as the kind reads it.
+        fn convert<H: Stamp>(kind: SampleKind, message: Message<'_, H>, sensor: u32, seq: u64) -> Result<Sample, String> {
+            match kind {
+                $(SampleKind::$variant => <crate::sample::$ty as FromRos>::from_ros(message, sensor, seq).map(Sample::from),)*
+            }
+        }
 
-/// A ROS 1 `std_msgs/Header`.
-#[derive(Debug, Deserialize)]
-pub struct Ros1Header {
-    /// Sequence number (not used: fusiond numbers each topic's samples).
-    pub seq: u32,
-    /// Seconds.
-    pub sec: u32,
-    /// Nanoseconds.
-    pub nsec: u32,
-    /// Frame.
-    pub frame_id: String,
+        /// The message types a kind is read from ([`FromRos::MESSAGES`]).
+        pub fn messages_of(kind: SampleKind) -> &'static [MessageType] {
+            match kind {
+                $(SampleKind::$variant => <crate::sample::$ty as FromRos>::MESSAGES,)*
+            }
+        }
+    };
 }
-
-/// A ROS 2 `std_msgs/msg/Header`.
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-pub struct Ros2Header {
-    /// Seconds.
-    pub sec: i32,
-    /// Nanoseconds.
-    pub nanosec: u32,
-    /// Frame.
-    pub frame_id: String,
-}
-
-/// A header's stamp: the time of validity of its message.
-pub trait Stamp {
-    /// The stamp in ns, or why it is none.
-    fn t_ns(&self) -> Result<u64, String>;
-}
-
-fn stamp(sec: i64, nsec: u32) -> Result<u64, String> {
-    if sec < 0 || nsec >= 1_000_000_000 {
-        return Err(format!("header stamp {sec} s {nsec} ns is not a time"));
-    }
-    Ok(sec as u64 * 1_000_000_000 + u64::from(nsec))
-}
-
-impl Stamp for Ros1Header {
-    fn t_ns(&self) -> Result<u64, String> {
-        stamp(i64::from(self.sec), self.nsec)
-    }
-}
-
-impl Stamp for Ros2Header {
-    fn t_ns(&self) -> Result<u64, String> {
-        stamp(i64::from(self.sec), self.nanosec)
-    }
-}
-
-/// `geometry_msgs/Vector3` (and `Point`).
-#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Serialize)]
-pub struct Vector3 {
-    /// x.
-    pub x: f64,
-    /// y.
-    pub y: f64,
-    /// z.
-    pub z: f64,
-}
-
-impl Vector3 {
-    fn array(&self) -> [f64; 3] {
-        [self.x, self.y, self.z]
-    }
-}
-
-/// `geometry_msgs/Quaternion`.
-#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Serialize)]
-pub struct Quaternion {
-    /// x.
-    pub x: f64,
-    /// y.
-    pub y: f64,
-    /// z.
-    pub z: f64,
-    /// w.
-    pub w: f64,
-}
-
-impl Quaternion {
-    fn wxyz(&self) -> [f64; 4] {
-        [self.w, self.x, self.y, self.z]
-    }
-
-    /// The rotation matrix, row-major (normalised).
-    fn matrix(&self) -> [[f64; 3]; 3] {
-        let n = (self.w * self.w + self.x * self.x + self.y * self.y + self.z * self.z).sqrt();
-        let (w, x, y, z) = (self.w / n, self.x / n, self.y / n, self.z / n);
-        [
-            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
-            [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
-            [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
-        ]
-    }
-}
-
-/// A row-major 6×6 covariance (a fixed array: no length on the wire).
-pub type Cov6 = [[f64; 6]; 6];
-
-/// `sensor_msgs/Imu`.
-#[derive(Debug, Deserialize, Clone, Serialize)]
-pub struct Imu<H> {
-    /// Header.
-    pub header: H,
-    /// Orientation of the sensor's axes in the world frame.
-    pub orientation: Quaternion,
-    /// Its covariance (about the world's axes); element 0 = −1: not given.
-    pub orientation_covariance: [f64; 9],
-    /// Angular rate, rad/s.
-    pub angular_velocity: Vector3,
-    /// Its covariance; element 0 = −1: not given.
-    pub angular_velocity_covariance: [f64; 9],
-    /// Specific force, m/s².
-    pub linear_acceleration: Vector3,
-    /// Its covariance; element 0 = −1: not given.
-    pub linear_acceleration_covariance: [f64; 9],
-}
-
-/// `geometry_msgs/Pose`.
-#[derive(Debug, Deserialize, Serialize, Clone)]
-pub struct Pose {
-    /// Position.
-    pub position: Vector3,
-    /// Orientation.
-    pub orientation: Quaternion,
-}
-
-/// `geometry_msgs/PoseWithCovariance`.
-#[derive(Debug, Deserialize, Serialize, Clone)]
-pub struct PoseWithCovariance {
-    /// Pose.
-    pub pose: Pose,
-    /// `[x, y, z, rot x, rot y, rot z]`, the rotation about the fixed axes.
-    pub covariance: Cov6,
-}
-
-/// `geometry_msgs/Twist`.
-#[derive(Debug, Deserialize, Serialize, Clone)]
-pub struct Twist {
-    /// m/s.
-    pub linear: Vector3,
-    /// rad/s.
-    pub angular: Vector3,
-}
-
-/// `geometry_msgs/TwistWithCovariance`.
-#[derive(Debug, Deserialize, Serialize, Clone)]
-pub struct TwistWithCovariance {
-    /// Twist.
-    pub twist: Twist,
-    /// Linear then angular.
-    pub covariance: Cov6,
-}
-
-/// `nav_msgs/Odometry`.
-#[derive(Debug, Deserialize, Serialize, Clone)]
-pub struct Odometry<H> {
-    /// Header (the pose's frame).
-    pub header: H,
-    /// The twist's frame (the robot's `base_link`).
-    pub child_frame_id: String,
-    /// Pose in `header.frame_id`.
-    pub pose: PoseWithCovariance,
-    /// Twist in `child_frame_id`.
-    pub twist: TwistWithCovariance,
-}
-
-/// `sensor_msgs/NavSatStatus`.
-#[derive(Debug, Deserialize, Clone, Serialize)]
-pub struct NavSatStatus {
-    /// −1 no fix, 0 fix, 1 SBAS, 2 GBAS.
-    pub status: i8,
-    /// Constellations.
-    pub service: u16,
-}
-
-/// `sensor_msgs/NavSatFix`.
-#[derive(Debug, Deserialize, Clone, Serialize)]
-pub struct NavSatFix<H> {
-    /// Header.
-    pub header: H,
-    /// Fix status.
-    pub status: NavSatStatus,
-    /// Degrees.
-    pub latitude: f64,
-    /// Degrees.
-    pub longitude: f64,
-    /// Metres above the WGS-84 ellipsoid.
-    pub altitude: f64,
-    /// ENU, m², row-major.
-    pub position_covariance: [f64; 9],
-    /// 0 unknown, 1 approximated, 2 diagonal known, 3 known.
-    pub position_covariance_type: u8,
-}
-
-/// `geometry_msgs/TwistWithCovarianceStamped`.
-#[derive(Debug, Deserialize, Clone, Serialize)]
-pub struct TwistWithCovarianceStamped<H> {
-    /// Header (the twist's frame).
-    pub header: H,
-    /// Twist.
-    pub twist: TwistWithCovariance,
-}
-
-/// `geometry_msgs/PoseWithCovarianceStamped`.
-#[derive(Debug, Deserialize, Clone, Serialize)]
-pub struct PoseWithCovarianceStamped<H> {
-    /// Header (the map frame).
-    pub header: H,
-    /// Pose.
-    pub pose: PoseWithCovariance,
-}
-
-/// `sensor_msgs/FluidPressure`.
-#[derive(Debug, Deserialize, Clone, Serialize)]
-pub struct FluidPressure<H> {
-    /// Header.
-    pub header: H,
-    /// Pa.
-    pub fluid_pressure: f64,
-    /// Pa²; 0: unknown.
-    pub variance: f64,
-}
-
-/// `sensor_msgs/MagneticField`.
-#[derive(Debug, Deserialize, Clone, Serialize)]
-pub struct MagneticField<H> {
-    /// Header.
-    pub header: H,
-    /// Tesla, sensor axes.
-    pub magnetic_field: Vector3,
-    /// T², row-major; all zero: unknown.
-    pub magnetic_field_covariance: [f64; 9],
-}
-
-/// A message type fusiond reads, by its ROS name (`sensor_msgs/Imu`; ROS 2's
-/// `sensor_msgs/msg/Imu` is the same).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum MessageType {
-    /// `sensor_msgs/Imu`.
-    Imu,
-    /// `nav_msgs/Odometry`.
-    Odometry,
-    /// `sensor_msgs/NavSatFix`.
-    NavSatFix,
-    /// `geometry_msgs/TwistWithCovarianceStamped`.
-    TwistWithCovarianceStamped,
-    /// `geometry_msgs/PoseWithCovarianceStamped`.
-    PoseWithCovarianceStamped,
-    /// `sensor_msgs/FluidPressure`.
-    FluidPressure,
-    /// `sensor_msgs/MagneticField`.
-    MagneticField,
-}
+crate::for_each_sample_kind!(ros_kinds);
 
 impl MessageType {
-    /// Every type read, with its ROS name.
-    pub const ALL: [(MessageType, &'static str); 7] = [
-        (MessageType::Imu, "sensor_msgs/Imu"),
-        (MessageType::Odometry, "nav_msgs/Odometry"),
-        (MessageType::NavSatFix, "sensor_msgs/NavSatFix"),
-        (MessageType::TwistWithCovarianceStamped, "geometry_msgs/TwistWithCovarianceStamped"),
-        (MessageType::PoseWithCovarianceStamped, "geometry_msgs/PoseWithCovarianceStamped"),
-        (MessageType::FluidPressure, "sensor_msgs/FluidPressure"),
-        (MessageType::MagneticField, "sensor_msgs/MagneticField"),
-    ];
-
-    /// The type of a ROS name (ROS 1 or ROS 2 spelling).
-    pub fn from_name(name: &str) -> Option<Self> {
-        let name = name.replacen("/msg/", "/", 1);
-        Self::ALL.iter().find(|(_, n)| *n == name).map(|(t, _)| *t)
+    /// The kinds a message of this type gives, in kind order: each kind that
+    /// declares it among its [`FromRos::MESSAGES`].
+    pub fn kinds(self) -> Vec<SampleKind> {
+        SampleKind::ALL.iter().copied().filter(|&k| messages_of(k).contains(&self)).collect()
     }
-
-    /// The kinds a message of this type gives.
-    pub fn kinds(self) -> &'static [SampleKind] {
-        match self {
-            MessageType::Imu => &[SampleKind::Imu, SampleKind::Attitude],
-            MessageType::Odometry => &[SampleKind::Odometry, SampleKind::Twist, SampleKind::Pose],
-            MessageType::NavSatFix => &[SampleKind::Geodetic],
-            MessageType::TwistWithCovarianceStamped => &[SampleKind::Odometry, SampleKind::Twist],
-            MessageType::PoseWithCovarianceStamped => &[SampleKind::Pose],
-            MessageType::FluidPressure => &[SampleKind::Barometer],
-            MessageType::MagneticField => &[SampleKind::Magnetometer],
-        }
-    }
-}
-
-/// `−1` in a covariance's first element: the value is not given (REP-145 for
-/// `sensor_msgs/Imu`).
-fn not_given(cov: &[f64]) -> bool {
-    cov[0] == -1.0
-}
-
-/// A covariance with nothing in it: unknown (REP-145).
-fn unknown(cov: &[f64]) -> bool {
-    cov.iter().all(|v| *v == 0.0)
-}
-
-fn flat6(c: &Cov6) -> [f64; 36] {
-    let mut out = [0.0; 36];
-    for (r, row) in c.iter().enumerate() {
-        out[r * 6..r * 6 + 6].copy_from_slice(row);
-    }
-    out
-}
-
-/// `Mᵀ Σ M` of a 3×3 block: a covariance about the world's axes taken to the
-/// axes of the rotation `M` (world ← sensor).
-fn to_sensor_axes(m: &[[f64; 3]; 3], cov: &[f64; 9]) -> [f64; 9] {
-    let mut out = [0.0; 9];
-    for i in 0..3 {
-        for j in 0..3 {
-            out[i * 3 + j] =
-                (0..3).flat_map(|a| (0..3).map(move |b| (a, b))).map(|(a, b)| m[a][i] * cov[a * 3 + b] * m[b][j]).sum();
-        }
-    }
-    out
-}
-
-/// A pose's 6×6 covariance with its rotation block (about the fixed axes in
-/// ROS) taken to the sensor's axes, the cross blocks with it.
-fn pose_cov(p: &PoseWithCovariance) -> [f64; 36] {
-    let m = p.pose.orientation.matrix();
-    let c = flat6(&p.covariance);
-    let mut out = c;
-    // [Σ_pp, Σ_pθ M; Mᵀ Σ_θp, Mᵀ Σ_θθ M]
-    for i in 0..6 {
-        for j in 0..6 {
-            let (ri, rj) = (i >= 3, j >= 3);
-            out[i * 6 + j] = match (ri, rj) {
-                (false, false) => c[i * 6 + j],
-                (false, true) => (0..3).map(|b| c[i * 6 + 3 + b] * m[b][j - 3]).sum(),
-                (true, false) => (0..3).map(|a| m[a][i - 3] * c[(3 + a) * 6 + j]).sum(),
-                (true, true) => (0..3)
-                    .flat_map(|a| (0..3).map(move |b| (a, b)))
-                    .map(|(a, b)| m[a][i - 3] * c[(3 + a) * 6 + 3 + b] * m[b][j - 3])
-                    .sum(),
-            };
-        }
-    }
-    out
-}
-
-/// A twist as a `twist` sample (the whole twist), or else as an `odometry`
-/// one (its forward speed, `linear.x`, with its variance).
-fn moving(t: &TwistWithCovariance, kind: SampleKind, t_ns: u64, sensor: u32, seq: u64) -> Sample {
-    if kind == SampleKind::Twist {
-        let (v, w) = (t.twist.linear.array(), t.twist.angular.array());
-        return TwistSample::new(t_ns, sensor, seq, v, w, flat6(&t.covariance)).into();
-    }
-    OdometrySample::new(t_ns, sensor, seq, t.twist.linear.x, t.covariance[0][0]).into()
 }
 
 /// What a decoded message gives for `kind`, numbered `seq` of sensor `sensor`:
@@ -372,125 +42,42 @@ pub trait Convert {
     fn sample(&self, kind: SampleKind, sensor: u32, seq: u64) -> Result<Sample, String>;
 }
 
-impl<H: Stamp> Convert for Imu<H> {
-    fn sample(&self, kind: SampleKind, sensor: u32, seq: u64) -> Result<Sample, String> {
-        let t = self.header.t_ns()?;
-        match kind {
-            SampleKind::Attitude => {
-                if not_given(&self.orientation_covariance) {
-                    return Err("orientation not given (orientation_covariance[0] = -1)".into());
-                }
-                if unknown(&self.orientation_covariance) {
-                    return Err("orientation covariance unknown (all zero)".into());
-                }
-                let cov = to_sensor_axes(&self.orientation.matrix(), &self.orientation_covariance);
-                Ok(AttitudeSample::new(t, sensor, seq, self.orientation.wxyz(), cov).into())
+/// Each message type's [`Convert`]: the kind's own reading of it.
+macro_rules! convert_by_kind {
+    ($($ty:ident),*) => {
+        $(impl<H: Stamp> Convert for $ty<H> {
+            fn sample(&self, kind: SampleKind, sensor: u32, seq: u64) -> Result<Sample, String> {
+                convert(kind, Message::$ty(self), sensor, seq)
             }
-            _ => {
-                if not_given(&self.angular_velocity_covariance) || not_given(&self.linear_acceleration_covariance) {
-                    return Err("angular velocity or acceleration not given (covariance[0] = -1)".into());
-                }
-                let (f, w) = (self.linear_acceleration.array(), self.angular_velocity.array());
-                Ok(ImuSample::new(t, sensor, seq, f, w).into())
-            }
-        }
-    }
+        })*
+    };
 }
-
-impl<H: Stamp> Convert for Odometry<H> {
-    fn sample(&self, kind: SampleKind, sensor: u32, seq: u64) -> Result<Sample, String> {
-        let t = self.header.t_ns()?;
-        match kind {
-            SampleKind::Pose => Ok(PoseSample::new(
-                t,
-                sensor,
-                seq,
-                self.pose.pose.position.array(),
-                self.pose.pose.orientation.wxyz(),
-                pose_cov(&self.pose),
-                0,
-            )
-            .into()),
-            _ => Ok(moving(&self.twist, kind, t, sensor, seq)),
-        }
-    }
-}
-
-impl<H: Stamp> Convert for TwistWithCovarianceStamped<H> {
-    fn sample(&self, kind: SampleKind, sensor: u32, seq: u64) -> Result<Sample, String> {
-        Ok(moving(&self.twist, kind, self.header.t_ns()?, sensor, seq))
-    }
-}
-
-impl<H: Stamp> Convert for PoseWithCovarianceStamped<H> {
-    fn sample(&self, _: SampleKind, sensor: u32, seq: u64) -> Result<Sample, String> {
-        let t = self.header.t_ns()?;
-        let p = &self.pose.pose;
-        Ok(PoseSample::new(t, sensor, seq, p.position.array(), p.orientation.wxyz(), pose_cov(&self.pose), 0).into())
-    }
-}
-
-impl<H: Stamp> Convert for NavSatFix<H> {
-    fn sample(&self, _: SampleKind, sensor: u32, seq: u64) -> Result<Sample, String> {
-        let t = self.header.t_ns()?;
-        let fix_type = match self.status.status {
-            s if s < 0 => return Err("no fix (status -1)".into()),
-            0 => fix::THREE_D,
-            _ => fix::DGNSS,
-        };
-        if self.position_covariance_type == 0 {
-            return Err("position covariance unknown (position_covariance_type 0)".into());
-        }
-        let s =
-            GeodeticSample::new(t, sensor, seq, self.latitude, self.longitude, self.altitude, self.position_covariance);
-        Ok(s.with_quality(fix_type, 0, 0.0, 0.0).into())
-    }
-}
-
-impl<H: Stamp> Convert for FluidPressure<H> {
-    fn sample(&self, _: SampleKind, sensor: u32, seq: u64) -> Result<Sample, String> {
-        let t = self.header.t_ns()?;
-        if self.variance == 0.0 {
-            return Err("pressure variance unknown (0)".into());
-        }
-        Ok(BarometerSample::new(t, sensor, seq, self.fluid_pressure, self.variance).into())
-    }
-}
-
-impl<H: Stamp> Convert for MagneticField<H> {
-    fn sample(&self, _: SampleKind, sensor: u32, seq: u64) -> Result<Sample, String> {
-        let t = self.header.t_ns()?;
-        if unknown(&self.magnetic_field_covariance) {
-            return Err("field covariance unknown (all zero)".into());
-        }
-        // Tesla → µT.
-        let field = self.magnetic_field.array().map(|v| v * 1e6);
-        let cov = self.magnetic_field_covariance.map(|v| v * 1e12);
-        Ok(MagnetometerSample::new(t, sensor, seq, field, cov).into())
-    }
-}
+convert_by_kind!(
+    Imu,
+    Odometry,
+    NavSatFix,
+    TwistWithCovarianceStamped,
+    PoseWithCovarianceStamped,
+    FluidPressure,
+    MagneticField
+);
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// The kinds each message type gives, as the kinds declare them.
     #[test]
-    fn ros1_and_ros2_names_are_one_type() {
-        assert_eq!(MessageType::from_name("sensor_msgs/Imu"), Some(MessageType::Imu));
-        assert_eq!(MessageType::from_name("sensor_msgs/msg/Imu"), Some(MessageType::Imu));
-        assert_eq!(MessageType::from_name("nav_msgs/msg/Odometry"), Some(MessageType::Odometry));
-        assert_eq!(MessageType::from_name("sensor_msgs/Image"), None);
-    }
-
-    /// A rotation's covariance about the world's axes, taken to the sensor's:
-    /// a sensor yawed 90° sees the world's x variance on its y axis.
-    #[test]
-    fn covariances_turn_into_the_sensors_axes() {
-        let h = std::f64::consts::FRAC_1_SQRT_2;
-        let q = Quaternion { x: 0.0, y: 0.0, z: h, w: h };
-        let cov = to_sensor_axes(&q.matrix(), &[1.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 3.0]);
-        let expected = [2.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 3.0];
-        assert!(cov.iter().zip(expected).all(|(a, b)| (a - b).abs() < 1e-12), "{cov:?}");
+    fn each_message_type_gives_the_kinds_that_read_it() {
+        use SampleKind as K;
+        let gives = |t: MessageType| t.kinds();
+        assert_eq!(gives(MessageType::Imu), [K::Imu, K::Attitude]);
+        assert_eq!(gives(MessageType::Odometry), [K::Odometry, K::Twist, K::Pose]);
+        assert_eq!(gives(MessageType::NavSatFix), [K::Geodetic]);
+        assert_eq!(gives(MessageType::TwistWithCovarianceStamped), [K::Odometry, K::Twist]);
+        assert_eq!(gives(MessageType::PoseWithCovarianceStamped), [K::Pose]);
+        assert_eq!(gives(MessageType::FluidPressure), [K::Barometer]);
+        assert_eq!(gives(MessageType::MagneticField), [K::Magnetometer]);
     }
 
     /// A twist gives the whole twist to `twist` (its 6×6 covariance row-major)
@@ -502,15 +89,18 @@ mod tests {
             row[i] = 0.01 * (i + 1) as f64;
         }
         covariance[0][5] = 0.001;
-        let t = TwistWithCovariance {
+        let twist = TwistWithCovariance {
             twist: Twist { linear: Vector3 { x: 1.5, y: -0.1, z: 0.0 }, angular: Vector3 { x: 0.0, y: 0.0, z: 0.3 } },
             covariance,
         };
-        let Sample::Twist(s) = moving(&t, SampleKind::Twist, 7, 2, 3) else { panic!() };
+        let header = Ros2Header { sec: 0, nanosec: 7, frame_id: String::new() };
+        let t = TwistWithCovarianceStamped { header, twist };
+        let Ok(Sample::Twist(s)) = t.sample(SampleKind::Twist, 2, 3) else { panic!() };
         assert_eq!((s.header.t_ns, s.header.sensor, s.header.seq), (7, 2, 3));
         assert_eq!((s.linear_mps, s.angular_radps), ([1.5, -0.1, 0.0], [0.0, 0.0, 0.3]));
         assert_eq!((s.cov[0], s.cov[5], s.cov[35]), (0.01, 0.001, 0.06));
-        let Sample::Odometry(o) = moving(&t, SampleKind::Odometry, 7, 2, 3) else { panic!() };
+        let Ok(Sample::Odometry(o)) = t.sample(SampleKind::Odometry, 2, 3) else { panic!() };
         assert_eq!((o.speed_mps, o.var_m2ps2), (1.5, 0.01));
+        assert!(t.sample(SampleKind::Barometer, 2, 3).is_err());
     }
 }

@@ -92,3 +92,27 @@ impl crate::sample::KindProgress for AttitudeSample {
 }
 
 crate::wire_layout!(AttitudeSample, "An AHRS's orientation: unit quaternion `[w, x, y, z]` of the sensor's axes into the world frame (ENU), with the covariance of its error about the sensor's axes (rad², row-major 3×3).", { header, orientation_wxyz, cov_rad2 });
+
+/// A `sensor_msgs/Imu`'s orientation, its covariance taken from the world's axes to the sensor's (REP-145).
+#[cfg(feature = "ros")]
+impl crate::ros_msgs::FromRos for AttitudeSample {
+    const MESSAGES: &'static [crate::ros_msgs::MessageType] = &[crate::ros_msgs::MessageType::Imu];
+
+    fn from_ros<H: crate::ros_msgs::Stamp>(
+        m: crate::ros_msgs::Message<'_, H>,
+        sensor: u32,
+        seq: u64,
+    ) -> Result<Self, String> {
+        use crate::ros_msgs::{self as ros, Message};
+        let Message::Imu(imu) = m else { return Err(ros::not_read("attitude")) };
+        let t = imu.header.t_ns()?;
+        if ros::not_given(&imu.orientation_covariance) {
+            return Err("orientation not given (orientation_covariance[0] = -1)".into());
+        }
+        if ros::unknown(&imu.orientation_covariance) {
+            return Err("orientation covariance unknown (all zero)".into());
+        }
+        let cov = ros::to_sensor_axes(&imu.orientation.matrix(), &imu.orientation_covariance);
+        Ok(AttitudeSample::new(t, sensor, seq, imu.orientation.wxyz(), cov))
+    }
+}

@@ -96,6 +96,26 @@ impl crate::sample::KindProgress for BarometerSample {
 
 crate::wire_layout!(BarometerSample, "Static air pressure, Pa, with its variance (Pa²).", { header, pressure_pa, var_pa2 });
 
+/// A `sensor_msgs/FluidPressure`, Pa.
+#[cfg(feature = "ros")]
+impl crate::ros_msgs::FromRos for BarometerSample {
+    const MESSAGES: &'static [crate::ros_msgs::MessageType] = &[crate::ros_msgs::MessageType::FluidPressure];
+
+    fn from_ros<H: crate::ros_msgs::Stamp>(
+        m: crate::ros_msgs::Message<'_, H>,
+        sensor: u32,
+        seq: u64,
+    ) -> Result<Self, String> {
+        use crate::ros_msgs::{self as ros, Message};
+        let Message::FluidPressure(p) = m else { return Err(ros::not_read("barometer")) };
+        let t = p.header.t_ns()?;
+        if p.variance == 0.0 {
+            return Err("pressure variance unknown (0)".into());
+        }
+        Ok(BarometerSample::new(t, sensor, seq, p.fluid_pressure, p.variance))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

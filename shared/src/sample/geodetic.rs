@@ -166,3 +166,30 @@ impl crate::sample::KindProgress for GeodeticSample {
 }
 
 crate::wire_layout!(GeodeticSample, "A GNSS fix: WGS-84 latitude, longitude (deg), ellipsoidal height (m); ENU covariance m²; the receiver's fix type (`FIX_*`), satellites used, HDOP and VDOP (0: not reported).", { header, lat_deg, lon_deg, height_m, cov_enu_m2, fix_type, satellites, hdop, vdop });
+
+/// A `sensor_msgs/NavSatFix` (no fix: none; SBAS or GBAS: DGNSS).
+#[cfg(feature = "ros")]
+impl crate::ros_msgs::FromRos for GeodeticSample {
+    const MESSAGES: &'static [crate::ros_msgs::MessageType] = &[crate::ros_msgs::MessageType::NavSatFix];
+
+    fn from_ros<H: crate::ros_msgs::Stamp>(
+        m: crate::ros_msgs::Message<'_, H>,
+        sensor: u32,
+        seq: u64,
+    ) -> Result<Self, String> {
+        use crate::ros_msgs::{self as ros, Message};
+        use crate::sample::fix;
+        let Message::NavSatFix(f) = m else { return Err(ros::not_read("geodetic")) };
+        let t = f.header.t_ns()?;
+        let fix_type = match f.status.status {
+            s if s < 0 => return Err("no fix (status -1)".into()),
+            0 => fix::THREE_D,
+            _ => fix::DGNSS,
+        };
+        if f.position_covariance_type == 0 {
+            return Err("position covariance unknown (position_covariance_type 0)".into());
+        }
+        let s = GeodeticSample::new(t, sensor, seq, f.latitude, f.longitude, f.altitude, f.position_covariance);
+        Ok(s.with_quality(fix_type, 0, 0.0, 0.0))
+    }
+}

@@ -74,6 +74,10 @@ impl crate::sample::KindProgress for HeadingSample {
 
 crate::wire_layout!(HeadingSample, "Yaw, rad ENU (from east, counter-clockwise), with its variance.", { header, yaw_rad, var_rad2 });
 
+/// Not read from ROS messages.
+#[cfg(feature = "ros")]
+impl crate::ros_msgs::FromRos for HeadingSample {}
+
 #[cfg(test)]
 mod tests {
     use super::*;

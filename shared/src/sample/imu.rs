@@ -63,3 +63,24 @@ impl crate::sample::KindProgress for ImuSample {
 }
 
 crate::wire_layout!(ImuSample, "Specific force (`ins`) or world acceleration (`linear`), m/s²; angular rate, rad/s.", { header, accel_mps2, gyro_radps });
+
+/// A `sensor_msgs/Imu`'s specific force and angular rate (REP-145: `-1` in a covariance: not given).
+#[cfg(feature = "ros")]
+impl crate::ros_msgs::FromRos for ImuSample {
+    const MESSAGES: &'static [crate::ros_msgs::MessageType] = &[crate::ros_msgs::MessageType::Imu];
+
+    fn from_ros<H: crate::ros_msgs::Stamp>(
+        m: crate::ros_msgs::Message<'_, H>,
+        sensor: u32,
+        seq: u64,
+    ) -> Result<Self, String> {
+        use crate::ros_msgs::{self as ros, Message};
+        let Message::Imu(imu) = m else { return Err(ros::not_read("imu")) };
+        let t = imu.header.t_ns()?;
+        if ros::not_given(&imu.angular_velocity_covariance) || ros::not_given(&imu.linear_acceleration_covariance) {
+            return Err("angular velocity or acceleration not given (covariance[0] = -1)".into());
+        }
+        let (f, w) = (imu.linear_acceleration.array(), imu.angular_velocity.array());
+        Ok(ImuSample::new(t, sensor, seq, f, w))
+    }
+}

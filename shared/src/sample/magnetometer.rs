@@ -71,3 +71,26 @@ impl crate::sample::KindProgress for MagnetometerSample {
 }
 
 crate::wire_layout!(MagnetometerSample, "A magnetometer's field, µT in the sensor's axes (calibrated), with its covariance (µT², row-major 3×3).", { header, field_ut, cov_ut2 });
+
+/// A `sensor_msgs/MagneticField`, T → µT.
+#[cfg(feature = "ros")]
+impl crate::ros_msgs::FromRos for MagnetometerSample {
+    const MESSAGES: &'static [crate::ros_msgs::MessageType] = &[crate::ros_msgs::MessageType::MagneticField];
+
+    fn from_ros<H: crate::ros_msgs::Stamp>(
+        m: crate::ros_msgs::Message<'_, H>,
+        sensor: u32,
+        seq: u64,
+    ) -> Result<Self, String> {
+        use crate::ros_msgs::{self as ros, Message};
+        let Message::MagneticField(f) = m else { return Err(ros::not_read("magnetometer")) };
+        let t = f.header.t_ns()?;
+        if ros::unknown(&f.magnetic_field_covariance) {
+            return Err("field covariance unknown (all zero)".into());
+        }
+        // Tesla → µT.
+        let field = f.magnetic_field.array().map(|v| v * 1e6);
+        let cov = f.magnetic_field_covariance.map(|v| v * 1e12);
+        Ok(MagnetometerSample::new(t, sensor, seq, field, cov))
+    }
+}

@@ -63,3 +63,21 @@ impl crate::sample::KindProgress for OdometrySample {
 }
 
 crate::wire_layout!(OdometrySample, "Forward speed from wheel odometry, m/s, with its variance.", { header, speed_mps, var_m2ps2 });
+
+/// The forward speed (`linear.x`) of a twist, an odometry's or a stamped one, with its variance.
+#[cfg(feature = "ros")]
+impl crate::ros_msgs::FromRos for OdometrySample {
+    const MESSAGES: &'static [crate::ros_msgs::MessageType] =
+        &[crate::ros_msgs::MessageType::Odometry, crate::ros_msgs::MessageType::TwistWithCovarianceStamped];
+
+    fn from_ros<H: crate::ros_msgs::Stamp>(
+        m: crate::ros_msgs::Message<'_, H>,
+        sensor: u32,
+        seq: u64,
+    ) -> Result<Self, String> {
+        use crate::ros_msgs as ros;
+        let Some(twist) = m.twist() else { return Err(ros::not_read("odometry")) };
+        let t = m.t_ns()?;
+        Ok(OdometrySample::new(t, sensor, seq, twist.twist.linear.x, twist.covariance[0][0]))
+    }
+}

@@ -136,3 +136,22 @@ impl crate::sample::KindProgress for PoseSample {
 }
 
 crate::wire_layout!(PoseSample, "A localiser's pose in its map frame: position (m), unit quaternion `[w, x, y, z]` of the sensor's axes into the map, covariance (row-major 6×6, position then attitude about the sensor's axes) and the localiser's reset counter.", { header, position_m, orientation_wxyz, cov, reset_counter, reserved });
+
+/// The pose, an odometry's or a stamped one, its rotation covariance taken to the sensor's axes.
+#[cfg(feature = "ros")]
+impl crate::ros_msgs::FromRos for PoseSample {
+    const MESSAGES: &'static [crate::ros_msgs::MessageType] =
+        &[crate::ros_msgs::MessageType::Odometry, crate::ros_msgs::MessageType::PoseWithCovarianceStamped];
+
+    fn from_ros<H: crate::ros_msgs::Stamp>(
+        m: crate::ros_msgs::Message<'_, H>,
+        sensor: u32,
+        seq: u64,
+    ) -> Result<Self, String> {
+        use crate::ros_msgs as ros;
+        let Some(pose) = m.pose() else { return Err(ros::not_read("pose")) };
+        let t = m.t_ns()?;
+        let p = &pose.pose;
+        Ok(PoseSample::new(t, sensor, seq, p.position.array(), p.orientation.wxyz(), ros::pose_cov(pose), 0))
+    }
+}

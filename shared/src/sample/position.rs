@@ -58,3 +58,7 @@ impl crate::sample::KindProgress for PositionSample {
 }
 
 crate::wire_layout!(PositionSample, "A position fix, m ENU, with its covariance (m², row-major 3×3).", { header, pos_m, cov_m2 });
+
+/// Not read from ROS messages.
+#[cfg(feature = "ros")]
+impl crate::ros_msgs::FromRos for PositionSample {}

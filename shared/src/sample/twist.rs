@@ -127,3 +127,22 @@ impl crate::sample::KindProgress for TwistSample {
 }
 
 crate::wire_layout!(TwistSample, "Linear (m/s) and angular (rad/s) velocity in the sensor's axes, with their covariance (row-major 6×6, linear then angular): visual or lidar odometry.", { header, linear_mps, angular_radps, cov });
+
+/// The whole twist, an odometry's or a stamped one, with its 6×6 covariance.
+#[cfg(feature = "ros")]
+impl crate::ros_msgs::FromRos for TwistSample {
+    const MESSAGES: &'static [crate::ros_msgs::MessageType] =
+        &[crate::ros_msgs::MessageType::Odometry, crate::ros_msgs::MessageType::TwistWithCovarianceStamped];
+
+    fn from_ros<H: crate::ros_msgs::Stamp>(
+        m: crate::ros_msgs::Message<'_, H>,
+        sensor: u32,
+        seq: u64,
+    ) -> Result<Self, String> {
+        use crate::ros_msgs as ros;
+        let Some(twist) = m.twist() else { return Err(ros::not_read("twist")) };
+        let t = m.t_ns()?;
+        let (v, w) = (twist.twist.linear.array(), twist.twist.angular.array());
+        Ok(TwistSample::new(t, sensor, seq, v, w, ros::flat6(&twist.covariance)))
+    }
+}

@@ -60,3 +60,7 @@ impl crate::sample::KindProgress for VelocitySample {
 }
 
 crate::wire_layout!(VelocitySample, "A velocity, m/s ENU, with its covariance (m²/s², row-major 3×3).", { header, vel_mps, cov_m2ps2 });
+
+/// Not read from ROS messages.
+#[cfg(feature = "ros")]
+impl crate::ros_msgs::FromRos for VelocitySample {}
