@@ -67,6 +67,49 @@ impl Sensor for AttitudeConfig {
 }
 
 
+
+/// `fusion-sim`'s flags of the attitude (an AHRS).
+#[cfg(feature = "cli")]
+#[derive(clap::Args, Clone, Debug)]
+pub struct AttitudeFlags {
+    /// Attitude (an AHRS's orientation) rate, Hz; 0: none (sensor id 0).
+    #[arg(long, default_value_t = 0.0)]
+    pub attitude_rate: f64,
+    /// Attitude noise per axis, degrees.
+    #[arg(long, default_value_t = 0.5)]
+    pub attitude_noise_deg: f64,
+    /// A constant error of the AHRS's yaw, degrees (a magnetic yaw indoors).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub attitude_yaw_error_deg: f64,
+    /// The AHRS's mount, `AXES:ROLL,PITCH,YAW` (degrees; body ← sensor).
+    #[arg(long, default_value = "flu:0,0,0")]
+    pub attitude_mount: String,
+}
+
+#[cfg(feature = "cli")]
+impl super::flags::KindFlags for fusion_shared::AttitudeSample {
+    type Flags = AttitudeFlags;
+
+    fn apply(
+        f: &AttitudeFlags,
+        _drive: &super::flags::DriveFlags,
+        _all: &super::flags::KindsFlags,
+        c: &mut super::ScenarioConfig,
+    ) -> anyhow::Result<()> {
+        use std::sync::Arc;
+        if f.attitude_rate > 0.0 {
+            c.aiding.push(Arc::new(AttitudeConfig {
+                rate_hz: f.attitude_rate,
+                noise_std_rad: f.attitude_noise_deg.to_radians(),
+                yaw_error_rad: f.attitude_yaw_error_deg.to_radians(),
+                rotation: super::flags::parse_mount("--attitude-mount", &f.attitude_mount)?,
+                ..Default::default()
+            }));
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -83,6 +83,48 @@ impl Sensor for BarometerConfig {
 }
 
 
+
+/// `fusion-sim`'s flags of the barometer.
+#[cfg(feature = "cli")]
+#[derive(clap::Args, Clone, Debug)]
+pub struct BarometerFlags {
+    /// Barometer rate, Hz; 0: none (sensor id 0; `--dropouts` applies).
+    #[arg(long, default_value_t = 0.0)]
+    pub barometer_rate: f64,
+    /// Barometer noise, Pa (1 Pa is about 8 cm of height).
+    #[arg(long, default_value_t = 3.0)]
+    pub barometer_noise_pa: f64,
+    /// The barometer's port in the body frame: x,y,z, m.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub barometer_lever_arm: Option<Vec<f64>>,
+}
+
+#[cfg(feature = "cli")]
+impl super::flags::KindFlags for fusion_shared::BarometerSample {
+    type Flags = BarometerFlags;
+
+    fn apply(
+        f: &BarometerFlags,
+        drive: &super::flags::DriveFlags,
+        _all: &super::flags::KindsFlags,
+        c: &mut super::ScenarioConfig,
+    ) -> anyhow::Result<()> {
+        use std::sync::Arc;
+        if f.barometer_rate <= 0.0 {
+            return Ok(());
+        }
+        let arm = super::flags::triple("--barometer-lever-arm", f.barometer_lever_arm.as_deref())?;
+        c.aiding.push(Arc::new(BarometerConfig {
+            rate_hz: f.barometer_rate,
+            noise_pa: f.barometer_noise_pa,
+            lever_arm_m: arm.unwrap_or([0.0; 3]),
+            dropout_probability: drive.dropouts,
+            ..Default::default()
+        }));
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -183,6 +183,69 @@ impl AidingSim for GeodeticConfig {
     }
 }
 
+
+/// `fusion-sim`'s flags of the geodetic fixes (the position fixes' receiver, its datum and its fix phases).
+#[cfg(feature = "cli")]
+#[derive(clap::Args, Clone, Debug)]
+pub struct GeodeticFlags {
+    /// Geodetic GNSS (latitude, longitude, height) rate, Hz; 0: no such receiver.
+    #[arg(long, default_value_t = 0.0)]
+    pub geodetic_rate: f64,
+    /// Horizontal noise of the geodetic fixes, m (vertical: 1.6×).
+    #[arg(long, default_value_t = 0.5)]
+    pub geodetic_noise: f64,
+    /// Where trajectory position 0 is: latitude (deg), longitude (deg), height
+    /// above the WGS-84 ellipsoid (m) (default: Munich, 48.1316,11.5494,519).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub datum: Option<Vec<f64>>,
+    /// The GNSS receiver's fix type from AT s into the drive on, `AT:TYPE` with
+    /// TYPE `rtk_fixed` (2 cm, reported 1.4 cm), `rtk_float` (0.3 m, reported
+    /// 5 cm), `3d` (1.5 m, reported 0.8 m) or `none` (10 m); the geodetic fixes
+    /// then carry the fix type, satellites and DOPs. Repeatable, in order.
+    #[arg(long, value_name = "AT:TYPE")]
+    pub fix_phase: Vec<FixPhase>,
+}
+
+#[cfg(feature = "cli")]
+impl super::flags::KindFlags for fusion_shared::GeodeticSample {
+    type Flags = GeodeticFlags;
+
+    fn apply(
+        f: &GeodeticFlags,
+        drive: &super::flags::DriveFlags,
+        _all: &super::flags::KindsFlags,
+        c: &mut super::ScenarioConfig,
+    ) -> anyhow::Result<()> {
+        use std::sync::Arc;
+        if f.geodetic_rate <= 0.0 {
+            return Ok(());
+        }
+        let fix = &c.position;
+        let mut g = GeodeticConfig::default();
+        g.fix = PositionConfig {
+            rate_hz: f.geodetic_rate,
+            noise_std_m: f.geodetic_noise,
+            vertical_noise_std_m: 1.6 * f.geodetic_noise,
+            delay_min_ns: fix.delay_min_ns,
+            delay_max_ns: fix.delay_max_ns,
+            dropout_probability: drive.dropouts,
+            outlier_probability: drive.outliers,
+            lever_arm_m: fix.lever_arm_m,
+            clock_lag_ns: fix.clock_lag_ns,
+            ..g.fix
+        };
+        if let Some([lat, lon, h]) = super::flags::triple("--datum", f.datum.as_deref())? {
+            g.datum = fusion_shared::geodesy::Datum::new(lat, lon, h).map_err(|e| anyhow::anyhow!("--datum: {e}"))?;
+        }
+        if f.fix_phase.windows(2).any(|w| w[1].at_s < w[0].at_s) {
+            anyhow::bail!("--fix-phase: give the phases in order of their start");
+        }
+        g.phases = f.fix_phase.clone();
+        c.aiding.push(Arc::new(g));
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

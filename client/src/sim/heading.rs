@@ -57,3 +57,36 @@ impl Sensor for HeadingConfig {
     }
 }
 
+/// `fusion-sim`'s flags of the heading (dual-antenna GNSS).
+#[cfg(feature = "cli")]
+#[derive(clap::Args, Clone, Debug)]
+pub struct HeadingFlags {
+    /// Heading (dual-antenna GNSS) rate, Hz; 0: none.
+    #[arg(long, default_value_t = 0.0)]
+    pub heading_rate: f64,
+    /// Heading noise, degrees.
+    #[arg(long, default_value_t = 0.5)]
+    pub heading_noise_deg: f64,
+}
+
+#[cfg(feature = "cli")]
+impl super::flags::KindFlags for fusion_shared::HeadingSample {
+    type Flags = HeadingFlags;
+
+    fn apply(
+        f: &HeadingFlags,
+        _drive: &super::flags::DriveFlags,
+        _all: &super::flags::KindsFlags,
+        c: &mut super::ScenarioConfig,
+    ) -> anyhow::Result<()> {
+        use std::sync::Arc;
+        if f.heading_rate > 0.0 {
+            c.aiding.push(Arc::new(HeadingConfig {
+                rate_hz: f.heading_rate,
+                noise_std_rad: f.heading_noise_deg.to_radians(),
+                ..Default::default()
+            }));
+        }
+        Ok(())
+    }
+}

@@ -156,3 +156,88 @@ impl Iterator for ImuSim {
     }
 }
 
+/// `fusion-sim`'s flags of the IMUs.
+#[cfg(feature = "cli")]
+#[derive(clap::Args, Clone, Debug)]
+pub struct ImuFlags {
+    /// IMU rate, Hz.
+    #[arg(long, default_value_t = 400.0)]
+    pub imu_rate: f64,
+    /// One IMU per mount (sensor ids 0, 1, …): its axes and its rotation into
+    /// the body frame, `AXES:ROLL,PITCH,YAW` (degrees, body ← IMU, as in the
+    /// config's `[[sensor]]`), e.g. `frd:3,-2,90`. Default: one IMU, `flu:0,0,0`.
+    #[arg(long)]
+    pub imu_mount: Vec<String>,
+    /// IMU timestamp jitter, ± µs.
+    #[arg(long, default_value_t = 0)]
+    pub imu_jitter_us: u64,
+    /// IMU acceleration noise, m/s² per sample.
+    #[arg(long, default_value_t = 0.05)]
+    pub accel_noise: f64,
+    /// IMU angular-rate noise, rad/s per sample.
+    #[arg(long, default_value_t = 0.001)]
+    pub gyro_noise: f64,
+    /// Standard deviation of the accelerometer's turn-on bias, m/s² (body output).
+    #[arg(long, default_value_t = 0.0)]
+    pub accel_bias: f64,
+    /// Standard deviation of the gyroscope's turn-on bias, rad/s.
+    #[arg(long, default_value_t = 0.0)]
+    pub gyro_bias: f64,
+    /// Accelerometer bias random walk, m/s³/√Hz (Kalibr).
+    #[arg(long, default_value_t = 0.0)]
+    pub accel_random_walk: f64,
+    /// Gyroscope bias random walk, rad/s²/√Hz (Kalibr).
+    #[arg(long, default_value_t = 0.0)]
+    pub gyro_random_walk: f64,
+    /// What the IMU measures: `world` acceleration with gravity removed (the
+    /// linear model) or `body` specific force and angular rate (a real IMU).
+    #[arg(long, value_enum, default_value_t = ImuOutputFlag::World)]
+    pub imu_output: ImuOutputFlag,
+}
+
+#[cfg(feature = "cli")]
+impl super::flags::KindFlags for fusion_shared::ImuSample {
+    type Flags = ImuFlags;
+
+    fn apply(
+        f: &ImuFlags,
+        _drive: &super::flags::DriveFlags,
+        _all: &super::flags::KindsFlags,
+        c: &mut super::ScenarioConfig,
+    ) -> anyhow::Result<()> {
+        let c_imu = &mut c.imu;
+        c_imu.rate_hz = f.imu_rate;
+        c_imu.jitter_ns = f.imu_jitter_us * 1000;
+        c_imu.accel_noise_std = f.accel_noise;
+        c_imu.gyro_noise_std = f.gyro_noise;
+        c_imu.accel_bias_std = f.accel_bias;
+        c_imu.gyro_bias_std = f.gyro_bias;
+        c_imu.accel_random_walk = f.accel_random_walk;
+        c_imu.gyro_random_walk = f.gyro_random_walk;
+        c.imu_output = match f.imu_output {
+            ImuOutputFlag::World => ImuOutput::WorldAcceleration,
+            ImuOutputFlag::Body => ImuOutput::BodySpecificForce,
+        };
+        let mounts = if f.imu_mount.is_empty() { vec!["flu:0,0,0".to_string()] } else { f.imu_mount.clone() };
+        for (i, mount) in mounts.iter().enumerate() {
+            let rotation = super::flags::parse_mount("--imu-mount", mount)?;
+            let imu = ImuConfig { sensor: i as u32, rotation, ..c.imu.clone() };
+            if i == 0 {
+                c.imu = imu;
+            } else {
+                c.extra_imus.push(imu);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What `fusion-sim`'s IMU measures (`--imu-output`).
+#[cfg(feature = "cli")]
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum ImuOutputFlag {
+    /// World acceleration with gravity removed (the linear model).
+    World,
+    /// Body specific force and angular rate (a real IMU).
+    Body,
+}

@@ -102,6 +102,81 @@ impl Sensor for MagnetometerConfig {
 }
 
 
+
+/// `fusion-sim`'s flags of the magnetometer.
+#[cfg(feature = "cli")]
+#[derive(clap::Args, Clone, Debug)]
+pub struct MagnetometerFlags {
+    /// Magnetometer rate, Hz; 0: none (sensor id 0; `--dropouts` applies).
+    #[arg(long, default_value_t = 0.0)]
+    pub magnetometer_rate: f64,
+    /// Magnetometer noise per axis, µT.
+    #[arg(long, default_value_t = 0.5)]
+    pub magnetometer_noise_ut: f64,
+    /// The magnetometer's mount, `AXES:ROLL,PITCH,YAW` (degrees; body ← sensor),
+    /// as `--imu-mount`.
+    #[arg(long, default_value = "flu:0,0,0")]
+    pub magnetometer_mount: String,
+    /// The Earth's field: declination (degrees east), inclination (degrees
+    /// down), strength (µT) (default: Munich, 3.5,64.5,48.5).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub magnetic_field: Option<Vec<f64>>,
+    /// A magnetic disturbance, `AT:SECONDS:MICROTESLA`: a field of MICROTESLA
+    /// pointing east adds to the Earth's from AT s into the drive for SECONDS (a
+    /// passing lorry, a steel bridge). Repeatable.
+    #[arg(long, value_name = "AT:SECONDS:MICROTESLA")]
+    pub magnetic_disturbance: Vec<String>,
+}
+
+#[cfg(feature = "cli")]
+impl super::flags::KindFlags for fusion_shared::MagnetometerSample {
+    type Flags = MagnetometerFlags;
+
+    fn apply(
+        f: &MagnetometerFlags,
+        drive: &super::flags::DriveFlags,
+        _all: &super::flags::KindsFlags,
+        c: &mut super::ScenarioConfig,
+    ) -> anyhow::Result<()> {
+        use std::sync::Arc;
+        if f.magnetometer_rate <= 0.0 {
+            return Ok(());
+        }
+        let defaults = MagnetometerConfig::default();
+        let field = super::flags::triple("--magnetic-field", f.magnetic_field.as_deref())?.unwrap_or([
+            defaults.declination_deg,
+            defaults.inclination_deg,
+            defaults.strength_ut,
+        ]);
+        let disturbances = f.magnetic_disturbance.iter().map(|d| parse_disturbance(d)).collect::<Result<_, _>>()?;
+        c.aiding.push(Arc::new(MagnetometerConfig {
+            rate_hz: f.magnetometer_rate,
+            noise_std_ut: f.magnetometer_noise_ut,
+            declination_deg: field[0],
+            inclination_deg: field[1],
+            strength_ut: field[2],
+            rotation: super::flags::parse_mount("--magnetometer-mount", &f.magnetometer_mount)?,
+            dropout_probability: drive.dropouts,
+            disturbances,
+            ..defaults
+        }));
+        Ok(())
+    }
+}
+
+/// A magnetic disturbance, `AT:SECONDS:MICROTESLA` (a field pointing east).
+#[cfg(feature = "cli")]
+fn parse_disturbance(text: &str) -> anyhow::Result<MagneticDisturbance> {
+    let bad = || anyhow::anyhow!("--magnetic-disturbance {text:?}: expected AT:SECONDS:MICROTESLA, e.g. 12:3:20");
+    let values: Vec<f64> =
+        text.split(':').map(|v| v.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| bad())?;
+    let [at_s, duration_s, ut] = <[f64; 3]>::try_from(values).map_err(|_| bad())?;
+    if !(at_s >= 0.0 && duration_s > 0.0 && ut.is_finite()) {
+        return Err(bad());
+    }
+    Ok(MagneticDisturbance { at_s, duration_s, field_ut: [ut, 0.0, 0.0] })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -14,6 +14,8 @@ use std::fmt::Debug;
 use fusion_shared::SampleKind;
 
 pub mod arrival;
+#[cfg(feature = "cli")]
+pub mod flags;
 pub mod player;
 pub mod scenario;
 pub mod trajectory;

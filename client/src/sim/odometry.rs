@@ -74,3 +74,52 @@ impl Sensor for OdometryConfig {
     }
 }
 
+/// `fusion-sim`'s flags of the wheel odometry.
+#[cfg(feature = "cli")]
+#[derive(clap::Args, Clone, Debug)]
+pub struct OdometryFlags {
+    /// Wheel odometry rate, Hz; 0: none.
+    #[arg(long, default_value_t = 0.0)]
+    pub odometry_rate: f64,
+    /// Odometry speed noise, m/s.
+    #[arg(long, default_value_t = 0.05)]
+    pub odometry_noise: f64,
+    /// Odometry relative scale error (e.g. 0.002: 0.2 % fast).
+    #[arg(long, default_value_t = 0.002, allow_hyphen_values = true)]
+    pub odometry_scale_error: f64,
+    /// Report only the noise in the odometry's variance, not the scale error
+    /// too (for a fusiond that estimates the scale: `[model.odometry_scale]`).
+    #[arg(long)]
+    pub odometry_noise_only_variance: bool,
+    /// Odometry reference point (rear axle) in the body frame: x,y,z, m.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub odometry_lever_arm: Option<Vec<f64>>,
+}
+
+#[cfg(feature = "cli")]
+impl super::flags::KindFlags for fusion_shared::OdometrySample {
+    type Flags = OdometryFlags;
+
+    fn apply(
+        f: &OdometryFlags,
+        _drive: &super::flags::DriveFlags,
+        _all: &super::flags::KindsFlags,
+        c: &mut super::ScenarioConfig,
+    ) -> anyhow::Result<()> {
+        use std::sync::Arc;
+        if f.odometry_rate <= 0.0 {
+            return Ok(());
+        }
+        let defaults = OdometryConfig::default();
+        let arm = super::flags::triple("--odometry-lever-arm", f.odometry_lever_arm.as_deref())?;
+        c.aiding.push(Arc::new(OdometryConfig {
+            rate_hz: f.odometry_rate,
+            noise_std_mps: f.odometry_noise,
+            scale_error: f.odometry_scale_error,
+            scale_in_variance: !f.odometry_noise_only_variance,
+            lever_arm_m: arm.unwrap_or(defaults.lever_arm_m),
+            ..defaults
+        }));
+        Ok(())
+    }
+}

@@ -111,6 +111,96 @@ impl Sensor for PoseConfig {
 }
 
 
+
+/// `fusion-sim`'s flags of the pose (a localiser: lidar SLAM, VIO).
+#[cfg(feature = "cli")]
+#[derive(clap::Args, Clone, Debug)]
+pub struct PoseFlags {
+    /// Pose (a localiser: lidar SLAM, VIO) rate, Hz; 0: none (sensor id 0;
+    /// `--dropouts` applies).
+    #[arg(long, default_value_t = 0.0)]
+    pub pose_rate: f64,
+    /// Pose noise per axis: position m, attitude rad.
+    #[arg(long, value_delimiter = ',', default_value = "0.05,0.005")]
+    pub pose_noise: Vec<f64>,
+    /// The pose sensor's mount, `AXES:ROLL,PITCH,YAW` (degrees; body ← sensor).
+    #[arg(long, default_value = "flu:0,0,0")]
+    pub pose_mount: String,
+    /// The pose sensor's origin in the body frame: x,y,z, m.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub pose_lever_arm: Option<Vec<f64>>,
+    /// The localiser's map frame in the world, `YAW:EAST,NORTH,UP` (degrees, m).
+    #[arg(long, default_value = "34.4:20,-15,0.5", allow_hyphen_values = true)]
+    pub pose_frame: String,
+    /// A re-initialisation of the localiser, `AT:YAW:EAST,NORTH,UP[:silent]`:
+    /// from AT s into the drive its map frame is this one; its reset counter
+    /// says so unless `silent`.
+    #[arg(long, value_name = "AT:YAW:EAST,NORTH,UP[:silent]", allow_hyphen_values = true)]
+    pub localiser_reset: Option<String>,
+}
+
+#[cfg(feature = "cli")]
+impl super::flags::KindFlags for fusion_shared::PoseSample {
+    type Flags = PoseFlags;
+
+    fn apply(
+        f: &PoseFlags,
+        drive: &super::flags::DriveFlags,
+        _all: &super::flags::KindsFlags,
+        c: &mut super::ScenarioConfig,
+    ) -> anyhow::Result<()> {
+        use std::sync::Arc;
+        if f.pose_rate <= 0.0 {
+            return Ok(());
+        }
+        let [position, attitude] =
+            super::flags::pair("--pose-noise", &f.pose_noise, "POSITION,ATTITUDE, e.g. 0.05,0.005")?;
+        c.aiding.push(Arc::new(PoseConfig {
+            rate_hz: f.pose_rate,
+            position_noise_m: position,
+            attitude_noise_rad: attitude,
+            frame: parse_map_frame("--pose-frame", &f.pose_frame)?,
+            reset: f.localiser_reset.as_deref().map(parse_localiser_reset).transpose()?,
+            rotation: super::flags::parse_mount("--pose-mount", &f.pose_mount)?,
+            lever_arm_m: super::flags::triple("--pose-lever-arm", f.pose_lever_arm.as_deref())?.unwrap_or([0.0; 3]),
+            dropout_probability: drive.dropouts,
+            ..Default::default()
+        }));
+        Ok(())
+    }
+}
+
+/// A map frame, `YAW:EAST,NORTH,UP` (degrees, m).
+#[cfg(feature = "cli")]
+fn parse_map_frame(flag: &str, s: &str) -> anyhow::Result<MapFrame> {
+    let bad = || anyhow::anyhow!("{flag}: expected YAW:EAST,NORTH,UP (degrees, m), e.g. 30:20,-15,0.5; got {s:?}");
+    let (yaw, origin) = s.split_once(':').ok_or_else(bad)?;
+    let yaw: f64 = yaw.parse().map_err(|_| bad())?;
+    let origin: Vec<f64> = origin.split(',').map(str::parse).collect::<Result<_, _>>().map_err(|_| bad())?;
+    let origin: [f64; 3] = origin.try_into().map_err(|_| bad())?;
+    if !(yaw.is_finite() && origin.iter().all(|v| v.is_finite())) {
+        return Err(bad());
+    }
+    Ok(MapFrame { yaw_rad: yaw.to_radians(), origin_m: origin })
+}
+
+/// A localiser reset, `AT:YAW:EAST,NORTH,UP[:silent]`.
+#[cfg(feature = "cli")]
+fn parse_localiser_reset(s: &str) -> anyhow::Result<LocaliserReset> {
+    let bad =
+        || anyhow::anyhow!("--localiser-reset: expected AT:YAW:EAST,NORTH,UP[:silent], e.g. 30:-60:5,5,0; got {s:?}");
+    let (at, rest) = s.split_once(':').ok_or_else(bad)?;
+    let at: f64 = at.parse().map_err(|_| bad())?;
+    let (frame, announced) = match rest.strip_suffix(":silent") {
+        Some(frame) => (frame, false),
+        None => (rest, true),
+    };
+    if !(at.is_finite() && at >= 0.0) {
+        return Err(bad());
+    }
+    Ok(LocaliserReset { at_s: at, frame: parse_map_frame("--localiser-reset", frame).map_err(|_| bad())?, announced })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -111,3 +111,52 @@ impl Iterator for PositionSim {
 }
 
 super::aiding_sim!(PositionConfig, PositionSim, Position);
+
+/// `fusion-sim`'s flags of the position fixes (at the GNSS antenna's lever arm).
+#[cfg(feature = "cli")]
+#[derive(clap::Args, Clone, Debug)]
+pub struct PositionFlags {
+    /// Position rate, Hz.
+    #[arg(long, default_value_t = 10.0)]
+    pub position_rate: f64,
+    /// Horizontal position noise, m (vertical: 1.6×).
+    #[arg(long, default_value_t = 0.5)]
+    pub position_noise: f64,
+    /// Smallest position delay, ms.
+    #[arg(long, default_value_t = 20)]
+    pub position_delay_min_ms: u64,
+    /// Largest position delay, ms.
+    #[arg(long, default_value_t = 120)]
+    pub position_delay_max_ms: u64,
+    /// The GNSS antenna's lever arm (position, velocity, geodetic fixes): x,y,z
+    /// in the body frame, m.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub lever_arm: Option<Vec<f64>>,
+    /// How late the position or GNSS receiver's clock is, ms: a fix valid at `t` is
+    /// stamped `t + LAG` (what `[[sensor]] time_offset_ns` undoes).
+    #[arg(long, default_value_t = 0)]
+    pub fix_clock_lag_ms: u64,
+}
+
+#[cfg(feature = "cli")]
+impl super::flags::KindFlags for fusion_shared::PositionSample {
+    type Flags = PositionFlags;
+
+    fn apply(
+        f: &PositionFlags,
+        drive: &super::flags::DriveFlags,
+        _all: &super::flags::KindsFlags,
+        c: &mut super::ScenarioConfig,
+    ) -> anyhow::Result<()> {
+        c.position.rate_hz = f.position_rate;
+        c.position.noise_std_m = f.position_noise;
+        c.position.vertical_noise_std_m = 1.6 * f.position_noise;
+        c.position.delay_min_ns = f.position_delay_min_ms * 1_000_000;
+        c.position.delay_max_ns = f.position_delay_max_ms * 1_000_000;
+        c.position.dropout_probability = drive.dropouts;
+        c.position.outlier_probability = drive.outliers;
+        c.position.lever_arm_m = super::flags::triple("--lever-arm", f.lever_arm.as_deref())?.unwrap_or([0.0; 3]);
+        c.position.clock_lag_ns = f.fix_clock_lag_ms.saturating_mul(1_000_000);
+        Ok(())
+    }
+}

@@ -73,6 +73,54 @@ impl Sensor for TwistConfig {
 }
 
 
+
+/// `fusion-sim`'s flags of the twist (visual or lidar odometry).
+#[cfg(feature = "cli")]
+#[derive(clap::Args, Clone, Debug)]
+pub struct TwistFlags {
+    /// Twist (visual or lidar odometry) rate, Hz; 0: none (sensor id 0;
+    /// `--dropouts` applies).
+    #[arg(long, default_value_t = 0.0)]
+    pub twist_rate: f64,
+    /// Twist noise per axis: linear m/s, angular rad/s.
+    #[arg(long, value_delimiter = ',', default_value = "0.05,0.01")]
+    pub twist_noise: Vec<f64>,
+    /// The twist sensor's mount, `AXES:ROLL,PITCH,YAW` (degrees; body ← sensor).
+    #[arg(long, default_value = "flu:0,0,0")]
+    pub twist_mount: String,
+    /// The twist sensor's origin in the body frame: x,y,z, m.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub twist_lever_arm: Option<Vec<f64>>,
+}
+
+#[cfg(feature = "cli")]
+impl super::flags::KindFlags for fusion_shared::TwistSample {
+    type Flags = TwistFlags;
+
+    fn apply(
+        f: &TwistFlags,
+        drive: &super::flags::DriveFlags,
+        _all: &super::flags::KindsFlags,
+        c: &mut super::ScenarioConfig,
+    ) -> anyhow::Result<()> {
+        use std::sync::Arc;
+        if f.twist_rate <= 0.0 {
+            return Ok(());
+        }
+        let [linear, angular] = super::flags::pair("--twist-noise", &f.twist_noise, "LINEAR,ANGULAR, e.g. 0.05,0.01")?;
+        c.aiding.push(Arc::new(TwistConfig {
+            rate_hz: f.twist_rate,
+            linear_noise_mps: linear,
+            angular_noise_radps: angular,
+            rotation: super::flags::parse_mount("--twist-mount", &f.twist_mount)?,
+            lever_arm_m: super::flags::triple("--twist-lever-arm", f.twist_lever_arm.as_deref())?.unwrap_or([0.0; 3]),
+            dropout_probability: drive.dropouts,
+            ..Default::default()
+        }));
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

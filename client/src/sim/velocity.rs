@@ -87,3 +87,48 @@ impl Iterator for VelocitySim {
 }
 
 super::aiding_sim!(VelocityConfig, VelocitySim, Velocity);
+
+/// `fusion-sim`'s flags of the GNSS velocities (the position fixes' receiver: its delays, its antenna, its clock).
+#[cfg(feature = "cli")]
+#[derive(clap::Args, Clone, Debug)]
+pub struct VelocityFlags {
+    /// Velocity (GNSS Doppler) rate, Hz; 0: no velocity sensor.
+    #[arg(long, default_value_t = 0.0)]
+    pub velocity_rate: f64,
+    /// Horizontal velocity noise, m/s (vertical: 2×).
+    #[arg(long, default_value_t = 0.05)]
+    pub velocity_noise: f64,
+}
+
+#[cfg(feature = "cli")]
+impl super::flags::KindFlags for fusion_shared::VelocitySample {
+    type Flags = VelocityFlags;
+
+    fn apply(
+        f: &VelocityFlags,
+        _drive: &super::flags::DriveFlags,
+        all: &super::flags::KindsFlags,
+        c: &mut super::ScenarioConfig,
+    ) -> anyhow::Result<()> {
+        use std::sync::Arc;
+        if f.velocity_rate <= 0.0 {
+            return Ok(());
+        }
+        let fix = &c.position;
+        // One GNSS receiver: its velocities carry the id of its geodetic fixes.
+        let defaults = VelocityConfig::default();
+        let gnss = super::GeodeticConfig::default().fix.sensor;
+        let sensor = if all.geodetic.geodetic_rate > 0.0 { gnss } else { defaults.sensor };
+        c.aiding.push(Arc::new(VelocityConfig {
+            rate_hz: f.velocity_rate,
+            noise_std_mps: f.velocity_noise,
+            vertical_noise_std_mps: 2.0 * f.velocity_noise,
+            delay_min_ns: fix.delay_min_ns,
+            delay_max_ns: fix.delay_max_ns,
+            sensor,
+            lever_arm_m: fix.lever_arm_m,
+            clock_lag_ns: fix.clock_lag_ns,
+        }));
+        Ok(())
+    }
+}
