@@ -1,6 +1,6 @@
 //! The layout of each wire type as the C and Python mirrors give it: every
 //! field's name, offset, scalar and count, and a line about the type, declared
-//! beside the type ([`wire_layout!`](crate::wire_layout)). The client's
+//! beside the type (`wire_layout!`). The client's
 //! generator writes the Python `ctypes` classes and the C API's kind constants
 //! and publish functions from these declarations, so neither mirror is kept by
 //! hand; a field left out fails [`WireLayout::check`].
@@ -72,7 +72,7 @@ pub struct WireField {
 }
 
 /// The field `name` at `offset` of `S`, of the type `get` reads
-/// ([`wire_layout!`](crate::wire_layout) calls it).
+/// (`wire_layout!` calls it).
 pub fn field<S, T: WireScalar>(name: &'static str, offset: usize, _get: fn(&S) -> &T) -> WireField {
     WireField { name, offset, size: std::mem::size_of::<T>(), scalar: T::SCALAR, count: T::COUNT }
 }
