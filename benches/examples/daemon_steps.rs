@@ -39,6 +39,7 @@ use fusion_daemon::config::{Config, WithModel, with_model};
 use fusion_daemon::engine::{Engine, EngineConfig, Insert};
 use fusion_daemon::health::HealthMonitor;
 use fusion_daemon::measurement::Steps;
+use fusion_daemon::model::held_imu::Instants;
 use fusion_daemon::model::ins::InsModel;
 use fusion_daemon::model::linear::LinearModel;
 use fusion_daemon::snapshot::{self, Input};

@@ -28,7 +28,7 @@
 //!
 //! The propagation can come early. [`Engine::step_ahead`] propagates the newest
 //! state, in the caller's idle time, to where the model expects its next input
-//! (the next IMU instant, [`crate::model::Model::next_input_ns`]), in the slot
+//! (the next IMU instant, [`crate::model::held_imu::Instants::next_input_ns`]), in the slot
 //! of the next entry. When the next in-order sample comes at that time and
 //! nothing else has changed the history since, its step starts from that
 //! state and only fuses: the same bits as stepping from the entry before it,
@@ -49,6 +49,7 @@ pub use stats::EngineStats;
 
 use crate::measurement::{self, Steps};
 use crate::model::StepOutcome;
+use crate::model::held_imu::Instants;
 use crate::reorder::{Placement, Sample, SampleKey, key_of, place};
 use crate::sensor_table::{Refusal, SensorRow, SensorStats, SensorTable, TableLimits};
 use crate::validate::{Limits, Rejection};
@@ -436,7 +437,7 @@ impl<M: Steps> Engine<M> {
     }
 
     /// Propagates the newest state to where the model expects its next input
-    /// ([`crate::model::Model::next_input_ns`]), in the slot of the next entry,
+    /// ([`crate::model::held_imu::Instants::next_input_ns`]), in the slot of the next entry,
     /// for the next in-order sample at that time to start from (see the
     /// module's doc). For the caller's idle time. Does nothing while a
     /// correction is pending (its re-steps would change the newest state), when

@@ -166,6 +166,36 @@ impl HeldImu {
     }
 }
 
+/// The IMU instants of any model that holds IMU samples ([`super::Model::held_imu`]):
+/// the machinery of the live loop and the engine's idle steps, beside what a
+/// model is (its state, its step, its snapshot).
+pub trait Instants: super::Model {
+    /// Whether the IMU instant `state` holds is still open: several IMUs are
+    /// averaged ([`crate::frames::Combine::Average`]) and one that was in the
+    /// instant before has not yet sent its sample of this one
+    /// ([`HeldImu::awaiting`]). The live loop publishes one snapshot per IMU
+    /// instant, after the sample that completes it.
+    fn instant_open(state: &Self::State) -> bool;
+
+    /// When the model expects its next input at `state`, ns: the next IMU
+    /// instant at the interval of the last two ([`HeldImu::next_ns`]); `None`
+    /// if it does not know. The engine propagates to it while idle
+    /// (`Engine::step_ahead`), so that the sample's own step is only its fusion.
+    fn next_input_ns(state: &Self::State) -> Option<u64>;
+}
+
+impl<M: super::Model> Instants for M {
+    #[inline]
+    fn instant_open(state: &M::State) -> bool {
+        M::held_imu(state).is_some_and(HeldImu::awaiting)
+    }
+
+    #[inline]
+    fn next_input_ns(state: &M::State) -> Option<u64> {
+        M::held_imu(state)?.next_ns()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

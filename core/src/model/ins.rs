@@ -491,12 +491,8 @@ impl<const D: usize> Model for InsModel<D> {
     }
 
     #[inline]
-    fn instant_open(s: &InsState<D>) -> bool {
-        s.imu.awaiting()
-    }
-
-    fn next_input_ns(s: &InsState<D>) -> Option<u64> {
-        s.imu.next_ns()
+    fn held_imu(s: &InsState<D>) -> Option<&crate::model::held_imu::HeldImu> {
+        Some(&s.imu)
     }
 
     fn initialised(s: &InsState<D>) -> bool {

@@ -293,12 +293,8 @@ impl Model for LinearModel {
     }
 
     #[inline]
-    fn instant_open(s: &LinearState) -> bool {
-        s.imu.awaiting()
-    }
-
-    fn next_input_ns(s: &LinearState) -> Option<u64> {
-        s.imu.next_ns()
+    fn held_imu(s: &LinearState) -> Option<&crate::model::held_imu::HeldImu> {
+        Some(&s.imu)
     }
 
     fn x(s: &LinearState) -> &[f64] {

@@ -170,20 +170,10 @@ pub trait Model {
     /// Filter time, ns, or `None` before the first sample.
     fn time_ns(state: &Self::State) -> Option<u64>;
 
-    /// Whether the IMU instant `state` holds is still open: several IMUs are
-    /// averaged ([`crate::frames::Combine::Average`]) and one that was in the
-    /// instant before has not yet sent its sample of this one
-    /// ([`held_imu::HeldImu::awaiting`]). The live loop publishes one snapshot
-    /// per IMU instant, after the sample that completes it.
-    fn instant_open(_state: &Self::State) -> bool {
-        false
-    }
-
-    /// When the model expects its next input at `state`, ns: the next IMU
-    /// instant at the interval of the last two ([`held_imu::HeldImu::next_ns`]);
-    /// `None` if it does not know. The engine propagates to it while idle
-    /// (`Engine::step_ahead`), so that the sample's own step is only its fusion.
-    fn next_input_ns(_state: &Self::State) -> Option<u64> {
+    /// The IMU values `state` holds, if the model holds IMU samples between
+    /// its steps (both models do): what the IMU instants are read from
+    /// ([`held_imu::Instants`]). `None` by default: no instants.
+    fn held_imu(_state: &Self::State) -> Option<&held_imu::HeldImu> {
         None
     }
 

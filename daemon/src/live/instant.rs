@@ -7,9 +7,10 @@ use fusion_shared::{Sample, SampleKind, now_ns};
 
 use super::{LiveCore, SnapshotSink};
 use crate::measurement::Steps;
+use crate::model::held_imu::Instants;
 
 /// An IMU instant whose snapshot waits for the instant's last sample
-/// ([`Model::instant_open`](crate::model::Model::instant_open)).
+/// ([`Instants::instant_open`]).
 #[derive(Clone, Copy)]
 pub(super) struct HeldInstant {
     /// Its newest sample, which the snapshot names if it goes out at `due_ns`.
