@@ -3,7 +3,6 @@
 //! gathered here from the kind list ([`KindsFlags`]), with the flags of the
 //! whole drive ([`DriveFlags`]) and the parsers the kinds share.
 
-use fusion_shared::SampleKind;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 use super::ScenarioConfig;
@@ -55,7 +54,6 @@ macro_rules! kinds_flags {
             }
         }
 
-        const _: () = assert!([$(SampleKind::$variant),*].len() == SampleKind::COUNT);
     };
 }
 fusion_shared::for_each_sample_kind!(kinds_flags);
