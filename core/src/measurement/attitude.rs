@@ -256,7 +256,7 @@ impl<const D: usize> Fuse<InsModel<D>> for AttitudeSample {
 /// `None` for a sensor of roll and pitch only (`[sensor.attitude] yaw =
 /// false`: two components, [`tilt`]) and while the attitude is unknown (the
 /// sample sets it).
-impl<const D: usize> Observe<3, D> for AttitudeSample {
+impl<const D: usize> Observe<InsModel<D>, 3, D> for AttitudeSample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<3, D>> {
         let frames = model.frames();
         let yaw = super::settings::<AttitudeSample>(frames, self.header.sensor).is_none_or(|c| c.yaw);

@@ -164,7 +164,7 @@ fn observation<const D: usize>(s: &InsState<D>, r: &Reading) -> Observation<1, D
 
 /// `observation` once the first sample of its barometer set the bias;
 /// `None` before, and for a barometer without the bias state.
-impl<const D: usize> Observe<1, D> for BarometerSample {
+impl<const D: usize> Observe<InsModel<D>, 1, D> for BarometerSample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<1, D>> {
         let r = reading(self, model, s)?;
         s.aux_progress().is_set(r.bit).then(|| observation(s, &r))

@@ -35,6 +35,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::{Fuse, Kinematic, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance3, lever_arm};
 use crate::model::ins::{InsModel, InsState};
+use crate::model::linear::{self, LinearModel, LinearState};
 use crate::setting::ConfigError;
 use crate::frames::Frames;
 use crate::model::{Model, StepOutcome};
@@ -121,11 +122,21 @@ impl<M: Kinematic> Fuse<M> for GeodeticSample {
 }
 
 /// The position fix's ([`super::position`]) at the fix's ENU coordinates.
-impl<const D: usize> Observe<3, D> for GeodeticSample {
+impl<const D: usize> Observe<InsModel<D>, 3, D> for GeodeticSample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<3, D>> {
         let p = as_position(self, model.frames())?;
         let mount = model.frames().mount(SampleKind::Geodetic, self.header.sensor);
         let (h, H) = lever_arm::position(s, &mount.lever_arm);
+        Some(Observation { y: Vector3::from(p.pos_m) - h, H, R: Matrix3::from_row_slice(&p.cov_m2) })
+    }
+}
+
+/// The position fix's at the fix's ENU coordinates: `y = z − p`
+/// ([`linear::block`]).
+impl Observe<LinearModel, 3, { linear::N }> for GeodeticSample {
+    fn observe(&self, model: &LinearModel, s: &LinearState) -> Option<Observation<3, { linear::N }>> {
+        let p = as_position(self, model.frames())?;
+        let (h, H) = linear::block(s, 0);
         Some(Observation { y: Vector3::from(p.pos_m) - h, H, R: Matrix3::from_row_slice(&p.cov_m2) })
     }
 }

@@ -89,7 +89,7 @@ impl<const D: usize> Fuse<InsModel<D>> for HeadingSample {
 }
 
 /// `y = wrap(z − ψ)` of [`yaw`]; `None` with the forward axis near vertical.
-impl<const D: usize> Observe<1, D> for HeadingSample {
+impl<const D: usize> Observe<InsModel<D>, 1, D> for HeadingSample {
     fn observe(&self, _: &InsModel<D>, s: &InsState<D>) -> Option<Observation<1, D>> {
         let (h, H) = yaw(s)?;
         Some(Observation { y: Vector1::new(wrap(self.yaw_rad - h)), H, R: Matrix1::new(self.var_rad2) })

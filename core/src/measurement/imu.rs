@@ -74,7 +74,7 @@ impl<const D: usize> Fuse<InsModel<D>> for ImuSample {
 }
 
 /// The IMU drives the propagation: it observes nothing.
-impl<const D: usize> Observe<0, D> for ImuSample {
+impl<const D: usize> Observe<InsModel<D>, 0, D> for ImuSample {
     fn observe(&self, _: &InsModel<D>, _: &InsState<D>) -> Option<Observation<0, D>> {
         None
     }

@@ -150,7 +150,7 @@ impl<const D: usize> Fuse<InsModel<D>> for MagnetometerSample {
 
 /// `y = C z − Rᵀ m` of [`field()`], `R = C Σ Cᵀ` (the sample in the body
 /// axes); `None` for a sensor without its `[sensor.magnetic]` field.
-impl<const D: usize> Observe<3, D> for MagnetometerSample {
+impl<const D: usize> Observe<InsModel<D>, 3, D> for MagnetometerSample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<3, D>> {
         let frames = model.frames();
         let earth = super::settings::<MagnetometerSample>(frames, self.header.sensor)?;

@@ -43,7 +43,6 @@ use nalgebra::{SMatrix, SVector};
 pub use crate::frames::Observes;
 use crate::frames::{Frames, KindCatalog, MountedSensor, Settings, SettingsValue};
 use crate::model::ins::aux::{AuxPrior, AuxStates};
-use crate::model::ins::{InsModel, InsState};
 pub use crate::model::lockout::LockoutRule;
 use crate::model::{Model, StepOutcome};
 use crate::setting::ConfigError;
@@ -202,17 +201,20 @@ pub struct Observation<const M: usize, const D: usize> {
     pub R: SMatrix<f64, M, M>,
 }
 
-/// What a sample of a kind observes of the INS error state (`M` its
-/// [`WireSample::INNOVATION_DIM`]): the observation its fusion updates with,
-/// from the same functions. A kind whose sample the fusion does not update
-/// with in a state gives `None` there: the IMU always (it drives the
-/// propagation), a sample that sets a state from its value (a barometer's first
-/// sample, a pose that sets its map frame), an attitude sample for roll and
-/// pitch only (two components: `attitude::tilt`). One test over the kind list
-/// checks every kind's `H` against central differences of its `y`.
-pub trait Observe<const M: usize, const D: usize> {
+/// What a sample of a kind observes of the state of model `Mdl` (`M` its
+/// [`WireSample::INNOVATION_DIM`], `D` the model's error-state dimension:
+/// the `ins` model's `D`, the `linear` model's 6): the observation its fusion
+/// into that model updates with, from the same functions. A kind implements
+/// it for each model that fuses it through a residual. A kind whose sample
+/// the fusion does not update with in a state gives `None` there: the IMU
+/// always (it drives the propagation), a sample that sets a state from its
+/// value (a barometer's first sample, a pose that sets its map frame), an
+/// attitude sample for roll and pitch only (two components: `attitude::tilt`).
+/// Tests over the kind list check every kind's `H` against central
+/// differences of its `y`, for each model.
+pub trait Observe<Mdl: Model, const M: usize, const D: usize> {
     /// The observation of this sample at state `s` of `model`.
-    fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<M, D>>;
+    fn observe(&self, model: &Mdl, s: &Mdl::State) -> Option<Observation<M, D>>;
 }
 
 /// Implements [`Fusion`] for a model: the kinds listed (their

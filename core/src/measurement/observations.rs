@@ -148,7 +148,7 @@ impl Checker {
     /// exactly when it declares a heading or a horizontal position (a kind
     /// that gives one and does not say so fails here).
     pub(super) fn kind<
-        T: Observe<M, E> + Measurement + Example + Into<fusion_shared::Sample> + Copy,
+        T: Observe<InsModel<E>, M, E> + Measurement + Example + Into<fusion_shared::Sample> + Copy,
         const M: usize,
     >(
         &mut self,
@@ -305,4 +305,49 @@ fn the_linear_model_refuses_every_kind_it_does_not_list() {
             assert_eq!((outcome, s), (StepOutcome::Refused, before), "{kind:?}");
         }
     }
+}
+
+/// The `linear` model's observations ([`Observe`] for it: the position and
+/// geodetic fixes and the velocity): `H = −∂y/∂x` by central differences,
+/// and each is what the model updates with: the NIS of the sample's step is
+/// `yᵀ (H P Hᵀ + R)⁻¹ y` of its observation.
+#[test]
+fn the_linear_models_observations_are_what_it_updates_with() {
+    use crate::measurement::Steps;
+    use crate::model::linear::{LinearModel, LinearState, N as L};
+    let linear = LinearModel::new(0.3, [0.0; 6], [1.0; 6], None).unwrap().with_frames(Frames::new(Some(datum())));
+    let mut s = linear.initial_state();
+    linear.step(&mut s, &fusion_shared::Sample::Imu(ImuSample::new(0, 1, 0, [0.0; 3], [0.0; 3])));
+    let x = nalgebra::SVector::<f64, L>::from([3.0, -1.5, 0.4, 1.2, 0.3, -0.1]);
+    let P = nalgebra::SMatrix::<f64, L, L>::from_fn(|i, j| if i == j { 0.5 + 0.1 * i as f64 } else { 0.05 });
+    s.filter_mut().set_state(x, P).unwrap();
+    let (lat, lon, h) = datum().to_geodetic([2.6, -1.1, 1.5]);
+    fn check<T: Observe<LinearModel, 3, L> + Into<fusion_shared::Sample> + Copy>(
+        name: &str,
+        linear: &LinearModel,
+        s: &LinearState,
+        sample: T,
+    ) {
+        let o = sample.observe(linear, s).expect("an observation");
+        let mut numeric = nalgebra::SMatrix::<f64, 3, L>::zeros();
+        for j in 0..L {
+            let at = |d: f64| {
+                let mut x = *s;
+                let mut moved = *s.filter().x();
+                moved[j] += d;
+                x.filter_mut().set_state(moved, s.filter().P()).unwrap();
+                sample.observe(linear, &x).unwrap().y
+            };
+            numeric.set_column(j, &((at(1e-6) - at(-1e-6)) / 2e-6));
+        }
+        assert!((o.H + numeric).amax() < 1e-8, "{name}: H + ∂y/∂x =\n{}", o.H + numeric);
+        let S = o.H * s.filter().P() * o.H.transpose() + o.R;
+        let expected = (o.y.transpose() * S.try_inverse().unwrap() * o.y)[0];
+        let mut after = *s;
+        let StepOutcome::Fused { nis } = linear.step(&mut after, &sample.into()) else { panic!("{name}: not fused") };
+        assert!((nis - expected).abs() < 1e-9 * expected.max(1.0), "{name}: NIS {nis}, of its observation {expected}");
+    }
+    check("position", &linear, &s, PositionSample::new(0, 2, 0, [3.4, -1.9, 1.0], diag3(0.25)));
+    check("velocity", &linear, &s, VelocitySample::new(0, 3, 0, [1.0, 0.6, 0.1], diag3(0.04)));
+    check("geodetic", &linear, &s, GeodeticSample::new(0, 4, 0, lat, lon, h, diag3(0.25)));
 }

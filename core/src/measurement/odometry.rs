@@ -111,7 +111,7 @@ impl<const D: usize> Fuse<InsModel<D>> for OdometrySample {
 /// `y = z − k u` of [`forward_speed`]; `None` while the tilt is unknown (a
 /// body-frame speed needs the tilt, not the heading: a robot without a heading
 /// source fuses its wheels from the start).
-impl<const D: usize> Observe<1, D> for OdometrySample {
+impl<const D: usize> Observe<InsModel<D>, 1, D> for OdometrySample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<1, D>> {
         if !nonholonomic::tilt_known(s) {
             return None;

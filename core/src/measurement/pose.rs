@@ -443,7 +443,7 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
 /// sensor (the change between two poses is fused, as a twist), a sensor
 /// without its table, and while the estimated frame is due to be set from
 /// this sample.
-impl<const D: usize> Observe<6, D> for PoseSample {
+impl<const D: usize> Observe<InsModel<D>, 6, D> for PoseSample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<6, D>> {
         let frames = model.frames();
         let config = super::settings::<PoseSample>(frames, self.header.sensor).filter(|c| !c.relative)?;

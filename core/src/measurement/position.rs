@@ -18,6 +18,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::{Fuse, Kinematic, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance3, finite, lever_arm};
 use crate::model::ins::{InsModel, InsState};
+use crate::model::linear::{self, LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
 
 impl Measurement for PositionSample {
@@ -46,10 +47,18 @@ impl<M: Kinematic> Fuse<M> for PositionSample {
 }
 
 /// `y = z − (p + R l)`, `H` of [`lever_arm::position`].
-impl<const D: usize> Observe<3, D> for PositionSample {
+impl<const D: usize> Observe<InsModel<D>, 3, D> for PositionSample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<3, D>> {
         let mount = model.frames().mount(SampleKind::Position, self.header.sensor);
         let (h, H) = lever_arm::position(s, &mount.lever_arm);
+        Some(Observation { y: Vector3::from(self.pos_m) - h, H, R: Matrix3::from_row_slice(&self.cov_m2) })
+    }
+}
+
+/// `y = z − p`, `H` selecting the position states ([`linear::block`]).
+impl Observe<LinearModel, 3, { linear::N }> for PositionSample {
+    fn observe(&self, _: &LinearModel, s: &LinearState) -> Option<Observation<3, { linear::N }>> {
+        let (h, H) = linear::block(s, 0);
         Some(Observation { y: Vector3::from(self.pos_m) - h, H, R: Matrix3::from_row_slice(&self.cov_m2) })
     }
 }

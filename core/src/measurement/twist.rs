@@ -152,7 +152,7 @@ impl<const D: usize> Fuse<InsModel<D>> for TwistSample {
 /// covariance is its selected block, a zero variance floored:
 /// [`selected_covariance`]). `None` while the tilt is unknown: body-frame
 /// velocities need the tilt, not the heading.
-impl<const D: usize> Observe<6, D> for TwistSample {
+impl<const D: usize> Observe<InsModel<D>, 6, D> for TwistSample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<6, D>> {
         if !nonholonomic::tilt_known(s) {
             return None;

@@ -21,6 +21,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::{Fuse, Kinematic, Limits, Measurement, Needed, Observation, Observe, Rejection, covariance3, finite, lever_arm};
 use crate::model::ins::{InsModel, InsState};
+use crate::model::linear::{self, LinearModel, LinearState};
 use crate::model::{Model, StepOutcome};
 
 impl Measurement for VelocitySample {
@@ -49,10 +50,18 @@ impl<M: Kinematic> Fuse<M> for VelocitySample {
 }
 
 /// `y = z − (v + R (ω × l))`, `H` of [`lever_arm::velocity`].
-impl<const D: usize> Observe<3, D> for VelocitySample {
+impl<const D: usize> Observe<InsModel<D>, 3, D> for VelocitySample {
     fn observe(&self, model: &InsModel<D>, s: &InsState<D>) -> Option<Observation<3, D>> {
         let mount = model.frames().mount(SampleKind::Velocity, self.header.sensor);
         let (h, H) = lever_arm::velocity(s, &mount.lever_arm);
+        Some(Observation { y: Vector3::from(self.vel_mps) - h, H, R: Matrix3::from_row_slice(&self.cov_m2ps2) })
+    }
+}
+
+/// `y = z − v`, `H` selecting the velocity states ([`linear::block`]).
+impl Observe<LinearModel, 3, { linear::N }> for VelocitySample {
+    fn observe(&self, _: &LinearModel, s: &LinearState) -> Option<Observation<3, { linear::N }>> {
+        let (h, H) = linear::block(s, 3);
         Some(Observation { y: Vector3::from(self.vel_mps) - h, H, R: Matrix3::from_row_slice(&self.cov_m2ps2) })
     }
 }

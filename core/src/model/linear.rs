@@ -103,6 +103,12 @@ impl LinearState {
     pub fn filter(&self) -> &KalmanFilter<f64, N> {
         &self.kf
     }
+
+    /// The filter, to set up a test's state.
+    #[cfg(test)]
+    pub(crate) fn filter_mut(&mut self) -> &mut KalmanFilter<f64, N> {
+        &mut self.kf
+    }
 }
 
 impl LinearModel {
@@ -186,8 +192,7 @@ impl LinearModel {
         offset: usize,
         R: &Matrix3<f64>,
     ) -> StepOutcome {
-        let x = s.kf.x();
-        let predicted = Vector3::new(x[offset], x[offset + 1], x[offset + 2]);
+        let (predicted, _) = block(s, offset);
         match s.kf.update_selection_lean(z, &predicted, offset, R, self.gate.as_ref()) {
             Ok((UpdateDecision::Accepted, nis)) => StepOutcome::Fused { nis },
             Ok((_, nis)) => StepOutcome::Gated { nis },
@@ -223,6 +228,19 @@ impl LinearModel {
         }
         (F, G)
     }
+}
+
+/// `h(x) = x[offset..offset+3]` and its Jacobian `H = ∂h/∂x`, which selects
+/// those states (`offset` 0: the position, 3: the velocity): what a position
+/// fix or a velocity observes of the state (`y = z − h(x)`, its
+/// [`Observe`](crate::measurement::Observe) for this model), and what
+/// [`update_block`](LinearModel::update_block) updates with.
+#[inline]
+pub fn block(s: &LinearState, offset: usize) -> (Vector3<f64>, SMatrix<f64, 3, N>) {
+    let x = s.kf.x();
+    let mut H = SMatrix::<f64, 3, N>::zeros();
+    H.fixed_view_mut::<3, 3>(0, offset).fill_with_identity();
+    (Vector3::new(x[offset], x[offset + 1], x[offset + 2]), H)
 }
 
 /// `x⁻ = F x + G a`.
