@@ -57,6 +57,16 @@ pub trait KindProgress {
     type Progress: Copy + Default + PartialEq + std::fmt::Debug;
 }
 
+/// Where a kind's [`KindProgress`] is in [`KindsProgress`] (implemented for
+/// every kind from the kind list): what lets a model hand a kind its own
+/// bookkeeping and nothing else.
+pub trait InKindsProgress: KindProgress {
+    /// The kind's bookkeeping in `all`.
+    fn of(all: &KindsProgress) -> &Self::Progress;
+    /// The same, to change.
+    fn of_mut(all: &mut KindsProgress) -> &mut Self::Progress;
+}
+
 /// A wire type of one sample kind.
 pub trait WireSample:
     Copy + Default + PartialEq + std::fmt::Debug + ZeroCopySend + layout::WireLayout + 'static
@@ -306,6 +316,17 @@ macro_rules! sample_kinds {
         pub struct KindsProgress {
             $(#[doc = concat!("The ", $name, " kind's.")] pub $module: <$ty as KindProgress>::Progress,)*
         }
+
+        $(impl InKindsProgress for $ty {
+            #[inline]
+            fn of(all: &KindsProgress) -> &Self::Progress {
+                &all.$module
+            }
+            #[inline]
+            fn of_mut(all: &mut KindsProgress) -> &mut Self::Progress {
+                &mut all.$module
+            }
+        })*
 
         /// A sample of any kind (not a wire type: each kind has its own service).
         /// In JSON lines: `{"<kind name>": {…}}`. As large as the largest wire type

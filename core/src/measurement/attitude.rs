@@ -199,6 +199,7 @@ fn unknown<const D: usize>(s: &InsState<D>, yaw: bool) -> bool {
 /// module doc). Returns the change of the nominal state for the smoother's
 /// record.
 fn align<const D: usize>(
+    model: &InsModel<D>,
     s: &mut InsState<D>,
     C: &Matrix3<f64>,
     Z: &Matrix3<f64>,
@@ -223,7 +224,7 @@ fn align<const D: usize>(
         let T = Matrix3::identity() - u * u.transpose();
         T * body * T.transpose() + u * u.transpose() * heading_var
     };
-    s.reset_attitude(q, &block);
+    model.reset_attitude(s, q, &block);
     let mut change = SVector::<f64, D>::zeros();
     change.fixed_rows_mut::<3>(6).copy_from(&(old.inverse() * q).scaled_axis());
     change
@@ -238,7 +239,7 @@ impl<const D: usize> Fuse<InsModel<D>> for AttitudeSample {
         let sigma = if yaw { Ok(Matrix3::from_row_slice(&self.cov_rad2)) } else { tilt_sigma(&self.cov_rad2, &Z) };
         let Ok(Sigma) = sigma else { return (StepOutcome::Refused, None) };
         if unknown(s, yaw) {
-            return (StepOutcome::Propagated, Some(align(s, &C, &Z, &Sigma, yaw)));
+            return (StepOutcome::Propagated, Some(align(model, s, &C, &Z, &Sigma, yaw)));
         }
         if let Some(o) = self.observe(model, s) {
             return model.update_residual(s, &o.y, &o.H, &o.R);

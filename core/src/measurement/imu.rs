@@ -50,7 +50,7 @@ impl Measurement for ImuSample {
 impl Fuse<LinearModel> for ImuSample {
     fn fuse(&self, model: &LinearModel, s: &mut LinearState) -> (StepOutcome, ()) {
         let (f, w) = (Vector3::from(self.accel_mps2), Vector3::from(self.gyro_radps));
-        match s.imu.hold(model.frames().imus(), self.header.sensor, self.header.t_ns, f, w) {
+        match model.hold_imu(s, self.header.sensor, self.header.t_ns, f, w) {
             Held::Unknown => (StepOutcome::Refused, ()),
             _ => (StepOutcome::Propagated, ()),
         }

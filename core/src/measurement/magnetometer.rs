@@ -120,7 +120,7 @@ impl<const D: usize> Fuse<InsModel<D>> for MagnetometerSample {
             return (StepOutcome::Refused, None);
         }
         let R = C * Matrix3::from_row_slice(&self.cov_ut2) * C.transpose();
-        let turned = if s.kind_runs_mut().due_now() {
+        let turned = if model.reset_due(s) {
             // Lock-out recovery: the heading alone, turned to the field's, and
             // only from a field of the expected strength and inclination (the
             // tilt known, so that the inclination was checked above). The
@@ -129,7 +129,7 @@ impl<const D: usize> Fuse<InsModel<D>> for MagnetometerSample {
             let Some(turned) = world.and_then(|_| heading_from_field(s, tilt_var, &z, &R, &earth.world_ut)) else {
                 return (StepOutcome::Refused, None);
             };
-            s.kind_runs_mut().handled();
+            model.reset_made(s);
             Some(turned)
         } else {
             align_heading(s, tilt_var, &z, &R, &earth.world_ut)

@@ -404,8 +404,8 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
         if config.relative {
             // Disjoint pairs: a pose that ends a pair does not start the next.
             let this = previous(self);
-            let Some((z, cov)) = s.aux_progress_mut().kinds.pose.last.take().and_then(|a| relative_twist(&a, &this)) else {
-                s.aux_progress_mut().kinds.pose.last = Some(this);
+            let Some((z, cov)) = model.progress_mut::<PoseSample>(s).last.take().and_then(|a| relative_twist(&a, &this)) else {
+                model.progress_mut::<PoseSample>(s).last = Some(this);
                 return (StepOutcome::Propagated, None);
             };
             if !nonholonomic::attitude_known(s) {
@@ -423,7 +423,7 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
                 if !set_frame(s, mount, i, self, &R, &config.fuse.mask) {
                     return (StepOutcome::Refused, None);
                 }
-                s.aux_progress_mut().kinds.pose.aligned(self.reset_counter);
+                model.progress_mut::<PoseSample>(s).aligned(self.reset_counter);
                 return (StepOutcome::Propagated, None);
             }
         }
@@ -431,7 +431,7 @@ impl<const D: usize> Fuse<InsModel<D>> for PoseSample {
         let out = model.update_residual_selected(s, &o.y, &o.H, &o.R, &config.fuse.mask);
         if estimated {
             // The estimated frame's sensor: its run of gated poses.
-            s.aux_progress_mut().kinds.pose.fused(matches!(out.0, StepOutcome::Gated { .. }));
+            model.progress_mut::<PoseSample>(s).fused(matches!(out.0, StepOutcome::Gated { .. }));
         }
         out
     }

@@ -84,6 +84,7 @@ mod params;
 pub mod record;
 mod reinit;
 pub mod standstill;
+mod state_changes;
 mod update;
 
 pub(crate) use error_state::inject_and_reset;
@@ -272,25 +273,18 @@ impl<const D: usize> InsState<D> {
         &self.imu
     }
 
-    /// [`aux_progress`](Self::aux_progress), for the kinds whose bookkeeping
-    /// it is (the state carries it for them: a rewind restores it with the rest).
-    #[inline]
+    /// [`aux_progress`](Self::aux_progress), to set up a test's state.
+    #[cfg(test)]
     pub(crate) fn aux_progress_mut(&mut self) -> &mut aux::AuxProgress {
         &mut self.aux
     }
 
-    /// The lock-out runs of the kinds, for a kind that makes its reset its own
-    /// way ([`KindRuns::handled`]: the magnetometer turns the heading alone).
-    #[inline]
-    pub(crate) fn kind_runs_mut(&mut self) -> &mut KindRuns {
-        &mut self.kind_runs
-    }
-
     /// Resets the attitude to `q`, its error covariance to `block`, uncorrelated
-    /// with the other states (an attitude set from a measurement of it).
-    pub(crate) fn reset_attitude(&mut self, q: UnitQuaternion<f64>, block: &Matrix3<f64>) {
+    /// with the other states (an attitude set from a measurement of it:
+    /// [`InsModel::reset_attitude`]).
+    fn reset_attitude(&mut self, q: UnitQuaternion<f64>, block: &Matrix3<f64>) {
         let (p, v, b_a, b_g) = (self.p(), self.v(), self.b_a(), self.b_g());
-        self.set(p, v, q, b_a, b_g);
+        self.put(p, v, q, b_a, b_g);
         self.kf.reset_error(|P| {
             for i in 6..9 {
                 for j in 0..D {
@@ -302,6 +296,8 @@ impl<const D: usize> InsState<D> {
         });
     }
 
+    /// Sets the nominal core state, to set up a test's state.
+    #[cfg(test)]
     pub(crate) fn set(
         &mut self,
         p: Vector3<f64>,
@@ -310,6 +306,11 @@ impl<const D: usize> InsState<D> {
         b_a: Vector3<f64>,
         b_g: Vector3<f64>,
     ) {
+        self.put(p, v, q, b_a, b_g);
+    }
+
+    /// Sets the nominal core state (the model's steps, in this module).
+    fn put(&mut self, p: Vector3<f64>, v: Vector3<f64>, q: UnitQuaternion<f64>, b_a: Vector3<f64>, b_g: Vector3<f64>) {
         let n = &mut self.nominal;
         n[0..3].copy_from_slice(p.as_slice());
         n[3..6].copy_from_slice(v.as_slice());
@@ -423,7 +424,7 @@ impl<const D: usize> InsModel<D> {
             let dv = v_new - s.v();
             s.clock.integrated += nalgebra::Vector2::new(dv.x, dv.y);
             let (b_a, b_g) = (s.b_a(), s.b_g());
-            s.set(p_new, v_new, q_new, b_a, b_g);
+            s.put(p_new, v_new, q_new, b_a, b_g);
             if let Some(log) = log {
                 log.predicted(&s.kf, &F.dense());
             }

@@ -30,7 +30,7 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use super::{Diagnostics, Kinematic, Model, StepOutcome, advance_time};
 use crate::filter::{ChiSquareGate, KalmanFilter, RtsStep, StepLog, UpdateDecision, rts_smooth};
 use crate::frames::Frames;
-use crate::model::held_imu::HeldImu;
+use crate::model::held_imu::{Held, HeldImu};
 use crate::model::lockout::{Lockout, LockoutConfig};
 
 /// State dimension.
@@ -93,7 +93,7 @@ pub struct LinearState {
     t_ns: Option<u64>,
     /// Held IMU acceleration (the input of the next propagations), combined
     /// over the IMUs.
-    pub(crate) imu: HeldImu,
+    imu: HeldImu,
     /// The run of gated fixes ([`crate::model::lockout`]).
     lockout: Lockout,
 }
@@ -198,6 +198,19 @@ impl LinearModel {
             Ok((_, nis)) => StepOutcome::Gated { nis },
             Err(_) => StepOutcome::Refused,
         }
+    }
+
+    /// Holds IMU `sensor`'s values at `t_ns` as the input of the next
+    /// propagations (combined over the IMUs as configured).
+    pub(crate) fn hold_imu(
+        &self,
+        s: &mut LinearState,
+        sensor: u32,
+        t_ns: u64,
+        f: Vector3<f64>,
+        w: Vector3<f64>,
+    ) -> Held {
+        s.imu.hold(self.frames.imus(), sensor, t_ns, f, w)
     }
 
     /// Fuses a position fix `z` (covariance `R`) on the position states

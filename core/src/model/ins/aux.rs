@@ -198,9 +198,9 @@ pub struct AuxProgress {
     /// Times states were set from a sample (`augment`), and the error-state
     /// indices of the last ones set (the first of their block, and a bit for
     /// each one set of it): the smoother's record of that step (`smoother_record`).
-    pub sets: u32,
+    pub(super) sets: u32,
     /// See `sets`.
-    pub last_set: (u8, u8),
+    pub(super) last_set: (u8, u8),
 }
 
 impl AuxProgress {

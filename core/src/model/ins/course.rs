@@ -113,7 +113,7 @@ pub(crate) fn turn_heading<const D: usize>(s: &mut InsState<D>, delta: f64, var:
     let u = q.inverse_transform_vector(&Vector3::z());
     let turned = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), delta) * q;
     let (p, vn, b_a, b_g) = (s.p(), s.v(), s.b_a(), s.b_g());
-    s.set(p, vn, turned, b_a, b_g);
+    s.put(p, vn, turned, b_a, b_g);
     let mut T = SMatrix::<f64, D, D>::identity();
     T.fixed_view_mut::<3, 3>(6, 6).copy_from(&(Matrix3::identity() - u * u.transpose()));
     s.kf.reset_error(|P| {

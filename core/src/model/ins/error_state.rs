@@ -256,7 +256,7 @@ pub(super) fn inject<const D: usize>(s: &mut InsState<D>, dx: &SVector<f64, D>) 
     let mut q = s.q() * UnitQuaternion::from_scaled_axis(dtheta);
     q.renormalize();
     let (p, v, b_a, b_g) = (s.p() + dp, s.v() + dv, s.b_a() + dba, s.b_g() + dbg);
-    s.set(p, v, q, b_a, b_g);
+    s.put(p, v, q, b_a, b_g);
     for i in N..D {
         s.nominal[i + 1] += dx[i];
     }

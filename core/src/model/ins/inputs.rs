@@ -116,6 +116,6 @@ impl<const D: usize> InsModel<D> {
         let (_, _, yaw) = s.q().euler_angles();
         let q = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
         let (p, v, b_a) = (s.p(), s.v(), s.b_a());
-        s.set(p, v, q, b_a, w);
+        s.put(p, v, q, b_a, w);
     }
 }

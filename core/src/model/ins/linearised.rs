@@ -54,7 +54,7 @@ impl InsModel {
         let mut s = InsState::new(pad(*nominal), placeholder(), 0);
         let (p, v, q, F) = self.mechanise(&s, f_m, w_m, dt);
         let (b_a, b_g) = (s.b_a(), s.b_g());
-        s.set(p, v, q, b_a, b_g);
+        s.put(p, v, q, b_a, b_g);
         (core(&s.nominal), F.dense(), self.process_noise(dt, 1).dense())
     }
 

@@ -35,7 +35,7 @@ impl<const D: usize> InsModel<D> {
         let Some(r) = s.lockout.observe(self.lockout.as_ref(), outcome, t, origin, R) else { return };
         let P = r.covariance(&self.initial.P());
         let (q, b_a, b_g) = (s.q(), s.b_a(), s.b_g());
-        s.set(r.p, r.v, q, b_a, b_g);
+        s.put(r.p, r.v, q, b_a, b_g);
         s.kf.reset_error(|old| *old = P);
     }
 }
