@@ -11,7 +11,7 @@
 //!   wire type under its C name (`FusionPoseSample`).
 //!
 //! The committed files must be what it writes now (a diff check);
-//! `FUSION_UPDATE_MIRRORS=1 cargo test -p fusion-client --test mirrors` rewrites them.
+//! `FUSION_UPDATE_GENERATED=1 cargo test --workspace --test mirrors --test docs` rewrites them.
 
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -130,7 +130,7 @@ fn python() -> String {
     let mut out = String::from(
         "\"\"\"ctypes mirrors of fusiond's wire types (crate ``fusion-shared``), and its constants.\n\n\
          Generated from the Rust declarations by\n\
-         ``FUSION_UPDATE_MIRRORS=1 cargo test -p fusion-client --test mirrors``: do not edit.\n\
+         ``FUSION_UPDATE_GENERATED=1 cargo test --workspace --test mirrors --test docs``: do not edit.\n\
          Same fields, same layout, same versioned type names as the Rust types, so that\n\
          iceoryx2 opens fusiond's services with them. ``tests/check_layout.py`` checks\n\
          every size, offset and type name against the Rust build.\n\"\"\"\n\nimport ctypes\n\n",
@@ -203,7 +203,7 @@ fn c_kinds() -> String {
     let mut out = String::from(
         "//! The C API's sample kinds (each kind's code and its publish function) and\n\
          //! models (each model's code in a snapshot).\n//!\n\
-         //! Generated from the kind and model lists by `FUSION_UPDATE_MIRRORS=1 cargo test -p fusion-client --test mirrors`:\n\
+         //! Generated from the kind and model lists by `FUSION_UPDATE_GENERATED=1 cargo test --workspace --test mirrors --test docs`:\n\
          //! do not edit.\n\n\
          use super::FusionPublisher;\nuse super::FusionStatus;\nuse super::publish::publish;\n\n",
     );
@@ -295,7 +295,7 @@ fn header() -> String {
 
 /// Writes `generated` to `path` when asked to; then it must be what is there.
 fn fresh(path: PathBuf, generated: &str, stale: &mut Vec<String>) {
-    if std::env::var_os("FUSION_UPDATE_MIRRORS").is_some() {
+    if std::env::var_os("FUSION_UPDATE_GENERATED").is_some() {
         std::fs::write(&path, generated).unwrap();
     }
     if std::fs::read_to_string(&path).unwrap_or_default() != generated {
@@ -316,7 +316,7 @@ fn the_mirrors_are_generated_from_the_registry() {
     fresh(dir.join("include/fusion_client.h"), &header, &mut stale);
     assert!(
         stale.is_empty(),
-        "stale: {stale:?}; run `FUSION_UPDATE_MIRRORS=1 cargo test -p fusion-client --test mirrors` and commit them"
+        "stale: {stale:?}; run `FUSION_UPDATE_GENERATED=1 cargo test --workspace --test mirrors --test docs` and commit them"
     );
     for w in kinds() {
         let k = w.kind.unwrap();

@@ -11,38 +11,107 @@ fn docs() -> PathBuf {
 }
 
 /// `docs/config-reference.md` is `fusiond print-config`'s output in a TOML
-/// block: the one source of every default. `FUSION_UPDATE_DOCS=1` rewrites it.
+/// block: the one source of every default ([`UPDATE`] rewrites it).
 #[test]
 fn the_configuration_reference_is_print_config() {
-    let path = docs().join("config-reference.md");
-    let page = std::fs::read_to_string(&path).unwrap();
-    let start = page.find("```toml\n").expect("a ```toml block") + "```toml\n".len();
-    let end = start + page[start..].find("```").expect("the block's end");
-    let text = default_config_text();
-    if std::env::var_os("FUSION_UPDATE_DOCS").is_some() {
-        std::fs::write(&path, format!("{}{text}{}", &page[..start], &page[end..])).unwrap();
-        return;
-    }
-    assert!(
-        page[start..end] == text,
-        "docs/config-reference.md differs from `fusiond print-config`; run \
-         FUSION_UPDATE_DOCS=1 cargo test -p fusion-daemon --test docs"
-    );
+    generated_part(&docs().join("config-reference.md"), "```toml\n", "```", &default_config_text());
 }
 
-/// `docs/sensor-kinds.md` has a row in its table and a section for every kind,
-/// with the kind's code and the JSON names of its fields.
-#[test]
-fn every_sensor_kind_has_its_section() {
-    let page = std::fs::read_to_string(docs().join("sensor-kinds.md")).unwrap();
-    for &kind in SampleKind::ALL {
+/// Whether the generated files are to be rewritten rather than checked
+/// (`FUSION_UPDATE_GENERATED=1`, which the mirrors' test reads too).
+fn updating() -> bool {
+    std::env::var_os("FUSION_UPDATE_GENERATED").is_some()
+}
+
+/// The command that rewrites every generated file: the mirrors and these pages.
+const UPDATE: &str = "FUSION_UPDATE_GENERATED=1 cargo test --workspace --test mirrors --test docs";
+
+/// The part of `page` between `begin` and `end`, replaced by `text` when
+/// [`updating`], otherwise checked to be `text`.
+fn generated_part(path: &std::path::Path, begin: &str, end: &str, text: &str) {
+    let page = std::fs::read_to_string(path).unwrap();
+    let start = page.find(begin).unwrap_or_else(|| panic!("{} has no {begin:?}", path.display())) + begin.len();
+    let stop = start + page[start..].find(end).unwrap_or_else(|| panic!("{} has no {end:?}", path.display()));
+    if updating() {
+        std::fs::write(path, format!("{}{text}{}", &page[..start], &page[stop..])).unwrap();
+        return;
+    }
+    assert!(page[start..stop] == *text, "{} is not what the code gives; run {UPDATE}", path.display());
+}
+
+/// `docs/sensor-kinds.md`'s table and sections, from the kind list and what
+/// each kind declares: its code, name and wire type, the values one sample
+/// gives an update, whether each model of the model list fuses it, and its
+/// health timeout; then each kind's own section, `docs/kinds/<kind>.md`.
+fn sensor_kinds_text() -> String {
+    use fusion_core::measurement::Steps;
+    use std::fmt::Write as _;
+    macro_rules! models {
+        ($($(#[$doc:meta])* $variant:ident = $code:literal, $name:literal, $module:ident, $ty:ident, $params:ident, $cov:literal, [$($layout:expr),* $(,)?];)*) => {
+            [$(($name, <fusion_core::model::$module::$ty as Steps>::accepts as fn(SampleKind) -> bool)),*]
+        };
+    }
+    let models = fusion_shared::for_each_model!(models);
+    struct Types(Vec<&'static str>);
+    impl fusion_shared::KindVisitor for Types {
+        fn visit<T: fusion_shared::WireSample>(&mut self) {
+            self.0.push(std::any::type_name::<T>().rsplit("::").next().unwrap());
+        }
+    }
+    let mut types = Types(Vec::new());
+    SampleKind::visit_all(&mut types);
+    let health = fusion_core::health::HealthConfig::default();
+    let mut t = String::from("\n| code | kind | wire type | values fused |");
+    for (name, _) in &models {
+        write!(t, " `{name}` |").unwrap();
+    }
+    t.push_str(" stale after |\n|---|---|---|---|");
+    t.push_str(&"---|".repeat(models.len() + 1));
+    t.push('\n');
+    for (&kind, ty) in SampleKind::ALL.iter().zip(&types.0) {
         let name = kind.name();
-        assert!(page.contains(&format!("\n## {name}\n")), "docs/sensor-kinds.md has no section `## {name}`");
+        let dim = match kind.innovation_dim() {
+            0 => "drives the propagation".to_string(),
+            n => n.to_string(),
+        };
+        write!(t, "| {} | `{name}` | `{ty}` | {dim} |", kind as u8).unwrap();
+        for (_, accepts) in &models {
+            t.push_str(if accepts(kind) { " yes |" } else { " refused at start-up |" });
+        }
+        writeln!(t, " {} s |", health.timeout_ns(kind) as f64 * 1e-9).unwrap();
+    }
+    t.push_str("\n\"Stale after\" is the default of `[health] <kind>_timeout_ns`. At equal time the IMU\n");
+    t.push_str("goes first, then positions and geodetic fixes, then the rest.\n");
+    for &kind in SampleKind::ALL {
+        write!(t, "\n{{{{#include kinds/{}.md}}}}\n", kind.name()).unwrap();
+    }
+    t.push('\n');
+    t
+}
+
+/// `docs/sensor-kinds.md` is generated from the kind list (its table, and
+/// the include of each kind's section), and each kind has its section,
+/// `docs/kinds/<kind>.md`, headed by its name; no section is of a kind not in
+/// the list.
+#[test]
+fn the_sensor_kinds_page_is_the_kind_list() {
+    let begin = "<!-- Generated from the kind list: do not edit down to the end mark. -->\n";
+    generated_part(&docs().join("sensor-kinds.md"), begin, "<!-- end of the generated part -->", &sensor_kinds_text());
+    for &kind in SampleKind::ALL {
+        let path = docs().join("kinds").join(format!("{}.md", kind.name()));
+        let section = std::fs::read_to_string(&path)
+            .unwrap_or_else(|e| panic!("{}: {e}: every kind has its section in the guide", path.display()));
         assert!(
-            page.contains(&format!("\n| {} | `{name}` |", kind as u8)),
-            "docs/sensor-kinds.md's table has no row for {name} (code {})",
-            kind as u8
+            section.starts_with(&format!("## {}\n", kind.name())),
+            "{} is not headed `## {}`",
+            path.display(),
+            kind.name()
         );
+    }
+    for entry in std::fs::read_dir(docs().join("kinds")).unwrap() {
+        let name = entry.unwrap().file_name().into_string().unwrap();
+        let kind = name.strip_suffix(".md").unwrap_or(&name);
+        assert!(SampleKind::ALL.iter().any(|k| k.name() == kind), "docs/kinds/{name} is not of a kind in the list");
     }
 }
 

@@ -1,7 +1,7 @@
 """ctypes mirrors of fusiond's wire types (crate ``fusion-shared``), and its constants.
 
 Generated from the Rust declarations by
-``FUSION_UPDATE_MIRRORS=1 cargo test -p fusion-client --test mirrors``: do not edit.
+``FUSION_UPDATE_GENERATED=1 cargo test --workspace --test mirrors --test docs``: do not edit.
 Same fields, same layout, same versioned type names as the Rust types, so that
 iceoryx2 opens fusiond's services with them. ``tests/check_layout.py`` checks
 every size, offset and type name against the Rust build.

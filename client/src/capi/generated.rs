@@ -1,7 +1,7 @@
 //! The C API's sample kinds (each kind's code and its publish function) and
 //! models (each model's code in a snapshot).
 //!
-//! Generated from the kind and model lists by `FUSION_UPDATE_MIRRORS=1 cargo test -p fusion-client --test mirrors`:
+//! Generated from the kind and model lists by `FUSION_UPDATE_GENERATED=1 cargo test --workspace --test mirrors --test docs`:
 //! do not edit.
 
 use super::FusionPublisher;
