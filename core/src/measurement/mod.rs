@@ -16,8 +16,11 @@
 //!   auxiliary states and its check of the whole configuration;
 //! - [`Fuse`]: how a model that can fuses it, written for what the model can do
 //!   (a [`Kinematic`] model: a world position and velocity; the INS error state),
-//!   with [`Observe`], its observation of the INS state (residual, H, R), which
-//!   the fusion updates with. A model lists the kinds it fuses ([`fuses!`](crate::fuses),
+//!   with [`Observe`], its observation of a model's state (residual, H, R),
+//!   which the fusion updates with. A kind changes the state only through
+//!   the model (the filter's update, and for the `ins` state the model's
+//!   narrow changes: `InsModel::progress_mut` of its own progress,
+//!   `InsModel::reset_attitude`). A model lists the kinds it fuses ([`fuses!`](crate::fuses),
 //!   or [`EveryKind`]); every other it refuses ([`Fusion`]).
 //!
 //! The daemon keeps no list of kinds of its own: the registry at the end of this
