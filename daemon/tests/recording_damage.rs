@@ -73,7 +73,8 @@ fn a_recording_damaged_anywhere_is_read_up_to_the_damage_and_says_what_was_lost(
         &["--output".as_ref(), whole.as_os_str()],
     );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let whole = std::fs::read_to_string(&whole).unwrap().lines().count();
+    let whole_text = std::fs::read_to_string(&whole).unwrap();
+    let whole = whole_text.lines().count();
 
     let mut rng = ChaCha8Rng::seed_from_u64(22);
     let (mut cases, mut lost) = (0, 0);
@@ -96,11 +97,15 @@ fn a_recording_damaged_anywhere_is_read_up_to_the_damage_and_says_what_was_lost(
                 assert!(stderr.contains("is damaged at byte"), "replay {extra:?}, {what}: {stderr}");
                 assert!(stderr.contains("bytes from the damage to the end of the file are not read"), "{stderr}");
             }
-            // What comes before the damage was replayed (all of it for damage
-            // in the summary at the end).
-            let replayed = std::fs::read_to_string(&output).map_or(0, |t| t.lines().count());
-            assert!(replayed <= whole, "{what}: {replayed} of {whole} estimates");
-            lost += u64::from(replayed < whole);
+            // What comes before the damage was replayed, exactly as from the
+            // whole file (all of it for damage past the last sample; where
+            // that is in the file depends on the run's timing).
+            let replayed = std::fs::read_to_string(&output).unwrap_or_default();
+            assert!(
+                whole_text.starts_with(&replayed),
+                "{what}: the estimates replayed are not the whole file's first ones"
+            );
+            lost += u64::from(replayed.lines().count() < whole);
             let report = dir.path().join("report");
             let out = run(&fusionctl, &["plot", "--input"], &path, &["--output-dir".as_ref(), report.as_os_str()]);
             let stderr = String::from_utf8_lossy(&out.stderr);
@@ -110,5 +115,6 @@ fn a_recording_damaged_anywhere_is_read_up_to_the_damage_and_says_what_was_lost(
         }
     }
     assert_eq!(cases, 66);
-    assert!(lost > 33, "most places are in the data: {lost} of 66 lost estimates");
+    // Damage in the header and the first records loses every estimate.
+    assert!(lost >= 3, "{lost} of 66 places lost estimates");
 }
