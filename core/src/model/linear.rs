@@ -247,7 +247,7 @@ impl LinearModel {
 /// those states (`offset` 0: the position, 3: the velocity): what a position
 /// fix or a velocity observes of the state (`y = z − h(x)`, its
 /// [`Observe`](crate::measurement::Observe) for this model), and what
-/// [`update_block`](LinearModel::update_block) updates with.
+/// `LinearModel::update_block` updates with.
 #[inline]
 pub fn block(s: &LinearState, offset: usize) -> (Vector3<f64>, SMatrix<f64, 3, N>) {
     let x = s.kf.x();
