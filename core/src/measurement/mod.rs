@@ -16,21 +16,18 @@
 //!   auxiliary states and its check of the whole configuration;
 //! - [`Fuse`]: how a model that can fuses it, written for what the model can do
 //!   (a [`Kinematic`] model: a world position and velocity; the INS error state),
-//!   with [`Observe`], its observation of a model's state (residual, H, R),
-//!   which the fusion updates with. A kind changes the state only through
-//!   the model (the filter's update, and for the `ins` state the model's
-//!   narrow changes: `InsModel::progress_mut` of its own progress,
-//!   `InsModel::reset_attitude`). A model lists the kinds it fuses ([`fuses!`](crate::fuses),
+//!   with [`Observe`], its observation of a model's state (residual, H, R); it
+//!   changes the state only through the model (for `ins`: `progress_mut`,
+//!   `reset_attitude`). A model lists the kinds it fuses ([`fuses!`](crate::fuses),
 //!   or [`EveryKind`]); every other it refuses ([`Fusion`]).
 //!
 //! The daemon keeps no list of kinds of its own: the registry at the end of this
 //! file is generated from `fusion_shared::for_each_sample_kind!`, declaring each
 //! kind's module (`measurement/<module>.rs`), the dispatch from a [`Sample`] to
-//! it, and [`Kinds`], what the `[[sensor]]` reading needs of each kind. Adding
-//! a kind is its wire type and one line in `fusion-shared`, and its module here
-//! (see `docs/architecture.md`). The land-vehicle motion constraint, a
-//! pseudo-measurement without a wire type, belongs to the `ins` model
-//! ([`crate::model::ins::nonholonomic`]) and is fused after IMU samples.
+//! it, and [`Kinds`], what the `[[sensor]]` reading needs of each kind (what a
+//! new kind touches: `docs/architecture.md`). The land-vehicle motion
+//! constraint, without a wire type, is the `ins` model's
+//! ([`crate::model::ins::nonholonomic`]).
 
 mod checks;
 pub mod components;
@@ -205,16 +202,14 @@ pub struct Observation<const M: usize, const D: usize> {
 }
 
 /// What a sample of a kind observes of the state of model `Mdl` (`M` its
-/// [`WireSample::INNOVATION_DIM`], `D` the model's error-state dimension:
-/// the `ins` model's `D`, the `linear` model's 6): the observation its fusion
-/// into that model updates with, from the same functions. A kind implements
-/// it for each model that fuses it through a residual. A kind whose sample
-/// the fusion does not update with in a state gives `None` there: the IMU
-/// always (it drives the propagation), a sample that sets a state from its
-/// value (a barometer's first sample, a pose that sets its map frame), an
-/// attitude sample for roll and pitch only (two components: `attitude::tilt`).
-/// Tests over the kind list check every kind's `H` against central
-/// differences of its `y`, for each model.
+/// [`WireSample::INNOVATION_DIM`], `D` the model's error-state dimension): the
+/// observation its fusion into that model updates with, from the same
+/// functions, for each model that fuses it through a residual. `None` where
+/// the fusion does not update with the sample: the IMU (it drives the
+/// propagation), a sample that sets a state from its value (a barometer's
+/// first, a pose setting its map frame), an attitude for roll and pitch only
+/// (`attitude::tilt`). Tests over the kind list check every `H` against
+/// central differences of its `y`, for each model.
 pub trait Observe<Mdl: Model, const M: usize, const D: usize> {
     /// The observation of this sample at state `s` of `model`.
     fn observe(&self, model: &Mdl, s: &Mdl::State) -> Option<Observation<M, D>>;
